@@ -1,0 +1,785 @@
+//! Preconditioned conjugate gradients, plain and filtered (Baraff-Witkin,
+//! the tutorial's Algorithm 4).
+
+use std::ops::ControlFlow;
+
+use crate::constraints::Constraints;
+use crate::error::{SparseError, check_finite, check_len};
+use crate::operator::LinearOperator;
+use crate::precond::Preconditioner;
+use crate::vecops::norm2;
+
+/// Where CG starts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum InitialGuess {
+    /// Start from `x = 0` (whatever `x` holds is overwritten).
+    #[default]
+    Zero,
+    /// Start from the `x` passed in: a warm start, e.g. the previous step's solution.
+    Given,
+}
+
+/// Parameters of [`pcg`] and [`filtered_pcg`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct CgParams {
+    /// Stop when `|r| <= rtol * |b|` (for filtered CG, `|P b|`). Default `1e-8`.
+    pub rtol: f64,
+    /// ... or when `|r| <= atol`. Default `0`.
+    pub atol: f64,
+    /// Iteration limit; `None` means `2 n` (as Eigen). Default `None`.
+    pub max_iter: Option<usize>,
+    /// Starting point. Default [`InitialGuess::Zero`].
+    pub initial_guess: InitialGuess,
+    /// Record `|r_k| / |b|` of every iteration in [`CgInfo::residual_history`]
+    /// (this allocates). Default `false`.
+    pub record_history: bool,
+}
+
+impl Default for CgParams {
+    fn default() -> Self {
+        Self {
+            rtol: 1e-8,
+            atol: 0.0,
+            max_iter: None,
+            initial_guess: InitialGuess::Zero,
+            record_history: false,
+        }
+    }
+}
+
+/// What a CG run did.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct CgInfo {
+    /// Iterations performed (matrix-vector products after the initial residual).
+    pub iterations: usize,
+    /// `|r|` of the recursively updated residual at exit.
+    pub residual_norm: f64,
+    /// `|r| / |b|` at exit (the reference norm is `|P b|` for filtered CG; when
+    /// it is zero, the initial residual's norm).
+    pub relative_residual: f64,
+    /// Whether the tolerance was met.
+    pub converged: bool,
+    /// Whether the callback stopped the run.
+    pub stopped_by_callback: bool,
+    /// `|r_k| / |b|` for k = 0, 1, ... when [`CgParams::record_history`] is set.
+    pub residual_history: Vec<f64>,
+}
+
+impl CgInfo {
+    /// Turns a run that missed its tolerance into [`SparseError::NotConverged`].
+    ///
+    /// # Errors
+    /// [`SparseError::NotConverged`] unless [`converged`](Self::converged).
+    pub fn ensure_converged(self) -> Result<Self, SparseError> {
+        if self.converged {
+            Ok(self)
+        } else {
+            Err(SparseError::NotConverged {
+                method: "PCG",
+                iterations: self.iterations,
+                relative_residual: self.relative_residual,
+            })
+        }
+    }
+}
+
+/// The state a per-iteration callback sees.
+#[derive(Debug)]
+pub struct CgProgress<'a> {
+    /// Iterations done so far.
+    pub iteration: usize,
+    /// `|r|`.
+    pub residual_norm: f64,
+    /// `|r| / |b|`.
+    pub relative_residual: f64,
+    /// The current iterate.
+    pub x: &'a [f64],
+}
+
+/// A per-iteration callback: return `ControlFlow::Break(())` to stop.
+pub type CgCallback<'a> = &'a mut dyn FnMut(&CgProgress<'_>) -> ControlFlow<()>;
+
+/// The vectors CG needs besides `x` and `b`. Create once, reuse for every
+/// solve of the same size: solves then allocate nothing.
+#[derive(Debug, Clone, Default)]
+pub struct CgWorkspace {
+    r: Vec<f64>,
+    z: Vec<f64>,
+    p: Vec<f64>,
+    q: Vec<f64>,
+}
+
+impl CgWorkspace {
+    /// A workspace for systems of dimension `n`.
+    pub fn new(n: usize) -> Self {
+        Self {
+            r: vec![0.0; n],
+            z: vec![0.0; n],
+            p: vec![0.0; n],
+            q: vec![0.0; n],
+        }
+    }
+
+    fn ensure(&mut self, n: usize) {
+        if self.r.len() != n {
+            *self = Self::new(n);
+        }
+    }
+}
+
+/// Preconditioned conjugate gradients for `A x = b`, `A` symmetric positive definite.
+///
+/// Returns [`CgInfo`] with `converged = false` when the iteration limit is
+/// hit (use [`CgInfo::ensure_converged`] to make that an error).
+///
+/// # Errors
+/// [`SparseError::DimensionMismatch`] for wrong sizes (of `b`, `x`, the
+/// preconditioner), [`SparseError::NonFinite`] for NaN or infinite input or
+/// iterates, [`SparseError::NotPositiveDefinite`] when `p^T A p <= 0` (or
+/// `r^T M^-1 r <= 0`: the preconditioner is not positive definite).
+///
+/// ```
+/// use hookean_sparse::{pcg, CgParams, CgWorkspace, Jacobi, MatrixFree, PreconditionerSetup};
+/// let a = sprs::CsMat::new((2, 2), vec![0, 2, 4], vec![0, 1, 0, 1], vec![4.0, 1.0, 1.0, 3.0]);
+/// let mut jacobi = Jacobi::new();
+/// jacobi.setup(&a)?;
+/// let b = [1.0, 2.0];
+/// let mut x = [0.0; 2];
+/// let info = pcg(&a, &jacobi, &b, &mut x, &CgParams::default(), &mut CgWorkspace::new(2), None)?;
+/// assert!(info.converged);
+/// assert!((x[0] - 1.0 / 11.0).abs() < 1e-12 && (x[1] - 7.0 / 11.0).abs() < 1e-12);
+/// # Ok::<(), hookean_sparse::SparseError>(())
+/// ```
+pub fn pcg<A, P>(
+    a: &A,
+    precond: &P,
+    b: &[f64],
+    x: &mut [f64],
+    params: &CgParams,
+    workspace: &mut CgWorkspace,
+    callback: Option<CgCallback<'_>>,
+) -> Result<CgInfo, SparseError>
+where
+    A: LinearOperator + ?Sized,
+    P: Preconditioner + ?Sized,
+{
+    run(a, precond, b, x, &NoFilter, params, workspace, callback)
+}
+
+/// Filtered PCG (Baraff-Witkin; the tutorial's Algorithm 4, whose `while`
+/// condition is printed inverted: iterate *while* `|r| / |b| > eps`).
+///
+/// Solves `P A P x = P b` subject to `(I - P) x` equal to the prescribed
+/// constraint values: the result honours the constraints exactly and solves
+/// the system in the free directions. The initial guess is filtered and the
+/// prescribed values imposed before the first residual; every search
+/// direction and every `A p` is filtered, so no update leaves the free subspace.
+///
+/// # Errors
+/// As [`pcg`], plus [`SparseError::DimensionMismatch`] if the constraints are
+/// for another number of particles.
+pub fn filtered_pcg<A, P>(
+    a: &A,
+    precond: &P,
+    b: &[f64],
+    x: &mut [f64],
+    constraints: &Constraints,
+    params: &CgParams,
+    workspace: &mut CgWorkspace,
+    callback: Option<CgCallback<'_>>,
+) -> Result<CgInfo, SparseError>
+where
+    A: LinearOperator + ?Sized,
+    P: Preconditioner + ?Sized,
+{
+    if 3 * constraints.n_particles() != a.nrows() {
+        return Err(SparseError::DimensionMismatch {
+            what: "constraints (3 x particles)",
+            expected: a.nrows(),
+            found: 3 * constraints.n_particles(),
+        });
+    }
+    run(a, precond, b, x, constraints, params, workspace, callback)
+}
+
+/// The projector of filtered CG; `NoFilter` compiles to nothing.
+trait Filter {
+    fn project(&self, v: &mut [f64]);
+    fn impose(&self, x: &mut [f64]);
+}
+
+struct NoFilter;
+
+impl Filter for NoFilter {
+    #[inline(always)]
+    fn project(&self, _v: &mut [f64]) {}
+    #[inline(always)]
+    fn impose(&self, _x: &mut [f64]) {}
+}
+
+impl Filter for Constraints {
+    #[inline]
+    fn project(&self, v: &mut [f64]) {
+        Constraints::project(self, v)
+    }
+    #[inline]
+    fn impose(&self, x: &mut [f64]) {
+        Constraints::impose(self, x)
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn run<A, P, F>(
+    a: &A,
+    precond: &P,
+    b: &[f64],
+    x: &mut [f64],
+    filter: &F,
+    params: &CgParams,
+    ws: &mut CgWorkspace,
+    mut callback: Option<CgCallback<'_>>,
+) -> Result<CgInfo, SparseError>
+where
+    A: LinearOperator + ?Sized,
+    P: Preconditioner + ?Sized,
+    F: Filter,
+{
+    let n = a.nrows();
+    check_len("right-hand side b", b, n)?;
+    check_len("solution x", x, n)?;
+    if let Some(d) = precond.dim()
+        && d != n
+    {
+        return Err(SparseError::DimensionMismatch {
+            what: "preconditioner (was it set up for this matrix?)",
+            expected: n,
+            found: d,
+        });
+    }
+    if !(params.rtol >= 0.0) || !(params.atol >= 0.0) {
+        return Err(SparseError::InvalidParameter {
+            name: "tolerance",
+            message: format!(
+                "rtol and atol must be non-negative numbers, got {} and {}",
+                params.rtol, params.atol
+            ),
+        });
+    }
+    check_finite("right-hand side b", b)?;
+    match params.initial_guess {
+        InitialGuess::Zero => x.fill(0.0),
+        InitialGuess::Given => check_finite("initial guess x", x)?,
+    }
+    let max_iter = params.max_iter.unwrap_or(2 * n);
+    ws.ensure(n);
+    let CgWorkspace { r, z, p, q } = ws;
+
+    filter.impose(x);
+    // r = P (b - A x); the reference norm is |P b|.
+    a.apply(x, q);
+    for i in 0..n {
+        r[i] = b[i] - q[i];
+    }
+    filter.project(r);
+    z.copy_from_slice(b);
+    filter.project(z);
+    let b_norm = norm2(z);
+    let mut r_norm = norm2(r);
+    check_finite_scalar("initial residual", r_norm)?;
+    let reference = if b_norm > 0.0 { b_norm } else { r_norm };
+    let rel = |rn: f64| if reference > 0.0 { rn / reference } else { 0.0 };
+    let threshold = (params.rtol * reference).max(params.atol);
+
+    let mut info = CgInfo::default();
+    if params.record_history {
+        info.residual_history.push(rel(r_norm));
+    }
+    let mut rz = 0.0;
+    let mut k = 0;
+    loop {
+        info.iterations = k;
+        info.residual_norm = r_norm;
+        info.relative_residual = rel(r_norm);
+        if r_norm <= threshold {
+            info.converged = true;
+            break;
+        }
+        if let Some(cb) = callback.as_mut() {
+            let progress = CgProgress {
+                iteration: k,
+                residual_norm: r_norm,
+                relative_residual: rel(r_norm),
+                x,
+            };
+            if cb(&progress).is_break() {
+                info.stopped_by_callback = true;
+                break;
+            }
+        }
+        if k >= max_iter {
+            break;
+        }
+        // z = P M^-1 r, and r . z (r lies in range(P), so r . P z = r . z).
+        let rz_new = precond.apply_dot(r, z);
+        filter.project(z);
+        if !rz_new.is_finite() {
+            return Err(SparseError::NonFinite {
+                what: "preconditioned residual",
+                index: None,
+            });
+        }
+        if rz_new <= 0.0 {
+            return Err(SparseError::NotPositiveDefinite {
+                iteration: k,
+                curvature: rz_new,
+            });
+        }
+        if k == 0 {
+            p.copy_from_slice(z);
+        } else {
+            let beta = rz_new / rz;
+            for (pi, zi) in p.iter_mut().zip(z.iter()) {
+                *pi = zi + beta * *pi;
+            }
+        }
+        rz = rz_new;
+        // q = P A p, and p . q (p lies in range(P), so p . A p = p . P A p).
+        let pq = a.apply_dot(p, q);
+        filter.project(q);
+        if !pq.is_finite() {
+            return Err(SparseError::NonFinite {
+                what: "CG iterate (A p)",
+                index: None,
+            });
+        }
+        if pq <= 0.0 {
+            return Err(SparseError::NotPositiveDefinite {
+                iteration: k,
+                curvature: pq,
+            });
+        }
+        let alpha = rz / pq;
+        let mut rr = 0.0;
+        for i in 0..n {
+            x[i] += alpha * p[i];
+            let ri = r[i] - alpha * q[i];
+            r[i] = ri;
+            rr += ri * ri;
+        }
+        r_norm = rr.sqrt();
+        k += 1;
+        if params.record_history {
+            info.residual_history.push(rel(r_norm));
+        }
+    }
+    Ok(info)
+}
+
+fn check_finite_scalar(what: &'static str, v: f64) -> Result<(), SparseError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(SparseError::NonFinite { what, index: None })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::precond::testutil::*;
+    use crate::{Identity, IncompleteCholesky, Jacobi, PreconditionerSetup};
+
+    #[test]
+    fn pcg_solves_to_the_requested_tolerance_with_every_preconditioner() {
+        let a = spd_block_matrix(4, 4);
+        let d = dense(&a);
+        let b = rhs(a.dim());
+        let exact = dense_solve(&d, &b);
+        let mut ws = CgWorkspace::new(a.dim());
+        for kind in crate::PrecondKind::all(1.2) {
+            let mut p = crate::AnyPreconditioner::new(kind).unwrap();
+            p.setup(&a).unwrap();
+            let mut x = vec![0.0; a.dim()];
+            let params = CgParams {
+                rtol: 1e-10,
+                ..Default::default()
+            };
+            let info = pcg(&a, &p, &b, &mut x, &params, &mut ws, None).unwrap();
+            assert!(info.converged, "{kind}");
+            // The true residual, not the recursive one.
+            let mut ax = vec![0.0; a.dim()];
+            a.mul_vec(&x, &mut ax).unwrap();
+            let res: Vec<f64> = ax.iter().zip(&b).map(|(u, v)| u - v).collect();
+            assert!(norm2(&res) <= 1e-9 * norm2(&b), "{kind}");
+            assert!(rel_diff(&x, &exact) < 1e-8, "{kind}");
+        }
+    }
+
+    #[test]
+    fn cg_without_preconditioner_terminates_in_n_steps_in_exact_arithmetic_terms() {
+        // A diagonal matrix with 3 distinct eigenvalues: CG converges in 3 iterations.
+        let n = 9;
+        let a = crate::MatrixFree::new(n, |x: &[f64], y: &mut [f64]| {
+            for i in 0..x.len() {
+                y[i] = (1 + i % 3) as f64 * x[i];
+            }
+        });
+        let b = vec![1.0; n];
+        let mut x = vec![0.0; n];
+        let info = pcg(
+            &a,
+            &Identity,
+            &b,
+            &mut x,
+            &CgParams {
+                rtol: 1e-12,
+                ..Default::default()
+            },
+            &mut CgWorkspace::new(n),
+            None,
+        )
+        .unwrap();
+        assert_eq!(info.iterations, 3);
+        for i in 0..n {
+            assert!((x[i] - 1.0 / (1 + i % 3) as f64).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn warm_start_from_the_solution_needs_no_iteration() {
+        let a = spd_block_matrix(2, 2);
+        let b = rhs(a.dim());
+        let mut x = dense_solve(&dense(&a), &b);
+        let mut j = Jacobi::new();
+        j.setup(&a).unwrap();
+        let params = CgParams {
+            rtol: 1e-8,
+            initial_guess: InitialGuess::Given,
+            ..Default::default()
+        };
+        let info = pcg(
+            &a,
+            &j,
+            &b,
+            &mut x,
+            &params,
+            &mut CgWorkspace::default(),
+            None,
+        )
+        .unwrap();
+        assert_eq!(info.iterations, 0);
+        assert!(info.converged);
+    }
+
+    #[test]
+    fn callback_sees_every_iteration_and_can_stop() {
+        let a = spd_block_matrix(4, 4);
+        let b = rhs(a.dim());
+        let mut x = vec![0.0; a.dim()];
+        let mut seen = Vec::new();
+        let mut cb = |p: &CgProgress<'_>| {
+            seen.push(p.iteration);
+            if p.iteration == 3 {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        };
+        let info = pcg(
+            &a,
+            &Identity,
+            &b,
+            &mut x,
+            &CgParams::default(),
+            &mut CgWorkspace::default(),
+            Some(&mut cb),
+        )
+        .unwrap();
+        assert_eq!(seen, vec![0, 1, 2, 3]);
+        assert!(info.stopped_by_callback && !info.converged);
+        assert_eq!(info.iterations, 3);
+    }
+
+    #[test]
+    fn residual_history_decreases_to_the_tolerance() {
+        let a = spd_block_matrix(3, 3);
+        let b = rhs(a.dim());
+        let mut x = vec![0.0; a.dim()];
+        let mut ic = IncompleteCholesky::new();
+        ic.setup(&a).unwrap();
+        let params = CgParams {
+            record_history: true,
+            ..Default::default()
+        };
+        let info = pcg(
+            &a,
+            &ic,
+            &b,
+            &mut x,
+            &params,
+            &mut CgWorkspace::default(),
+            None,
+        )
+        .unwrap();
+        assert_eq!(info.residual_history.len(), info.iterations + 1);
+        assert_eq!(info.residual_history[0], 1.0);
+        assert!(*info.residual_history.last().unwrap() <= 1e-8);
+    }
+
+    #[test]
+    fn iteration_limit_gives_unconverged_info_and_a_typed_error_on_request() {
+        let a = spd_block_matrix(4, 4);
+        let b = rhs(a.dim());
+        let mut x = vec![0.0; a.dim()];
+        let params = CgParams {
+            max_iter: Some(2),
+            ..Default::default()
+        };
+        let info = pcg(
+            &a,
+            &Identity,
+            &b,
+            &mut x,
+            &params,
+            &mut CgWorkspace::default(),
+            None,
+        )
+        .unwrap();
+        assert!(!info.converged);
+        assert_eq!(info.iterations, 2);
+        assert!(matches!(
+            info.ensure_converged(),
+            Err(SparseError::NotConverged { iterations: 2, .. })
+        ));
+    }
+
+    #[test]
+    fn bad_inputs_are_typed_errors() {
+        let a = spd_block_matrix(2, 2);
+        let n = a.dim();
+        let mut ws = CgWorkspace::default();
+        let p = CgParams::default();
+        let mut x = vec![0.0; n];
+        assert!(matches!(
+            pcg(&a, &Identity, &vec![1.0; n - 1], &mut x, &p, &mut ws, None),
+            Err(SparseError::DimensionMismatch { .. })
+        ));
+        let mut b = vec![1.0; n];
+        b[3] = f64::NAN;
+        assert_eq!(
+            pcg(&a, &Identity, &b, &mut x, &p, &mut ws, None),
+            Err(SparseError::NonFinite {
+                what: "right-hand side b",
+                index: Some(3)
+            })
+        );
+        let j = Jacobi::new(); // never set up
+        assert!(matches!(
+            pcg(&a, &j, &vec![1.0; n], &mut x, &p, &mut ws, None),
+            Err(SparseError::DimensionMismatch { .. })
+        ));
+        let bad = CgParams {
+            rtol: f64::NAN,
+            ..Default::default()
+        };
+        assert!(matches!(
+            pcg(&a, &Identity, &vec![1.0; n], &mut x, &bad, &mut ws, None),
+            Err(SparseError::InvalidParameter { .. })
+        ));
+    }
+
+    #[test]
+    fn indefinite_matrix_is_not_positive_definite() {
+        let a = crate::MatrixFree::new(2, |x: &[f64], y: &mut [f64]| {
+            y[0] = x[0];
+            y[1] = -x[1];
+        });
+        let mut x = [0.0; 2];
+        let err = pcg(
+            &a,
+            &Identity,
+            &[0.0, 1.0],
+            &mut x,
+            &CgParams::default(),
+            &mut CgWorkspace::default(),
+            None,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(err, SparseError::NotPositiveDefinite { iteration: 0, curvature } if curvature < 0.0)
+        );
+    }
+
+    #[test]
+    fn zero_rhs_gives_zero_solution_at_once() {
+        let a = spd_block_matrix(2, 2);
+        let mut x = vec![5.0; a.dim()];
+        let info = pcg(
+            &a,
+            &Identity,
+            &vec![0.0; a.dim()],
+            &mut x,
+            &CgParams::default(),
+            &mut CgWorkspace::default(),
+            None,
+        )
+        .unwrap();
+        assert!(info.converged && info.iterations == 0);
+        assert!(x.iter().all(|&v| v == 0.0));
+    }
+
+    /// Solves the reduced system on the free directions densely: with an
+    /// orthonormal basis `F` of range(P), `x = x_c + F y`,
+    /// `(F^T A F) y = F^T (b - A x_c)`.
+    fn reduced_solve(d: &[Vec<f64>], b: &[f64], c: &Constraints) -> Vec<f64> {
+        let n = b.len();
+        let mut xc = vec![0.0; n];
+        c.impose(&mut xc);
+        // Basis of range(P): project unit vectors and orthonormalise.
+        let mut basis: Vec<Vec<f64>> = Vec::new();
+        for i in 0..n {
+            let mut e = vec![0.0; n];
+            e[i] = 1.0;
+            c.project(&mut e);
+            for f in &basis {
+                let s: f64 = e.iter().zip(f).map(|(u, v)| u * v).sum();
+                for (ei, fi) in e.iter_mut().zip(f) {
+                    *ei -= s * fi;
+                }
+            }
+            let len = norm2(&e);
+            if len > 1e-8 {
+                basis.push(e.iter().map(|v| v / len).collect());
+            }
+        }
+        let m = basis.len();
+        let axc: Vec<f64> = (0..n)
+            .map(|i| (0..n).map(|j| d[i][j] * xc[j]).sum())
+            .collect();
+        let af: Vec<Vec<f64>> = basis
+            .iter()
+            .map(|f| {
+                (0..n)
+                    .map(|i| (0..n).map(|j| d[i][j] * f[j]).sum())
+                    .collect()
+            })
+            .collect();
+        let red: Vec<Vec<f64>> = (0..m)
+            .map(|i| {
+                (0..m)
+                    .map(|j| basis[i].iter().zip(&af[j]).map(|(u, v)| u * v).sum())
+                    .collect()
+            })
+            .collect();
+        let rhs: Vec<f64> = (0..m)
+            .map(|i| {
+                basis[i]
+                    .iter()
+                    .zip(b.iter().zip(&axc))
+                    .map(|(f, (bb, ax))| f * (bb - ax))
+                    .sum()
+            })
+            .collect();
+        let y = dense_solve(&red, &rhs);
+        let mut x = xc;
+        for (f, yi) in basis.iter().zip(&y) {
+            for (xi, fi) in x.iter_mut().zip(f) {
+                *xi += yi * fi;
+            }
+        }
+        x
+    }
+
+    #[test]
+    fn filtered_pcg_matches_the_reduced_system_and_honours_constraints() {
+        let a = spd_block_matrix(3, 3);
+        let d = dense(&a);
+        let b = rhs(a.dim());
+        let mut c = Constraints::new(a.n_blocks());
+        c.pin(0, [0.1, -0.2, 0.3]).unwrap();
+        c.constrain(4, [0.0, 0.0, 1.0], 0.5).unwrap();
+        c.constrain(7, [1.0, 1.0, 0.0], -0.25).unwrap();
+        c.constrain(7, [0.0, 1.0, 1.0], 0.0).unwrap();
+        let expected = reduced_solve(&d, &b, &c);
+        for kind in crate::PrecondKind::all(1.0) {
+            let mut p = crate::AnyPreconditioner::new(kind).unwrap();
+            p.setup(&a).unwrap();
+            let mut x = vec![1.0; a.dim()];
+            let params = CgParams {
+                rtol: 1e-12,
+                initial_guess: InitialGuess::Given,
+                ..Default::default()
+            };
+            let info = filtered_pcg(
+                &a,
+                &p,
+                &b,
+                &mut x,
+                &c,
+                &params,
+                &mut CgWorkspace::default(),
+                None,
+            )
+            .unwrap();
+            assert!(info.converged, "{kind}");
+            assert!(c.violation(&x) < 1e-14, "{kind}");
+            assert!(
+                rel_diff(&x, &expected) < 1e-9,
+                "{kind}: {}",
+                rel_diff(&x, &expected)
+            );
+        }
+    }
+
+    #[test]
+    fn filtered_pcg_with_no_constraints_is_pcg() {
+        let a = spd_block_matrix(3, 2);
+        let b = rhs(a.dim());
+        let c = Constraints::new(a.n_blocks());
+        let (mut x1, mut x2) = (vec![0.0; a.dim()], vec![0.0; a.dim()]);
+        let p = CgParams::default();
+        let i1 = pcg(
+            &a,
+            &Identity,
+            &b,
+            &mut x1,
+            &p,
+            &mut CgWorkspace::default(),
+            None,
+        )
+        .unwrap();
+        let i2 = filtered_pcg(
+            &a,
+            &Identity,
+            &b,
+            &mut x2,
+            &c,
+            &p,
+            &mut CgWorkspace::default(),
+            None,
+        )
+        .unwrap();
+        assert_eq!(x1, x2);
+        assert_eq!(i1, i2);
+    }
+
+    #[test]
+    fn constraints_of_the_wrong_size_are_an_error() {
+        let a = spd_block_matrix(2, 2);
+        let c = Constraints::new(3);
+        let mut x = vec![0.0; a.dim()];
+        assert!(matches!(
+            filtered_pcg(
+                &a,
+                &Identity,
+                &vec![1.0; a.dim()],
+                &mut x,
+                &c,
+                &CgParams::default(),
+                &mut CgWorkspace::default(),
+                None
+            ),
+            Err(SparseError::DimensionMismatch { .. })
+        ));
+    }
+}

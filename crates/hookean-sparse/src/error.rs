@@ -1,0 +1,179 @@
+//! The one error type of `hookean-sparse`.
+
+use thiserror::Error;
+
+/// Everything that can go wrong in `hookean-sparse`.
+///
+/// Variants are structured so that a caller can react (retry with a smaller
+/// step, choose another preconditioner) without parsing messages.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
+pub enum SparseError {
+    /// A vector or matrix has the wrong size.
+    #[error("dimension mismatch in {what}: expected {expected}, found {found}")]
+    DimensionMismatch {
+        /// What was being checked (`"right-hand side"`, `"x"`, ...).
+        what: &'static str,
+        /// The size that was required.
+        expected: usize,
+        /// The size that was given.
+        found: usize,
+    },
+    /// A matrix that must be square is not.
+    #[error("matrix is not square: {rows} x {cols}")]
+    NotSquare {
+        /// Number of rows.
+        rows: usize,
+        /// Number of columns.
+        cols: usize,
+    },
+    /// A scalar dimension is not a multiple of 3 where 3x3 blocks are needed.
+    #[error("dimension {dim} is not a multiple of 3: cannot form 3x3 blocks")]
+    NotBlockAligned {
+        /// The offending dimension.
+        dim: usize,
+    },
+    /// A block index lies outside the matrix.
+    #[error("block index ({row}, {col}) is outside a matrix of {n} block rows")]
+    BlockIndexOutOfRange {
+        /// Block row.
+        row: usize,
+        /// Block column.
+        col: usize,
+        /// Number of block rows.
+        n: usize,
+    },
+    /// A block was written that is not in the sparsity pattern built at construction.
+    #[error("block ({row}, {col}) is not in the sparsity pattern")]
+    NotInPattern {
+        /// Block row.
+        row: usize,
+        /// Block column.
+        col: usize,
+    },
+    /// A matrix that must be symmetric is not.
+    #[error("matrix is not symmetric: entry ({row}, {col}) differs from its transpose")]
+    NotSymmetric {
+        /// Row of the first asymmetric entry found.
+        row: usize,
+        /// Column of the first asymmetric entry found.
+        col: usize,
+    },
+    /// CG met a direction of non-positive curvature: the matrix (or the
+    /// preconditioner) is not symmetric positive definite.
+    #[error("matrix is not positive definite: p^T A p = {curvature:e} at CG iteration {iteration}")]
+    NotPositiveDefinite {
+        /// Iteration (0-based) at which the curvature was found.
+        iteration: usize,
+        /// The value of p^T A p (or r^T M^-1 r for a bad preconditioner).
+        curvature: f64,
+    },
+    /// A NaN or an infinity was found.
+    #[error("non-finite value (NaN or infinity) in {what}{}", index.map(|i| format!(" at index {i}")).unwrap_or_default())]
+    NonFinite {
+        /// Where it was found.
+        what: &'static str,
+        /// The first offending index, when known.
+        index: Option<usize>,
+    },
+    /// An iterative method stopped at its iteration limit.
+    #[error(
+        "{method} did not converge in {iterations} iterations: relative residual {relative_residual:e}"
+    )]
+    NotConverged {
+        /// The method (`"PCG"`, `"power method"`).
+        method: &'static str,
+        /// Iterations performed.
+        iterations: usize,
+        /// Relative residual (or relative change) reached.
+        relative_residual: f64,
+    },
+    /// A preconditioner needs a positive diagonal and found otherwise.
+    #[error("{preconditioner} needs a positive diagonal, but entry {row} is {value}")]
+    NonPositiveDiagonal {
+        /// The preconditioner that failed.
+        preconditioner: &'static str,
+        /// Scalar row of the offending diagonal entry.
+        row: usize,
+        /// Its value.
+        value: f64,
+    },
+    /// A 3x3 diagonal block could not be inverted.
+    #[error("3x3 diagonal block {block} is singular (determinant {determinant:e})")]
+    SingularBlock {
+        /// Block row.
+        block: usize,
+        /// Its determinant.
+        determinant: f64,
+    },
+    /// Incomplete Cholesky found no positive pivots even with a large diagonal shift.
+    #[error(
+        "incomplete Cholesky failed: pivot {row} not positive even with diagonal shift {shift:e}"
+    )]
+    IncompleteCholeskyFailed {
+        /// Scalar row of the last failing pivot.
+        row: usize,
+        /// The largest shift tried (relative to the unit-diagonal scaled matrix).
+        shift: f64,
+    },
+    /// An argument is out of its admissible range.
+    #[error("invalid parameter {name}: {message}")]
+    InvalidParameter {
+        /// The parameter.
+        name: &'static str,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A constraint direction is zero or lies in the span of the particle's other constraints.
+    #[error("constraint direction for particle {particle} is degenerate (zero or dependent)")]
+    DegenerateConstraint {
+        /// The particle.
+        particle: usize,
+    },
+    /// A Matrix Market file is malformed.
+    #[error("line {line}: {message}")]
+    Parse {
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong there.
+        message: String,
+    },
+    /// Reading or writing a file failed.
+    #[error("{path}: {message}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The operating system's message.
+        message: String,
+    },
+    /// The direct (sparse Cholesky) baseline failed.
+    #[error("sparse Cholesky failed: {message}")]
+    Direct {
+        /// faer's message.
+        message: String,
+    },
+}
+
+/// Checks that `v` has length `expected`.
+pub(crate) fn check_len(what: &'static str, v: &[f64], expected: usize) -> Result<(), SparseError> {
+    if v.len() == expected {
+        Ok(())
+    } else {
+        Err(SparseError::DimensionMismatch {
+            what,
+            expected,
+            found: v.len(),
+        })
+    }
+}
+
+/// Checks that every entry of `v` is finite.
+pub(crate) fn check_finite(what: &'static str, v: &[f64]) -> Result<(), SparseError> {
+    match v.iter().position(|x| !x.is_finite()) {
+        None => Ok(()),
+        Some(i) => Err(SparseError::NonFinite {
+            what,
+            index: Some(i),
+        }),
+    }
+}

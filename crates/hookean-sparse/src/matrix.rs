@@ -1,0 +1,654 @@
+//! The symmetric 3x3 block-sparse matrix ([`SymBlockMatrix`]) and its
+//! sparsity pattern ([`BlockPattern`]).
+//!
+//! Storage is block compressed sparse rows (BSR) of the upper triangle: each
+//! block row holds its diagonal block first, then the blocks right of the
+//! diagonal in increasing column order. The pattern is built once per
+//! topology and shared behind an [`Arc`]; values are zeroed and refilled in
+//! place every step, so assembly allocates nothing. A symmetric SpMV reads
+//! every stored block once and applies it twice (`B x_j` to row `i`, `B^T x_i`
+//! to row `j`), moving about half the bytes of full block storage and a third
+//! of scalar CSR.
+
+use std::sync::Arc;
+
+use crate::block::{self, Block3};
+use crate::error::{SparseError, check_len};
+
+/// The sparsity pattern of a [`SymBlockMatrix`]: which 3x3 blocks are stored.
+///
+/// Built once from a list of block pairs `(i, j)`; the diagonal blocks are
+/// always present. `(i, j)` and `(j, i)` name the same stored block.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BlockPattern {
+    n: usize,
+    row_ptr: Vec<usize>,
+    col_idx: Vec<u32>,
+}
+
+/// Where a block lives in the value array, found once by
+/// [`SymBlockMatrix::slot`] and reused every refill to skip the search.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Slot {
+    index: usize,
+    transposed: bool,
+}
+
+impl BlockPattern {
+    /// Builds the pattern of an `n x n` block matrix from block pairs.
+    ///
+    /// Pairs may repeat and come in any order or orientation; diagonal pairs
+    /// are accepted and ignored (every diagonal block is stored).
+    ///
+    /// # Errors
+    /// [`SparseError::BlockIndexOutOfRange`] if a pair names a block outside
+    /// the matrix; [`SparseError::InvalidParameter`] if `n` exceeds `u32::MAX`.
+    pub fn new(
+        n: usize,
+        pairs: impl IntoIterator<Item = (usize, usize)>,
+    ) -> Result<Self, SparseError> {
+        if n > u32::MAX as usize {
+            return Err(SparseError::InvalidParameter {
+                name: "n",
+                message: format!("{n} block rows exceed the u32 index range"),
+            });
+        }
+        let mut upper: Vec<(u32, u32)> = Vec::new();
+        for (i, j) in pairs {
+            if i >= n || j >= n {
+                return Err(SparseError::BlockIndexOutOfRange { row: i, col: j, n });
+            }
+            if i != j {
+                upper.push((i.min(j) as u32, i.max(j) as u32));
+            }
+        }
+        upper.sort_unstable();
+        upper.dedup();
+        let mut row_ptr = Vec::with_capacity(n + 1);
+        let mut col_idx = Vec::with_capacity(n + upper.len());
+        row_ptr.push(0);
+        let mut k = 0;
+        for i in 0..n {
+            col_idx.push(i as u32);
+            while k < upper.len() && upper[k].0 as usize == i {
+                col_idx.push(upper[k].1);
+                k += 1;
+            }
+            row_ptr.push(col_idx.len());
+        }
+        Ok(Self {
+            n,
+            row_ptr,
+            col_idx,
+        })
+    }
+
+    /// Number of block rows (and block columns).
+    pub fn n_blocks(&self) -> usize {
+        self.n
+    }
+
+    /// Scalar dimension, `3 * n_blocks()`.
+    pub fn dim(&self) -> usize {
+        3 * self.n
+    }
+
+    /// Number of stored blocks (diagonal plus upper triangle).
+    pub fn stored_blocks(&self) -> usize {
+        self.col_idx.len()
+    }
+
+    /// Number of scalar nonzeros of the full (both triangles) matrix, counting
+    /// every stored block as dense: `9 * (2 * stored - n)`.
+    pub fn full_nnz(&self) -> usize {
+        9 * (2 * self.col_idx.len() - self.n)
+    }
+
+    /// Row pointers: block row `i` occupies slots `row_ptr[i]..row_ptr[i + 1]`,
+    /// the first of which is the diagonal.
+    pub fn row_ptr(&self) -> &[usize] {
+        &self.row_ptr
+    }
+
+    /// Block column of every slot.
+    pub fn col_idx(&self) -> &[u32] {
+        &self.col_idx
+    }
+
+    /// The slot holding block `(i, j)`, if it is in the pattern.
+    pub fn find(&self, i: usize, j: usize) -> Option<Slot> {
+        if i >= self.n || j >= self.n {
+            return None;
+        }
+        let (r, c, transposed) = if i <= j { (i, j, false) } else { (j, i, true) };
+        let start = self.row_ptr[r];
+        let end = self.row_ptr[r + 1];
+        if r == c {
+            return Some(Slot {
+                index: start,
+                transposed: false,
+            });
+        }
+        self.col_idx[start + 1..end]
+            .binary_search(&(c as u32))
+            .ok()
+            .map(|k| Slot {
+                index: start + 1 + k,
+                transposed,
+            })
+    }
+}
+
+/// A symmetric matrix of 3x3 blocks, stored as its diagonal and upper blocks.
+///
+/// ```
+/// use std::sync::Arc;
+/// use hookean_sparse::{BlockPattern, SymBlockMatrix, LinearOperator};
+///
+/// // Two particles joined by one spring: blocks (0,0), (0,1), (1,1).
+/// let pattern = Arc::new(BlockPattern::new(2, [(0, 1)])?);
+/// let mut a = SymBlockMatrix::new(pattern);
+/// let k = [[2.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 2.0]];
+/// let minus_k = [[-1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]];
+/// a.add_to_block(0, 0, &k)?;
+/// a.add_to_block(1, 1, &k)?;
+/// a.add_to_block(1, 0, &minus_k)?; // stored once as (0, 1)
+/// let x = [1.0, 0.0, 0.0, 1.0, 0.0, 0.0];
+/// let mut y = [0.0; 6];
+/// a.apply(&x, &mut y);
+/// assert_eq!(y, [1.0, 0.0, 0.0, 1.0, 0.0, 0.0]);
+/// # Ok::<(), hookean_sparse::SparseError>(())
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct SymBlockMatrix {
+    pattern: Arc<BlockPattern>,
+    values: Vec<Block3>,
+}
+
+impl SymBlockMatrix {
+    /// A zero matrix with the given pattern.
+    pub fn new(pattern: Arc<BlockPattern>) -> Self {
+        let values = vec![block::ZERO; pattern.stored_blocks()];
+        Self { pattern, values }
+    }
+
+    /// The shared sparsity pattern. Preconditioners compare it with
+    /// [`Arc::ptr_eq`] to reuse their symbolic setup across refills.
+    pub fn pattern(&self) -> &Arc<BlockPattern> {
+        &self.pattern
+    }
+
+    /// Number of block rows.
+    pub fn n_blocks(&self) -> usize {
+        self.pattern.n
+    }
+
+    /// Scalar dimension `3 * n_blocks()`.
+    pub fn dim(&self) -> usize {
+        3 * self.pattern.n
+    }
+
+    /// The stored blocks, slot by slot (see [`BlockPattern::row_ptr`]).
+    pub fn values(&self) -> &[Block3] {
+        &self.values
+    }
+
+    /// Mutable stored blocks, for assembly kernels that keep their own slot map.
+    /// Writing a non-symmetric diagonal block makes the matrix non-symmetric.
+    pub fn values_mut(&mut self) -> &mut [Block3] {
+        &mut self.values
+    }
+
+    /// Sets every stored value to zero, keeping the pattern (no allocation).
+    pub fn set_zero(&mut self) {
+        self.values.fill(block::ZERO);
+    }
+
+    /// The slot of block `(i, j)`, to be cached by assembly code.
+    ///
+    /// # Errors
+    /// [`SparseError::BlockIndexOutOfRange`] or [`SparseError::NotInPattern`].
+    pub fn slot(&self, i: usize, j: usize) -> Result<Slot, SparseError> {
+        let n = self.pattern.n;
+        if i >= n || j >= n {
+            return Err(SparseError::BlockIndexOutOfRange { row: i, col: j, n });
+        }
+        self.pattern
+            .find(i, j)
+            .ok_or(SparseError::NotInPattern { row: i, col: j })
+    }
+
+    /// Adds `m` to block `(i, j)` (and, by symmetry, `m^T` to block `(j, i)`).
+    ///
+    /// # Errors
+    /// As [`slot`](Self::slot).
+    pub fn add_to_block(&mut self, i: usize, j: usize, m: &Block3) -> Result<(), SparseError> {
+        let slot = self.slot(i, j)?;
+        self.add_to_slot(slot, m);
+        Ok(())
+    }
+
+    /// Adds `m` to the block at a cached slot: the search-free path for hot loops.
+    #[inline]
+    pub fn add_to_slot(&mut self, slot: Slot, m: &Block3) {
+        let b = &mut self.values[slot.index];
+        if slot.transposed {
+            for r in 0..3 {
+                for c in 0..3 {
+                    b[r][c] += m[c][r];
+                }
+            }
+        } else {
+            for r in 0..3 {
+                for c in 0..3 {
+                    b[r][c] += m[r][c];
+                }
+            }
+        }
+    }
+
+    /// Block `(i, j)`: stored, transposed from storage, or zero if absent.
+    ///
+    /// # Errors
+    /// [`SparseError::BlockIndexOutOfRange`].
+    pub fn block(&self, i: usize, j: usize) -> Result<Block3, SparseError> {
+        let n = self.pattern.n;
+        if i >= n || j >= n {
+            return Err(SparseError::BlockIndexOutOfRange { row: i, col: j, n });
+        }
+        Ok(match self.pattern.find(i, j) {
+            None => block::ZERO,
+            Some(s) if s.transposed => block::transpose(&self.values[s.index]),
+            Some(s) => self.values[s.index],
+        })
+    }
+
+    /// Diagonal block `i` (no search: it is the first slot of row `i`).
+    ///
+    /// # Panics
+    /// If `i >= n_blocks()`.
+    #[inline]
+    pub fn diagonal_block(&self, i: usize) -> &Block3 {
+        &self.values[self.pattern.row_ptr[i]]
+    }
+
+    /// Adds `d[k]` to scalar diagonal entry `k` (e.g. a lumped mass matrix).
+    ///
+    /// # Errors
+    /// [`SparseError::DimensionMismatch`] if `d.len() != dim()`.
+    pub fn add_to_diagonal(&mut self, d: &[f64]) -> Result<(), SparseError> {
+        check_len("diagonal", d, self.dim())?;
+        for i in 0..self.pattern.n {
+            let b = &mut self.values[self.pattern.row_ptr[i]];
+            for c in 0..3 {
+                b[c][c] += d[3 * i + c];
+            }
+        }
+        Ok(())
+    }
+
+    /// Multiplies every value by `s`.
+    pub fn scale(&mut self, s: f64) {
+        for b in &mut self.values {
+            *b = block::scale(b, s);
+        }
+    }
+
+    /// `self += s * other`, for matrices that share one pattern
+    /// (e.g. `A = M - h D - h^2 K` from `D` and `K` assembled on one pattern).
+    ///
+    /// # Errors
+    /// [`SparseError::InvalidParameter`] if the patterns differ.
+    pub fn add_scaled(&mut self, s: f64, other: &SymBlockMatrix) -> Result<(), SparseError> {
+        if !Arc::ptr_eq(&self.pattern, &other.pattern) && self.pattern != other.pattern {
+            return Err(SparseError::InvalidParameter {
+                name: "other",
+                message: "matrices have different sparsity patterns".into(),
+            });
+        }
+        for (a, b) in self.values.iter_mut().zip(&other.values) {
+            for r in 0..3 {
+                for c in 0..3 {
+                    a[r][c] += s * b[r][c];
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// `y = A x`, checking lengths.
+    ///
+    /// # Errors
+    /// [`SparseError::DimensionMismatch`] if `x` or `y` is not of length `dim()`.
+    pub fn mul_vec(&self, x: &[f64], y: &mut [f64]) -> Result<(), SparseError> {
+        check_len("x", x, self.dim())?;
+        check_len("y", y, self.dim())?;
+        self.spmv(x, y);
+        Ok(())
+    }
+
+    /// The symmetric SpMV kernel: `y = A x`, and returns `x . y`.
+    ///
+    /// Every stored off-diagonal block `B_ij` is read once and applied twice.
+    #[inline]
+    pub(crate) fn spmv_dot(&self, x: &[f64], y: &mut [f64]) -> f64 {
+        let n = self.pattern.n;
+        let (x3, _) = x.as_chunks::<3>();
+        let (y3, _) = y.as_chunks_mut::<3>();
+        let x3 = &x3[..n];
+        let y3 = &mut y3[..n];
+        y3.fill([0.0; 3]);
+        let row_ptr = &self.pattern.row_ptr;
+        let cols = &self.pattern.col_idx;
+        let vals = &self.values;
+        let mut dot = 0.0;
+        for i in 0..n {
+            let start = row_ptr[i];
+            let end = row_ptr[i + 1];
+            let xi = x3[i];
+            let mut yi = block::mul_vec(&vals[start], &xi);
+            for k in start + 1..end {
+                let j = cols[k] as usize;
+                let b = &vals[k];
+                let xj = &x3[j];
+                let t = block::mul_vec(b, xj);
+                yi[0] += t[0];
+                yi[1] += t[1];
+                yi[2] += t[2];
+                let u = block::mul_transpose_vec(b, &xi);
+                let yj = &mut y3[j];
+                yj[0] += u[0];
+                yj[1] += u[1];
+                yj[2] += u[2];
+            }
+            // Rows < i scattered into y_i already and no later row touches it.
+            let out = &mut y3[i];
+            out[0] += yi[0];
+            out[1] += yi[1];
+            out[2] += yi[2];
+            dot += xi[0] * out[0] + xi[1] * out[1] + xi[2] * out[2];
+        }
+        dot
+    }
+
+    #[inline]
+    fn spmv(&self, x: &[f64], y: &mut [f64]) {
+        self.spmv_dot(x, y);
+    }
+
+    /// The full matrix (both triangles) as a scalar CSR `sprs` matrix.
+    /// Every stored block contributes its 9 entries, zeros included, so the
+    /// pattern is the same at every refill.
+    pub fn to_csr(&self) -> sprs::CsMat<f64> {
+        let n = self.pattern.n;
+        let dim = 3 * n;
+        // For each block row, the list of (block column, slot, transposed).
+        let mut lower: Vec<Vec<(usize, usize)>> = vec![Vec::new(); n];
+        for i in 0..n {
+            for k in self.pattern.row_ptr[i] + 1..self.pattern.row_ptr[i + 1] {
+                lower[self.pattern.col_idx[k] as usize].push((i, k));
+            }
+        }
+        let mut indptr = Vec::with_capacity(dim + 1);
+        let mut indices = Vec::with_capacity(self.pattern.full_nnz());
+        let mut data = Vec::with_capacity(self.pattern.full_nnz());
+        indptr.push(0);
+        for i in 0..n {
+            for r in 0..3 {
+                // Blocks left of the diagonal: transposes of upper blocks (j, i), j < i.
+                for &(j, k) in &lower[i] {
+                    for c in 0..3 {
+                        indices.push(3 * j + c);
+                        data.push(self.values[k][c][r]);
+                    }
+                }
+                for k in self.pattern.row_ptr[i]..self.pattern.row_ptr[i + 1] {
+                    let j = self.pattern.col_idx[k] as usize;
+                    for c in 0..3 {
+                        indices.push(3 * j + c);
+                        data.push(self.values[k][r][c]);
+                    }
+                }
+                indptr.push(indices.len());
+            }
+        }
+        sprs::CsMat::new((dim, dim), indptr, indices, data)
+    }
+
+    /// The upper triangle (diagonal included) as scalar CSR arrays
+    /// `(indptr, indices, data)`; read as CSC, the same arrays are the lower
+    /// triangle, which is what faer's sparse Cholesky takes.
+    pub(crate) fn upper_csr_arrays(&self) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
+        let n = self.pattern.n;
+        let nnz = 6 * n + 9 * (self.pattern.stored_blocks() - n);
+        let mut indptr = Vec::with_capacity(3 * n + 1);
+        let mut indices = Vec::with_capacity(nnz);
+        let mut data = Vec::with_capacity(nnz);
+        indptr.push(0);
+        for i in 0..n {
+            let start = self.pattern.row_ptr[i];
+            for r in 0..3 {
+                for c in r..3 {
+                    indices.push(3 * i + c);
+                    data.push(self.values[start][r][c]);
+                }
+                for k in start + 1..self.pattern.row_ptr[i + 1] {
+                    let j = self.pattern.col_idx[k] as usize;
+                    for c in 0..3 {
+                        indices.push(3 * j + c);
+                        data.push(self.values[k][r][c]);
+                    }
+                }
+                indptr.push(indices.len());
+            }
+        }
+        (indptr, indices, data)
+    }
+
+    /// The full matrix as faer's sparse column matrix (for faer's own
+    /// kernels and direct solvers).
+    pub fn to_faer(&self) -> faer::sparse::SparseColMat<usize, f64> {
+        // The matrix is symmetric: its CSR arrays are also its CSC arrays.
+        let csr = self.to_csr();
+        let dim = self.dim();
+        let (indptr, indices, data) = csr.into_raw_storage();
+        let symbolic =
+            faer::sparse::SymbolicSparseColMat::new_checked(dim, dim, indptr, None, indices);
+        faer::sparse::SparseColMat::new(symbolic, data)
+    }
+
+    /// Builds a block matrix from a scalar `sprs` matrix (CSR or CSC) whose
+    /// dimension is a multiple of 3. Every 3x3 block with at least one stored
+    /// entry enters the pattern.
+    ///
+    /// # Errors
+    /// [`SparseError::NotSquare`], [`SparseError::NotBlockAligned`],
+    /// [`SparseError::NonFinite`], and [`SparseError::NotSymmetric`] if an
+    /// entry differs from its transpose by more than `1e-12` of the largest entry.
+    pub fn from_csr(a: &sprs::CsMat<f64>) -> Result<Self, SparseError> {
+        let (rows, cols) = a.shape();
+        if rows != cols {
+            return Err(SparseError::NotSquare { rows, cols });
+        }
+        if rows % 3 != 0 {
+            return Err(SparseError::NotBlockAligned { dim: rows });
+        }
+        let n = rows / 3;
+        let mut max_abs = 0.0_f64;
+        for (&v, (r, c)) in a.iter() {
+            if !v.is_finite() {
+                return Err(SparseError::NonFinite {
+                    what: "matrix",
+                    index: Some(r * cols + c),
+                });
+            }
+            max_abs = max_abs.max(v.abs());
+        }
+        let tol = 1e-12 * max_abs;
+        for (&v, (r, c)) in a.iter() {
+            let t = a.get(c, r).copied().unwrap_or(0.0);
+            if (v - t).abs() > tol {
+                return Err(SparseError::NotSymmetric { row: r, col: c });
+            }
+        }
+        let pattern = Arc::new(BlockPattern::new(
+            n,
+            a.iter().map(|(_, (r, c))| (r / 3, c / 3)),
+        )?);
+        let mut m = SymBlockMatrix::new(pattern);
+        for (&v, (r, c)) in a.iter() {
+            let (bi, bj) = (r / 3, c / 3);
+            if bi <= bj {
+                let slot = m.pattern.find(bi, bj).expect("pattern holds every entry");
+                m.values[slot.index][r % 3][c % 3] = v;
+            }
+        }
+        Ok(m)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn chain(n: usize) -> SymBlockMatrix {
+        let pattern = Arc::new(BlockPattern::new(n, (1..n).map(|i| (i - 1, i))).unwrap());
+        let mut a = SymBlockMatrix::new(pattern);
+        for i in 0..n {
+            let d = [
+                [4.0 + i as f64, 0.5, 0.0],
+                [0.5, 5.0, 0.25],
+                [0.0, 0.25, 6.0],
+            ];
+            a.add_to_block(i, i, &d).unwrap();
+            if i > 0 {
+                let b = [[-1.0, 0.2, 0.0], [0.1, -1.0, 0.3], [0.0, 0.0, -0.5]];
+                a.add_to_block(i, i - 1, &b).unwrap();
+            }
+        }
+        a
+    }
+
+    fn dense(a: &SymBlockMatrix) -> Vec<Vec<f64>> {
+        let n = a.n_blocks();
+        let mut d = vec![vec![0.0; 3 * n]; 3 * n];
+        for i in 0..n {
+            for j in 0..n {
+                let b = a.block(i, j).unwrap();
+                for r in 0..3 {
+                    for c in 0..3 {
+                        d[3 * i + r][3 * j + c] = b[r][c];
+                    }
+                }
+            }
+        }
+        d
+    }
+
+    #[test]
+    fn pattern_dedups_and_orients_pairs() {
+        let p = BlockPattern::new(4, [(2, 1), (1, 2), (0, 3), (3, 3)]).unwrap();
+        assert_eq!(p.row_ptr(), &[0, 2, 4, 5, 6]);
+        assert_eq!(p.col_idx(), &[0, 3, 1, 2, 2, 3]);
+        assert_eq!(p.full_nnz(), 9 * (2 * 6 - 4));
+        assert!(p.find(1, 3).is_none());
+        assert!(p.find(2, 1).unwrap().transposed);
+    }
+
+    #[test]
+    fn out_of_range_pair_is_an_error() {
+        assert_eq!(
+            BlockPattern::new(3, [(0, 3)]),
+            Err(SparseError::BlockIndexOutOfRange {
+                row: 0,
+                col: 3,
+                n: 3
+            })
+        );
+    }
+
+    #[test]
+    fn writing_outside_the_pattern_is_an_error() {
+        let mut a = chain(3);
+        assert_eq!(
+            a.add_to_block(0, 2, &block::IDENTITY),
+            Err(SparseError::NotInPattern { row: 0, col: 2 })
+        );
+    }
+
+    #[test]
+    fn lower_block_is_stored_transposed() {
+        let a = chain(3);
+        let upper = a.block(0, 1).unwrap();
+        let lower = a.block(1, 0).unwrap();
+        assert_eq!(
+            lower,
+            [[-1.0, 0.2, 0.0], [0.1, -1.0, 0.3], [0.0, 0.0, -0.5]]
+        );
+        assert_eq!(upper, block::transpose(&lower));
+    }
+
+    #[test]
+    fn spmv_matches_dense_product() {
+        let a = chain(5);
+        let d = dense(&a);
+        let x: Vec<f64> = (0..15).map(|i| (i as f64 * 0.7).sin()).collect();
+        let mut y = vec![0.0; 15];
+        a.mul_vec(&x, &mut y).unwrap();
+        for r in 0..15 {
+            let expected: f64 = (0..15).map(|c| d[r][c] * x[c]).sum();
+            assert!((y[r] - expected).abs() < 1e-13);
+        }
+    }
+
+    #[test]
+    fn csr_round_trip_and_faer_agree() {
+        let a = chain(4);
+        let csr = a.to_csr();
+        let d = dense(&a);
+        for (&v, (r, c)) in csr.iter() {
+            assert_eq!(v, d[r][c]);
+        }
+        let back = SymBlockMatrix::from_csr(&csr).unwrap();
+        assert_eq!(dense(&back), d);
+        let f = a.to_faer();
+        assert_eq!(f.compute_nnz(), csr.nnz());
+    }
+
+    #[test]
+    fn from_csr_rejects_bad_shapes_and_asymmetry() {
+        let mut t = sprs::TriMat::new((4, 4));
+        t.add_triplet(0, 0, 1.0);
+        assert_eq!(
+            SymBlockMatrix::from_csr(&t.to_csr()),
+            Err(SparseError::NotBlockAligned { dim: 4 })
+        );
+        let mut t = sprs::TriMat::new((3, 3));
+        t.add_triplet(0, 1, 1.0);
+        t.add_triplet(1, 0, 2.0);
+        assert!(matches!(
+            SymBlockMatrix::from_csr(&t.to_csr()),
+            Err(SparseError::NotSymmetric { .. })
+        ));
+        let mut t = sprs::TriMat::new((3, 6));
+        t.add_triplet(0, 1, 1.0);
+        assert_eq!(
+            SymBlockMatrix::from_csr(&t.to_csr()),
+            Err(SparseError::NotSquare { rows: 3, cols: 6 })
+        );
+    }
+
+    #[test]
+    fn wrong_vector_length_is_an_error() {
+        let a = chain(2);
+        let mut y = vec![0.0; 6];
+        assert_eq!(
+            a.mul_vec(&[1.0; 5], &mut y),
+            Err(SparseError::DimensionMismatch {
+                what: "x",
+                expected: 6,
+                found: 5
+            })
+        );
+    }
+}

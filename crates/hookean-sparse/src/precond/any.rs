@@ -1,0 +1,175 @@
+//! Choosing a preconditioner by name (scene files, the command line).
+
+use std::fmt;
+use std::str::FromStr;
+
+use super::{
+    BlockJacobi, Identity, IncompleteCholesky, Jacobi, Preconditioner, PreconditionerSetup, Ssor,
+};
+use crate::error::SparseError;
+
+/// The preconditioners of this crate, by name.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PrecondKind {
+    /// [`Identity`]: `none`.
+    None,
+    /// [`Jacobi`]: `jacobi`.
+    Jacobi,
+    /// [`BlockJacobi`]: `block-jacobi`.
+    BlockJacobi,
+    /// [`Ssor`] with its relaxation: `ssor`.
+    Ssor {
+        /// Relaxation in (0, 2).
+        omega: f64,
+    },
+    /// [`IncompleteCholesky`]: `ic0`.
+    Ic0,
+}
+
+impl PrecondKind {
+    /// Every kind, with SSOR at `omega`.
+    pub fn all(omega: f64) -> [PrecondKind; 5] {
+        [
+            PrecondKind::None,
+            PrecondKind::Jacobi,
+            PrecondKind::BlockJacobi,
+            PrecondKind::Ssor { omega },
+            PrecondKind::Ic0,
+        ]
+    }
+
+    /// The name used on the command line and in scene files.
+    pub fn name(&self) -> &'static str {
+        match self {
+            PrecondKind::None => "none",
+            PrecondKind::Jacobi => "jacobi",
+            PrecondKind::BlockJacobi => "block-jacobi",
+            PrecondKind::Ssor { .. } => "ssor",
+            PrecondKind::Ic0 => "ic0",
+        }
+    }
+}
+
+impl fmt::Display for PrecondKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for PrecondKind {
+    type Err = SparseError;
+
+    /// Parses `none`, `jacobi`, `block-jacobi`, `ssor` (omega 1) or `ic0`.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Ok(match s {
+            "none" => PrecondKind::None,
+            "jacobi" => PrecondKind::Jacobi,
+            "block-jacobi" => PrecondKind::BlockJacobi,
+            "ssor" => PrecondKind::Ssor { omega: 1.0 },
+            "ic0" => PrecondKind::Ic0,
+            other => {
+                return Err(SparseError::InvalidParameter {
+                    name: "preconditioner",
+                    message: format!(
+                        "unknown preconditioner '{other}' (expected none, jacobi, block-jacobi, ssor or ic0)"
+                    ),
+                });
+            }
+        })
+    }
+}
+
+/// Any preconditioner of this crate, chosen at run time.
+///
+/// Dispatch is one `match` per application, outside the inner loops.
+#[derive(Debug, Clone)]
+pub enum AnyPreconditioner {
+    /// No preconditioning.
+    None(Identity),
+    /// Diagonal.
+    Jacobi(Jacobi),
+    /// 3x3 block diagonal.
+    BlockJacobi(BlockJacobi),
+    /// SSOR.
+    Ssor(Ssor),
+    /// IC(0).
+    Ic0(IncompleteCholesky),
+}
+
+impl AnyPreconditioner {
+    /// An empty preconditioner of the given kind.
+    ///
+    /// # Errors
+    /// [`SparseError::InvalidParameter`] for an SSOR `omega` outside (0, 2).
+    pub fn new(kind: PrecondKind) -> Result<Self, SparseError> {
+        Ok(match kind {
+            PrecondKind::None => AnyPreconditioner::None(Identity),
+            PrecondKind::Jacobi => AnyPreconditioner::Jacobi(Jacobi::new()),
+            PrecondKind::BlockJacobi => AnyPreconditioner::BlockJacobi(BlockJacobi::new()),
+            PrecondKind::Ssor { omega } => AnyPreconditioner::Ssor(Ssor::new(omega)?),
+            PrecondKind::Ic0 => AnyPreconditioner::Ic0(IncompleteCholesky::new()),
+        })
+    }
+
+    /// Its kind.
+    pub fn kind(&self) -> PrecondKind {
+        match self {
+            AnyPreconditioner::None(_) => PrecondKind::None,
+            AnyPreconditioner::Jacobi(_) => PrecondKind::Jacobi,
+            AnyPreconditioner::BlockJacobi(_) => PrecondKind::BlockJacobi,
+            AnyPreconditioner::Ssor(p) => PrecondKind::Ssor { omega: p.omega() },
+            AnyPreconditioner::Ic0(_) => PrecondKind::Ic0,
+        }
+    }
+}
+
+macro_rules! dispatch {
+    ($self:expr, $p:ident => $e:expr) => {
+        match $self {
+            AnyPreconditioner::None($p) => $e,
+            AnyPreconditioner::Jacobi($p) => $e,
+            AnyPreconditioner::BlockJacobi($p) => $e,
+            AnyPreconditioner::Ssor($p) => $e,
+            AnyPreconditioner::Ic0($p) => $e,
+        }
+    };
+}
+
+impl Preconditioner for AnyPreconditioner {
+    fn dim(&self) -> Option<usize> {
+        dispatch!(self, p => p.dim())
+    }
+    fn apply(&self, r: &[f64], z: &mut [f64]) {
+        dispatch!(self, p => p.apply(r, z))
+    }
+    fn apply_dot(&self, r: &[f64], z: &mut [f64]) -> f64 {
+        dispatch!(self, p => p.apply_dot(r, z))
+    }
+}
+
+impl<A: ?Sized> PreconditionerSetup<A> for AnyPreconditioner
+where
+    Identity: PreconditionerSetup<A>,
+    Jacobi: PreconditionerSetup<A>,
+    BlockJacobi: PreconditionerSetup<A>,
+    Ssor: PreconditionerSetup<A>,
+    IncompleteCholesky: PreconditionerSetup<A>,
+{
+    fn setup(&mut self, a: &A) -> Result<(), SparseError> {
+        dispatch!(self, p => p.setup(a))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip() {
+        for kind in PrecondKind::all(1.0) {
+            assert_eq!(kind.name().parse::<PrecondKind>().unwrap(), kind);
+            assert_eq!(AnyPreconditioner::new(kind).unwrap().kind(), kind);
+        }
+        assert!("ilu".parse::<PrecondKind>().is_err());
+    }
+}

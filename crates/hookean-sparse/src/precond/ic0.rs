@@ -1,0 +1,430 @@
+//! Incomplete Cholesky with zero fill-in, IC(0) (the tutorial's "ICC").
+
+use std::sync::Arc;
+
+use super::{Preconditioner, PreconditionerSetup, square_dim};
+use crate::error::SparseError;
+use crate::matrix::{BlockPattern, SymBlockMatrix};
+
+const NONE: usize = usize::MAX;
+
+/// IC(0): `A ~ L L^T` with `L` restricted to the lower triangle of `A`'s own
+/// pattern ("formally factorising A and dropping all intermediate values not
+/// fitting the sparsity pattern", section 4.1).
+///
+/// The factorisation runs on the unit-diagonal scaling `S A S`,
+/// `S = diag(a_ii)^-1/2`. When a pivot is not positive it is retried on
+/// `S A S + shift I`, with `shift` starting at `initial_shift` (1e-3) and
+/// doubling, as Eigen's `IncompleteCholesky` does; [`shift`](Self::shift)
+/// reports the value that succeeded (0 when none was needed).
+///
+/// The symbolic part (the pattern of `L` and where each entry comes from)
+/// is computed once per sparsity pattern; refills only redo the numbers.
+#[derive(Debug, Clone)]
+pub struct IncompleteCholesky {
+    initial_shift: f64,
+    shift: f64,
+    source: Source,
+    l_ptr: Vec<usize>,
+    l_col: Vec<usize>,
+    /// For every entry of `L`, the index of the matching value of `A` in its
+    /// flat value array, or `NONE` for a diagonal that `A` does not store.
+    map: Vec<usize>,
+    l_val: Vec<f64>,
+    inv_diag: Vec<f64>,
+    scale: Vec<f64>,
+    marker: Vec<usize>,
+}
+
+#[derive(Debug, Clone)]
+enum Source {
+    None,
+    Block(Arc<BlockPattern>),
+    Csr {
+        indptr: Vec<usize>,
+        indices: Vec<usize>,
+    },
+}
+
+impl Default for IncompleteCholesky {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl IncompleteCholesky {
+    /// An empty preconditioner with Eigen's initial shift `1e-3`.
+    pub fn new() -> Self {
+        Self {
+            initial_shift: 1e-3,
+            shift: 0.0,
+            source: Source::None,
+            l_ptr: Vec::new(),
+            l_col: Vec::new(),
+            map: Vec::new(),
+            l_val: Vec::new(),
+            inv_diag: Vec::new(),
+            scale: Vec::new(),
+            marker: Vec::new(),
+        }
+    }
+
+    /// The diagonal shift (relative to the unit-diagonal scaled matrix) that
+    /// the last successful [`setup`](PreconditionerSetup::setup) used.
+    pub fn shift(&self) -> f64 {
+        self.shift
+    }
+
+    /// Number of stored entries of `L` (diagonal included).
+    pub fn nnz(&self) -> usize {
+        self.l_col.len()
+    }
+
+    fn n(&self) -> usize {
+        self.l_ptr.len().saturating_sub(1)
+    }
+
+    fn symbolic_block(&mut self, pattern: &Arc<BlockPattern>) {
+        let nb = pattern.n_blocks();
+        let row_ptr = pattern.row_ptr();
+        let cols = pattern.col_idx();
+        // For each block row bi, the stored upper blocks (bj, bi) with bj < bi, by bj.
+        let mut left: Vec<Vec<(usize, usize)>> = vec![Vec::new(); nb];
+        for bj in 0..nb {
+            for k in row_ptr[bj] + 1..row_ptr[bj + 1] {
+                left[cols[k] as usize].push((bj, k));
+            }
+        }
+        self.l_ptr.clear();
+        self.l_col.clear();
+        self.map.clear();
+        self.l_ptr.push(0);
+        for bi in 0..nb {
+            let diag_slot = row_ptr[bi];
+            for r in 0..3 {
+                for &(bj, k) in &left[bi] {
+                    for c in 0..3 {
+                        // A[3bi + r][3bj + c] = B_(bj, bi)[c][r]
+                        self.l_col.push(3 * bj + c);
+                        self.map.push(9 * k + 3 * c + r);
+                    }
+                }
+                for c in 0..=r {
+                    self.l_col.push(3 * bi + c);
+                    self.map.push(9 * diag_slot + 3 * r + c);
+                }
+                self.l_ptr.push(self.l_col.len());
+            }
+        }
+        self.source = Source::Block(pattern.clone());
+    }
+
+    fn symbolic_csr(&mut self, n: usize, indptr: &[usize], indices: &[usize]) {
+        self.l_ptr.clear();
+        self.l_col.clear();
+        self.map.clear();
+        self.l_ptr.push(0);
+        for i in 0..n {
+            let mut diag = NONE;
+            for k in indptr[i]..indptr[i + 1] {
+                let j = indices[k];
+                if j < i {
+                    self.l_col.push(j);
+                    self.map.push(k);
+                } else if j == i {
+                    diag = k;
+                }
+            }
+            self.l_col.push(i);
+            self.map.push(diag);
+            self.l_ptr.push(self.l_col.len());
+        }
+        self.source = Source::Csr {
+            indptr: indptr.to_vec(),
+            indices: indices.to_vec(),
+        };
+    }
+
+    /// The numeric factorisation with diagonal scaling and the shift loop.
+    fn numeric(&mut self, values: &[f64]) -> Result<(), SparseError> {
+        let n = self.n();
+        if let Some(k) = values.iter().position(|v| !v.is_finite()) {
+            self.source = Source::None;
+            return Err(SparseError::NonFinite {
+                what: "matrix",
+                index: Some(k),
+            });
+        }
+        self.l_val.resize(self.l_col.len(), 0.0);
+        self.inv_diag.resize(n, 0.0);
+        self.scale.resize(n, 0.0);
+        self.marker.clear();
+        self.marker.resize(n, NONE);
+        let mut min_diag = f64::INFINITY;
+        for i in 0..n {
+            let p = self.map[self.l_ptr[i + 1] - 1];
+            let d = if p == NONE { 0.0 } else { values[p] };
+            self.scale[i] = if d > 0.0 { 1.0 / d.sqrt() } else { 1.0 };
+            min_diag = min_diag.min(if d > 0.0 { 1.0 } else { d });
+        }
+        let mut shift = if min_diag <= 0.0 {
+            self.initial_shift - min_diag
+        } else {
+            0.0
+        };
+        let mut failed_row = 0;
+        for _attempt in 0..64 {
+            match self.try_factor(values, shift) {
+                Ok(()) => {
+                    self.shift = shift;
+                    return Ok(());
+                }
+                Err(row) => {
+                    failed_row = row;
+                    shift = (2.0 * shift).max(self.initial_shift);
+                }
+            }
+        }
+        Err(SparseError::IncompleteCholeskyFailed {
+            row: failed_row,
+            shift,
+        })
+    }
+
+    /// Row-by-row IC(0) of `S A S + shift I`; `Err(row)` at a non-positive pivot.
+    fn try_factor(&mut self, values: &[f64], shift: f64) -> Result<(), usize> {
+        let n = self.n();
+        for i in 0..n {
+            let (start, end) = (self.l_ptr[i], self.l_ptr[i + 1]);
+            let pd = end - 1;
+            for p in start..end {
+                let j = self.l_col[p];
+                let src = self.map[p];
+                let a = if src == NONE { 0.0 } else { values[src] };
+                self.l_val[p] = self.scale[i] * a * self.scale[j];
+                self.marker[j] = p;
+            }
+            self.l_val[pd] += shift;
+            for p in start..pd {
+                let k = self.l_col[p];
+                // l_ik = (a_ik - sum_{j < k} l_ij l_kj) / l_kk over the common pattern.
+                let mut acc = self.l_val[p];
+                for q in self.l_ptr[k]..self.l_ptr[k + 1] - 1 {
+                    let m = self.marker[self.l_col[q]];
+                    if m != NONE && m < p {
+                        acc -= self.l_val[m] * self.l_val[q];
+                    }
+                }
+                self.l_val[p] = acc * self.inv_diag[k];
+            }
+            let mut d = self.l_val[pd];
+            for p in start..pd {
+                d -= self.l_val[p] * self.l_val[p];
+            }
+            for p in start..end {
+                self.marker[self.l_col[p]] = NONE;
+            }
+            if !(d > 0.0 && d.is_finite()) {
+                return Err(i);
+            }
+            let l = d.sqrt();
+            self.l_val[pd] = l;
+            self.inv_diag[i] = 1.0 / l;
+        }
+        Ok(())
+    }
+}
+
+impl Preconditioner for IncompleteCholesky {
+    fn dim(&self) -> Option<usize> {
+        Some(if matches!(self.source, Source::None) {
+            0
+        } else {
+            self.n()
+        })
+    }
+
+    fn apply(&self, r: &[f64], z: &mut [f64]) {
+        assert!(
+            !matches!(self.source, Source::None),
+            "incomplete Cholesky used before a successful setup"
+        );
+        let n = self.n();
+        let (l_ptr, l_col, l_val) = (&self.l_ptr, &self.l_col, &self.l_val);
+        // Forward: L y = S r.
+        for i in 0..n {
+            let mut acc = self.scale[i] * r[i];
+            for p in l_ptr[i]..l_ptr[i + 1] - 1 {
+                acc -= l_val[p] * z[l_col[p]];
+            }
+            z[i] = acc * self.inv_diag[i];
+        }
+        // Backward: L^T x = y, pushing each finished x_i into earlier rows.
+        for i in (0..n).rev() {
+            let xi = z[i] * self.inv_diag[i];
+            z[i] = xi;
+            for p in l_ptr[i]..l_ptr[i + 1] - 1 {
+                z[l_col[p]] -= l_val[p] * xi;
+            }
+        }
+        for (zi, s) in z.iter_mut().zip(&self.scale) {
+            *zi *= s;
+        }
+    }
+}
+
+impl PreconditionerSetup<SymBlockMatrix> for IncompleteCholesky {
+    fn setup(&mut self, a: &SymBlockMatrix) -> Result<(), SparseError> {
+        let same = matches!(&self.source, Source::Block(p) if Arc::ptr_eq(p, a.pattern()));
+        if !same {
+            self.symbolic_block(a.pattern());
+        }
+        self.numeric(a.values().as_flattened().as_flattened())
+    }
+}
+
+impl PreconditionerSetup<sprs::CsMat<f64>> for IncompleteCholesky {
+    fn setup(&mut self, a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
+        let n = square_dim(a)?;
+        let owned;
+        let a = if a.is_csr() {
+            a
+        } else {
+            owned = a.to_csr();
+            &owned
+        };
+        let indptr = a.proper_indptr();
+        let same = matches!(&self.source,
+            Source::Csr { indptr: p, indices: i } if p.as_slice() == &*indptr && i.as_slice() == a.indices());
+        if !same {
+            self.symbolic_csr(n, &indptr, a.indices());
+        }
+        self.numeric(a.data())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::testutil::*;
+    use super::*;
+
+    fn tridiagonal(n: usize) -> sprs::CsMat<f64> {
+        let mut t = sprs::TriMat::new((n, n));
+        for i in 0..n {
+            t.add_triplet(i, i, 2.5 + (i % 3) as f64);
+            if i + 1 < n {
+                t.add_triplet(i, i + 1, -1.0 - 0.1 * i as f64);
+                t.add_triplet(i + 1, i, -1.0 - 0.1 * i as f64);
+            }
+        }
+        t.to_csr()
+    }
+
+    fn to_dense(a: &sprs::CsMat<f64>) -> Vec<Vec<f64>> {
+        let n = a.rows();
+        let mut d = vec![vec![0.0; n]; n];
+        for (&v, (r, c)) in a.iter() {
+            d[r][c] = v;
+        }
+        d
+    }
+
+    #[test]
+    fn ic0_of_a_tridiagonal_matrix_is_the_exact_cholesky_factor() {
+        // No fill-in occurs, so IC(0) = Cholesky and M^-1 = A^-1.
+        let a = tridiagonal(12);
+        let mut p = IncompleteCholesky::new();
+        p.setup(&a).unwrap();
+        assert_eq!(p.shift(), 0.0);
+        let r = rhs(12);
+        let mut z = vec![0.0; 12];
+        p.apply(&r, &mut z);
+        let exact = dense_solve(&to_dense(&a), &r);
+        assert!(rel_diff(&z, &exact) < 1e-13);
+        // And the factor itself: L L^T of the scaled matrix reproduces S A S.
+        let d = to_dense(&a);
+        for i in 0..12 {
+            let li: Vec<f64> = (0..12).map(|j| entry(&p, i, j)).collect();
+            for j in 0..12 {
+                let lj: Vec<f64> = (0..12).map(|k| entry(&p, j, k)).collect();
+                let llt: f64 = li.iter().zip(&lj).map(|(x, y)| x * y).sum();
+                let sas = p.scale[i] * d[i][j] * p.scale[j];
+                assert!((llt - sas).abs() < 1e-14, "({i},{j})");
+            }
+        }
+    }
+
+    fn entry(p: &IncompleteCholesky, i: usize, j: usize) -> f64 {
+        (p.l_ptr[i]..p.l_ptr[i + 1])
+            .find(|&q| p.l_col[q] == j)
+            .map_or(0.0, |q| p.l_val[q])
+    }
+
+    #[test]
+    fn block_and_csr_setups_give_the_same_preconditioner() {
+        let a = spd_block_matrix(3, 3);
+        let r = rhs(a.dim());
+        let mut pb = IncompleteCholesky::new();
+        pb.setup(&a).unwrap();
+        let mut pc = IncompleteCholesky::new();
+        pc.setup(&a.to_csr()).unwrap();
+        let (mut zb, mut zc) = (vec![0.0; r.len()], vec![0.0; r.len()]);
+        pb.apply(&r, &mut zb);
+        pc.apply(&r, &mut zc);
+        assert!(rel_diff(&zb, &zc) < 1e-13);
+        assert_eq!(pb.nnz(), pc.nnz());
+    }
+
+    #[test]
+    fn ic0_keeps_the_pattern_of_a_and_matches_a_on_it() {
+        // On the pattern of A, (L L^T)_ij = (S A S)_ij: the defining property of IC(0).
+        let a = spd_block_matrix(3, 2);
+        let csr = a.to_csr();
+        let mut p = IncompleteCholesky::new();
+        p.setup(&csr).unwrap();
+        assert_eq!(p.shift(), 0.0);
+        let n = csr.rows();
+        for (&v, (i, j)) in csr.iter() {
+            if j > i {
+                continue;
+            }
+            let llt: f64 = (0..=j).map(|k| entry(&p, i, k) * entry(&p, j, k)).sum();
+            let sas = p.scale[i] * v * p.scale[j];
+            assert!((llt - sas).abs() < 1e-12, "({i},{j}) of {n}");
+        }
+    }
+
+    #[test]
+    fn indefinite_matrix_gets_a_reported_shift() {
+        // Unit diagonal, off-diagonals of a matrix with a negative eigenvalue.
+        let mut t = sprs::TriMat::new((3, 3));
+        for i in 0..3 {
+            t.add_triplet(i, i, 1.0);
+        }
+        for (i, j) in [(0, 1), (1, 2), (0, 2)] {
+            t.add_triplet(i, j, 0.9);
+            t.add_triplet(j, i, 0.9);
+        }
+        t.add_triplet(1, 2, -1.8); // (1,2) = -0.9 after summing duplicates
+        t.add_triplet(2, 1, -1.8);
+        let mut p = IncompleteCholesky::new();
+        p.setup(&t.to_csr()).unwrap();
+        assert!(p.shift() >= 1e-3, "shift {}", p.shift());
+        let r = [1.0, 2.0, 3.0];
+        let mut z = [0.0; 3];
+        p.apply(&r, &mut z);
+        assert!(z.iter().all(|v| v.is_finite()));
+    }
+
+    #[test]
+    fn non_finite_matrix_is_an_error() {
+        let mut t = sprs::TriMat::new((2, 2));
+        t.add_triplet(0, 0, 1.0);
+        t.add_triplet(1, 1, f64::NAN);
+        let mut p = IncompleteCholesky::new();
+        assert!(matches!(
+            p.setup(&t.to_csr()),
+            Err(SparseError::NonFinite { .. })
+        ));
+    }
+}

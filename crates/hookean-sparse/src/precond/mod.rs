@@ -1,0 +1,266 @@
+//! Preconditioners for CG (the tutorial's section 4.1).
+//!
+//! A preconditioner `M ~ A` is set up from a matrix once per refill
+//! ([`PreconditionerSetup::setup`]; symbolic work is reused while the
+//! sparsity pattern stays the same) and then applied as `z = M^-1 r` in
+//! every CG iteration ([`Preconditioner::apply`], which never allocates).
+//!
+//! | type | `M` | setup | apply |
+//! |---|---|---|---|
+//! | [`Identity`] | `I` | nothing | copy |
+//! | [`Jacobi`] | `diag(A)` (eq. 53) | one pass | `n` multiplications |
+//! | [`BlockJacobi`] | 3x3 diagonal blocks of `A` | 3x3 inverses | `9n` |
+//! | [`Ssor`] | `(D + wL) D^-1 (D + wL^T) / (w (2 - w))` (eq. 54) | copy of `A` | two triangular sweeps |
+//! | [`IncompleteCholesky`] | `L L^T`, `L` on the pattern of `A` | IC(0) factorisation | two triangular solves |
+//!
+//! Every preconditioner is implemented for [`SymBlockMatrix`](crate::SymBlockMatrix)
+//! and for scalar `sprs::CsMat<f64>`; [`AnyPreconditioner`] picks one by name.
+
+mod any;
+mod ic0;
+mod jacobi;
+mod ssor;
+
+pub use any::{AnyPreconditioner, PrecondKind};
+pub use ic0::IncompleteCholesky;
+pub use jacobi::{BlockJacobi, Identity, Jacobi};
+pub use ssor::Ssor;
+
+use crate::error::SparseError;
+use crate::vecops::dot;
+
+/// Applies `z = M^-1 r` for a symmetric positive definite `M ~ A`.
+pub trait Preconditioner {
+    /// The dimension this preconditioner was set up for, or `None` if it
+    /// works for any dimension (the identity).
+    fn dim(&self) -> Option<usize>;
+
+    /// Computes `z = M^-1 r`, overwriting `z`. Never allocates.
+    ///
+    /// # Panics
+    /// May panic if `r` or `z` does not have length [`dim`](Self::dim) or if
+    /// the preconditioner was never set up; CG checks both before calling.
+    fn apply(&self, r: &[f64], z: &mut [f64]);
+
+    /// Computes `z = M^-1 r` and returns `r . z`; pointwise preconditioners
+    /// fuse the two.
+    fn apply_dot(&self, r: &[f64], z: &mut [f64]) -> f64 {
+        self.apply(r, z);
+        dot(r, z)
+    }
+}
+
+/// Builds (or rebuilds) a preconditioner from a matrix of type `A`.
+pub trait PreconditionerSetup<A: ?Sized>: Preconditioner {
+    /// Computes the preconditioner of `a`. Calling it again after the values
+    /// of `a` changed (same pattern) reuses the symbolic work and allocates
+    /// nothing.
+    ///
+    /// # Errors
+    /// A typed [`SparseError`] when `a` is unfit for this preconditioner
+    /// (not square, non-positive diagonal, singular block, ...).
+    fn setup(&mut self, a: &A) -> Result<(), SparseError>;
+}
+
+impl<P: Preconditioner + ?Sized> Preconditioner for &P {
+    fn dim(&self) -> Option<usize> {
+        (**self).dim()
+    }
+    fn apply(&self, r: &[f64], z: &mut [f64]) {
+        (**self).apply(r, z)
+    }
+    fn apply_dot(&self, r: &[f64], z: &mut [f64]) -> f64 {
+        (**self).apply_dot(r, z)
+    }
+}
+
+/// Checks that a `sprs` matrix is square and returns its dimension.
+pub(crate) fn square_dim(a: &sprs::CsMat<f64>) -> Result<usize, SparseError> {
+    let (rows, cols) = a.shape();
+    if rows != cols {
+        return Err(SparseError::NotSquare { rows, cols });
+    }
+    Ok(rows)
+}
+
+/// A scalar CSR copy of a `sprs` matrix (converted from CSC if needed) with
+/// the position of every row's diagonal entry.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct ScalarCsr {
+    pub indptr: Vec<usize>,
+    pub indices: Vec<usize>,
+    pub data: Vec<f64>,
+    /// Position of the diagonal entry of each row in `indices`/`data`.
+    pub diag: Vec<usize>,
+}
+
+impl ScalarCsr {
+    /// Refills `self` from `a`, reusing storage when the pattern is unchanged.
+    /// Every row must store its diagonal entry.
+    pub fn refill(&mut self, a: &sprs::CsMat<f64>, who: &'static str) -> Result<(), SparseError> {
+        let n = square_dim(a)?;
+        let owned;
+        let a = if a.is_csr() {
+            a
+        } else {
+            owned = a.to_csr();
+            &owned
+        };
+        let indptr = a.proper_indptr();
+        let same = self.indptr.as_slice() == &*indptr && self.indices.as_slice() == a.indices();
+        if !same {
+            self.indptr = indptr.into_owned();
+            self.indices = a.indices().to_vec();
+            self.diag.clear();
+            for i in 0..n {
+                let row = &self.indices[self.indptr[i]..self.indptr[i + 1]];
+                match row.binary_search(&i) {
+                    Ok(k) => self.diag.push(self.indptr[i] + k),
+                    Err(_) => {
+                        // Forget the half-built pattern so a later call starts afresh.
+                        self.indptr.clear();
+                        return Err(SparseError::NonPositiveDiagonal {
+                            preconditioner: who,
+                            row: i,
+                            value: 0.0,
+                        });
+                    }
+                }
+            }
+        }
+        self.data.clear();
+        self.data.extend_from_slice(a.data());
+        if let Some(k) = self.data.iter().position(|v| !v.is_finite()) {
+            return Err(SparseError::NonFinite {
+                what: "matrix",
+                index: Some(k),
+            });
+        }
+        Ok(())
+    }
+
+    pub fn n(&self) -> usize {
+        self.diag.len()
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod testutil {
+    //! Dense references for preconditioner tests.
+    use std::sync::Arc;
+
+    use crate::{BlockPattern, SymBlockMatrix};
+
+    /// A small SPD block matrix with dense, non-symmetric-looking blocks:
+    /// a 2D grid of `nx x ny` particles with 4-neighbour and diagonal couplings.
+    pub fn spd_block_matrix(nx: usize, ny: usize) -> SymBlockMatrix {
+        let n = nx * ny;
+        let id = |x: usize, y: usize| y * nx + x;
+        let mut pairs = Vec::new();
+        for y in 0..ny {
+            for x in 0..nx {
+                if x + 1 < nx {
+                    pairs.push((id(x, y), id(x + 1, y)));
+                }
+                if y + 1 < ny {
+                    pairs.push((id(x, y), id(x, y + 1)));
+                }
+                if x + 1 < nx && y + 1 < ny {
+                    pairs.push((id(x, y), id(x + 1, y + 1)));
+                }
+            }
+        }
+        let pattern = Arc::new(BlockPattern::new(n, pairs.iter().copied()).unwrap());
+        let mut a = SymBlockMatrix::new(pattern);
+        // A graph Laplacian of spring blocks k u u^T + 0.3 k (I - u u^T), plus mass.
+        for (e, &(i, j)) in pairs.iter().enumerate() {
+            let t = e as f64 * 0.37;
+            let u = [t.cos() * 0.8, t.sin() * 0.8, 0.6];
+            let k = 1.0 + (e % 5) as f64;
+            let mut b = [[0.0; 3]; 3];
+            for r in 0..3 {
+                for c in 0..3 {
+                    let id = if r == c { 1.0 } else { 0.0 };
+                    b[r][c] = k * (u[r] * u[c] + 0.3 * (id - u[r] * u[c]));
+                }
+            }
+            a.add_to_block(i, i, &b).unwrap();
+            a.add_to_block(j, j, &b).unwrap();
+            let neg = crate::block::scale(&b, -1.0);
+            a.add_to_block(i, j, &neg).unwrap();
+        }
+        let mass: Vec<f64> = (0..3 * n).map(|i| 0.05 + 0.01 * (i % 7) as f64).collect();
+        a.add_to_diagonal(&mass).unwrap();
+        a
+    }
+
+    /// Row-major dense copy.
+    pub fn dense(a: &SymBlockMatrix) -> Vec<Vec<f64>> {
+        let n = a.dim();
+        let csr = a.to_csr();
+        let mut d = vec![vec![0.0; n]; n];
+        for (&v, (r, c)) in csr.iter() {
+            d[r][c] = v;
+        }
+        d
+    }
+
+    /// Solves `m x = b` by Gaussian elimination with partial pivoting.
+    pub fn dense_solve(m: &[Vec<f64>], b: &[f64]) -> Vec<f64> {
+        let n = b.len();
+        let mut a: Vec<Vec<f64>> = m.to_vec();
+        let mut x = b.to_vec();
+        for k in 0..n {
+            let p = (k..n)
+                .max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs()))
+                .unwrap();
+            a.swap(k, p);
+            x.swap(k, p);
+            for i in k + 1..n {
+                let f = a[i][k] / a[k][k];
+                for j in k..n {
+                    a[i][j] -= f * a[k][j];
+                }
+                x[i] -= f * x[k];
+            }
+        }
+        for k in (0..n).rev() {
+            let s: f64 = (k + 1..n).map(|j| a[k][j] * x[j]).sum();
+            x[k] = (x[k] - s) / a[k][k];
+        }
+        x
+    }
+
+    /// `a * b` for dense matrices.
+    pub fn matmul(a: &[Vec<f64>], b: &[Vec<f64>]) -> Vec<Vec<f64>> {
+        let n = a.len();
+        let m = b[0].len();
+        let mut c = vec![vec![0.0; m]; n];
+        for i in 0..n {
+            for k in 0..b.len() {
+                if a[i][k] != 0.0 {
+                    for j in 0..m {
+                        c[i][j] += a[i][k] * b[k][j];
+                    }
+                }
+            }
+        }
+        c
+    }
+
+    /// A test vector.
+    pub fn rhs(n: usize) -> Vec<f64> {
+        (0..n)
+            .map(|i| ((i * 7 + 3) as f64 * 0.31).sin() + 0.1)
+            .collect()
+    }
+
+    /// `max |a - b| / max |b|`.
+    pub fn rel_diff(a: &[f64], b: &[f64]) -> f64 {
+        let scale = b.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        a.iter()
+            .zip(b)
+            .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()))
+            / scale
+    }
+}

@@ -1,0 +1,34 @@
+//! Small dense vector kernels shared by the solvers.
+
+/// `x . y`.
+#[inline]
+pub fn dot(x: &[f64], y: &[f64]) -> f64 {
+    // Four accumulators: a shorter dependency chain, and the same bits for
+    // the same input on every run.
+    let mut acc = [0.0; 4];
+    let (xc, xr) = x.as_chunks::<4>();
+    let (yc, yr) = y.as_chunks::<4>();
+    for (a, b) in xc.iter().zip(yc) {
+        acc[0] += a[0] * b[0];
+        acc[1] += a[1] * b[1];
+        acc[2] += a[2] * b[2];
+        acc[3] += a[3] * b[3];
+    }
+    let mut tail = 0.0;
+    for (a, b) in xr.iter().zip(yr) {
+        tail += a * b;
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
+/// The Euclidean norm `|x|`.
+#[inline]
+pub fn norm2(x: &[f64]) -> f64 {
+    dot(x, x).sqrt()
+}
+
+/// The largest absolute entry `max |x_i|`.
+#[inline]
+pub fn norm_inf(x: &[f64]) -> f64 {
+    x.iter().fold(0.0_f64, |m, v| m.max(v.abs()))
+}
