@@ -1,0 +1,72 @@
+//! The problem contracts between models and integrators.
+//!
+//! Vectors are flat `f64` slices; for particle systems three entries per
+//! particle, xyz interleaved (DESIGN.md).
+
+use std::sync::Arc;
+
+use hookean_sparse::{BlockPattern, Constraints, SymBlockMatrix};
+
+/// A first-order system `y' = f(t, y)` (the tutorial's eq. 7).
+pub trait FirstOrderProblem {
+    /// Dimension of `y`.
+    fn dim(&self) -> usize;
+
+    /// Writes `f(t, y)` into `dy`.
+    fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]);
+}
+
+/// A second-order system `M x'' = f(t, x, v)` with a lumped (diagonal) mass
+/// matrix `M` (the filtering paper's eq. 1; the tutorial's setting (5)/(6)).
+///
+/// The force Jacobians `df/dx` and `df/dv` are symmetric 3x3 block matrices
+/// on one sparsity pattern ([`jacobian_pattern`](Self::jacobian_pattern)),
+/// built once per topology; [`force_jacobians`](Self::force_jacobians)
+/// refills them in place. Implicit integrators solve the reduced velocity
+/// form `(M - c h df/dv - (c h)^2 df/dx) dv = ...` with PCG, filtered by the
+/// [`Constraints`] that [`begin_step`](Self::begin_step) sets.
+pub trait SecondOrderProblem {
+    /// Number of scalar degrees of freedom (`3 x` particles).
+    fn dim(&self) -> usize;
+
+    /// The diagonal of the lumped mass matrix `M` (length [`dim`](Self::dim)).
+    fn mass(&self) -> &[f64];
+
+    /// Writes the force `f(t, x, v)` into `f`. Never allocates.
+    fn force(&self, t: f64, x: &[f64], v: &[f64], f: &mut [f64]);
+
+    /// The sparsity pattern of `df/dx` and `df/dv` (shared, built once).
+    fn jacobian_pattern(&self) -> Arc<BlockPattern>;
+
+    /// Refills `df/dx` and `df/dv` at `(t, x, v)`. Both matrices have the
+    /// pattern of [`jacobian_pattern`](Self::jacobian_pattern). Never allocates.
+    fn force_jacobians(
+        &self,
+        t: f64,
+        x: &[f64],
+        v: &[f64],
+        dfdx: &mut SymBlockMatrix,
+        dfdv: &mut SymBlockMatrix,
+    );
+
+    /// The tutorial's constant linearised Jacobians (eq. 50), for simplified
+    /// Newton: writes them and returns `true`, or returns `false` if the
+    /// model has none. They change only when the material changes.
+    fn linearized_jacobians(&self, _dfdx: &mut SymBlockMatrix, _dfdv: &mut SymBlockMatrix) -> bool {
+        false
+    }
+
+    /// Called by integrators before every step (and again before a retried
+    /// step): the model may project `x` and `v` back onto admissible states
+    /// (collisions) and must fill `constraints` with the velocity constraints
+    /// of the step (pinned and colliding particles; cleared beforehand).
+    /// The default does nothing.
+    fn begin_step(
+        &mut self,
+        _t: f64,
+        _x: &mut [f64],
+        _v: &mut [f64],
+        _constraints: &mut Constraints,
+    ) {
+    }
+}

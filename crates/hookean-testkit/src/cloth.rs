@@ -1,0 +1,221 @@
+//! The implicit-Euler system of the reference drape scene of DESIGN.md.
+//!
+//! A square cloth of side 1 m, `n x n` particles, total mass 1 kg lumped
+//! uniformly, structural, shear and bend springs; spring force
+//! `f_i = k (l - l0) u + d ((v_j - v_i) . u) u`. One backward Euler step in
+//! velocity form (Baraff-Witkin) solves
+//!
+//! `A dv = b`, `A = M - h D - h^2 K`, `b = h (f(x, v) + h K v)`,
+//!
+//! with `K = df/dx` (definiteness-clamped: `max(0, 1 - l0/l)`) and
+//! `D = df/dv`. `A` is symmetric positive definite.
+//!
+//! This generator stands in until `hookean-massspring` assembles the same
+//! system from a real simulation state.
+
+use std::sync::Arc;
+
+use hookean_sparse::{BlockPattern, SymBlockMatrix, block};
+use rand::{Rng, SeedableRng, rngs::SmallRng};
+
+/// Parameters of [`cloth_system`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ClothParams {
+    /// Particles per side.
+    pub n: usize,
+    /// Structural and shear stiffness (N/m); bend springs get `k / 10`.
+    pub k: f64,
+    /// Spring damping (N s/m).
+    pub d: f64,
+    /// Time step (s).
+    pub h: f64,
+    /// Random displacement of each particle, in units of the grid spacing,
+    /// so that springs are stretched and compressed. `0` is the rest state.
+    pub jitter: f64,
+    /// Seed of the displacement.
+    pub seed: u64,
+}
+
+impl Default for ClothParams {
+    fn default() -> Self {
+        Self {
+            n: 32,
+            k: 1e4,
+            d: 0.1,
+            h: 0.01,
+            jitter: 0.1,
+            seed: 7,
+        }
+    }
+}
+
+/// A spring of the grid: particles, rest length, stiffness.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GridSpring {
+    /// First particle.
+    pub i: usize,
+    /// Second particle.
+    pub j: usize,
+    /// Rest length (m).
+    pub rest: f64,
+    /// Stiffness (N/m).
+    pub k: f64,
+}
+
+/// Structural (grid neighbours), shear (diagonals) and bend (two apart)
+/// springs of an `n x n` grid of side 1 m; particle `(x, y)` has index `y n + x`.
+pub fn grid_springs(n: usize, k: f64) -> Vec<GridSpring> {
+    let s = 1.0 / (n.max(2) - 1) as f64;
+    let id = |x: usize, y: usize| y * n + x;
+    let mut springs = Vec::new();
+    for y in 0..n {
+        for x in 0..n {
+            if x + 1 < n {
+                springs.push(GridSpring {
+                    i: id(x, y),
+                    j: id(x + 1, y),
+                    rest: s,
+                    k,
+                });
+            }
+            if y + 1 < n {
+                springs.push(GridSpring {
+                    i: id(x, y),
+                    j: id(x, y + 1),
+                    rest: s,
+                    k,
+                });
+            }
+            if x + 1 < n && y + 1 < n {
+                let rest = s * std::f64::consts::SQRT_2;
+                springs.push(GridSpring {
+                    i: id(x, y),
+                    j: id(x + 1, y + 1),
+                    rest,
+                    k,
+                });
+                springs.push(GridSpring {
+                    i: id(x + 1, y),
+                    j: id(x, y + 1),
+                    rest,
+                    k,
+                });
+            }
+            if x + 2 < n {
+                springs.push(GridSpring {
+                    i: id(x, y),
+                    j: id(x + 2, y),
+                    rest: 2.0 * s,
+                    k: k / 10.0,
+                });
+            }
+            if y + 2 < n {
+                springs.push(GridSpring {
+                    i: id(x, y),
+                    j: id(x, y + 2),
+                    rest: 2.0 * s,
+                    k: k / 10.0,
+                });
+            }
+        }
+    }
+    springs
+}
+
+/// Positions of the cloth in the horizontal plane `z = 0`, displaced by
+/// `jitter` grid spacings at random (deterministic in `seed`).
+pub fn grid_positions(n: usize, jitter: f64, seed: u64) -> Vec<f64> {
+    let s = 1.0 / (n.max(2) - 1) as f64;
+    let mut rng = SmallRng::seed_from_u64(seed);
+    let mut x = Vec::with_capacity(3 * n * n);
+    for y in 0..n {
+        for xi in 0..n {
+            let mut d = [0.0; 3];
+            for c in &mut d {
+                *c = jitter * s * (rng.random::<f64>() - 0.5) * 2.0;
+            }
+            x.push(xi as f64 * s + d[0]);
+            x.push(y as f64 * s + d[1]);
+            x.push(d[2]);
+        }
+    }
+    x
+}
+
+/// The system `A dv = b` of one implicit Euler step from rest (`v = 0`)
+/// under gravity, with the clamped stiffness matrix. Returns `(A, b)`.
+pub fn cloth_system(p: &ClothParams) -> (SymBlockMatrix, Vec<f64>) {
+    let n2 = p.n * p.n;
+    let springs = grid_springs(p.n, p.k);
+    let x = grid_positions(p.n, p.jitter, p.seed);
+    let pattern = Arc::new(
+        BlockPattern::new(n2, springs.iter().map(|s| (s.i, s.j)))
+            .expect("grid indices are in range"),
+    );
+    let mut a = SymBlockMatrix::new(pattern);
+    let mass = 1.0 / n2 as f64;
+    let mut f = vec![0.0; 3 * n2];
+    for c in 0..n2 {
+        f[3 * c + 2] = -9.81 * mass;
+    }
+    let (h, d) = (p.h, p.d);
+    for s in &springs {
+        let xi = &x[3 * s.i..3 * s.i + 3];
+        let xj = &x[3 * s.j..3 * s.j + 3];
+        let e = [xj[0] - xi[0], xj[1] - xi[1], xj[2] - xi[2]];
+        let l = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+        let u = [e[0] / l, e[1] / l, e[2] / l];
+        for c in 0..3 {
+            let fc = s.k * (l - s.rest) * u[c];
+            f[3 * s.i + c] += fc;
+            f[3 * s.j + c] -= fc;
+        }
+        // K_ij = k [max(0, 1 - l0/l)(I - u u^T) + u u^T], D_ij = d u u^T;
+        // A_ij = -h D_ij - h^2 K_ij, A_ii += h D_ij + h^2 K_ij.
+        let uu = block::outer(&u, &u);
+        let t = (1.0 - s.rest / l).max(0.0);
+        let mut kij = block::scale(&block::add(&block::IDENTITY, &block::scale(&uu, -1.0)), t);
+        kij = block::scale(&block::add(&kij, &uu), s.k);
+        let coupling = block::add(&block::scale(&uu, h * d), &block::scale(&kij, h * h));
+        a.add_to_block(s.i, s.i, &coupling).expect("in pattern");
+        a.add_to_block(s.j, s.j, &coupling).expect("in pattern");
+        a.add_to_block(s.i, s.j, &block::scale(&coupling, -1.0))
+            .expect("in pattern");
+    }
+    a.add_to_diagonal(&vec![mass; 3 * n2])
+        .expect("length 3 n^2");
+    let b: Vec<f64> = f.iter().map(|fi| h * fi).collect();
+    (a, b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spring_counts_of_the_grid() {
+        // n(n-1) per direction structural, 2 (n-1)^2 shear, 2 n (n-2) bend.
+        let n = 5;
+        let s = grid_springs(n, 1.0);
+        assert_eq!(
+            s.len(),
+            2 * n * (n - 1) + 2 * (n - 1) * (n - 1) + 2 * n * (n - 2)
+        );
+    }
+
+    #[test]
+    fn system_is_symmetric_with_positive_diagonal() {
+        let (a, b) = cloth_system(&ClothParams {
+            n: 6,
+            ..Default::default()
+        });
+        assert_eq!(b.len(), a.dim());
+        let csr = a.to_csr();
+        for (&v, (r, c)) in csr.iter() {
+            assert_eq!(v, *csr.get(c, r).unwrap());
+            if r == c {
+                assert!(v > 0.0);
+            }
+        }
+    }
+}
