@@ -1,0 +1,84 @@
+//! The hot paths allocate nothing: PCG and filtered PCG iterations (with a
+//! reused workspace) and every preconditioner apply, checked with a counting
+//! global allocator.
+
+// A counting global allocator needs unsafe; it only forwards to `System`.
+#![allow(unsafe_code)]
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use hookean_sparse::{
+    AnyPreconditioner, CgParams, CgWorkspace, Constraints, InitialGuess, LinearOperator,
+    PrecondKind, Preconditioner, PreconditionerSetup, filtered_pcg, pcg,
+};
+use hookean_testkit::cloth::{ClothParams, cloth_system};
+
+struct Counting;
+
+thread_local! {
+    static COUNT: Cell<usize> = const { Cell::new(0) };
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        COUNT.with(|c| c.set(c.get() + 1));
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        COUNT.with(|c| c.set(c.get() + 1));
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn allocations<R>(f: impl FnOnce() -> R) -> (usize, R) {
+    let before = COUNT.with(|c| c.get());
+    let r = f();
+    (COUNT.with(|c| c.get()) - before, r)
+}
+
+#[test]
+fn pcg_solves_and_preconditioner_applies_do_not_allocate() {
+    let (a, b) = cloth_system(&ClothParams {
+        n: 12,
+        ..Default::default()
+    });
+    let n = a.dim();
+    let mut ws = CgWorkspace::new(n);
+    let mut x = vec![0.0; n];
+    let mut z = vec![0.0; n];
+    let mut constraints = Constraints::new(a.n_blocks());
+    constraints.pin(0, [0.0; 3]).unwrap();
+    constraints.constrain(5, [0.0, 0.0, 1.0], 0.0).unwrap();
+    let params = CgParams::default();
+    for kind in PrecondKind::all(1.0) {
+        let mut p = AnyPreconditioner::new(kind).unwrap();
+        p.setup(&a).unwrap();
+        // Refill with the same pattern: no allocation either.
+        let (count, r) = allocations(|| p.setup(&a));
+        r.unwrap();
+        assert_eq!(count, 0, "{kind} setup after refill allocated");
+        let (count, _) = allocations(|| p.apply(&b, &mut z));
+        assert_eq!(count, 0, "{kind} apply allocated");
+        let (count, info) = allocations(|| pcg(&a, &p, &b, &mut x, &params, &mut ws, None));
+        let info = info.unwrap();
+        assert!(info.converged && info.iterations > 5);
+        assert_eq!(count, 0, "{kind}: PCG allocated");
+        let warm = CgParams {
+            initial_guess: InitialGuess::Given,
+            ..Default::default()
+        };
+        let (count, info) =
+            allocations(|| filtered_pcg(&a, &p, &b, &mut x, &constraints, &warm, &mut ws, None));
+        assert!(info.unwrap().converged);
+        assert_eq!(count, 0, "{kind}: filtered PCG allocated");
+    }
+    let (count, _) = allocations(|| a.apply(&b, &mut z));
+    assert_eq!(count, 0, "SpMV allocated");
+}
