@@ -1,1 +1,229 @@
-fn main() {}
+//! Preconditioners and SpMV kernels on the reference cloth systems.
+//!
+//! ```text
+//! cargo bench --bench preconditioners                # criterion groups + tables
+//! cargo bench --bench preconditioners -- --table-only # just the tables and bars
+//! ```
+//!
+//! Criterion groups: SpMV of the symmetric block matrix against sprs and
+//! faer on the same matrix; preconditioner setup; full PCG solves (N = 32, 64).
+//! Then a table for N in {32, 64, 128} and k in {1e2, 1e4, 1e6}: setup time,
+//! solve time and iteration count of every preconditioner (PCG to 1e-8 from
+//! zero, best of a few runs), and the two bars of issue 2 measured in this
+//! one run: SpMV speed-up over sprs CSR at N = 128, and the cost of one
+//! Jacobi-PCG iteration in SpMVs.
+
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+use criterion::{BenchmarkId, Criterion};
+use faer::{Accum, MatMut, MatRef, Par};
+use hookean_sparse::{
+    AnyPreconditioner, CgParams, CgWorkspace, LinearOperator, PrecondKind, PreconditionerSetup,
+    SymBlockMatrix, pcg,
+};
+use hookean_testkit::cloth::{ClothParams, cloth_system};
+
+fn system(n: usize, k: f64) -> (SymBlockMatrix, Vec<f64>) {
+    cloth_system(&ClothParams {
+        n,
+        k,
+        ..Default::default()
+    })
+}
+
+/// Best wall time of `f` over `reps` runs (after one warm-up).
+fn best_of(reps: usize, mut f: impl FnMut()) -> f64 {
+    f();
+    (0..reps)
+        .map(|_| {
+            let t = Instant::now();
+            f();
+            t.elapsed().as_secs_f64()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+fn sprs_spmv(a: &sprs::CsMat<f64>, x: &[f64], y: &mut [f64]) {
+    y.fill(0.0);
+    sprs::prod::mul_acc_mat_vec_csr(a.view(), x, &mut y[..]);
+}
+
+fn faer_spmv(a: &faer::sparse::SparseColMat<usize, f64>, x: &[f64], y: &mut [f64]) {
+    let n = x.len();
+    faer::sparse::linalg::matmul::sparse_dense_matmul(
+        MatMut::from_column_major_slice_mut(y, n, 1),
+        Accum::Replace,
+        a.as_ref(),
+        MatRef::from_column_major_slice(x, n, 1),
+        1.0,
+        Par::Seq,
+    );
+}
+
+fn criterion_groups(c: &mut Criterion) {
+    let mut g = c.benchmark_group("spmv");
+    g.sample_size(30).measurement_time(Duration::from_secs(2));
+    for n in [32, 64, 128] {
+        let (a, b) = system(n, 1e4);
+        let csr = a.to_csr();
+        let fa = a.to_faer();
+        let mut y = vec![0.0; b.len()];
+        g.bench_with_input(BenchmarkId::new("sym-block", n), &n, |bench, _| {
+            bench.iter(|| a.apply(black_box(&b), &mut y))
+        });
+        g.bench_with_input(BenchmarkId::new("sprs-csr", n), &n, |bench, _| {
+            bench.iter(|| sprs_spmv(&csr, black_box(&b), &mut y))
+        });
+        g.bench_with_input(BenchmarkId::new("faer-csc", n), &n, |bench, _| {
+            bench.iter(|| faer_spmv(&fa, black_box(&b), &mut y))
+        });
+    }
+    g.finish();
+
+    let mut g = c.benchmark_group("precond-setup");
+    g.sample_size(10).measurement_time(Duration::from_secs(2));
+    for n in [64, 128] {
+        let (a, _) = system(n, 1e4);
+        for kind in PrecondKind::all(1.0) {
+            g.bench_with_input(BenchmarkId::new(kind.name(), n), &n, |bench, _| {
+                let mut p = AnyPreconditioner::new(kind).unwrap();
+                bench.iter(|| p.setup(&a).unwrap())
+            });
+        }
+    }
+    g.finish();
+
+    let mut g = c.benchmark_group("pcg-solve");
+    g.sample_size(10).measurement_time(Duration::from_secs(3));
+    for n in [32, 64] {
+        let (a, b) = system(n, 1e4);
+        let mut ws = CgWorkspace::new(b.len());
+        let mut x = vec![0.0; b.len()];
+        for kind in PrecondKind::all(1.0) {
+            let mut p = AnyPreconditioner::new(kind).unwrap();
+            p.setup(&a).unwrap();
+            g.bench_with_input(BenchmarkId::new(kind.name(), n), &n, |bench, _| {
+                bench.iter(|| pcg(&a, &p, &b, &mut x, &CgParams::default(), &mut ws, None).unwrap())
+            });
+        }
+    }
+    g.finish();
+}
+
+fn table() {
+    println!(
+        "\n## PCG to |r|/|b| <= 1e-8 from x = 0 on the implicit-Euler cloth system (h = 0.01)\n"
+    );
+    println!("| N | k | precond | iterations | setup (ms) | solve (ms) | total (ms) |");
+    println!("|---|---|---|---|---|---|---|");
+    for n in [32, 64, 128] {
+        for k in [1e2, 1e4, 1e6] {
+            let (a, b) = system(n, k);
+            let mut ws = CgWorkspace::new(b.len());
+            let mut x = vec![0.0; b.len()];
+            for kind in PrecondKind::all(1.0) {
+                let reps = if n == 128 { 1 } else { 3 };
+                let mut p = AnyPreconditioner::new(kind).unwrap();
+                let setup = best_of(reps, || {
+                    p = AnyPreconditioner::new(kind).unwrap();
+                    p.setup(&a).unwrap();
+                });
+                let params = CgParams {
+                    max_iter: Some(20_000),
+                    ..Default::default()
+                };
+                let mut iterations = 0;
+                let mut converged = true;
+                let solve = best_of(reps, || {
+                    let info = pcg(&a, &p, &b, &mut x, &params, &mut ws, None).unwrap();
+                    iterations = info.iterations;
+                    converged = info.converged;
+                });
+                let mark = if converged { "" } else { " (not converged)" };
+                println!(
+                    "| {n} | {k:.0e} | {} | {iterations}{mark} | {:.3} | {:.2} | {:.2} |",
+                    kind.name(),
+                    setup * 1e3,
+                    solve * 1e3,
+                    (setup + solve) * 1e3
+                );
+            }
+        }
+    }
+}
+
+fn bars() {
+    let n = 128;
+    let (a, b) = system(n, 1e4);
+    let csr = a.to_csr();
+    let fa = a.to_faer();
+    let mut y = vec![0.0; b.len()];
+    let reps = 200;
+    let t_block = best_of(reps, || a.apply(black_box(&b), &mut y));
+    let t_sprs = best_of(reps, || sprs_spmv(&csr, black_box(&b), &mut y));
+    let t_faer = best_of(reps, || faer_spmv(&fa, black_box(&b), &mut y));
+    // One Jacobi-PCG iteration: time 200 iterations, minus the start-up, divided by 200.
+    let mut jacobi = AnyPreconditioner::new(PrecondKind::Jacobi).unwrap();
+    jacobi.setup(&a).unwrap();
+    let mut ws = CgWorkspace::new(b.len());
+    let mut x = vec![0.0; b.len()];
+    let iters = 200;
+    let run = |max: usize, x: &mut Vec<f64>, ws: &mut CgWorkspace| {
+        let params = CgParams {
+            rtol: 0.0,
+            max_iter: Some(max),
+            ..Default::default()
+        };
+        pcg(&a, &jacobi, &b, x, &params, ws, None).unwrap()
+    };
+    let t_long = best_of(10, || {
+        run(iters, &mut x, &mut ws);
+    });
+    let t_short = best_of(10, || {
+        run(0, &mut x, &mut ws);
+    });
+    let t_iter = (t_long - t_short) / iters as f64;
+    println!("\n## Bars (N = {n}, k = 1e4, one thread, best of {reps} runs)\n");
+    println!("| kernel | time (ms) | ratio |");
+    println!("|---|---|---|");
+    println!("| SpMV sym-block 3x3 | {:.3} | 1.00 |", t_block * 1e3);
+    println!(
+        "| SpMV sprs CSR | {:.3} | {:.2} |",
+        t_sprs * 1e3,
+        t_sprs / t_block
+    );
+    println!(
+        "| SpMV faer CSC | {:.3} | {:.2} |",
+        t_faer * 1e3,
+        t_faer / t_block
+    );
+    println!(
+        "| one Jacobi-PCG iteration | {:.3} | {:.2} |",
+        t_iter * 1e3,
+        t_iter / t_block
+    );
+    let spmv_ok = t_sprs / t_block >= 2.0;
+    let iter_ok = t_iter / t_block <= 1.5;
+    println!(
+        "\nbar: SpMV >= 2x faster than sprs CSR: {} ({:.2}x)",
+        if spmv_ok { "met" } else { "MISSED" },
+        t_sprs / t_block
+    );
+    println!(
+        "bar: one Jacobi-PCG iteration <= 1.5 SpMV: {} ({:.2} SpMV)",
+        if iter_ok { "met" } else { "MISSED" },
+        t_iter / t_block
+    );
+}
+
+fn main() {
+    let table_only = std::env::args().any(|a| a == "--table-only");
+    if !table_only {
+        let mut c = Criterion::default().configure_from_args();
+        criterion_groups(&mut c);
+        c.final_summary();
+    }
+    bars();
+    table();
+}

@@ -294,7 +294,11 @@ where
     if params.record_history {
         info.residual_history.push(rel(r_norm));
     }
-    let mut rz = 0.0;
+    // z = P M^-1 r and r . z (r lies in range(P), so r . P z = r . z).
+    let mut rz = precond.apply_dot(r, z);
+    filter.project(z);
+    p.fill(0.0);
+    let mut beta = 0.0;
     let mut k = 0;
     loop {
         info.iterations = k;
@@ -319,32 +323,9 @@ where
         if k >= max_iter {
             break;
         }
-        // z = P M^-1 r, and r . z (r lies in range(P), so r . P z = r . z).
-        let rz_new = precond.apply_dot(r, z);
-        filter.project(z);
-        if !rz_new.is_finite() {
-            return Err(SparseError::NonFinite {
-                what: "preconditioned residual",
-                index: None,
-            });
-        }
-        if rz_new <= 0.0 {
-            return Err(SparseError::NotPositiveDefinite {
-                iteration: k,
-                curvature: rz_new,
-            });
-        }
-        if k == 0 {
-            p.copy_from_slice(z);
-        } else {
-            let beta = rz_new / rz;
-            for (pi, zi) in p.iter_mut().zip(z.iter()) {
-                *pi = zi + beta * *pi;
-            }
-        }
-        rz = rz_new;
-        // q = P A p, and p . q (p lies in range(P), so p . A p = p . P A p).
-        let pq = a.apply_dot(p, q);
+        check_preconditioned(rz, k)?;
+        // p = z + beta p; q = P A p; p . q (p lies in range(P): p . A p = p . P A p).
+        let pq = a.update_and_apply_dot(z, beta, p, q);
         filter.project(q);
         if !pq.is_finite() {
             return Err(SparseError::NonFinite {
@@ -359,20 +340,35 @@ where
             });
         }
         let alpha = rz / pq;
-        let mut rr = 0.0;
-        for i in 0..n {
-            x[i] += alpha * p[i];
-            let ri = r[i] - alpha * q[i];
-            r[i] = ri;
-            rr += ri * ri;
-        }
+        // x += alpha p; r -= alpha q; z = M^-1 r; one pass for pointwise preconditioners.
+        let (rr, rz_new) = precond.update_and_apply(alpha, p, q, x, r, z);
+        filter.project(z);
         r_norm = rr.sqrt();
+        beta = rz_new / rz;
+        rz = rz_new;
         k += 1;
         if params.record_history {
             info.residual_history.push(rel(r_norm));
         }
     }
     Ok(info)
+}
+
+/// `r . M^-1 r` must be positive and finite for a usable preconditioner.
+fn check_preconditioned(rz: f64, iteration: usize) -> Result<(), SparseError> {
+    if !rz.is_finite() {
+        return Err(SparseError::NonFinite {
+            what: "preconditioned residual",
+            index: None,
+        });
+    }
+    if rz <= 0.0 {
+        return Err(SparseError::NotPositiveDefinite {
+            iteration,
+            curvature: rz,
+        });
+    }
+    Ok(())
 }
 
 fn check_finite_scalar(what: &'static str, v: f64) -> Result<(), SparseError> {

@@ -81,7 +81,7 @@ pub use mtx::{
     write_vector_market,
 };
 pub use operator::{LinearOperator, MatrixFree};
-pub use power::{PowerInfo, PowerParams, power_method};
+pub use power::{PowerHook, PowerInfo, PowerParams, power_method};
 pub use precond::{
     AnyPreconditioner, BlockJacobi, Identity, IncompleteCholesky, Jacobi, PrecondKind,
     Preconditioner, PreconditionerSetup, Ssor,

@@ -371,6 +371,67 @@ impl SymBlockMatrix {
         dot
     }
 
+    /// CG's fused direction update and product: `p <- z + beta p`, `q = A p`,
+    /// returns `p . q`, in one pass over the matrix. Row `i` stores its new
+    /// `p_i`; the upper neighbours `j > i` are not updated yet, so their new
+    /// values `z_j + beta p_j` are formed on the fly.
+    #[inline]
+    pub(crate) fn update_spmv_dot(
+        &self,
+        z: &[f64],
+        beta: f64,
+        p: &mut [f64],
+        q: &mut [f64],
+    ) -> f64 {
+        let n = self.pattern.n;
+        let (z3, _) = z.as_chunks::<3>();
+        let (p3, _) = p.as_chunks_mut::<3>();
+        let (q3, _) = q.as_chunks_mut::<3>();
+        let (z3, p3, q3) = (&z3[..n], &mut p3[..n], &mut q3[..n]);
+        q3.fill([0.0; 3]);
+        let row_ptr = &self.pattern.row_ptr;
+        let cols = &self.pattern.col_idx;
+        let vals = &self.values;
+        let mut dot = 0.0;
+        for i in 0..n {
+            let start = row_ptr[i];
+            let end = row_ptr[i + 1];
+            let (zi, pi_old) = (z3[i], p3[i]);
+            let pi = [
+                zi[0] + beta * pi_old[0],
+                zi[1] + beta * pi_old[1],
+                zi[2] + beta * pi_old[2],
+            ];
+            p3[i] = pi;
+            let mut yi = block::mul_vec(&vals[start], &pi);
+            for k in start + 1..end {
+                let j = cols[k] as usize;
+                let b = &vals[k];
+                let (zj, pj_old) = (&z3[j], &p3[j]);
+                let pj = [
+                    zj[0] + beta * pj_old[0],
+                    zj[1] + beta * pj_old[1],
+                    zj[2] + beta * pj_old[2],
+                ];
+                let t = block::mul_vec(b, &pj);
+                yi[0] += t[0];
+                yi[1] += t[1];
+                yi[2] += t[2];
+                let u = block::mul_transpose_vec(b, &pi);
+                let qj = &mut q3[j];
+                qj[0] += u[0];
+                qj[1] += u[1];
+                qj[2] += u[2];
+            }
+            let out = &mut q3[i];
+            out[0] += yi[0];
+            out[1] += yi[1];
+            out[2] += yi[2];
+            dot += pi[0] * out[0] + pi[1] * out[1] + pi[2] * out[2];
+        }
+        dot
+    }
+
     #[inline]
     fn spmv(&self, x: &[f64], y: &mut [f64]) {
         self.spmv_dot(x, y);
@@ -599,6 +660,26 @@ mod tests {
             let expected: f64 = (0..15).map(|c| d[r][c] * x[c]).sum();
             assert!((y[r] - expected).abs() < 1e-13);
         }
+    }
+
+    #[test]
+    fn fused_direction_update_and_product_match_the_separate_steps() {
+        let a = chain(6);
+        let z: Vec<f64> = (0..18).map(|i| (i as f64 * 0.3).cos()).collect();
+        let p0: Vec<f64> = (0..18).map(|i| (i as f64 * 0.9).sin()).collect();
+        let beta = 0.37;
+        let mut p = p0.clone();
+        let mut q = vec![f64::NAN; 18];
+        let pq = a.update_spmv_dot(&z, beta, &mut p, &mut q);
+        let expected_p: Vec<f64> = z.iter().zip(&p0).map(|(z, p)| z + beta * p).collect();
+        let mut expected_q = vec![0.0; 18];
+        a.mul_vec(&expected_p, &mut expected_q).unwrap();
+        assert_eq!(p, expected_p);
+        for (u, v) in q.iter().zip(&expected_q) {
+            assert!((u - v).abs() < 1e-14);
+        }
+        let expected_pq: f64 = expected_p.iter().zip(&expected_q).map(|(u, v)| u * v).sum();
+        assert!((pq - expected_pq).abs() < 1e-13 * expected_pq.abs());
     }
 
     #[test]

@@ -25,6 +25,15 @@ pub trait LinearOperator {
         self.apply(x, y);
         dot(x, y)
     }
+
+    /// CG's direction update fused with the product: `p <- z + beta p`,
+    /// `q = A p`, returns `p . q`. The block matrix does this in one pass.
+    fn update_and_apply_dot(&self, z: &[f64], beta: f64, p: &mut [f64], q: &mut [f64]) -> f64 {
+        for (pi, zi) in p.iter_mut().zip(z) {
+            *pi = zi + beta * *pi;
+        }
+        self.apply_dot(p, q)
+    }
 }
 
 impl<T: LinearOperator + ?Sized> LinearOperator for &T {
@@ -36,6 +45,9 @@ impl<T: LinearOperator + ?Sized> LinearOperator for &T {
     }
     fn apply_dot(&self, x: &[f64], y: &mut [f64]) -> f64 {
         (**self).apply_dot(x, y)
+    }
+    fn update_and_apply_dot(&self, z: &[f64], beta: f64, p: &mut [f64], q: &mut [f64]) -> f64 {
+        (**self).update_and_apply_dot(z, beta, p, q)
     }
 }
 
@@ -50,6 +62,10 @@ impl LinearOperator for SymBlockMatrix {
     #[inline]
     fn apply_dot(&self, x: &[f64], y: &mut [f64]) -> f64 {
         self.spmv_dot(x, y)
+    }
+    #[inline]
+    fn update_and_apply_dot(&self, z: &[f64], beta: f64, p: &mut [f64], q: &mut [f64]) -> f64 {
+        self.update_spmv_dot(z, beta, p, q)
     }
 }
 

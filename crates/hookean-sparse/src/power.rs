@@ -4,6 +4,9 @@
 use crate::error::SparseError;
 use crate::operator::LinearOperator;
 
+/// A hook applied to the scaled iterate between power iterations.
+pub type PowerHook<'a> = &'a mut dyn FnMut(&mut [f64]);
+
 /// Parameters of [`power_method`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct PowerParams {
@@ -65,7 +68,7 @@ pub struct PowerInfo {
 pub fn power_method<A: LinearOperator + ?Sized>(
     a: &A,
     params: &PowerParams,
-    mut hook: Option<&mut dyn FnMut(&mut [f64])>,
+    mut hook: Option<PowerHook<'_>>,
 ) -> Result<PowerInfo, SparseError> {
     let n = a.nrows();
     if n == 0 {

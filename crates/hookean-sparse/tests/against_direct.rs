@@ -88,7 +88,10 @@ fn every_preconditioner_solves_the_reference_cloth_system() {
     let [none, jacobi, block_jacobi, ssor, ic0] = iterations[..] else {
         unreachable!()
     };
-    assert!(ic0 < jacobi && ssor < jacobi && block_jacobi <= jacobi && jacobi <= none, "{iterations:?}");
+    assert!(
+        ic0 < jacobi && ssor < jacobi && block_jacobi <= jacobi && jacobi <= none,
+        "{iterations:?}"
+    );
 }
 
 #[test]

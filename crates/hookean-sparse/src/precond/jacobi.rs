@@ -72,6 +72,36 @@ impl Preconditioner for Jacobi {
         }
         acc
     }
+    #[inline]
+    fn update_and_apply(
+        &self,
+        alpha: f64,
+        p: &[f64],
+        q: &[f64],
+        x: &mut [f64],
+        r: &mut [f64],
+        z: &mut [f64],
+    ) -> (f64, f64) {
+        let n = x.len();
+        let (p, q, r, z, d) = (
+            &p[..n],
+            &q[..n],
+            &mut r[..n],
+            &mut z[..n],
+            &self.inv_diag[..n],
+        );
+        let (mut rr, mut rz) = (0.0, 0.0);
+        for i in 0..n {
+            x[i] += alpha * p[i];
+            let ri = r[i] - alpha * q[i];
+            r[i] = ri;
+            let zi = ri * d[i];
+            z[i] = zi;
+            rr += ri * ri;
+            rz += ri * zi;
+        }
+        (rr, rz)
+    }
 }
 
 impl PreconditionerSetup<SymBlockMatrix> for Jacobi {

@@ -48,6 +48,29 @@ pub trait Preconditioner {
         self.apply(r, z);
         dot(r, z)
     }
+
+    /// CG's update fused with the preconditioner: `x += alpha p`,
+    /// `r -= alpha q`, `z = M^-1 r`; returns `(r . r, r . z)` of the new `r`.
+    /// Pointwise preconditioners (Jacobi) do it in one pass.
+    #[allow(clippy::too_many_arguments)]
+    fn update_and_apply(
+        &self,
+        alpha: f64,
+        p: &[f64],
+        q: &[f64],
+        x: &mut [f64],
+        r: &mut [f64],
+        z: &mut [f64],
+    ) -> (f64, f64) {
+        let mut rr = 0.0;
+        for i in 0..x.len() {
+            x[i] += alpha * p[i];
+            let ri = r[i] - alpha * q[i];
+            r[i] = ri;
+            rr += ri * ri;
+        }
+        (rr, self.apply_dot(r, z))
+    }
 }
 
 /// Builds (or rebuilds) a preconditioner from a matrix of type `A`.
@@ -71,6 +94,17 @@ impl<P: Preconditioner + ?Sized> Preconditioner for &P {
     }
     fn apply_dot(&self, r: &[f64], z: &mut [f64]) -> f64 {
         (**self).apply_dot(r, z)
+    }
+    fn update_and_apply(
+        &self,
+        alpha: f64,
+        p: &[f64],
+        q: &[f64],
+        x: &mut [f64],
+        r: &mut [f64],
+        z: &mut [f64],
+    ) -> (f64, f64) {
+        (**self).update_and_apply(alpha, p, q, x, r, z)
     }
 }
 

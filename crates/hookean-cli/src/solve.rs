@@ -1,0 +1,290 @@
+//! `hookean solve`: PCG with every preconditioner, and the direct baseline,
+//! on a Matrix Market system.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Args;
+use hookean_sparse::{
+    AnyPreconditioner, CgParams, CgWorkspace, DirectCholesky, LinearOperator, PrecondKind,
+    PreconditionerSetup, SymBlockMatrix, pcg, read_matrix_market_file, vecops::norm2,
+};
+use serde::Serialize;
+
+use crate::CliError;
+
+#[derive(Debug, Args)]
+pub struct SolveArgs {
+    /// The matrix A (Matrix Market, coordinate or array, real, general or symmetric).
+    matrix: PathBuf,
+    /// The right-hand side b (Matrix Market, one column); default b = A * ones.
+    #[arg(long)]
+    rhs: Option<PathBuf>,
+    /// none, jacobi, block-jacobi, ssor, ic0, direct (faer sparse Cholesky) or all.
+    #[arg(long, default_value = "all")]
+    precond: String,
+    /// SSOR relaxation, in (0, 2).
+    #[arg(long, default_value_t = 1.0)]
+    omega: f64,
+    /// Relative residual tolerance |r| / |b| of PCG.
+    #[arg(long, default_value_t = 1e-8)]
+    rtol: f64,
+    /// PCG iteration limit (default 2 n).
+    #[arg(long)]
+    max_iter: Option<usize>,
+    /// Run each solver this many times and report the best times.
+    #[arg(long, default_value_t = 1)]
+    repeat: usize,
+    /// Matrix storage for PCG: block (symmetric 3x3 blocks, needs n divisible by 3
+    /// and a symmetric matrix), csr, or auto (block when possible).
+    #[arg(long, default_value = "auto")]
+    format: String,
+}
+
+/// One JSON line of output.
+#[derive(Debug, Serialize)]
+pub struct SolveRecord {
+    pub matrix: String,
+    pub solver: &'static str,
+    pub precond: String,
+    pub format: &'static str,
+    pub rows: usize,
+    pub nnz: usize,
+    pub setup_s: f64,
+    pub solve_s: f64,
+    pub iterations: usize,
+    pub rel_residual: f64,
+    pub converged: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+}
+
+enum Solver {
+    Pcg(PrecondKind),
+    Direct,
+}
+
+fn parse_solvers(name: &str, omega: f64) -> Result<Vec<Solver>, CliError> {
+    let mut out = Vec::new();
+    if name == "all" {
+        out.extend(PrecondKind::all(omega).into_iter().map(Solver::Pcg));
+        out.push(Solver::Direct);
+    } else if name == "direct" {
+        out.push(Solver::Direct);
+    } else {
+        let kind: PrecondKind = name.parse()?;
+        out.push(Solver::Pcg(match kind {
+            PrecondKind::Ssor { .. } => PrecondKind::Ssor { omega },
+            other => other,
+        }));
+    }
+    Ok(out)
+}
+
+/// The matrix in the storage PCG runs on.
+enum Matrix {
+    Block(SymBlockMatrix),
+    Csr(sprs::CsMat<f64>),
+}
+
+pub fn run(args: &SolveArgs) -> Result<(), CliError> {
+    if args.repeat == 0 {
+        return Err(CliError::Input("--repeat must be at least 1".into()));
+    }
+    if !(args.omega > 0.0 && args.omega < 2.0) {
+        return Err(CliError::Input(format!(
+            "--omega must lie in (0, 2), got {}",
+            args.omega
+        )));
+    }
+    if !(args.rtol >= 0.0 && args.rtol.is_finite()) {
+        return Err(CliError::Input(format!(
+            "--rtol must be a non-negative number, got {}",
+            args.rtol
+        )));
+    }
+    let solvers = parse_solvers(&args.precond, args.omega)?;
+    let a = read_matrix_market_file(&args.matrix)?.into_csr();
+    let (rows, cols) = a.shape();
+    if rows != cols {
+        return Err(CliError::Input(format!(
+            "{}: matrix is not square ({rows} x {cols})",
+            args.matrix.display()
+        )));
+    }
+    let b = match &args.rhs {
+        Some(path) => {
+            let b = read_matrix_market_file(path)?
+                .into_vector()
+                .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
+            if b.len() != rows {
+                return Err(CliError::Input(format!(
+                    "{}: right-hand side has {} entries, the matrix has {rows} rows",
+                    path.display(),
+                    b.len()
+                )));
+            }
+            b
+        }
+        None => {
+            let mut b = vec![0.0; rows];
+            a.apply(&vec![1.0; rows], &mut b);
+            b
+        }
+    };
+    let matrix = match args.format.as_str() {
+        "csr" => Matrix::Csr(a.clone()),
+        "block" => Matrix::Block(SymBlockMatrix::from_csr(&a).map_err(|e| {
+            CliError::Input(format!(
+                "{}: cannot use block storage: {e}",
+                args.matrix.display()
+            ))
+        })?),
+        "auto" => match SymBlockMatrix::from_csr(&a) {
+            Ok(m) => Matrix::Block(m),
+            Err(_) => Matrix::Csr(a.clone()),
+        },
+        other => {
+            return Err(CliError::Input(format!(
+                "unknown --format '{other}' (expected block, csr or auto)"
+            )));
+        }
+    };
+    let params = CgParams {
+        rtol: args.rtol,
+        max_iter: args.max_iter,
+        ..Default::default()
+    };
+    let name = args.matrix.display().to_string();
+    let mut failed = false;
+    for solver in &solvers {
+        let record = match solver {
+            Solver::Pcg(kind) => match &matrix {
+                Matrix::Block(m) => {
+                    run_pcg(m, &a, &b, *kind, &params, args.repeat, "sym-block-3x3")
+                }
+                Matrix::Csr(m) => run_pcg(m, &a, &b, *kind, &params, args.repeat, "csr"),
+            },
+            Solver::Direct => run_direct(&a, &b, args.repeat),
+        };
+        let record = SolveRecord {
+            matrix: name.clone(),
+            rows,
+            nnz: a.nnz(),
+            ..record
+        };
+        failed |= record.error.is_some();
+        println!(
+            "{}",
+            serde_json::to_string(&record).expect("records serialise")
+        );
+    }
+    if failed {
+        return Err(CliError::SolverFailed);
+    }
+    Ok(())
+}
+
+fn relative_residual(a: &sprs::CsMat<f64>, x: &[f64], b: &[f64]) -> f64 {
+    let mut ax = vec![0.0; b.len()];
+    a.apply(x, &mut ax);
+    let r: Vec<f64> = ax.iter().zip(b).map(|(p, q)| q - p).collect();
+    let bn = norm2(b);
+    if bn > 0.0 { norm2(&r) / bn } else { norm2(&r) }
+}
+
+fn empty_record(solver: &'static str, precond: String, format: &'static str) -> SolveRecord {
+    SolveRecord {
+        matrix: String::new(),
+        solver,
+        precond,
+        format,
+        rows: 0,
+        nnz: 0,
+        setup_s: 0.0,
+        solve_s: 0.0,
+        iterations: 0,
+        rel_residual: f64::NAN,
+        converged: false,
+        error: None,
+    }
+}
+
+fn run_pcg<M>(
+    m: &M,
+    original: &sprs::CsMat<f64>,
+    b: &[f64],
+    kind: PrecondKind,
+    params: &CgParams,
+    repeat: usize,
+    format: &'static str,
+) -> SolveRecord
+where
+    M: LinearOperator,
+    AnyPreconditioner: PreconditionerSetup<M>,
+{
+    let mut record = empty_record("hookean-pcg", kind.to_string(), format);
+    let n = b.len();
+    let mut ws = CgWorkspace::new(n);
+    let mut x = vec![0.0; n];
+    let mut best_setup = f64::INFINITY;
+    let mut best_solve = f64::INFINITY;
+    for _ in 0..repeat {
+        let t0 = Instant::now();
+        let setup = AnyPreconditioner::new(kind).and_then(|mut p| p.setup(m).map(|()| p));
+        let setup_s = t0.elapsed().as_secs_f64();
+        let p = match setup {
+            Ok(p) => p,
+            Err(e) => {
+                record.error = Some(format!("preconditioner setup: {e}"));
+                return record;
+            }
+        };
+        let t0 = Instant::now();
+        let result = pcg(m, &p, b, &mut x, params, &mut ws, None);
+        let solve_s = t0.elapsed().as_secs_f64();
+        match result {
+            Ok(info) => {
+                record.iterations = info.iterations;
+                record.converged = info.converged;
+            }
+            Err(e) => {
+                record.error = Some(e.to_string());
+                return record;
+            }
+        }
+        best_setup = best_setup.min(setup_s);
+        best_solve = best_solve.min(solve_s);
+    }
+    record.setup_s = best_setup;
+    record.solve_s = best_solve;
+    record.rel_residual = relative_residual(original, &x, b);
+    record
+}
+
+fn run_direct(a: &sprs::CsMat<f64>, b: &[f64], repeat: usize) -> SolveRecord {
+    let mut record = empty_record("faer-cholesky", "direct".into(), "csc-lower");
+    let mut x = vec![0.0; b.len()];
+    let mut best_setup = f64::INFINITY;
+    let mut best_solve = f64::INFINITY;
+    for _ in 0..repeat {
+        let mut d = DirectCholesky::new();
+        let t0 = Instant::now();
+        if let Err(e) = d.factor_csr(a) {
+            record.error = Some(e.to_string());
+            return record;
+        }
+        best_setup = best_setup.min(t0.elapsed().as_secs_f64());
+        let t0 = Instant::now();
+        if let Err(e) = d.solve(b, &mut x) {
+            record.error = Some(e.to_string());
+            return record;
+        }
+        best_solve = best_solve.min(t0.elapsed().as_secs_f64());
+    }
+    record.setup_s = best_setup;
+    record.solve_s = best_solve;
+    record.rel_residual = relative_residual(a, &x, b);
+    record.converged = record.rel_residual.is_finite();
+    record
+}

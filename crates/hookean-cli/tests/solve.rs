@@ -1,0 +1,160 @@
+//! `hookean solve` end to end: JSON output on the bundled system, and bad
+//! input as one line on stderr with exit code 2.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn hookean(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hookean"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the hookean binary runs")
+}
+
+fn data(name: &str) -> String {
+    let p: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "..", "data", name]
+        .iter()
+        .collect();
+    p.to_string_lossy().into_owned()
+}
+
+fn scratch(name: &str, contents: &str) -> String {
+    let dir = std::env::temp_dir().join(format!("hookean-cli-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, contents).unwrap();
+    p.to_string_lossy().into_owned()
+}
+
+fn assert_input_error(out: &Output, needle: &str) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "stderr: {stderr}");
+    assert!(out.stdout.is_empty(), "no JSON on bad input");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "one line: {stderr}");
+    assert!(stderr.contains(needle), "expected '{needle}' in: {stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
+#[test]
+fn solves_the_bundled_system_with_every_solver() {
+    let out = hookean(&[
+        "solve",
+        &data("cloth16-A.mtx"),
+        "--rhs",
+        &data("cloth16-b.mtx"),
+        "--precond",
+        "all",
+        "--repeat",
+        "2",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let lines: Vec<serde_json::Value> = String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let names: Vec<&str> = lines
+        .iter()
+        .map(|v| v["precond"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        ["none", "jacobi", "block-jacobi", "ssor", "ic0", "direct"]
+    );
+    for v in &lines {
+        assert_eq!(v["rows"], 768);
+        assert_eq!(v["converged"], true, "{v}");
+        // The residual is recomputed from the matrix as read: PCG honours 1e-8.
+        assert!(v["rel_residual"].as_f64().unwrap() <= 1e-8, "{v}");
+        assert!(v["setup_s"].as_f64().unwrap() >= 0.0);
+        for key in ["matrix", "solver", "nnz", "solve_s", "iterations"] {
+            assert!(v.get(key).is_some(), "{key} missing in {v}");
+        }
+    }
+}
+
+#[test]
+fn default_rhs_is_a_times_ones_so_the_solution_is_ones() {
+    // A 3x3 SPD matrix in CSR form (n not a multiple of 3 would use CSR too).
+    let a = scratch(
+        "spd.mtx",
+        "%%MatrixMarket matrix coordinate real symmetric\n3 3 5\n1 1 4\n2 1 1\n2 2 3\n3 2 -1\n3 3 2\n",
+    );
+    let out = hookean(&[
+        "solve",
+        &a,
+        "--precond",
+        "ic0",
+        "--format",
+        "csr",
+        "--rtol",
+        "1e-12",
+    ]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["format"], "csr");
+    assert!(v["rel_residual"].as_f64().unwrap() < 1e-12);
+}
+
+#[test]
+fn bad_input_is_one_line_and_exit_code_2() {
+    let missing = hookean(&["solve", "/nonexistent/A.mtx"]);
+    assert_input_error(&missing, "/nonexistent/A.mtx");
+
+    let malformed = scratch(
+        "bad.mtx",
+        "%%MatrixMarket matrix coordinate real general\n2 2 2\n1 1 1.0\n2 x 1.0\n",
+    );
+    assert_input_error(&hookean(&["solve", &malformed]), "line 4");
+
+    let rect = scratch(
+        "rect.mtx",
+        "%%MatrixMarket matrix coordinate real general\n2 3 1\n1 1 1.0\n",
+    );
+    assert_input_error(&hookean(&["solve", &rect]), "not square");
+
+    let short_b = scratch(
+        "b.mtx",
+        "%%MatrixMarket matrix array real general\n2 1\n1\n2\n",
+    );
+    assert_input_error(
+        &hookean(&["solve", &data("cloth16-A.mtx"), "--rhs", &short_b]),
+        "2 entries",
+    );
+
+    assert_input_error(
+        &hookean(&["solve", &data("cloth16-A.mtx"), "--precond", "ilu"]),
+        "unknown preconditioner",
+    );
+    assert_input_error(
+        &hookean(&["solve", &data("cloth16-A.mtx"), "--omega", "2.5"]),
+        "omega",
+    );
+    assert_input_error(
+        &hookean(&["solve", &rect, "--format", "block"]),
+        "not square",
+    );
+}
+
+#[test]
+fn a_matrix_that_is_not_positive_definite_is_reported_per_solver() {
+    let indefinite = scratch(
+        "indef.mtx",
+        "%%MatrixMarket matrix coordinate real general\n2 2 2\n1 1 1.0\n2 2 -1.0\n",
+    );
+    let out = hookean(&["solve", &indefinite, "--precond", "none"]);
+    assert_eq!(out.status.code(), Some(1));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(
+        v["error"]
+            .as_str()
+            .unwrap()
+            .contains("not positive definite"),
+        "{v}"
+    );
+}
