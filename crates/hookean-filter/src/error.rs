@@ -1,0 +1,59 @@
+//! The error type of `hookean-filter`.
+
+use hookean_sparse::SparseError;
+use thiserror::Error;
+
+/// Everything that can go wrong in `hookean-filter`.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
+pub enum FilterError {
+    /// The filter parameter lambda must be a positive finite number.
+    #[error("filter parameter lambda must be positive and finite, got {lambda}")]
+    InvalidLambda {
+        /// The value given.
+        lambda: f64,
+    },
+    /// The neighbourhood radius (rings of the spring graph) must be at least 1.
+    #[error("neighbourhood radius must be at least 1 ring, got {rings}")]
+    InvalidRadius {
+        /// The value given.
+        rings: usize,
+    },
+    /// A vector has the wrong length.
+    #[error("dimension mismatch in {what}: expected {expected}, found {found}")]
+    DimensionMismatch {
+        /// What was checked.
+        what: &'static str,
+        /// Required length.
+        expected: usize,
+        /// Given length.
+        found: usize,
+    },
+    /// A spring names a particle that does not exist, or has a bad rest length.
+    #[error("invalid spring {index}: {message}")]
+    InvalidSpring {
+        /// Index of the spring in the list given.
+        index: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// A NaN or infinity in the input.
+    #[error("non-finite value in {what}")]
+    NonFinite {
+        /// Where.
+        what: &'static str,
+    },
+    /// A grid analysis was asked of data that is not an `nx x ny` grid.
+    #[error("grid of {nx} x {ny} particles does not match {particles} particles")]
+    GridMismatch {
+        /// Grid columns.
+        nx: usize,
+        /// Grid rows.
+        ny: usize,
+        /// Particles given.
+        particles: usize,
+    },
+    /// The power method failed.
+    #[error(transparent)]
+    Sparse(#[from] SparseError),
+}
