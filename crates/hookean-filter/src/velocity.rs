@@ -412,7 +412,7 @@ mod tests {
             FilterOptions::default(),
         )
         .unwrap();
-        let mut v = vec![1.0, 2.0, 3.0].repeat(4);
+        let mut v = [1.0, 2.0, 3.0].repeat(4);
         f.apply(&mut v).unwrap();
         for c in v.chunks(3) {
             assert!(
