@@ -659,6 +659,9 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
                     ratio: gnorm / g0,
                 }));
             }
+            if k + 1 == opts.max_iter {
+                break;
+            }
             match opts.method {
                 NewtonMethod::Exact | NewtonMethod::Inexact(_) => {
                     self.evaluate_jacobian(system, y, stats, false)?;
