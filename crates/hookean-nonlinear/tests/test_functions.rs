@@ -127,6 +127,8 @@ fn newton_converges_quadratically_on_the_rosenbrock_gradient() {
     assert!(checked >= 2, "{e:?}");
 }
 
+// The closures' types cannot be named; `impl` in both places is the simplest.
+#[allow(clippy::type_complexity)]
 fn powell() -> Dense<impl FnMut(&[f64], &mut [f64]), impl FnMut(&[f64], &mut faer::Mat<f64>)> {
     let s5 = 5f64.sqrt();
     let s10 = 10f64.sqrt();
