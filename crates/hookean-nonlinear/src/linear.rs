@@ -380,3 +380,119 @@ impl LinearSolver<sprs::CsMat<f64>> for SparseLu {
         true
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hookean_sparse::{IncompleteCholesky, Jacobi};
+    use hookean_testkit::dense::{rel_diff, solve as dense_solve, to_dense};
+
+    /// A nonsymmetric sparse matrix (convection-diffusion-like), diagonally dominant.
+    fn nonsymmetric(n: usize) -> sprs::CsMat<f64> {
+        let mut t = sprs::TriMat::new((n, n));
+        for i in 0..n {
+            t.add_triplet(i, i, 4.0 + (i % 3) as f64);
+            if i > 0 {
+                t.add_triplet(i, i - 1, -1.5);
+            }
+            if i + 1 < n {
+                t.add_triplet(i, i + 1, -0.5);
+            }
+            if i + 7 < n {
+                t.add_triplet(i, i + 7, 0.25);
+            }
+        }
+        t.to_csr()
+    }
+
+    #[test]
+    fn sparse_lu_solves_nonsymmetric_systems_and_reuses_the_analysis() {
+        let a = nonsymmetric(40);
+        let b: Vec<f64> = (0..40).map(|i| (i as f64).cos()).collect();
+        let exact = dense_solve(&to_dense(&a), &b);
+        let mut lu = SparseLu::new();
+        let mut x = vec![0.0; 40];
+        assert!(matches!(
+            lu.solve(&a, &b, &mut x, 0.0),
+            Err(NonlinearError::NotReady(_))
+        ));
+        lu.setup(&a).unwrap();
+        let st = lu.solve(&a, &b, &mut x, 0.0).unwrap();
+        assert!(st.converged && st.iterations == 0);
+        assert!(rel_diff(&x, &exact) < 1e-13);
+        // Refill (same pattern, new values) and solve again: CSC input too.
+        let mut a2 = a.to_other_storage();
+        for v in a2.data_mut() {
+            *v *= 2.0;
+        }
+        lu.setup(&a2).unwrap();
+        assert!(lu.has_symbolic());
+        lu.solve(&a2, &b, &mut x, 0.0).unwrap();
+        let half: Vec<f64> = exact.iter().map(|v| v / 2.0).collect();
+        assert!(rel_diff(&x, &half) < 1e-13);
+        // Structurally singular (an empty column) and non-square are errors.
+        let mut t = sprs::TriMat::new((2, 2));
+        t.add_triplet(0, 0, 1.0);
+        t.add_triplet(1, 0, 1.0);
+        assert!(matches!(
+            lu.setup(&t.to_csr()),
+            Err(NonlinearError::SingularJacobian { .. })
+        ));
+        let rect = sprs::CsMat::<f64>::zero((2, 3));
+        assert!(lu.setup(&rect).is_err());
+    }
+
+    #[test]
+    fn dense_lu_solves_and_detects_singularity() {
+        let a = faer::mat![[0.0, 2.0, 1.0], [1.0, 1.0, 0.0], [3.0, 0.0, 1.0]];
+        let mut lu = DenseLu::new();
+        lu.setup(&a).unwrap();
+        let mut x = [0.0; 3];
+        lu.solve(&a, &[3.0, 2.0, 4.0], &mut x, 0.0).unwrap();
+        // Solution (1, 1, 1) by inspection.
+        for v in x {
+            assert!((v - 1.0).abs() < 1e-14);
+        }
+        let s = faer::mat![[1.0, 2.0], [2.0, 4.0]];
+        assert!(matches!(
+            lu.setup(&s),
+            Err(NonlinearError::SingularJacobian { pivot: 1, .. })
+        ));
+        assert!(lu.solve(&s, &[1.0, 1.0], &mut [0.0; 2], 0.0).is_err());
+        let nan = faer::mat![[f64::NAN]];
+        assert!(lu.setup(&nan).is_err());
+        assert!(lu.setup(&faer::Mat::<f64>::zeros(2, 3)).is_err());
+    }
+
+    #[test]
+    fn pcg_solver_meets_the_requested_relative_residual() {
+        let a = hookean_testkit::random::random_spd(200, 5, 1.05, 3);
+        let b: Vec<f64> = (0..200).map(|i| ((i * 7) % 11) as f64 - 5.0).collect();
+        for rtol in [0.5, 0.02, 1e-10] {
+            let mut s = PcgSolver::new(Jacobi::new());
+            s.setup(&a).unwrap();
+            let mut x = vec![0.0; 200];
+            let st = s.solve(&a, &b, &mut x, rtol).unwrap();
+            assert!(st.converged);
+            // The true residual, computed independently.
+            let mut ax = vec![0.0; 200];
+            a.apply(&x, &mut ax);
+            let r: f64 = ax
+                .iter()
+                .zip(&b)
+                .map(|(p, q)| (p - q) * (p - q))
+                .sum::<f64>()
+                .sqrt();
+            let bn: f64 = b.iter().map(|q| q * q).sum::<f64>().sqrt();
+            assert!(r <= 1.01 * rtol * bn, "rtol {rtol}: {}", r / bn);
+        }
+        let mut s = PcgSolver::new(IncompleteCholesky::new());
+        s.setup(&a).unwrap();
+        let mut x = vec![0.0; 200];
+        let loose = s.solve(&a, &b, &mut x, 0.5).unwrap().iterations;
+        let tight = s.solve(&a, &b, &mut x, 1e-10).unwrap().iterations;
+        assert!(loose < tight);
+        assert!(s.solve(&a, &b, &mut x, -1.0).is_err());
+        assert!(s.solve(&a, &b[..10], &mut x, 0.1).is_err());
+    }
+}

@@ -93,8 +93,9 @@ pub enum NewtonMethod {
     /// linearised Jacobian of eq. 50; the exact one at the first iterate if
     /// the system has none) is evaluated once and kept across calls until
     /// [`Newton::invalidate_jacobian`] (call it when `h` or the material
-    /// changes); linear solves use the forcing term. A failure with a kept
-    /// Jacobian is retried once with a freshly evaluated one.
+    /// changes); linear solves use the forcing term. If the system has no
+    /// approximation, a failure with a kept Jacobian is retried once with a
+    /// freshly evaluated one.
     InexactSimplified(ForcingTerm),
 }
 
@@ -122,8 +123,8 @@ pub struct NewtonOptions {
     /// See [`atol`](Self::atol). Default `1e-8`.
     pub rtol: f64,
     /// Also converged when `|s_k| theta_k / (1 - theta_k) <= step_tol`
-    /// (Hairer-Wanner IV.8, eq. 8.15: an estimate of the remaining error
-    /// `|Y_{k+1} - Y*|`), for `k >= 1` and `theta_k < 1`. `0` disables it.
+    /// (Hairer-Wanner, Solving ODEs II, section IV.8: an estimate of the
+    /// remaining error `|Y_{k+1} - Y*|`), for `k >= 1` and `theta_k < 1`. `0` disables it.
     /// Default `0`.
     pub step_tol: f64,
     /// Newton iteration limit per solve. Default `50`.
@@ -379,6 +380,8 @@ pub struct Newton<J, L> {
     y0: Vec<f64>,
     /// A Jacobian kept for the next call (simplified variants).
     jacobian_valid: bool,
+    /// Whether the Jacobian storage holds the system's approximation.
+    approximated: bool,
 }
 
 impl<J, L: LinearSolver<J>> Newton<J, L> {
@@ -399,6 +402,7 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
             rhs: Vec::new(),
             y0: Vec::new(),
             jacobian_valid: false,
+            approximated: false,
         })
     }
 
@@ -491,9 +495,11 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
         let mut outcome = self.attempt(system, y, &mut stats, reuse);
         if let Err(stop) = &outcome
             && reuse
+            && !self.approximated
             && stop.retry_with_fresh_jacobian()
         {
-            // RADAU5: a failure with an old Jacobian is retried with a new one.
+            // RADAU5: a failure with an old Jacobian is retried with a new one
+            // (not for a state-independent approximation: it would not change).
             y.copy_from_slice(&self.y0);
             stats.restarts += 1;
             outcome = self.attempt(system, y, &mut stats, false);
@@ -529,10 +535,12 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
     where
         S: NonlinearSystem<Jacobian = J> + ?Sized,
     {
+        self.approximated = false;
         let approximated = approximate && system.approximate_jacobian(y, &mut self.jacobian)?;
         if !approximated {
             system.jacobian(y, &mut self.jacobian)?;
         }
+        self.approximated = approximated;
         stats.jacobian_evaluations += 1;
         self.linear.setup(&self.jacobian)?;
         stats.linear_setups += 1;
