@@ -14,6 +14,15 @@ pub trait FirstOrderProblem {
 
     /// Writes `f(t, y)` into `dy`.
     fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]);
+
+    /// The optional dense Jacobian `df/dy` at `(t, y)`: writes it row-major
+    /// into `jac` (`dim x dim`, `jac[i * dim + j] = df_i/dy_j`) and returns
+    /// `true`, or returns `false` (the default) if the problem has none, in
+    /// which case implicit methods use forward differences (`dim` extra
+    /// evaluations of `f` per Jacobian, counted in the statistics).
+    fn jacobian(&self, _t: f64, _y: &[f64], _jac: &mut [f64]) -> bool {
+        false
+    }
 }
 
 /// A second-order system `M x'' = f(t, x, v)` with a lumped (diagonal) mass
