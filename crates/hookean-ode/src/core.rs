@@ -42,6 +42,10 @@ pub(crate) struct Core<S> {
     h_prev: f64,
     ex: [Vec<f64>; 3],
     acc_valid: bool,
+    /// Fixed step: `t = t_base + n_fixed h`, so that many steps do not
+    /// accumulate round-off in `t`.
+    t_base: f64,
+    n_fixed: u64,
 }
 
 fn check_finite(v: &[f64], what: &'static str, t: f64) -> Result<(), OdeError> {
@@ -128,6 +132,8 @@ impl<S: System> Core<S> {
             h_prev: f64::NAN,
             ex: [vec![0.0; m], vec![0.0; m], vec![0.0; m]],
             acc_valid: false,
+            t_base: t0,
+            n_fixed: 0,
             s: s0,
         })
     }
@@ -181,6 +187,8 @@ impl<S: System> Core<S> {
         }
         check_finite(s, "state", t)?;
         self.t = t;
+        self.t_base = t;
+        self.n_fixed = 0;
         self.s.copy_from_slice(s);
         self.reset_history();
         Ok(())
@@ -275,7 +283,14 @@ impl<S: System> Core<S> {
             }
         }
         check_finite(&self.s, "state after the step", t)?;
-        self.t = t + h;
+        if h == self.opts.h {
+            self.n_fixed += 1;
+            self.t = self.t_base + self.n_fixed as f64 * h;
+        } else {
+            self.t = t + h;
+            self.t_base = self.t;
+            self.n_fixed = 0;
+        }
         self.stats.steps += 1;
         Ok(())
     }
@@ -694,6 +709,8 @@ impl<S: System> Core<S> {
             let mut report = self.step(limit)?;
             if limit.is_some() && (self.t - t_end).abs() <= slack {
                 self.t = t_end;
+                self.t_base = t_end;
+                self.n_fixed = 0;
                 report.t = t_end;
             }
             if callback(&report, &self.s).is_break() {
