@@ -188,9 +188,122 @@ pub fn cloth_system(p: &ClothParams) -> (SymBlockMatrix, Vec<f64>) {
     (a, b)
 }
 
+/// The block pattern of the springs' Jacobians on `n_particles` particles.
+pub fn spring_pattern(n_particles: usize, springs: &[GridSpring]) -> Arc<BlockPattern> {
+    Arc::new(
+        BlockPattern::new(n_particles, springs.iter().map(|s| (s.i, s.j)))
+            .expect("spring indices are in range"),
+    )
+}
+
+/// Adds the spring forces of DESIGN.md's force law to `f` (does not zero it):
+/// `f_i += k (l - l0) u + d ((v_j - v_i) . u) u`, `f_j -= ` the same.
+pub fn add_spring_forces(springs: &[GridSpring], d: f64, x: &[f64], v: &[f64], f: &mut [f64]) {
+    for s in springs {
+        let (i, j) = (3 * s.i, 3 * s.j);
+        let e = [x[j] - x[i], x[j + 1] - x[i + 1], x[j + 2] - x[i + 2]];
+        let l = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+        let u = [e[0] / l, e[1] / l, e[2] / l];
+        let dv = [v[j] - v[i], v[j + 1] - v[i + 1], v[j + 2] - v[i + 2]];
+        let vr = dv[0] * u[0] + dv[1] * u[1] + dv[2] * u[2];
+        let mag = s.k * (l - s.rest) + d * vr;
+        for c in 0..3 {
+            f[i + c] += mag * u[c];
+            f[j + c] -= mag * u[c];
+        }
+    }
+}
+
+/// Adds the spring Jacobians `df/dx` and `df/dv` (DESIGN.md's blocks) to
+/// `dfdx` and `dfdv` (on [`spring_pattern`]; not zeroed here):
+/// `K_ij = k [t (I - u u^T) + u u^T]` with `t = max(0, 1 - l0/l)` when
+/// `clamp` (SPD system) or `t = 1 - l0/l` (exact), `D_ij = d u u^T`,
+/// `df_i/dx_i = -sum_j K_ij`. The damping force's dependence on `x` is
+/// neglected, as usual in cloth simulation.
+pub fn add_spring_jacobians(
+    springs: &[GridSpring],
+    d: f64,
+    x: &[f64],
+    clamp: bool,
+    dfdx: &mut SymBlockMatrix,
+    dfdv: &mut SymBlockMatrix,
+) {
+    for s in springs {
+        let (i, j) = (3 * s.i, 3 * s.j);
+        let e = [x[j] - x[i], x[j + 1] - x[i + 1], x[j + 2] - x[i + 2]];
+        let l = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+        let u = [e[0] / l, e[1] / l, e[2] / l];
+        let uu = block::outer(&u, &u);
+        let mut t = 1.0 - s.rest / l;
+        if clamp {
+            t = t.max(0.0);
+        }
+        let mut kij = block::scale(&block::add(&block::IDENTITY, &block::scale(&uu, -1.0)), t);
+        kij = block::scale(&block::add(&kij, &uu), s.k);
+        let dij = block::scale(&uu, d);
+        add_coupling(dfdx, s.i, s.j, &kij);
+        add_coupling(dfdv, s.i, s.j, &dij);
+    }
+}
+
+/// Adds the tutorial's linearised Jacobians (eq. 50): per spring the
+/// isotropic blocks `df_i/dx_j = k I` and `df_i/dv_j = d I` (and minus
+/// their sums on the diagonal). Our `k` is in N/m; the paper's
+/// `k_ij / l_ij^2` is its per-squared-length constant. They do not depend
+/// on the state.
+pub fn add_linearized_jacobians(
+    springs: &[GridSpring],
+    d: f64,
+    dfdx: &mut SymBlockMatrix,
+    dfdv: &mut SymBlockMatrix,
+) {
+    for s in springs {
+        add_coupling(dfdx, s.i, s.j, &block::scale(&block::IDENTITY, s.k));
+        add_coupling(dfdv, s.i, s.j, &block::scale(&block::IDENTITY, d));
+    }
+}
+
+/// `(i, j) += b`, `(j, i) += b^T`, `(i, i) -= b`, `(j, j) -= b` (b symmetric).
+fn add_coupling(m: &mut SymBlockMatrix, i: usize, j: usize, b: &block::Block3) {
+    let minus = block::scale(b, -1.0);
+    m.add_to_block(i, j, b).expect("spring in pattern");
+    m.add_to_block(i, i, &minus).expect("diagonal in pattern");
+    m.add_to_block(j, j, &minus).expect("diagonal in pattern");
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn spring_jacobians_match_finite_differences() {
+        let n = 4;
+        let springs = grid_springs(n, 1e3);
+        let x = grid_positions(n, 0.2, 3);
+        let v: Vec<f64> = (0..x.len()).map(|i| (i as f64 * 0.37).sin()).collect();
+        let pattern = spring_pattern(n * n, &springs);
+        let mut k = SymBlockMatrix::new(pattern.clone());
+        let mut dd = SymBlockMatrix::new(pattern);
+        add_spring_jacobians(&springs, 0.0, &x, false, &mut k, &mut dd);
+        let kd = k.to_csr();
+        let eps = 1e-7;
+        let mut f0 = vec![0.0; x.len()];
+        add_spring_forces(&springs, 0.0, &x, &v, &mut f0);
+        for c in [0, 5, 17, 30] {
+            let mut xp = x.clone();
+            xp[c] += eps;
+            let mut f1 = vec![0.0; x.len()];
+            add_spring_forces(&springs, 0.0, &xp, &v, &mut f1);
+            for r in 0..x.len() {
+                let fd = (f1[r] - f0[r]) / eps;
+                let an = kd.get(r, c).copied().unwrap_or(0.0);
+                assert!(
+                    (fd - an).abs() < 1e-3 * (1.0 + an.abs()),
+                    "({r},{c}): {fd} vs {an}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn spring_counts_of_the_grid() {

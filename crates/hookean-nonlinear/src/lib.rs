@@ -1,0 +1,112 @@
+//! Newton's method for the nonlinear systems `G(Y) = 0` of implicit
+//! integrators, after section 3 of Hauth's tutorial "Numerical Techniques for
+//! Soft Object Simulation" (Eurographics 2004): Newton (Algorithm 1),
+//! inexact Newton with residual control (Algorithm 2, section 3.2),
+//! simplified and inexact simplified Newton with a cheap approximate
+//! Jacobian (Algorithm 3, section 3.3), and step-size control driven by
+//! Newton's convergence (section 3.4). It knows nothing of time or springs.
+//!
+//! # The pieces
+//!
+//! - [`NonlinearSystem`]: `dim()`, `residual(y, g)` (writes `G(y)`),
+//!   `jacobian(y, &mut J)` (refills the Jacobian storage in place) and,
+//!   optionally, `approximate_jacobian` (the tutorial's eq. 50 for cloth).
+//! - [`LinearSolver`] for the correction `J s = -G`: [`PcgSolver`] (PCG with
+//!   any hookean-sparse preconditioner, optionally filtered by
+//!   [`Constraints`](hookean_sparse::Constraints); for SPD Jacobians such as
+//!   the cloth matrix, a [`SymBlockMatrix`](hookean_sparse::SymBlockMatrix)),
+//!   [`DenseLu`] (`faer::Mat<f64>`, small general systems) and [`SparseLu`]
+//!   (`sprs::CsMat<f64>`, general sparse). Each reports its iterations.
+//! - [`Newton`]: a reusable solver holding the options ([`NewtonOptions`],
+//!   the variant in [`NewtonMethod`], the forcing term in [`ForcingTerm`]),
+//!   the Jacobian storage, the linear solver and the work vectors;
+//!   [`Newton::solve`] returns [`NewtonStats`] or a [`NonlinearError`] that
+//!   carries the statistics so far.
+//! - Step controllers: [`IterationController`] (few Newton iterations grow
+//!   `h`, many shrink it, failures retry smaller) and [`PiController`]
+//!   (error-based PI control whose safety factor can account for Newton's
+//!   iteration count); both answer a [`StepDecision`].
+//!
+//! # Convergence and failure
+//!
+//! The iteration stops successfully when `|G(Y_k)| <= atol + rtol |G(Y_0)|`
+//! or, if [`NewtonOptions::step_tol`] is positive, when the Hairer-Wanner
+//! estimate `|s_k| theta_k / (1 - theta_k)` of the remaining error is below
+//! it (`theta_k = |s_k| / |s_{k-1}|`). It fails with
+//! [`NonlinearError::Diverged`] (theta >= 1 twice in a row, or `|G|` grew by
+//! [`NewtonOptions::max_residual_growth`]), [`NonlinearError::MaxIterations`],
+//! [`NonlinearError::NonFinite`] or [`NonlinearError::LinearNotConverged`];
+//! [`NonlinearError::is_step_failure`] tells an integrator to retry with a
+//! smaller step.
+//!
+//! # Using it from an implicit integrator
+//!
+//! For a second-order problem `M x'' = f(x, v)`, one implicit Euler step in
+//! the reduced velocity form solves
+//! `G(dv) = M dv - h f(x + h (v + dv), v + dv) = 0` with the SPD Jacobian
+//! `M - h df/dv - h^2 df/dx`: implement [`NonlinearSystem`] with
+//! `type Jacobian = SymBlockMatrix`, build one
+//! `Newton<SymBlockMatrix, PcgSolver<BlockJacobi>>` (the Jacobian storage on
+//! the problem's pattern) and call [`Newton::solve`] every step, starting
+//! from `dv = 0` or an extrapolation. For the tutorial's choice use
+//! `NewtonMethod::Inexact(ForcingTerm::TUTORIAL)` (`eta = 0.02`). With the
+//! simplified variants the Jacobian is kept across calls: call
+//! [`Newton::invalidate_jacobian`] whenever `h` or the material changes.
+//! Pinned particles: give the [`PcgSolver`] constraints with zero values and
+//! return the filtered residual `P G`.
+//!
+//! # Example: a small system with a dense LU
+//!
+//! ```
+//! use hookean_nonlinear::*;
+//!
+//! /// Implicit Euler for the scalar ODE y' = -y^3 from y0 = 1 with h = 0.5:
+//! /// G(Y) = Y + h Y^3 - y0.
+//! struct EulerStep { h: f64, y0: f64 }
+//! impl NonlinearSystem for EulerStep {
+//!     type Jacobian = faer::Mat<f64>;
+//!     fn dim(&self) -> usize { 1 }
+//!     fn residual(&mut self, y: &[f64], g: &mut [f64]) -> Result<(), NonlinearError> {
+//!         g[0] = y[0] + self.h * y[0].powi(3) - self.y0;
+//!         Ok(())
+//!     }
+//!     fn jacobian(&mut self, y: &[f64], j: &mut faer::Mat<f64>) -> Result<(), NonlinearError> {
+//!         j[(0, 0)] = 1.0 + 3.0 * self.h * y[0] * y[0];
+//!         Ok(())
+//!     }
+//! }
+//!
+//! let mut newton = Newton::new(NewtonOptions::default(), faer::Mat::zeros(1, 1), DenseLu::new())?;
+//! let mut y = [1.0]; // start from y0
+//! let stats = newton.solve(&mut EulerStep { h: 0.5, y0: 1.0 }, &mut y)?;
+//! // The real root of Y^3 / 2 + Y - 1 = 0 by Cardano: Y = cbrt(1 + sqrt(1 + 8/27)) + cbrt(1 - sqrt(1 + 8/27)).
+//! let d = (1.0f64 + 8.0 / 27.0).sqrt();
+//! let exact = (1.0 + d).cbrt() + (1.0 - d).cbrt();
+//! assert!((y[0] - exact).abs() < 1e-12);
+//! assert!(stats.iterations <= 5 && stats.converged());
+//!
+//! // The step controller of the tutorial's section 3.4 turns the iteration
+//! // count into the next step size.
+//! let mut control = IterationController::new(IterationControllerOptions::default())?;
+//! let next = control.decide(0.5, NewtonOutcome::from_result(&Ok(stats)).unwrap())?;
+//! assert!(next.is_accept());
+//! # Ok::<(), NonlinearError>(())
+//! ```
+
+// `!(x > 0.0)` is deliberate: it also rejects NaN parameters.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+mod control;
+mod error;
+mod linear;
+mod newton;
+mod system;
+
+pub use control::{
+    IterationController, IterationControllerOptions, NewtonOutcome, PiController,
+    PiControllerOptions, StepDecision,
+};
+pub use error::{DivergenceReason, NonlinearError};
+pub use linear::{DenseLu, LinearSolveStats, LinearSolver, PcgSolver, SparseLu};
+pub use newton::{ConvergedBy, ForcingTerm, Newton, NewtonMethod, NewtonOptions, NewtonStats};
+pub use system::NonlinearSystem;

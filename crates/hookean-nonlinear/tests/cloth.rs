@@ -1,0 +1,119 @@
+//! Newton variants on one implicit Euler step of the reference drape scene
+//! (small N for test time; the N = 64 numbers come from the `cloth_bars`
+//! example and are recorded in docs/perf/hookean-nonlinear.md).
+
+mod common;
+
+use common::cloth::{ClothStep, scalar_nonzeros};
+use hookean_nonlinear::*;
+use hookean_sparse::BlockJacobi;
+
+const N: usize = 12;
+
+fn run(
+    method: NewtonMethod,
+    rtol: f64,
+    h: f64,
+) -> (ClothStep, Vec<f64>, Result<NewtonStats, NonlinearError>) {
+    let mut sys = ClothStep::new(N, 1e4, 0.1, h, 0.02, 7);
+    let pcg = PcgSolver::new(BlockJacobi::new()).with_constraints(sys.correction_constraints());
+    let options = NewtonOptions {
+        method,
+        rtol,
+        atol: 0.0,
+        max_iter: 200,
+        ..Default::default()
+    };
+    let mut newton = Newton::new(options, sys.jacobian_storage(), pcg).unwrap();
+    let mut dv = vec![0.0; sys.dim()];
+    let r = newton.solve(&mut sys, &mut dv);
+    (sys, dv, r)
+}
+
+#[test]
+fn inexact_newton_needs_fewer_cg_iterations_than_exact_newton() {
+    let rtol = 1e-8;
+    let (mut sys, dv_exact, exact) = run(NewtonMethod::Exact, rtol, 0.01);
+    let exact = exact.unwrap();
+    let (_, dv_inexact, inexact) = run(NewtonMethod::Inexact(ForcingTerm::TUTORIAL), rtol, 0.01);
+    let inexact = inexact.unwrap();
+    // The same final nonlinear residual bound...
+    for s in [&exact, &inexact] {
+        assert!(s.final_residual() <= rtol * s.initial_residual());
+        assert!(s.iterations >= 2, "the step is nonlinear");
+    }
+    // ... with fewer CG iterations in total.
+    assert!(
+        inexact.linear_iterations < exact.linear_iterations,
+        "inexact {} vs exact {}",
+        inexact.linear_iterations,
+        exact.linear_iterations
+    );
+    // Independent check of the answer: a fresh residual evaluation.
+    let mut g = vec![0.0; sys.dim()];
+    sys.residual(&dv_inexact, &mut g).unwrap();
+    let gn = g.iter().map(|x| x * x).sum::<f64>().sqrt();
+    assert!(gn <= rtol * inexact.initial_residual());
+    // The two solutions agree, and the pinned corners did not move.
+    let diff = dv_exact
+        .iter()
+        .zip(&dv_inexact)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    let scale = dv_exact.iter().map(|a| a.abs()).fold(0.0, f64::max);
+    assert!(diff <= 1e-5 * scale, "{diff} vs {scale}");
+    for p in [0, N - 1] {
+        assert_eq!(&dv_inexact[3 * p..3 * p + 3], &[0.0; 3]);
+    }
+}
+
+#[test]
+fn linearised_jacobian_has_a_third_of_the_nonzeros() {
+    let mut sys = ClothStep::new(N, 1e4, 0.1, 0.01, 0.02, 7);
+    let dv = vec![0.0; sys.dim()];
+    let mut full = sys.jacobian_storage();
+    sys.jacobian(&dv, &mut full).unwrap();
+    let mut lin = sys.jacobian_storage();
+    assert!(sys.approximate_jacobian(&dv, &mut lin).unwrap());
+    // Every spring block is a full 3x3 (9 entries) in the full Jacobian of a
+    // deformed cloth and k I (3 entries) in the linearised one; diagonal
+    // blocks likewise. So the count is exactly a third.
+    let blocks = 2 * sys.springs.len() + N * N;
+    assert_eq!(scalar_nonzeros(&full), 9 * blocks);
+    assert_eq!(scalar_nonzeros(&lin), 3 * blocks);
+}
+
+#[test]
+fn simplified_variants_keep_their_jacobian() {
+    // Simplified Newton with exact solves converges with fewer Jacobians than iterations.
+    let (_, _, s) = run(NewtonMethod::Simplified, 1e-8, 0.01);
+    let s = s.unwrap();
+    assert!(s.jacobian_evaluations < s.iterations, "{s:?}");
+
+    // The linearised Jacobian of eq. (50) is evaluated once and reused by
+    // the next call; at this stiffness (h^2 k / m = 144) it contracts
+    // slowly, so ask only for the loose accuracy cloth simulators use.
+    let mut sys = ClothStep::new(N, 1e4, 0.1, 0.001, 0.02, 7);
+    let pcg = PcgSolver::new(BlockJacobi::new()).with_constraints(sys.correction_constraints());
+    let options = NewtonOptions {
+        method: NewtonMethod::InexactSimplified(ForcingTerm::TUTORIAL),
+        rtol: 1e-3,
+        atol: 0.0,
+        max_iter: 200,
+        ..Default::default()
+    };
+    let mut newton = Newton::new(options, sys.jacobian_storage(), pcg).unwrap();
+    let mut dv = vec![0.0; sys.dim()];
+    let s1 = newton.solve(&mut sys, &mut dv).unwrap();
+    assert_eq!(s1.jacobian_evaluations, 1);
+    assert!(s1.final_residual() <= 1e-3 * s1.initial_residual());
+    // Next step from the new state: the kept matrix is reused.
+    for i in 0..dv.len() {
+        sys.v0[i] += dv[i];
+        sys.x0[i] += sys.h * sys.v0[i];
+    }
+    let mut dv = vec![0.0; sys.dim()];
+    let s2 = newton.solve(&mut sys, &mut dv).unwrap();
+    assert!(s2.jacobian_reused);
+    assert_eq!((s2.jacobian_evaluations, s2.linear_setups), (0, 0));
+}
