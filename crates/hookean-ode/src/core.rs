@@ -244,6 +244,7 @@ impl<S: System> Core<S> {
                 source,
             },
             StageFailure::Singular { pivot } => OdeError::SingularMatrix { t: self.t, pivot },
+            StageFailure::Other(source) => OdeError::NewtonSolver { t: self.t, source },
         }
     }
 

@@ -1,5 +1,6 @@
 //! The crate's error type.
 
+use hookean_nonlinear::NonlinearError;
 use hookean_sparse::SparseError;
 
 /// Everything that can go wrong in `hookean-ode`. Errors raised during a
@@ -105,4 +106,17 @@ pub enum OdeError {
     /// An error of `hookean-sparse` outside a Newton solve (set-up, constraints).
     #[error(transparent)]
     Sparse(#[from] SparseError),
+    /// An error of `hookean-nonlinear` while setting up Newton (bad options).
+    #[error(transparent)]
+    Nonlinear(#[from] NonlinearError),
+    /// An error of `hookean-nonlinear` during the step from `t` that a
+    /// smaller step would not cure (for example an error of the problem).
+    #[error("Newton solver error on the step from t = {t}: {source}")]
+    NewtonSolver {
+        /// The time reached.
+        t: f64,
+        /// The solver's error.
+        #[source]
+        source: NonlinearError,
+    },
 }

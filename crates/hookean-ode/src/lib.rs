@@ -19,9 +19,9 @@
 //! - [`workprecision`]: error against work over step sizes or tolerances
 //!   (figures 3, 5, 7) and observed orders.
 //!
-//! The Newton iteration is private to this crate for now (one internal
-//! function per problem kind, `System::solve_stage`), to be swapped for
-//! `hookean-nonlinear`'s when that crate lands.
+//! Every implicit step is a stage equation `K = psi + c h F(tau, K)` solved
+//! by `hookean-nonlinear`'s Newton: a dense LU for first-order problems, the
+//! reduced velocity form with (filtered) PCG for second-order ones.
 //!
 //! ```
 //! use hookean_ode::{FirstOrderIntegrator, FirstOrderProblem, Method, SolverOptions};
@@ -45,7 +45,6 @@ pub mod bdf;
 mod core;
 pub mod error;
 pub mod integrator;
-mod linalg;
 pub mod method;
 pub mod options;
 pub mod problem;
@@ -56,6 +55,7 @@ pub mod workprecision;
 
 pub use bdf::BdfCoefficients;
 pub use error::OdeError;
+pub use hookean_nonlinear::{ForcingTerm, NewtonMethod};
 pub use integrator::{FirstOrderIntegrator, SecondOrderIntegrator};
 pub use method::Method;
 pub use options::{IntegrateInfo, NewtonOptions, SolverOptions, Stats, StepControl, StepReport};

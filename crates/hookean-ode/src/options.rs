@@ -1,25 +1,29 @@
 //! Options, statistics and step reports of the integrators.
 
+use hookean_nonlinear::NewtonMethod;
 use hookean_sparse::PrecondKind;
 
 use crate::error::OdeError;
 
 /// Options of the Newton iteration that solves each implicit step (the
-/// tutorial's section 3: Newton's method with an iterative linear solver).
+/// tutorial's section 3), run by `hookean-nonlinear`'s [`Newton`](hookean_nonlinear::Newton).
 #[derive(Debug, Clone, PartialEq)]
 pub struct NewtonOptions {
+    /// The Newton variant: exact (Algorithm 1), inexact with a forcing term
+    /// (Algorithm 2), simplified, or inexact simplified with the problem's
+    /// linearised Jacobians (Algorithm 3,
+    /// [`SecondOrderProblem::linearized_jacobians`](crate::SecondOrderProblem::linearized_jacobians)).
+    /// Default [`NewtonMethod::Exact`].
+    pub method: NewtonMethod,
     /// Maximum Newton iterations per step attempt. Default 10.
     pub max_iter: usize,
-    /// Relative tolerance on the Newton update: converged when
-    /// `|delta|_inf <= atol + rtol |Y|_inf`. Default `1e-10`.
+    /// Converged when `|G(Y_k)| <= atol + rtol |G(Y_0)|` (Euclidean norms of
+    /// the stage residual; `Y_0` is the predictor). Default `1e-10`.
     pub rtol: f64,
-    /// Absolute tolerance on the Newton update. Default `1e-12`.
+    /// Absolute residual tolerance. Default `1e-12`.
     pub atol: f64,
-    /// Simplified Newton (the tutorial's Algorithm 3): evaluate the
-    /// Jacobian and set up the linear solver once per step attempt instead
-    /// of every iteration. Default `false` (full Newton).
-    pub simplified: bool,
-    /// Relative tolerance of PCG (second-order problems). Default `1e-10`.
+    /// Relative tolerance of PCG for the exact variants (second-order
+    /// problems). Default `1e-10`.
     pub linear_rtol: f64,
     /// Iteration limit of PCG; `None` means `2 n`. Default `None`.
     pub linear_max_iter: Option<usize>,
@@ -30,10 +34,10 @@ pub struct NewtonOptions {
 impl Default for NewtonOptions {
     fn default() -> Self {
         Self {
+            method: NewtonMethod::Exact,
             max_iter: 10,
             rtol: 1e-10,
             atol: 1e-12,
-            simplified: false,
             linear_rtol: 1e-10,
             linear_max_iter: None,
             preconditioner: PrecondKind::BlockJacobi,
@@ -152,7 +156,6 @@ impl SolverOptions {
             ("rtol", self.rtol),
             ("h_max", self.h_max),
             ("newton.rtol", self.newton.rtol),
-            ("newton.linear_rtol", self.newton.linear_rtol),
         ];
         for (name, value) in positive {
             if value.is_nan() || value <= 0.0 {
@@ -181,6 +184,13 @@ impl SolverOptions {
                 name: "h",
                 value: self.h,
                 reason: "must be finite",
+            });
+        }
+        if !(self.newton.linear_rtol > 0.0 && self.newton.linear_rtol < 1.0) {
+            return Err(OdeError::InvalidParameter {
+                name: "newton.linear_rtol",
+                value: self.newton.linear_rtol,
+                reason: "must lie in (0, 1)",
             });
         }
         if self.newton.max_iter == 0 {

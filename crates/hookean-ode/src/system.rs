@@ -1,16 +1,20 @@
 //! The two problem kinds seen by the integrator core as "a state vector
 //! and a stage equation": first-order `y' = f(t, y)` (Newton with a dense
 //! LU) and second-order `M x'' = f(t, x, v)` (the reduced velocity form
-//! with PCG). Private except for [`FirstOrderForm`].
+//! with PCG). Both stage equations are solved by `hookean-nonlinear`'s
+//! [`Newton`]. Private except for [`FirstOrderForm`].
 
 use std::cell::RefCell;
 
+use hookean_nonlinear::{
+    DenseLu, LinearSolveStats, LinearSolver, Newton, NewtonStats, NonlinearError, NonlinearSystem,
+};
 use hookean_sparse::{
-    AnyPreconditioner, CgParams, CgWorkspace, Constraints, InitialGuess, PreconditionerSetup,
-    SparseError, SymBlockMatrix, filtered_pcg, pcg,
+    AnyPreconditioner, CgParams, CgWorkspace, Constraints, InitialGuess, PrecondKind,
+    PreconditionerSetup, SparseError, SymBlockMatrix, filtered_pcg, pcg,
 };
 
-use crate::linalg::DenseLu;
+use crate::error::OdeError;
 use crate::options::{NewtonOptions, Stats};
 use crate::problem::{FirstOrderProblem, SecondOrderProblem};
 
@@ -23,13 +27,14 @@ pub(crate) enum StageFailure {
     Linear(SparseError),
     /// The dense Newton matrix is singular.
     Singular { pivot: usize },
+    /// Any other error of the Newton solver (not worth a retry).
+    Other(NonlinearError),
 }
 
 /// Newton statistics of one successful stage solve.
 #[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct StageInfo {
     pub iterations: usize,
-    pub linear_iterations: usize,
 }
 
 /// The integrator core's view of a problem.
@@ -68,23 +73,133 @@ pub(crate) trait System {
     ) -> bool;
 }
 
-fn inf_norm(v: &[f64]) -> f64 {
-    v.iter().fold(0.0_f64, |m, x| m.max(x.abs()))
+/// The options of `hookean-nonlinear`'s Newton from ours.
+fn newton_options(opts: &NewtonOptions) -> hookean_nonlinear::NewtonOptions {
+    hookean_nonlinear::NewtonOptions {
+        method: opts.method,
+        atol: opts.atol,
+        rtol: opts.rtol,
+        max_iter: opts.max_iter,
+        linear_rtol: opts.linear_rtol,
+        ..hookean_nonlinear::NewtonOptions::default()
+    }
 }
 
-fn converged(delta: f64, k: &[f64], opts: &NewtonOptions) -> bool {
-    delta <= opts.atol + opts.rtol * inf_norm(k)
+/// Books a Newton run (successful or not) into the counters and maps the result.
+fn account(
+    result: Result<NewtonStats, NonlinearError>,
+    extra_f_evals: usize,
+    stats: &mut Stats,
+) -> Result<StageInfo, StageFailure> {
+    let ns = match &result {
+        Ok(s) => Some(s),
+        Err(e) => e.stats(),
+    };
+    stats.f_evals += extra_f_evals;
+    if let Some(ns) = ns {
+        stats.f_evals += ns.residual_evaluations;
+        stats.jacobian_evals += ns.jacobian_evaluations;
+        stats.newton_iterations += ns.iterations;
+        stats.linear_iterations += ns.linear_iterations;
+        stats.linear_setups += ns.linear_setups;
+    }
+    match result {
+        Ok(ns) => Ok(StageInfo {
+            iterations: ns.iterations,
+        }),
+        Err(NonlinearError::LinearNotConverged {
+            iterations,
+            relative_residual,
+            ..
+        }) => Err(StageFailure::Linear(SparseError::NotConverged {
+            method: "PCG",
+            iterations,
+            relative_residual,
+        })),
+        Err(NonlinearError::Linear(e)) => Err(StageFailure::Linear(e)),
+        Err(NonlinearError::SingularJacobian { pivot, .. }) => {
+            Err(StageFailure::Singular { pivot })
+        }
+        Err(e) if e.is_step_failure() => {
+            let (iterations, update_norm) = e.stats().map_or((0, f64::NAN), |s| {
+                (
+                    s.iterations,
+                    s.step_norms.last().copied().unwrap_or(f64::NAN),
+                )
+            });
+            Err(StageFailure::NoConvergence {
+                iterations,
+                update_norm,
+            })
+        }
+        Err(e) => Err(StageFailure::Other(e)),
+    }
 }
 
-/// First-order problems: Newton on `G(K) = K - psi - gh f(tau, K)` with
-/// the dense matrix `I - gh df/dy` factored by LU.
+/// The stage equation of a first-order problem as a nonlinear system:
+/// `G(K) = K - psi - gh f(tau, K)`, Jacobian `I - gh df/dy`.
+struct FirstStage<'a, P> {
+    problem: &'a P,
+    tau: f64,
+    gh: f64,
+    psi: &'a [f64],
+    jac: &'a mut [f64],
+    f: &'a mut [f64],
+    tmp: &'a mut [f64],
+    col: &'a mut [f64],
+    fd_evals: usize,
+}
+
+impl<P: FirstOrderProblem> NonlinearSystem for FirstStage<'_, P> {
+    type Jacobian = faer::Mat<f64>;
+
+    fn dim(&self) -> usize {
+        self.psi.len()
+    }
+
+    fn residual(&mut self, y: &[f64], g: &mut [f64]) -> Result<(), NonlinearError> {
+        self.problem.rhs(self.tau, y, self.f);
+        for i in 0..g.len() {
+            g[i] = y[i] - self.psi[i] - self.gh * self.f[i];
+        }
+        Ok(())
+    }
+
+    fn jacobian(&mut self, y: &[f64], jac: &mut faer::Mat<f64>) -> Result<(), NonlinearError> {
+        let n = y.len();
+        if !self.problem.jacobian(self.tau, y, self.jac) {
+            // Forward differences around y.
+            self.problem.rhs(self.tau, y, self.f);
+            self.tmp.copy_from_slice(y);
+            for j in 0..n {
+                let eps = f64::EPSILON.sqrt() * y[j].abs().max(1.0);
+                self.tmp[j] = y[j] + eps;
+                self.problem.rhs(self.tau, self.tmp, self.col);
+                for i in 0..n {
+                    self.jac[i * n + j] = (self.col[i] - self.f[i]) / eps;
+                }
+                self.tmp[j] = y[j];
+            }
+            self.fd_evals += n + 1;
+        }
+        for i in 0..n {
+            for j in 0..n {
+                let id = if i == j { 1.0 } else { 0.0 };
+                jac[(i, j)] = id - self.gh * self.jac[i * n + j];
+            }
+        }
+        Ok(())
+    }
+}
+
+/// First-order problems: `hookean-nonlinear`'s Newton with a dense LU.
 pub(crate) struct FirstSys<P> {
     pub problem: P,
     n: usize,
+    newton: Option<Newton<faer::Mat<f64>, DenseLu>>,
+    last_gh: f64,
     jac: Vec<f64>,
-    lu: DenseLu,
     f: Vec<f64>,
-    g: Vec<f64>,
     tmp: Vec<f64>,
     col: Vec<f64>,
 }
@@ -95,32 +210,12 @@ impl<P: FirstOrderProblem> FirstSys<P> {
         Self {
             problem,
             n,
+            newton: None,
+            last_gh: f64::NAN,
             jac: vec![0.0; n * n],
-            lu: DenseLu::new(n),
             f: vec![0.0; n],
-            g: vec![0.0; n],
             tmp: vec![0.0; n],
             col: vec![0.0; n],
-        }
-    }
-
-    /// `df/dy` at `(t, y)` into `self.jac`: analytic, or forward differences.
-    fn jacobian(&mut self, t: f64, y: &[f64], f_at_y: &[f64], stats: &mut Stats) {
-        stats.jacobian_evals += 1;
-        if self.problem.jacobian(t, y, &mut self.jac) {
-            return;
-        }
-        let n = self.n;
-        self.tmp.copy_from_slice(y);
-        for j in 0..n {
-            let eps = f64::EPSILON.sqrt() * y[j].abs().max(1.0);
-            self.tmp[j] = y[j] + eps;
-            self.problem.rhs(t, &self.tmp, &mut self.col);
-            stats.f_evals += 1;
-            for i in 0..n {
-                self.jac[i * n + j] = (self.col[i] - f_at_y[i]) / eps;
-            }
-            self.tmp[j] = y[j];
         }
     }
 }
@@ -163,106 +258,237 @@ impl<P: FirstOrderProblem> System for FirstSys<P> {
         opts: &NewtonOptions,
         stats: &mut Stats,
     ) -> Result<StageInfo, StageFailure> {
-        let n = self.n;
-        let mut info = StageInfo::default();
-        let mut prev = f64::INFINITY;
-        for it in 0..opts.max_iter {
-            self.problem.rhs(tau, k, &mut self.f);
-            stats.f_evals += 1;
-            for i in 0..n {
-                self.g[i] = -(k[i] - psi[i] - gh * self.f[i]);
-            }
-            if it == 0 || !opts.simplified {
-                let f = std::mem::take(&mut self.f);
-                self.jacobian(tau, k, &f, stats);
-                self.f = f;
-                let m = self.lu.matrix_mut();
-                for i in 0..n {
-                    for j in 0..n {
-                        let id = if i == j { 1.0 } else { 0.0 };
-                        m[i * n + j] = id - gh * self.jac[i * n + j];
-                    }
+        let nopts = newton_options(opts);
+        let newton = match &mut self.newton {
+            Some(nw) => {
+                if nw.options() != &nopts {
+                    nw.set_options(nopts).map_err(StageFailure::Other)?;
                 }
-                stats.linear_setups += 1;
-                self.lu
-                    .factor()
-                    .map_err(|pivot| StageFailure::Singular { pivot })?;
+                nw
             }
-            self.lu.solve(&mut self.g);
-            let delta = inf_norm(&self.g);
-            for i in 0..n {
-                k[i] += self.g[i];
-            }
-            stats.newton_iterations += 1;
-            info.iterations = it + 1;
-            if !delta.is_finite() || k.iter().any(|v| !v.is_finite()) {
-                return Err(StageFailure::NoConvergence {
-                    iterations: it + 1,
-                    update_norm: f64::NAN,
-                });
-            }
-            if converged(delta, k, opts) {
-                return Ok(info);
-            }
-            if it >= 1 && delta > 2.0 * prev {
-                return Err(StageFailure::NoConvergence {
-                    iterations: it + 1,
-                    update_norm: delta,
-                });
-            }
-            prev = delta;
+            slot @ None => slot.insert(
+                Newton::new(nopts, faer::Mat::zeros(self.n, self.n), DenseLu::new())
+                    .map_err(StageFailure::Other)?,
+            ),
+        };
+        // The Newton matrix depends on gh: a kept Jacobian (simplified
+        // variants) is only valid for the same gh.
+        if gh != self.last_gh {
+            newton.invalidate_jacobian();
+            self.last_gh = gh;
         }
-        Err(StageFailure::NoConvergence {
-            iterations: opts.max_iter,
-            update_norm: prev,
+        let mut stage = FirstStage {
+            problem: &self.problem,
+            tau,
+            gh,
+            psi,
+            jac: &mut self.jac,
+            f: &mut self.f,
+            tmp: &mut self.tmp,
+            col: &mut self.col,
+            fd_evals: 0,
+        };
+        let result = newton.solve(&mut stage, k);
+        let fd = stage.fd_evals;
+        account(result, fd, stats)
+    }
+}
+
+/// PCG for the Newton corrections of the reduced form, filtered by the
+/// step's velocity constraints: the corrections must keep the prescribed
+/// components, so the constrained part `z` (the prescribed values) is
+/// moved to the right-hand side, `A s' = rhs + A z` is solved by filtered PCG
+/// with `s'` taking the prescribed values, and `s = s' - z` has zero
+/// constrained components.
+pub(crate) struct StageLinearSolver {
+    precond: AnyPreconditioner,
+    ws: CgWorkspace,
+    constraints: Constraints,
+    max_iter: Option<usize>,
+    z: Vec<f64>,
+    rhs: Vec<f64>,
+}
+
+impl LinearSolver<SymBlockMatrix> for StageLinearSolver {
+    fn setup(&mut self, jac: &SymBlockMatrix) -> Result<(), NonlinearError> {
+        self.precond.setup(jac)?;
+        Ok(())
+    }
+
+    fn solve(
+        &mut self,
+        jac: &SymBlockMatrix,
+        rhs: &[f64],
+        x: &mut [f64],
+        rtol: f64,
+    ) -> Result<LinearSolveStats, NonlinearError> {
+        let params = CgParams {
+            rtol,
+            atol: 0.0,
+            max_iter: self.max_iter,
+            initial_guess: InitialGuess::Zero,
+            record_history: false,
+        };
+        let info = if self.constraints.is_empty() {
+            pcg(jac, &self.precond, rhs, x, &params, &mut self.ws, None)?
+        } else {
+            let n = rhs.len();
+            self.z.resize(n, 0.0);
+            self.rhs.resize(n, 0.0);
+            self.z.fill(0.0);
+            self.constraints.impose(&mut self.z);
+            jac.mul_vec(&self.z, &mut self.rhs)?;
+            for i in 0..n {
+                self.rhs[i] += rhs[i];
+            }
+            let info = filtered_pcg(
+                jac,
+                &self.precond,
+                &self.rhs,
+                x,
+                &self.constraints,
+                &params,
+                &mut self.ws,
+                None,
+            )?;
+            for i in 0..n {
+                x[i] -= self.z[i];
+            }
+            info
+        };
+        Ok(LinearSolveStats {
+            iterations: info.iterations,
+            residual_norm: info.residual_norm,
+            relative_residual: info.relative_residual,
+            converged: info.converged,
         })
+    }
+}
+
+/// The reduced velocity form of one stage as a nonlinear system in `V`:
+/// `G(V) = P [M (V - psi_v) - gh f(tau, psi_x + gh V, V)]` (`P` removes the
+/// constrained components), Jacobian `M - gh df/dv - gh^2 df/dx`.
+struct ReducedStage<'a, P> {
+    problem: &'a P,
+    tau: f64,
+    gh: f64,
+    psi_x: &'a [f64],
+    psi_v: &'a [f64],
+    x: &'a mut [f64],
+    force: &'a mut [f64],
+    dfdx: &'a mut SymBlockMatrix,
+    dfdv: &'a mut SymBlockMatrix,
+    constraints: &'a Constraints,
+}
+
+impl<P: SecondOrderProblem> ReducedStage<'_, P> {
+    fn positions(&mut self, v: &[f64]) {
+        for i in 0..v.len() {
+            self.x[i] = self.psi_x[i] + self.gh * v[i];
+        }
+    }
+
+    fn assemble(&self, a: &mut SymBlockMatrix) -> Result<(), NonlinearError> {
+        a.set_zero();
+        a.add_scaled(-self.gh * self.gh, self.dfdx)?;
+        a.add_scaled(-self.gh, self.dfdv)?;
+        a.add_to_diagonal(self.problem.mass())?;
+        Ok(())
+    }
+}
+
+impl<P: SecondOrderProblem> NonlinearSystem for ReducedStage<'_, P> {
+    type Jacobian = SymBlockMatrix;
+
+    fn dim(&self) -> usize {
+        self.psi_v.len()
+    }
+
+    fn residual(&mut self, v: &[f64], g: &mut [f64]) -> Result<(), NonlinearError> {
+        self.positions(v);
+        self.problem.force(self.tau, self.x, v, self.force);
+        let mass = self.problem.mass();
+        for i in 0..g.len() {
+            g[i] = mass[i] * (v[i] - self.psi_v[i]) - self.gh * self.force[i];
+        }
+        if !self.constraints.is_empty() {
+            self.constraints.project(g);
+        }
+        Ok(())
+    }
+
+    fn jacobian(&mut self, v: &[f64], a: &mut SymBlockMatrix) -> Result<(), NonlinearError> {
+        self.positions(v);
+        self.problem
+            .force_jacobians(self.tau, self.x, v, self.dfdx, self.dfdv);
+        self.assemble(a)
+    }
+
+    fn approximate_jacobian(
+        &mut self,
+        _v: &[f64],
+        a: &mut SymBlockMatrix,
+    ) -> Result<bool, NonlinearError> {
+        if !self.problem.linearized_jacobians(self.dfdx, self.dfdv) {
+            return Ok(false);
+        }
+        self.assemble(a)?;
+        Ok(true)
     }
 }
 
 /// Second-order problems in the reduced velocity form (DESIGN.md): the
 /// state is `[x; v]`; the stage `K = [X; V]` satisfies `X = psi_x + gh V`
 /// and `G(V) = M (V - psi_v) - gh f(tau, psi_x + gh V, V) = 0`, solved by
-/// Newton with the SPD matrix `A = M - gh df/dv - gh^2 df/dx` and (filtered) PCG.
+/// `hookean-nonlinear`'s Newton with the SPD matrix
+/// `A = M - gh df/dv - gh^2 df/dx` and (filtered) PCG.
 pub(crate) struct SecondSys<P> {
     pub problem: P,
     n: usize,
     pub constraints: Constraints,
     dfdx: SymBlockMatrix,
     dfdv: SymBlockMatrix,
-    a: SymBlockMatrix,
-    precond: AnyPreconditioner,
-    precond_kind: hookean_sparse::PrecondKind,
-    ws: CgWorkspace,
+    newton: Newton<SymBlockMatrix, StageLinearSolver>,
+    precond_kind: PrecondKind,
+    last_gh: f64,
     force: Vec<f64>,
-    g: Vec<f64>,
-    b: Vec<f64>,
-    vnew: Vec<f64>,
+    xs: Vec<f64>,
 }
 
 impl<P: SecondOrderProblem> SecondSys<P> {
-    pub fn new(problem: P, opts: &NewtonOptions) -> Result<Self, SparseError> {
+    pub fn new(problem: P, opts: &NewtonOptions) -> Result<Self, OdeError> {
         let n = problem.dim();
         let pattern = problem.jacobian_pattern();
         if pattern.dim() != n {
-            return Err(SparseError::DimensionMismatch {
+            return Err(OdeError::DimensionMismatch {
                 what: "jacobian pattern (3 x blocks)",
                 expected: n,
                 found: pattern.dim(),
             });
         }
+        let linear = StageLinearSolver {
+            precond: AnyPreconditioner::new(opts.preconditioner)?,
+            ws: CgWorkspace::new(n),
+            constraints: Constraints::new(n / 3),
+            max_iter: opts.linear_max_iter,
+            z: vec![0.0; n],
+            rhs: vec![0.0; n],
+        };
+        let newton = Newton::new(
+            newton_options(opts),
+            SymBlockMatrix::new(pattern.clone()),
+            linear,
+        )?;
         Ok(Self {
             n,
             constraints: Constraints::new(n / 3),
             dfdx: SymBlockMatrix::new(pattern.clone()),
-            dfdv: SymBlockMatrix::new(pattern.clone()),
-            a: SymBlockMatrix::new(pattern),
-            precond: AnyPreconditioner::new(opts.preconditioner)?,
+            dfdv: SymBlockMatrix::new(pattern),
+            newton,
             precond_kind: opts.preconditioner,
-            ws: CgWorkspace::new(n),
+            last_gh: f64::NAN,
             force: vec![0.0; n],
-            g: vec![0.0; n],
-            b: vec![0.0; n],
-            vnew: vec![0.0; n],
+            xs: vec![0.0; n],
             problem,
         })
     }
@@ -327,123 +553,52 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
         stats: &mut Stats,
     ) -> Result<StageInfo, StageFailure> {
         let n = self.n;
+        let nopts = newton_options(opts);
+        if self.newton.options() != &nopts {
+            self.newton
+                .set_options(nopts)
+                .map_err(StageFailure::Other)?;
+        }
+        let linear = self.newton.linear_solver_mut();
         if opts.preconditioner != self.precond_kind {
-            self.precond =
+            linear.precond =
                 AnyPreconditioner::new(opts.preconditioner).map_err(StageFailure::Linear)?;
             self.precond_kind = opts.preconditioner;
         }
+        linear.max_iter = opts.linear_max_iter;
+        // One copy of the step's constraints per stage solve (they change
+        // between steps; none is made while the set is empty).
+        if !(self.constraints.is_empty() && linear.constraints.is_empty()) {
+            linear.constraints.clone_from(&self.constraints);
+        }
+        // A kept Jacobian (simplified variants) is only valid for this gh.
+        if gh != self.last_gh {
+            self.newton.invalidate_jacobian();
+            self.last_gh = gh;
+        }
         let (psi_x, psi_v) = psi.split_at(n);
         let (kx, kv) = k.split_at_mut(n);
-        let filtered = !self.constraints.is_empty();
-        if filtered {
+        if !self.constraints.is_empty() {
             self.constraints.impose(kv);
         }
-        let cg = CgParams {
-            rtol: opts.linear_rtol,
-            atol: 0.0,
-            max_iter: opts.linear_max_iter,
-            initial_guess: InitialGuess::Given,
-            record_history: false,
+        let mut stage = ReducedStage {
+            problem: &self.problem,
+            tau,
+            gh,
+            psi_x,
+            psi_v,
+            x: &mut self.xs,
+            force: &mut self.force,
+            dfdx: &mut self.dfdx,
+            dfdv: &mut self.dfdv,
+            constraints: &self.constraints,
         };
-        let mut info = StageInfo::default();
-        let mut prev = f64::INFINITY;
-        for it in 0..opts.max_iter {
-            for i in 0..n {
-                kx[i] = psi_x[i] + gh * kv[i];
-            }
-            self.problem.force(tau, kx, kv, &mut self.force);
-            stats.f_evals += 1;
-            let mass = self.problem.mass();
-            for i in 0..n {
-                self.g[i] = mass[i] * (kv[i] - psi_v[i]) - gh * self.force[i];
-            }
-            if it == 0 || !opts.simplified {
-                self.problem
-                    .force_jacobians(tau, kx, kv, &mut self.dfdx, &mut self.dfdv);
-                stats.jacobian_evals += 1;
-                self.a.set_zero();
-                self.a
-                    .add_scaled(-gh * gh, &self.dfdx)
-                    .map_err(StageFailure::Linear)?;
-                self.a
-                    .add_scaled(-gh, &self.dfdv)
-                    .map_err(StageFailure::Linear)?;
-                self.a.add_to_diagonal(mass).map_err(StageFailure::Linear)?;
-                self.precond.setup(&self.a).map_err(StageFailure::Linear)?;
-                stats.linear_setups += 1;
-            }
-            // Newton for V directly: A V_new = A V - G(V), so that filtered
-            // PCG can impose the prescribed velocities on V_new.
-            self.a
-                .mul_vec(kv, &mut self.b)
-                .map_err(StageFailure::Linear)?;
-            for i in 0..n {
-                self.b[i] -= self.g[i];
-            }
-            self.vnew.copy_from_slice(kv);
-            let res = if filtered {
-                filtered_pcg(
-                    &self.a,
-                    &self.precond,
-                    &self.b,
-                    &mut self.vnew,
-                    &self.constraints,
-                    &cg,
-                    &mut self.ws,
-                    None,
-                )
-            } else {
-                pcg(
-                    &self.a,
-                    &self.precond,
-                    &self.b,
-                    &mut self.vnew,
-                    &cg,
-                    &mut self.ws,
-                    None,
-                )
-            };
-            let cg_info = res.map_err(StageFailure::Linear)?;
-            stats.linear_iterations += cg_info.iterations;
-            info.linear_iterations += cg_info.iterations;
-            if !cg_info.converged {
-                return Err(StageFailure::Linear(SparseError::NotConverged {
-                    method: "PCG",
-                    iterations: cg_info.iterations,
-                    relative_residual: cg_info.relative_residual,
-                }));
-            }
-            let mut delta = 0.0_f64;
-            for i in 0..n {
-                delta = delta.max((self.vnew[i] - kv[i]).abs());
-            }
-            kv.copy_from_slice(&self.vnew);
-            stats.newton_iterations += 1;
-            info.iterations = it + 1;
-            if !delta.is_finite() {
-                return Err(StageFailure::NoConvergence {
-                    iterations: it + 1,
-                    update_norm: f64::NAN,
-                });
-            }
-            if converged(delta, kv, opts) {
-                for i in 0..n {
-                    kx[i] = psi_x[i] + gh * kv[i];
-                }
-                return Ok(info);
-            }
-            if it >= 1 && delta > 2.0 * prev {
-                return Err(StageFailure::NoConvergence {
-                    iterations: it + 1,
-                    update_norm: delta,
-                });
-            }
-            prev = delta;
+        let result = self.newton.solve(&mut stage, kv);
+        let info = account(result, 0, stats)?;
+        for i in 0..n {
+            kx[i] = psi_x[i] + gh * kv[i];
         }
-        Err(StageFailure::NoConvergence {
-            iterations: opts.max_iter,
-            update_norm: prev,
-        })
+        Ok(info)
     }
 }
 
