@@ -7,6 +7,16 @@ use crate::bdf::{BdfCoefficients, variable_bdf2, variable_bdf2_error_constant};
 use crate::error::OdeError;
 use crate::method::Method;
 use crate::options::{IntegrateInfo, SolverOptions, Stats, StepControl, StepReport};
+use hookean_nonlinear::{
+    IterationController, IterationControllerOptions, NewtonOutcome, NonlinearError, PiController,
+    PiControllerOptions, StepDecision,
+};
+
+/// The step-size controller of the variable-step method.
+enum Controller {
+    Pi(PiController),
+    Iterations(IterationController),
+}
 use crate::system::{StageFailure, StageInfo, System};
 use crate::tableau::ButcherTableau;
 
@@ -46,6 +56,7 @@ pub(crate) struct Core<S> {
     /// accumulate round-off in `t`.
     t_base: f64,
     n_fixed: u64,
+    controller: Option<Controller>,
 }
 
 fn check_finite(v: &[f64], what: &'static str, t: f64) -> Result<(), OdeError> {
@@ -104,6 +115,27 @@ impl<S: System> Core<S> {
             Method::Bdf2Variable => 2,
             _ => 1,
         };
+        let controller = if method.is_variable_step() {
+            let h_min = opts.h_min.max(1e-300);
+            Some(match &opts.control {
+                StepControl::ErrorBased(o) => {
+                    Controller::Pi(PiController::new(PiControllerOptions {
+                        h_min,
+                        h_max: opts.h_max,
+                        ..o.clone()
+                    })?)
+                }
+                StepControl::NewtonIterations(o) => {
+                    Controller::Iterations(IterationController::new(IterationControllerOptions {
+                        h_min,
+                        h_max: opts.h_max,
+                        ..o.clone()
+                    })?)
+                }
+            })
+        } else {
+            None
+        };
         let mut hist = vec![vec![0.0; m]; hist_n];
         hist[0].copy_from_slice(&s0);
         Ok(Self {
@@ -134,6 +166,7 @@ impl<S: System> Core<S> {
             acc_valid: false,
             t_base: t0,
             n_fixed: 0,
+            controller,
             s: s0,
         })
     }
@@ -593,7 +626,15 @@ impl<S: System> Core<S> {
                     if retries > self.opts.max_retries {
                         return Err(self.failure_error(fail, h, retries - 1));
                     }
-                    h *= 0.25;
+                    let decision = match self
+                        .controller
+                        .as_mut()
+                        .expect("variable step has a controller")
+                    {
+                        Controller::Pi(c) => c.newton_failed(h),
+                        Controller::Iterations(c) => c.decide(h, NewtonOutcome::Failed),
+                    };
+                    h = self.controller_step(decision, h)?;
                     self.s.copy_from_slice(&self.y0);
                     self.sys.begin_step(t, &mut self.s);
                     continue;
@@ -603,13 +644,10 @@ impl<S: System> Core<S> {
                 .derivative(t + h, &self.kbuf, &mut self.f_new, &mut self.stats);
             // Local error estimate: implicit Euler h^2/2 y'', BDF2 C(omega) h^3 y'''
             // with y'' and y''' from divided differences of f.
-            let (p, c) = if first {
-                (1.0, 0.5 * h)
+            let c = if first {
+                0.5 * h
             } else {
-                (
-                    2.0,
-                    variable_bdf2_error_constant(omega) * h.powi(3) * 2.0 / (h + self.h_prev),
-                )
+                variable_bdf2_error_constant(omega) * h.powi(3) * 2.0 / (h + self.h_prev)
             };
             let mut sum = 0.0;
             for i in 0..self.m {
@@ -629,40 +667,27 @@ impl<S: System> Core<S> {
                     t,
                 });
             }
-            let h_next = match self.opts.control {
-                StepControl::ErrorBased {
-                    safety,
-                    fac_min,
-                    fac_max,
-                } => {
-                    let fac = if err > 0.0 {
-                        safety * err.powf(-1.0 / (p + 1.0))
-                    } else {
-                        fac_max
-                    };
-                    if err > 1.0 {
-                        self.stats.rejected_steps += 1;
-                        h *= fac.clamp(fac_min, 0.9);
-                        self.s.copy_from_slice(&self.y0);
-                        self.sys.begin_step(t, &mut self.s);
-                        continue;
-                    }
-                    let fac_hi = if retries > 0 { 1.0 } else { fac_max };
-                    h * fac.clamp(fac_min, fac_hi)
-                }
-                StepControl::NewtonIterations {
-                    grow_at_most,
-                    shrink_at_least,
-                    grow,
-                    shrink,
-                } => {
-                    if info.iterations <= grow_at_most {
-                        h * grow
-                    } else if info.iterations >= shrink_at_least {
-                        h * shrink
-                    } else {
-                        h
-                    }
+            let decision = match self
+                .controller
+                .as_mut()
+                .expect("variable step has a controller")
+            {
+                Controller::Pi(c) => c.decide(h, err, info.iterations),
+                Controller::Iterations(c) => c.decide(
+                    h,
+                    NewtonOutcome::Converged {
+                        iterations: info.iterations,
+                    },
+                ),
+            };
+            let h_next = match decision {
+                Ok(StepDecision::Accept { h_next }) => h_next,
+                other => {
+                    self.stats.rejected_steps += 1;
+                    h = self.controller_step(other, h)?;
+                    self.s.copy_from_slice(&self.y0);
+                    self.sys.begin_step(t, &mut self.s);
+                    continue;
                 }
             };
             // Accept.
@@ -678,6 +703,24 @@ impl<S: System> Core<S> {
             self.h = h_next.min(self.opts.h_max);
             self.stats.steps += 1;
             return Ok((h, Some(err)));
+        }
+    }
+
+    /// The step size a controller's decision asks for; its errors as ours.
+    fn controller_step(
+        &self,
+        decision: Result<StepDecision, NonlinearError>,
+        h: f64,
+    ) -> Result<f64, OdeError> {
+        match decision {
+            Ok(d) => Ok(d.step_size()),
+            Err(NonlinearError::StepSizeTooSmall { h: h_new, .. }) => {
+                Err(OdeError::StepSizeUnderflow {
+                    t: self.t,
+                    h: h_new.min(h),
+                })
+            }
+            Err(source) => Err(OdeError::NewtonSolver { t: self.t, source }),
         }
     }
 

@@ -1,6 +1,6 @@
 //! Options, statistics and step reports of the integrators.
 
-use hookean_nonlinear::NewtonMethod;
+use hookean_nonlinear::{IterationControllerOptions, NewtonMethod, PiControllerOptions};
 use hookean_sparse::PrecondKind;
 
 use crate::error::OdeError;
@@ -45,54 +45,37 @@ impl Default for NewtonOptions {
     }
 }
 
-/// How the variable-step method chooses its step sizes.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// How the variable-step method chooses its step sizes: one of
+/// `hookean-nonlinear`'s controllers. Their `h_min`/`h_max` are replaced by
+/// [`SolverOptions::h_min`] (at least `1e-300`) and [`SolverOptions::h_max`].
+#[derive(Debug, Clone, PartialEq)]
 pub enum StepControl {
-    /// The error-based controller: accept when the weighted RMS norm
-    /// `err` of the local error estimate is `<= 1`, next step
-    /// `h * clamp(safety * err^{-1/(p+1)}, fac_min, fac_max)`.
-    ErrorBased {
-        /// Safety factor. Default 0.9.
-        safety: f64,
-        /// Smallest step-size factor. Default 0.2.
-        fac_min: f64,
-        /// Largest step-size factor. Default 2 (keeps the BDF2 step ratio
-        /// below the zero-stability bound `1 + sqrt 2`).
-        fac_max: f64,
-    },
+    /// The error-based (PI) controller: accept when the weighted RMS norm
+    /// of the local error estimate is `<= 1`, next step from the error
+    /// ([`PiController`](hookean_nonlinear::PiController)).
+    ErrorBased(PiControllerOptions),
     /// The Newton-iteration controller of the tutorial's section 3.4: the
     /// number of Newton iterations decides whether `h` grows or shrinks;
-    /// every converged step is accepted (no error estimate is used).
-    NewtonIterations {
-        /// Grow `h` when Newton needed at most this many iterations. Default 2.
-        grow_at_most: usize,
-        /// Shrink `h` when Newton needed at least this many. Default 5.
-        shrink_at_least: usize,
-        /// Growth factor. Default 1.5.
-        grow: f64,
-        /// Shrink factor. Default 0.5.
-        shrink: f64,
-    },
+    /// every converged step is accepted, no error estimate is used
+    /// ([`IterationController`](hookean_nonlinear::IterationController)).
+    NewtonIterations(IterationControllerOptions),
 }
 
 impl StepControl {
-    /// The error-based controller with its default factors.
+    /// The PI controller for BDF2 (`order = 2`) with its default gains and
+    /// the step ratio capped at 2 (`max_factor`), below BDF2's
+    /// zero-stability bound `1 + sqrt 2`.
     pub fn error_based() -> Self {
-        StepControl::ErrorBased {
-            safety: 0.9,
-            fac_min: 0.2,
-            fac_max: 2.0,
-        }
+        StepControl::ErrorBased(PiControllerOptions {
+            order: 2,
+            max_factor: 2.0,
+            ..PiControllerOptions::default()
+        })
     }
 
     /// The Newton-iteration controller with its default thresholds.
     pub fn newton_iterations() -> Self {
-        StepControl::NewtonIterations {
-            grow_at_most: 2,
-            shrink_at_least: 5,
-            grow: 1.5,
-            shrink: 0.5,
-        }
+        StepControl::NewtonIterations(IterationControllerOptions::default())
     }
 }
 
@@ -199,36 +182,6 @@ impl SolverOptions {
                 value: 0.0,
                 reason: "must be at least 1",
             });
-        }
-        match self.control {
-            StepControl::ErrorBased {
-                safety,
-                fac_min,
-                fac_max,
-            } => {
-                if !(safety > 0.0
-                    && safety <= 1.0
-                    && fac_min > 0.0
-                    && fac_min < 1.0
-                    && fac_max > 1.0
-                    && fac_max.is_finite())
-                {
-                    return Err(OdeError::InvalidParameter {
-                        name: "control",
-                        value: safety,
-                        reason: "need 0 < safety <= 1, 0 < fac_min < 1 < fac_max",
-                    });
-                }
-            }
-            StepControl::NewtonIterations { grow, shrink, .. } => {
-                if !(grow >= 1.0 && grow.is_finite() && shrink > 0.0 && shrink < 1.0) {
-                    return Err(OdeError::InvalidParameter {
-                        name: "control",
-                        value: grow,
-                        reason: "need grow >= 1 and 0 < shrink < 1",
-                    });
-                }
-            }
         }
         Ok(())
     }
