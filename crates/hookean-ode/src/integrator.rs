@@ -17,9 +17,10 @@ use crate::system::{FirstSys, SecondSys};
 
 /// Integrates a first-order problem `y' = f(t, y)` (eq. 7) with any
 /// [`Method`] except the second-order-only ones (FB Euler, Verlet).
-/// Implicit methods run Newton with the dense matrix `I - c h df/dy` and an LU
-/// factorisation (`df/dy` from [`FirstOrderProblem::jacobian`] or forward
-/// differences).
+/// Implicit methods run Newton with the matrix `I - c h df/dy`: dense LU
+/// (`df/dy` from [`FirstOrderProblem::jacobian`] or forward differences), or
+/// sparse LU when the problem has a
+/// [`sparse_jacobian_pattern`](FirstOrderProblem::sparse_jacobian_pattern).
 pub struct FirstOrderIntegrator<P: FirstOrderProblem> {
     core: Core<FirstSys<P>>,
 }
@@ -38,7 +39,7 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
         y0: &[f64],
         options: SolverOptions,
     ) -> Result<Self, OdeError> {
-        let sys = FirstSys::new(problem);
+        let sys = FirstSys::new(problem, &options.newton)?;
         Ok(Self {
             core: Core::new(sys, method, t0, y0.to_vec(), options)?,
         })

@@ -8,6 +8,7 @@ use std::cell::RefCell;
 
 use hookean_nonlinear::{
     DenseLu, LinearSolveStats, LinearSolver, Newton, NewtonStats, NonlinearError, NonlinearSystem,
+    SparseLu,
 };
 use hookean_sparse::{
     AnyPreconditioner, CgParams, CgWorkspace, Constraints, InitialGuess, PrecondKind,
@@ -192,11 +193,72 @@ impl<P: FirstOrderProblem> NonlinearSystem for FirstStage<'_, P> {
     }
 }
 
-/// First-order problems: `hookean-nonlinear`'s Newton with a dense LU.
+/// The stage equation of a first-order problem with a sparse Jacobian:
+/// the Newton matrix `I - gh df/dy` on the problem's pattern.
+struct SparseFirstStage<'a, P> {
+    problem: &'a P,
+    tau: f64,
+    gh: f64,
+    psi: &'a [f64],
+    f: &'a mut [f64],
+    jsp: &'a mut sprs::CsMat<f64>,
+    diag: &'a [usize],
+}
+
+impl<P: FirstOrderProblem> NonlinearSystem for SparseFirstStage<'_, P> {
+    type Jacobian = sprs::CsMat<f64>;
+
+    fn dim(&self) -> usize {
+        self.psi.len()
+    }
+
+    fn residual(&mut self, y: &[f64], g: &mut [f64]) -> Result<(), NonlinearError> {
+        self.problem.rhs(self.tau, y, self.f);
+        for i in 0..g.len() {
+            g[i] = y[i] - self.psi[i] - self.gh * self.f[i];
+        }
+        Ok(())
+    }
+
+    fn jacobian(&mut self, y: &[f64], a: &mut sprs::CsMat<f64>) -> Result<(), NonlinearError> {
+        if !self.problem.jacobian_sparse(self.tau, y, self.jsp) {
+            return Err(NonlinearError::System {
+                message: "the problem gave a sparse Jacobian pattern but no jacobian_sparse values"
+                    .into(),
+            });
+        }
+        if self.jsp.nnz() != a.nnz() {
+            return Err(NonlinearError::System {
+                message: "jacobian_sparse changed the sparsity pattern".into(),
+            });
+        }
+        let gh = self.gh;
+        for (dst, src) in a.data_mut().iter_mut().zip(self.jsp.data()) {
+            *dst = -gh * src;
+        }
+        for &k in self.diag {
+            a.data_mut()[k] += 1.0;
+        }
+        Ok(())
+    }
+}
+
+/// Newton for first-order stages: dense LU, or sparse LU on the problem's pattern.
+enum FirstNewton {
+    Dense(Option<Newton<faer::Mat<f64>, DenseLu>>),
+    Sparse {
+        newton: Newton<sprs::CsMat<f64>, SparseLu>,
+        jsp: sprs::CsMat<f64>,
+        diag: Vec<usize>,
+    },
+}
+
+/// First-order problems: `hookean-nonlinear`'s Newton with a dense LU, or a
+/// sparse LU when the problem has a sparse Jacobian pattern.
 pub(crate) struct FirstSys<P> {
     pub problem: P,
     n: usize,
-    newton: Option<Newton<faer::Mat<f64>, DenseLu>>,
+    newton: FirstNewton,
     last_gh: f64,
     jac: Vec<f64>,
     f: Vec<f64>,
@@ -205,18 +267,52 @@ pub(crate) struct FirstSys<P> {
 }
 
 impl<P: FirstOrderProblem> FirstSys<P> {
-    pub fn new(problem: P) -> Self {
+    pub fn new(problem: P, opts: &NewtonOptions) -> Result<Self, OdeError> {
         let n = problem.dim();
-        Self {
+        let newton = match problem.sparse_jacobian_pattern() {
+            None => FirstNewton::Dense(None),
+            Some(pattern) => {
+                if pattern.shape() != (n, n) {
+                    return Err(OdeError::DimensionMismatch {
+                        what: "sparse Jacobian pattern (rows)",
+                        expected: n,
+                        found: pattern.rows(),
+                    });
+                }
+                let mut diag = vec![usize::MAX; n];
+                let mut k = 0;
+                for (outer, vec) in pattern.outer_iterator().enumerate() {
+                    for (inner, _) in vec.iter() {
+                        if inner == outer {
+                            diag[outer] = k;
+                        }
+                        k += 1;
+                    }
+                }
+                if let Some(i) = diag.iter().position(|&d| d == usize::MAX) {
+                    return Err(OdeError::InvalidParameter {
+                        name: "sparse Jacobian pattern",
+                        value: i as f64,
+                        reason: "must contain the diagonal (missing at the row given as value)",
+                    });
+                }
+                FirstNewton::Sparse {
+                    newton: Newton::new(newton_options(opts), pattern.clone(), SparseLu::new())?,
+                    jsp: pattern,
+                    diag,
+                }
+            }
+        };
+        Ok(Self {
             problem,
             n,
-            newton: None,
+            newton,
             last_gh: f64::NAN,
             jac: vec![0.0; n * n],
             f: vec![0.0; n],
             tmp: vec![0.0; n],
             col: vec![0.0; n],
-        }
+        })
     }
 }
 
@@ -259,38 +355,61 @@ impl<P: FirstOrderProblem> System for FirstSys<P> {
         stats: &mut Stats,
     ) -> Result<StageInfo, StageFailure> {
         let nopts = newton_options(opts);
-        let newton = match &mut self.newton {
-            Some(nw) => {
-                if nw.options() != &nopts {
-                    nw.set_options(nopts).map_err(StageFailure::Other)?;
+        let gh_changed = gh != self.last_gh;
+        self.last_gh = gh;
+        match &mut self.newton {
+            FirstNewton::Dense(slot) => {
+                let newton = match slot {
+                    Some(nw) => {
+                        if nw.options() != &nopts {
+                            nw.set_options(nopts).map_err(StageFailure::Other)?;
+                        }
+                        nw
+                    }
+                    None => slot.insert(
+                        Newton::new(nopts, faer::Mat::zeros(self.n, self.n), DenseLu::new())
+                            .map_err(StageFailure::Other)?,
+                    ),
+                };
+                // The Newton matrix depends on gh: a kept Jacobian (simplified
+                // variants) is only valid for the same gh.
+                if gh_changed {
+                    newton.invalidate_jacobian();
                 }
-                nw
+                let mut stage = FirstStage {
+                    problem: &self.problem,
+                    tau,
+                    gh,
+                    psi,
+                    jac: &mut self.jac,
+                    f: &mut self.f,
+                    tmp: &mut self.tmp,
+                    col: &mut self.col,
+                    fd_evals: 0,
+                };
+                let result = newton.solve(&mut stage, k);
+                let fd = stage.fd_evals;
+                account(result, fd, stats)
             }
-            slot @ None => slot.insert(
-                Newton::new(nopts, faer::Mat::zeros(self.n, self.n), DenseLu::new())
-                    .map_err(StageFailure::Other)?,
-            ),
-        };
-        // The Newton matrix depends on gh: a kept Jacobian (simplified
-        // variants) is only valid for the same gh.
-        if gh != self.last_gh {
-            newton.invalidate_jacobian();
-            self.last_gh = gh;
+            FirstNewton::Sparse { newton, jsp, diag } => {
+                if newton.options() != &nopts {
+                    newton.set_options(nopts).map_err(StageFailure::Other)?;
+                }
+                if gh_changed {
+                    newton.invalidate_jacobian();
+                }
+                let mut stage = SparseFirstStage {
+                    problem: &self.problem,
+                    tau,
+                    gh,
+                    psi,
+                    f: &mut self.f,
+                    jsp,
+                    diag,
+                };
+                account(newton.solve(&mut stage, k), 0, stats)
+            }
         }
-        let mut stage = FirstStage {
-            problem: &self.problem,
-            tau,
-            gh,
-            psi,
-            jac: &mut self.jac,
-            f: &mut self.f,
-            tmp: &mut self.tmp,
-            col: &mut self.col,
-            fd_evals: 0,
-        };
-        let result = newton.solve(&mut stage, k);
-        let fd = stage.fd_evals;
-        account(result, fd, stats)
     }
 }
 

@@ -597,3 +597,125 @@ fn failures_are_typed_and_carry_the_time_reached() {
         Err(OdeError::InvalidParameter { .. })
     ));
 }
+
+/// The heat equation y_i' = c (y_{i-1} - 2 y_i + y_{i+1}) on n points with
+/// zero boundary values, with a sparse (tridiagonal) Jacobian or none.
+struct Heat {
+    n: usize,
+    c: f64,
+    sparse: bool,
+}
+
+impl FirstOrderProblem for Heat {
+    fn dim(&self) -> usize {
+        self.n
+    }
+    fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) {
+        for i in 0..self.n {
+            let l = if i > 0 { y[i - 1] } else { 0.0 };
+            let r = if i + 1 < self.n { y[i + 1] } else { 0.0 };
+            dy[i] = self.c * (l - 2.0 * y[i] + r);
+        }
+    }
+    fn sparse_jacobian_pattern(&self) -> Option<sprs::CsMat<f64>> {
+        if !self.sparse {
+            return None;
+        }
+        let mut tri = sprs::TriMat::new((self.n, self.n));
+        for i in 0..self.n {
+            for j in i.saturating_sub(1)..(i + 2).min(self.n) {
+                tri.add_triplet(i, j, 0.0);
+            }
+        }
+        Some(tri.to_csr())
+    }
+    fn jacobian_sparse(&self, _t: f64, _y: &[f64], jac: &mut sprs::CsMat<f64>) -> bool {
+        let c = self.c;
+        for (i, mut row) in jac.outer_iterator_mut().enumerate() {
+            for (j, v) in row.iter_mut() {
+                *v = if i == j { -2.0 * c } else { c };
+            }
+        }
+        true
+    }
+}
+
+#[test]
+fn sparse_jacobians_give_the_exact_implicit_steps() {
+    let (n, c) = (20, 100.0);
+    // The first eigenvector of the discrete Laplacian and its eigenvalue.
+    let theta = std::f64::consts::PI / (n + 1) as f64;
+    let v: Vec<f64> = (1..=n).map(|j| (theta * j as f64).sin()).collect();
+    let mu = -4.0 * c * (theta / 2.0).sin().powi(2);
+    let (h, steps) = (0.01, 50);
+    for (method, r) in [
+        (Method::ImplicitEuler, 1.0 / (1.0 - h * mu)),
+        (
+            Method::ImplicitMidpoint,
+            (1.0 + h * mu / 2.0) / (1.0 - h * mu / 2.0),
+        ),
+    ] {
+        let mut sparse = FirstOrderIntegrator::new(
+            Heat { n, c, sparse: true },
+            method.clone(),
+            0.0,
+            &v,
+            SolverOptions::with_h(h),
+        )
+        .unwrap();
+        sparse.integrate(h * steps as f64).unwrap();
+        let factor = r.powi(steps);
+        for j in 0..n {
+            assert!(
+                (sparse.y()[j] - factor * v[j]).abs() < 1e-12,
+                "{method}: {} vs {}",
+                sparse.y()[j],
+                factor * v[j]
+            );
+        }
+        let mut dense = FirstOrderIntegrator::new(
+            Heat {
+                n,
+                c,
+                sparse: false,
+            },
+            method.clone(),
+            0.0,
+            &v,
+            SolverOptions::with_h(h),
+        )
+        .unwrap();
+        dense.integrate(h * steps as f64).unwrap();
+        for j in 0..n {
+            assert!((sparse.y()[j] - dense.y()[j]).abs() < 1e-8);
+        }
+        // No finite differences with the sparse Jacobian: two residuals per step.
+        assert_eq!(sparse.stats().f_evals, 2 * steps as usize);
+    }
+    // A pattern without the diagonal is rejected.
+    struct NoDiag;
+    impl FirstOrderProblem for NoDiag {
+        fn dim(&self) -> usize {
+            2
+        }
+        fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) {
+            dy.copy_from_slice(y);
+        }
+        fn sparse_jacobian_pattern(&self) -> Option<sprs::CsMat<f64>> {
+            let mut tri = sprs::TriMat::new((2, 2));
+            tri.add_triplet(0, 1, 0.0);
+            tri.add_triplet(1, 0, 0.0);
+            Some(tri.to_csr())
+        }
+    }
+    assert!(matches!(
+        FirstOrderIntegrator::new(
+            NoDiag,
+            Method::ImplicitEuler,
+            0.0,
+            &[1.0, 1.0],
+            SolverOptions::default()
+        ),
+        Err(OdeError::InvalidParameter { .. })
+    ));
+}
