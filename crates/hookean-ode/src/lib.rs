@@ -1,9 +1,64 @@
-//! Time integration for soft-object simulation (section 2 of Hauth's
-//! tutorial): the problem traits that models implement and integrators consume.
+//! Time integration for soft-object simulation, after section 2 of Hauth's
+//! tutorial ("Numerical Techniques for Soft Object Simulation") and the
+//! forward-backward Euler of the filtering paper (Ahmad et al.).
 //!
-//! (The integrators themselves land with issue 4; this first version holds
-//! the problem contracts that `hookean-massspring` implements.)
+//! - [`problem`]: the contracts, [`FirstOrderProblem`] `y' = f(t, y)` and
+//!   [`SecondOrderProblem`] `M x'' = f(t, x, v)` (lumped `M`, 3x3-block Jacobians).
+//! - [`Method`]: explicit Euler, explicit midpoint, RK4, any explicit
+//!   [`ButcherTableau`], FB Euler, Stoermer-Verlet, implicit Euler, implicit
+//!   midpoint, fixed-step BDF(1..6) and variable-step BDF2; by name through
+//!   `FromStr`/`Display`.
+//! - [`FirstOrderIntegrator`], [`SecondOrderIntegrator`]: the step-wise API
+//!   (`step()` returns a [`StepReport`]) and the driver (`integrate`,
+//!   `integrate_with` with a callback that can stop the run), with
+//!   [`Stats`] counters. Second-order implicit steps use the reduced velocity
+//!   form `(M - c h df/dv - (c h)^2 df/dx) dV = ...` with (filtered) PCG.
+//! - [`stability`]: stability functions `R(z)`, BDF boundary loci,
+//!   [`is_a_stable`](stability::is_a_stable), region sampling (figure 4).
+//! - [`bdf`]: BDF coefficients derived from backward differences.
+//! - [`workprecision`]: error against work over step sizes or tolerances
+//!   (figures 3, 5, 7) and observed orders.
+//!
+//! Every implicit step is a stage equation `K = psi + c h F(tau, K)` solved
+//! by `hookean-nonlinear`'s Newton: a dense LU for first-order problems, the
+//! reduced velocity form with (filtered) PCG for second-order ones.
+//!
+//! ```
+//! use hookean_ode::{FirstOrderIntegrator, FirstOrderProblem, Method, SolverOptions};
+//!
+//! /// Dahlquist's equation y' = lambda y (the tutorial's eq. 20).
+//! struct Dahlquist(f64);
+//! impl FirstOrderProblem for Dahlquist {
+//!     fn dim(&self) -> usize { 1 }
+//!     fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) { dy[0] = self.0 * y[0]; }
+//! }
+//!
+//! let method: Method = "bdf2".parse()?;
+//! let mut ode = FirstOrderIntegrator::new(Dahlquist(-15.0), method, 0.0, &[1.0], SolverOptions::with_h(1e-3))?;
+//! let info = ode.integrate(1.0)?;
+//! assert!((ode.y()[0] - (-15.0f64).exp()).abs() < 1e-6);
+//! assert_eq!(info.stats.steps, 1000);
+//! # Ok::<(), hookean_ode::OdeError>(())
+//! ```
 
+pub mod bdf;
+mod core;
+pub mod error;
+pub mod integrator;
+pub mod method;
+pub mod options;
 pub mod problem;
+pub mod stability;
+mod system;
+pub mod tableau;
+pub mod workprecision;
 
+pub use bdf::BdfCoefficients;
+pub use error::OdeError;
+pub use hookean_nonlinear::{ForcingTerm, NewtonMethod};
+pub use integrator::{FirstOrderIntegrator, SecondOrderIntegrator};
+pub use method::Method;
+pub use options::{IntegrateInfo, NewtonOptions, SolverOptions, Stats, StepControl, StepReport};
 pub use problem::{FirstOrderProblem, SecondOrderProblem};
+pub use system::FirstOrderForm;
+pub use tableau::ButcherTableau;

@@ -14,6 +14,33 @@ pub trait FirstOrderProblem {
 
     /// Writes `f(t, y)` into `dy`.
     fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]);
+
+    /// The optional dense Jacobian `df/dy` at `(t, y)`: writes it row-major
+    /// into `jac` (`dim x dim`, `jac[i * dim + j] = df_i/dy_j`) and returns
+    /// `true`, or returns `false` (the default) if the problem has none, in
+    /// which case implicit methods use forward differences (`dim` extra
+    /// evaluations of `f` per Jacobian, counted in the statistics).
+    fn jacobian(&self, _t: f64, _y: &[f64], _jac: &mut [f64]) -> bool {
+        false
+    }
+
+    /// The optional sparsity pattern of `df/dy` (`dim x dim`, CSR or CSC,
+    /// values ignored; it must contain the diagonal). When it is `Some`,
+    /// implicit methods factor the sparse Newton matrix `I - c h df/dy` with
+    /// a sparse LU (the symbolic analysis is kept between steps) and take
+    /// the values from [`jacobian_sparse`](Self::jacobian_sparse) instead of
+    /// [`jacobian`](Self::jacobian). Default `None`. Called once.
+    fn sparse_jacobian_pattern(&self) -> Option<sprs::CsMat<f64>> {
+        None
+    }
+
+    /// Refills the values of `jac` (the pattern of
+    /// [`sparse_jacobian_pattern`](Self::sparse_jacobian_pattern), which must
+    /// not change) with `df/dy` at `(t, y)` and returns `true`. The default
+    /// returns `false`, which is an error when a pattern was given.
+    fn jacobian_sparse(&self, _t: f64, _y: &[f64], _jac: &mut sprs::CsMat<f64>) -> bool {
+        false
+    }
 }
 
 /// A second-order system `M x'' = f(t, x, v)` with a lumped (diagonal) mass

@@ -1,8 +1,11 @@
 //! Test support for the Hookean crates (not published): generators of the
-//! reference cloth systems, random SPD matrices and small dense helpers.
+//! reference cloth systems, random SPD matrices, small dense helpers and
+//! the tutorial's ODE examples 1-3 with exact solutions.
 //!
 //! Everything here is deterministic: the same arguments give the same bits.
 
 pub mod cloth;
 pub mod dense;
 pub mod random;
+pub mod springs;
+pub mod tutorial;

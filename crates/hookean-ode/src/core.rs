@@ -1,0 +1,774 @@
+//! The integrator core shared by the first- and second-order integrators:
+//! one state vector, one stage equation, every method of section 2.
+
+use std::ops::ControlFlow;
+
+use crate::bdf::{BdfCoefficients, variable_bdf2, variable_bdf2_error_constant};
+use crate::error::OdeError;
+use crate::method::Method;
+use crate::options::{IntegrateInfo, SolverOptions, Stats, StepControl, StepReport};
+use hookean_nonlinear::{
+    IterationController, IterationControllerOptions, NewtonOutcome, NonlinearError, PiController,
+    PiControllerOptions, StepDecision,
+};
+
+/// The step-size controller of the variable-step method.
+enum Controller {
+    Pi(PiController),
+    Iterations(IterationController),
+}
+use crate::system::{StageFailure, StageInfo, System};
+use crate::tableau::ButcherTableau;
+
+/// The step sizes of the extrapolated implicit midpoint rule used to start
+/// BDF(k): 2, 4 and 6 substeps, combined by Aitken-Neville in `h^2`
+/// (the midpoint rule is symmetric, its error expands in even powers).
+const EXTRAPOLATION_SUBSTEPS: [f64; 3] = [2.0, 4.0, 6.0];
+
+pub(crate) struct Core<S> {
+    pub sys: S,
+    method: Method,
+    opts: SolverOptions,
+    pub t: f64,
+    pub s: Vec<f64>,
+    h: f64,
+    pub stats: Stats,
+    m: usize,
+    tableau: Option<ButcherTableau>,
+    kd: Vec<Vec<f64>>,
+    tmp: Vec<f64>,
+    psi: Vec<f64>,
+    kbuf: Vec<f64>,
+    y0: Vec<f64>,
+    pre: Vec<f64>,
+    bdf: Option<BdfCoefficients>,
+    hist: Vec<Vec<f64>>,
+    hist_len: usize,
+    hist_h: f64,
+    f_n: Vec<f64>,
+    f_nm1: Vec<f64>,
+    f_new: Vec<f64>,
+    f_valid: bool,
+    h_prev: f64,
+    ex: [Vec<f64>; 3],
+    acc_valid: bool,
+    /// Fixed step: `t = t_base + n_fixed h`, so that many steps do not
+    /// accumulate round-off in `t`.
+    t_base: f64,
+    n_fixed: u64,
+    controller: Option<Controller>,
+}
+
+fn check_finite(v: &[f64], what: &'static str, t: f64) -> Result<(), OdeError> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(OdeError::NonFinite { what, t })
+    }
+}
+
+impl<S: System> Core<S> {
+    pub fn new(
+        sys: S,
+        method: Method,
+        t0: f64,
+        s0: Vec<f64>,
+        opts: SolverOptions,
+    ) -> Result<Self, OdeError> {
+        method.check()?;
+        opts.check()?;
+        if !t0.is_finite() {
+            return Err(OdeError::InvalidParameter {
+                name: "t0",
+                value: t0,
+                reason: "must be finite",
+            });
+        }
+        let m = sys.state_len();
+        if s0.len() != m {
+            return Err(OdeError::DimensionMismatch {
+                what: "initial state",
+                expected: m,
+                found: s0.len(),
+            });
+        }
+        check_finite(&s0, "initial state", t0)?;
+        if method.is_second_order_only() && !sys.is_second_order() {
+            return Err(OdeError::UnsupportedMethod {
+                method: method.to_string(),
+                problem: "first-order",
+            });
+        }
+        let tableau = match &method {
+            Method::ExplicitEuler | Method::Midpoint | Method::Rk4 | Method::ExplicitRk(_) => {
+                method.tableau()
+            }
+            _ => None,
+        };
+        let stages = tableau.as_ref().map_or(0, |t| t.stages());
+        let bdf = match method {
+            Method::Bdf(k) if k >= 2 => Some(BdfCoefficients::new(k)?),
+            _ => None,
+        };
+        let hist_n = match method {
+            Method::Bdf(k) => k.max(2),
+            Method::Bdf2Variable => 2,
+            _ => 1,
+        };
+        let controller = if method.is_variable_step() {
+            let h_min = opts.h_min.max(1e-300);
+            Some(match &opts.control {
+                StepControl::ErrorBased(o) => {
+                    Controller::Pi(PiController::new(PiControllerOptions {
+                        h_min,
+                        h_max: opts.h_max,
+                        ..o.clone()
+                    })?)
+                }
+                StepControl::NewtonIterations(o) => {
+                    Controller::Iterations(IterationController::new(IterationControllerOptions {
+                        h_min,
+                        h_max: opts.h_max,
+                        ..o.clone()
+                    })?)
+                }
+            })
+        } else {
+            None
+        };
+        let mut hist = vec![vec![0.0; m]; hist_n];
+        hist[0].copy_from_slice(&s0);
+        Ok(Self {
+            sys,
+            h: opts.h,
+            method,
+            opts,
+            t: t0,
+            stats: Stats::default(),
+            m,
+            tableau,
+            kd: vec![vec![0.0; m]; stages],
+            tmp: vec![0.0; m],
+            psi: vec![0.0; m],
+            kbuf: vec![0.0; m],
+            y0: vec![0.0; m],
+            pre: vec![0.0; m],
+            bdf,
+            hist,
+            hist_len: 1,
+            hist_h: f64::NAN,
+            f_n: vec![0.0; m],
+            f_nm1: vec![0.0; m],
+            f_new: vec![0.0; m],
+            f_valid: false,
+            h_prev: f64::NAN,
+            ex: [vec![0.0; m], vec![0.0; m], vec![0.0; m]],
+            acc_valid: false,
+            t_base: t0,
+            n_fixed: 0,
+            controller,
+            s: s0,
+        })
+    }
+
+    pub fn method(&self) -> &Method {
+        &self.method
+    }
+
+    pub fn options(&self) -> &SolverOptions {
+        &self.opts
+    }
+
+    /// The step size the next `step()` will try.
+    pub fn h_next(&self) -> f64 {
+        if self.method.is_variable_step() {
+            self.h
+        } else {
+            self.opts.h
+        }
+    }
+
+    /// Forgets multistep history and cached forces (the state changed
+    /// outside the method, or the problem did).
+    pub fn reset_history(&mut self) {
+        self.hist[0].copy_from_slice(&self.s);
+        self.hist_len = 1;
+        self.f_valid = false;
+        self.acc_valid = false;
+    }
+
+    /// Invalidates values that depend on the problem (cached forces).
+    pub fn problem_changed(&mut self) {
+        self.f_valid = false;
+        self.acc_valid = false;
+    }
+
+    pub fn set_state(&mut self, t: f64, s: &[f64]) -> Result<(), OdeError> {
+        if s.len() != self.m {
+            return Err(OdeError::DimensionMismatch {
+                what: "state",
+                expected: self.m,
+                found: s.len(),
+            });
+        }
+        if !t.is_finite() {
+            return Err(OdeError::InvalidParameter {
+                name: "t",
+                value: t,
+                reason: "must be finite",
+            });
+        }
+        check_finite(s, "state", t)?;
+        self.t = t;
+        self.t_base = t;
+        self.n_fixed = 0;
+        self.s.copy_from_slice(s);
+        self.reset_history();
+        Ok(())
+    }
+
+    fn begin_step(&mut self) {
+        self.pre.copy_from_slice(&self.s);
+        self.sys.begin_step(self.t, &mut self.s);
+        if self.s != self.pre {
+            self.reset_history();
+        }
+    }
+
+    /// One step; `limit` caps the step size (the driver's last step).
+    pub fn step(&mut self, limit: Option<f64>) -> Result<StepReport, OdeError> {
+        let before = self.stats;
+        check_finite(&self.s, "state", self.t)?;
+        self.begin_step();
+        check_finite(&self.s, "state", self.t)?;
+        let (h, err) = if self.method.is_variable_step() {
+            self.variable_step(limit)?
+        } else {
+            let h = limit.map_or(self.opts.h, |l| l.min(self.opts.h));
+            self.fixed_step(h)?;
+            (h, None)
+        };
+        Ok(StepReport {
+            t: self.t,
+            h,
+            rejected: self.stats.rejected_steps - before.rejected_steps,
+            newton_iterations: self.stats.newton_iterations - before.newton_iterations,
+            linear_iterations: self.stats.linear_iterations - before.linear_iterations,
+            error_estimate: err,
+            h_next: self.h_next(),
+        })
+    }
+
+    fn failure_error(&self, fail: StageFailure, h: f64, retries: usize) -> OdeError {
+        match fail {
+            StageFailure::NoConvergence {
+                iterations,
+                update_norm,
+            } => OdeError::NewtonFailed {
+                t: self.t,
+                h,
+                retries,
+                iterations,
+                update_norm,
+            },
+            StageFailure::Linear(source) => OdeError::LinearSolver {
+                t: self.t,
+                retries,
+                source,
+            },
+            StageFailure::Singular { pivot } => OdeError::SingularMatrix { t: self.t, pivot },
+            StageFailure::Other(source) => OdeError::NewtonSolver { t: self.t, source },
+        }
+    }
+
+    fn check_h(&self, h: f64) -> Result<(), OdeError> {
+        let t = self.t;
+        if h.is_nan() || h < self.opts.h_min || t + h <= t {
+            return Err(OdeError::StepSizeUnderflow { t, h });
+        }
+        Ok(())
+    }
+
+    fn fixed_step(&mut self, h: f64) -> Result<(), OdeError> {
+        self.check_h(h)?;
+        let t = self.t;
+        self.y0.copy_from_slice(&self.s);
+        let mut retries = 0;
+        loop {
+            let res = if retries == 0 {
+                self.one_step(t, h).map(|_| ())
+            } else {
+                self.substeps(t, h, 1usize << retries)
+            };
+            match res {
+                Ok(_) => break,
+                Err(fail) => {
+                    self.stats.rejected_steps += 1;
+                    retries += 1;
+                    let hs = h / (1usize << retries.min(60)) as f64;
+                    if retries > self.opts.max_retries {
+                        return Err(self.failure_error(fail, hs * 2.0, retries - 1));
+                    }
+                    self.check_h(hs)?;
+                    self.s.copy_from_slice(&self.y0);
+                    self.reset_history();
+                    self.sys.begin_step(t, &mut self.s);
+                }
+            }
+        }
+        check_finite(&self.s, "state after the step", t)?;
+        if h == self.opts.h {
+            self.n_fixed += 1;
+            self.t = self.t_base + self.n_fixed as f64 * h;
+        } else {
+            self.t = t + h;
+            self.t_base = self.t;
+            self.n_fixed = 0;
+        }
+        self.stats.steps += 1;
+        Ok(())
+    }
+
+    /// A failed step retried as `m` substeps of the method's one-step form
+    /// (BDF(k): the extrapolated midpoint rule); the history restarts.
+    fn substeps(&mut self, t: f64, h: f64, m: usize) -> Result<(), StageFailure> {
+        let hs = h / m as f64;
+        for j in 0..m {
+            let tj = t + j as f64 * hs;
+            if j > 0 {
+                self.sys.begin_step(tj, &mut self.s);
+            }
+            match self.method {
+                Method::Bdf(k) if k >= 2 => self.extrapolated_midpoint(tj, hs)?,
+                _ => {
+                    self.one_step(tj, hs)?;
+                }
+            }
+        }
+        if matches!(self.method, Method::Bdf(_)) {
+            self.reset_history();
+        }
+        Ok(())
+    }
+
+    fn one_step(&mut self, t: f64, h: f64) -> Result<StageInfo, StageFailure> {
+        match self.method {
+            Method::ExplicitEuler | Method::Midpoint | Method::Rk4 | Method::ExplicitRk(_) => {
+                self.rk_step(t, h);
+                Ok(StageInfo::default())
+            }
+            Method::FbEuler => {
+                self.fb_euler(t, h);
+                Ok(StageInfo::default())
+            }
+            Method::Verlet => {
+                self.verlet(t, h);
+                Ok(StageInfo::default())
+            }
+            Method::ImplicitEuler | Method::Bdf(1) => {
+                self.psi.copy_from_slice(&self.s);
+                self.kbuf.copy_from_slice(&self.s);
+                let info = self.sys.solve_stage(
+                    t + h,
+                    h,
+                    &self.psi,
+                    &mut self.kbuf,
+                    &self.opts.newton,
+                    &mut self.stats,
+                )?;
+                self.s.copy_from_slice(&self.kbuf);
+                Ok(info)
+            }
+            Method::ImplicitMidpoint => {
+                let mut s = std::mem::take(&mut self.s);
+                let r = self.midpoint_on(t, h, &mut s);
+                self.s = s;
+                r
+            }
+            Method::Bdf(k) => self.bdf_step(t, h, k),
+            Method::Bdf2Variable => unreachable!("variable-step method in fixed_step"),
+        }
+    }
+
+    /// Explicit Runge-Kutta step (eq. 19) on the whole state.
+    fn rk_step(&mut self, t: f64, h: f64) {
+        let tab = self
+            .tableau
+            .as_ref()
+            .expect("explicit method has a tableau");
+        let st = tab.stages();
+        for i in 0..st {
+            self.tmp.copy_from_slice(&self.s);
+            for j in 0..i {
+                let a = tab.a(i, j);
+                if a != 0.0 {
+                    for (y, k) in self.tmp.iter_mut().zip(&self.kd[j]) {
+                        *y += h * a * k;
+                    }
+                }
+            }
+            self.sys.derivative(
+                t + tab.c()[i] * h,
+                &self.tmp,
+                &mut self.kd[i],
+                &mut self.stats,
+            );
+        }
+        for i in 0..st {
+            let b = tab.b()[i];
+            if b != 0.0 {
+                for (y, k) in self.s.iter_mut().zip(&self.kd[i]) {
+                    *y += h * b * k;
+                }
+            }
+        }
+        self.sys.impose(&mut self.s);
+    }
+
+    /// Forward-backward Euler: `v1 = v0 + h M^{-1} f(x0, v0)`, `x1 = x0 + h v1`.
+    fn fb_euler(&mut self, t: f64, h: f64) {
+        let n = self.m / 2;
+        let (x, v) = self.s.split_at_mut(n);
+        let acc = &mut self.tmp[..n];
+        self.sys.acceleration(t, x, v, acc, &mut self.stats);
+        for i in 0..n {
+            v[i] += h * acc[i];
+        }
+        self.sys.impose(&mut self.s);
+        let (x, v) = self.s.split_at_mut(n);
+        for i in 0..n {
+            x[i] += h * v[i];
+        }
+    }
+
+    /// Stoermer-Verlet in the velocity form (44)-(45), written as
+    /// kick-drift-kick so that `v` is available at the integer times:
+    /// `v_{n+1/2} = v_n + h/2 a_n`, `x_{n+1} = x_n + h v_{n+1/2}`,
+    /// `a_{n+1} = M^{-1} f(x_{n+1}, v_{n+1/2})`, `v_{n+1} = v_{n+1/2} + h/2 a_{n+1}`;
+    /// two half kicks make eq. (44) with `f(x_n, v_{n-1/2})`, one force
+    /// evaluation per step (`a_{n+1}` is reused by the next step).
+    fn verlet(&mut self, t: f64, h: f64) {
+        let n = self.m / 2;
+        if !self.acc_valid {
+            let (x, v) = self.s.split_at(n);
+            self.sys
+                .acceleration(t, x, v, &mut self.tmp[..n], &mut self.stats);
+            self.acc_valid = true;
+        }
+        {
+            let v = &mut self.s[n..];
+            for i in 0..n {
+                v[i] += 0.5 * h * self.tmp[i];
+            }
+        }
+        self.sys.impose(&mut self.s);
+        {
+            let (x, v) = self.s.split_at_mut(n);
+            for i in 0..n {
+                x[i] += h * v[i];
+            }
+            self.sys
+                .acceleration(t + h, x, v, &mut self.tmp[..n], &mut self.stats);
+            for i in 0..n {
+                v[i] += 0.5 * h * self.tmp[i];
+            }
+        }
+        self.sys.impose(&mut self.s);
+    }
+
+    /// The implicit midpoint rule (32) on `y`: `K = y + h/2 f(t + h/2, K)`,
+    /// `y <- 2 K - y`.
+    fn midpoint_on(&mut self, t: f64, h: f64, y: &mut [f64]) -> Result<StageInfo, StageFailure> {
+        self.psi.copy_from_slice(y);
+        self.kbuf.copy_from_slice(y);
+        let info = self.sys.solve_stage(
+            t + 0.5 * h,
+            0.5 * h,
+            &self.psi,
+            &mut self.kbuf,
+            &self.opts.newton,
+            &mut self.stats,
+        )?;
+        for (yi, ki) in y.iter_mut().zip(&self.kbuf) {
+            *yi = 2.0 * ki - *yi;
+        }
+        Ok(info)
+    }
+
+    /// One step of size `h` by the implicit midpoint rule extrapolated
+    /// (Aitken-Neville in `h^2`) from 2, 4 and 6 substeps: local error
+    /// `O(h^7)`, accurate enough to start BDF(k) for every k <= 6.
+    fn extrapolated_midpoint(&mut self, t: f64, h: f64) -> Result<(), StageFailure> {
+        let mut ex = std::mem::take(&mut self.ex);
+        let mut res = Ok(());
+        'outer: for (e, &n) in ex.iter_mut().zip(&EXTRAPOLATION_SUBSTEPS) {
+            e.copy_from_slice(&self.s);
+            let hs = h / n;
+            for j in 0..n as usize {
+                if let Err(f) = self.midpoint_on(t + j as f64 * hs, hs, e) {
+                    res = Err(f);
+                    break 'outer;
+                }
+            }
+        }
+        if res.is_ok() {
+            let [n0, n1, n2] = EXTRAPOLATION_SUBSTEPS;
+            let r10 = (n1 / n0).powi(2) - 1.0;
+            let r21 = (n2 / n1).powi(2) - 1.0;
+            let r20 = (n2 / n0).powi(2) - 1.0;
+            for i in 0..self.m {
+                let (t0, t1, t2) = (ex[0][i], ex[1][i], ex[2][i]);
+                let t11 = t1 + (t1 - t0) / r10;
+                let t21 = t2 + (t2 - t1) / r21;
+                self.s[i] = t21 + (t21 - t11) / r20;
+            }
+        }
+        self.ex = ex;
+        res
+    }
+
+    fn push_history(&mut self, h: f64) {
+        if !(self.hist_h == h) {
+            // A new step size: only the current point is on the new grid.
+            self.hist_len = 1;
+            self.hist_h = h;
+        }
+        self.hist.rotate_right(1);
+        self.hist[0].copy_from_slice(&self.s);
+        self.hist_len = (self.hist_len + 1).min(self.hist.len());
+    }
+
+    /// Fixed-step BDF(k) (eq. 36), started by the extrapolated midpoint rule
+    /// until `k` equidistant points are known.
+    fn bdf_step(&mut self, t: f64, h: f64, k: usize) -> Result<StageInfo, StageFailure> {
+        let same_h = (self.hist_h - h).abs() <= 1e-12 * h;
+        if !same_h {
+            self.hist[0].copy_from_slice(&self.s);
+            self.hist_len = 1;
+            self.hist_h = h;
+        }
+        if self.hist_len < k {
+            self.extrapolated_midpoint(t, h)?;
+            self.push_history(h);
+            return Ok(StageInfo::default());
+        }
+        let bdf = self.bdf.as_ref().expect("BDF(k>=2) has coefficients");
+        self.psi.fill(0.0);
+        for i in 1..=k {
+            let a = bdf.alpha[i];
+            for (p, y) in self.psi.iter_mut().zip(&self.hist[i - 1]) {
+                *p -= a * y;
+            }
+        }
+        // Predictor: linear extrapolation of the last two points.
+        for i in 0..self.m {
+            self.kbuf[i] = 2.0 * self.hist[0][i] - self.hist[1][i];
+        }
+        let gh = bdf.beta * h;
+        let info = self.sys.solve_stage(
+            t + h,
+            gh,
+            &self.psi,
+            &mut self.kbuf,
+            &self.opts.newton,
+            &mut self.stats,
+        )?;
+        self.s.copy_from_slice(&self.kbuf);
+        self.push_history(h);
+        Ok(info)
+    }
+
+    /// Variable-step BDF2 with a local error estimate; the first step (and
+    /// the first after a reset) is implicit Euler.
+    fn variable_step(&mut self, limit: Option<f64>) -> Result<(f64, Option<f64>), OdeError> {
+        let t = self.t;
+        if !self.f_valid {
+            self.sys
+                .derivative(t, &self.s, &mut self.f_n, &mut self.stats);
+            check_finite(&self.f_n, "right-hand side", t)?;
+            self.f_valid = true;
+        }
+        let mut h = self.h.min(self.opts.h_max);
+        if let Some(l) = limit {
+            h = h.min(l);
+        }
+        self.y0.copy_from_slice(&self.s);
+        let mut retries = 0;
+        loop {
+            self.check_h(h)?;
+            let first = self.hist_len < 2;
+            let (gh, omega) = if first {
+                self.psi.copy_from_slice(&self.y0);
+                self.kbuf.copy_from_slice(&self.y0);
+                (h, 1.0)
+            } else {
+                let omega = h / self.h_prev;
+                let (a1, a2, beta) = variable_bdf2(omega);
+                for i in 0..self.m {
+                    let (yn, ynm1) = (self.hist[0][i], self.hist[1][i]);
+                    self.psi[i] = -a1 * yn - a2 * ynm1;
+                    self.kbuf[i] = yn + omega * (yn - ynm1);
+                }
+                (beta * h, omega)
+            };
+            let info = match self.sys.solve_stage(
+                t + h,
+                gh,
+                &self.psi,
+                &mut self.kbuf,
+                &self.opts.newton,
+                &mut self.stats,
+            ) {
+                Ok(info) => info,
+                Err(fail) => {
+                    self.stats.rejected_steps += 1;
+                    retries += 1;
+                    if retries > self.opts.max_retries {
+                        return Err(self.failure_error(fail, h, retries - 1));
+                    }
+                    let decision = match self
+                        .controller
+                        .as_mut()
+                        .expect("variable step has a controller")
+                    {
+                        Controller::Pi(c) => c.newton_failed(h),
+                        Controller::Iterations(c) => c.decide(h, NewtonOutcome::Failed),
+                    };
+                    h = self.controller_step(decision, h)?;
+                    self.s.copy_from_slice(&self.y0);
+                    self.sys.begin_step(t, &mut self.s);
+                    continue;
+                }
+            };
+            self.sys
+                .derivative(t + h, &self.kbuf, &mut self.f_new, &mut self.stats);
+            // Local error estimate: implicit Euler h^2/2 y'', BDF2 C(omega) h^3 y'''
+            // with y'' and y''' from divided differences of f.
+            let c = if first {
+                0.5 * h
+            } else {
+                variable_bdf2_error_constant(omega) * h.powi(3) * 2.0 / (h + self.h_prev)
+            };
+            let mut sum = 0.0;
+            for i in 0..self.m {
+                let e = if first {
+                    c * (self.f_new[i] - self.f_n[i])
+                } else {
+                    c * ((self.f_new[i] - self.f_n[i]) / h
+                        - (self.f_n[i] - self.f_nm1[i]) / self.h_prev)
+                };
+                let sc = self.opts.atol + self.opts.rtol * self.y0[i].abs().max(self.kbuf[i].abs());
+                sum += (e / sc).powi(2);
+            }
+            let err = (sum / self.m.max(1) as f64).sqrt();
+            if !err.is_finite() {
+                return Err(OdeError::NonFinite {
+                    what: "local error estimate",
+                    t,
+                });
+            }
+            let decision = match self
+                .controller
+                .as_mut()
+                .expect("variable step has a controller")
+            {
+                Controller::Pi(c) => c.decide(h, err, info.iterations),
+                Controller::Iterations(c) => c.decide(
+                    h,
+                    NewtonOutcome::Converged {
+                        iterations: info.iterations,
+                    },
+                ),
+            };
+            let h_next = match decision {
+                Ok(StepDecision::Accept { h_next }) => h_next,
+                other => {
+                    self.stats.rejected_steps += 1;
+                    h = self.controller_step(other, h)?;
+                    self.s.copy_from_slice(&self.y0);
+                    self.sys.begin_step(t, &mut self.s);
+                    continue;
+                }
+            };
+            // Accept.
+            self.s.copy_from_slice(&self.kbuf);
+            check_finite(&self.s, "state after the step", t)?;
+            self.hist.rotate_right(1);
+            self.hist[0].copy_from_slice(&self.s);
+            self.hist_len = (self.hist_len + 1).min(2);
+            std::mem::swap(&mut self.f_nm1, &mut self.f_n);
+            std::mem::swap(&mut self.f_n, &mut self.f_new);
+            self.h_prev = h;
+            self.t = t + h;
+            self.h = h_next.min(self.opts.h_max);
+            self.stats.steps += 1;
+            return Ok((h, Some(err)));
+        }
+    }
+
+    /// The step size a controller's decision asks for; its errors as ours.
+    fn controller_step(
+        &self,
+        decision: Result<StepDecision, NonlinearError>,
+        h: f64,
+    ) -> Result<f64, OdeError> {
+        match decision {
+            Ok(d) => Ok(d.step_size()),
+            Err(NonlinearError::StepSizeTooSmall { h: h_new, .. }) => {
+                Err(OdeError::StepSizeUnderflow {
+                    t: self.t,
+                    h: h_new.min(h),
+                })
+            }
+            Err(source) => Err(OdeError::NewtonSolver { t: self.t, source }),
+        }
+    }
+
+    /// The driver: steps until `t_end` (the last step shortened to land on
+    /// it), calling `callback` after every step.
+    pub fn integrate<F>(&mut self, t_end: f64, mut callback: F) -> Result<IntegrateInfo, OdeError>
+    where
+        F: FnMut(&StepReport, &[f64]) -> ControlFlow<()>,
+    {
+        if !t_end.is_finite() || t_end < self.t {
+            return Err(OdeError::InvalidParameter {
+                name: "t_end",
+                value: t_end,
+                reason: "must be finite and not before the current time",
+            });
+        }
+        loop {
+            let remaining = t_end - self.t;
+            let h_nom = self.h_next();
+            let slack = (1e-9 * h_nom).max(8.0 * f64::EPSILON * t_end.abs());
+            if remaining <= slack {
+                self.t = self.t.max(t_end);
+                break;
+            }
+            let limit = if remaining < h_nom * (1.0 + 1e-9) {
+                Some(remaining)
+            } else {
+                None
+            };
+            let mut report = self.step(limit)?;
+            if limit.is_some() && (self.t - t_end).abs() <= slack {
+                self.t = t_end;
+                self.t_base = t_end;
+                self.n_fixed = 0;
+                report.t = t_end;
+            }
+            if callback(&report, &self.s).is_break() {
+                return Ok(IntegrateInfo {
+                    t: self.t,
+                    stopped_by_callback: true,
+                    stats: self.stats,
+                });
+            }
+        }
+        Ok(IntegrateInfo {
+            t: self.t,
+            stopped_by_callback: false,
+            stats: self.stats,
+        })
+    }
+}

@@ -1,0 +1,122 @@
+//! The crate's error type.
+
+use hookean_nonlinear::NonlinearError;
+use hookean_sparse::SparseError;
+
+/// Everything that can go wrong in `hookean-ode`. Errors raised during a
+/// run carry the time `t` reached when they happened.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum OdeError {
+    /// A vector or matrix has the wrong size.
+    #[error("dimension mismatch in {what}: expected {expected}, found {found}")]
+    DimensionMismatch {
+        /// What was checked.
+        what: &'static str,
+        /// The expected size.
+        expected: usize,
+        /// The size found.
+        found: usize,
+    },
+    /// A parameter is out of its admissible range.
+    #[error("invalid parameter {name} = {value}: {reason}")]
+    InvalidParameter {
+        /// Name of the parameter.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+        /// Why it is rejected.
+        reason: &'static str,
+    },
+    /// NaN or infinity in the state, the right-hand side or the input.
+    #[error("non-finite value in {what} at t = {t}")]
+    NonFinite {
+        /// Where the value was found.
+        what: &'static str,
+        /// The time reached.
+        t: f64,
+    },
+    /// The step size became smaller than `h_min` or too small to advance `t`.
+    #[error("step size underflow at t = {t}: h = {h:e}")]
+    StepSizeUnderflow {
+        /// The time reached.
+        t: f64,
+        /// The step size that underflowed.
+        h: f64,
+    },
+    /// Newton's method failed on the step from `t` even after `retries`
+    /// retries with smaller steps.
+    #[error(
+        "Newton iteration failed on the step from t = {t} (h = {h:e}) after {retries} retries: \
+         {iterations} iterations, last update norm {update_norm:e}"
+    )]
+    NewtonFailed {
+        /// The time reached.
+        t: f64,
+        /// The last step size tried.
+        h: f64,
+        /// Number of retries made.
+        retries: usize,
+        /// Newton iterations of the last attempt.
+        iterations: usize,
+        /// Norm of the last Newton update (NaN if non-finite).
+        update_norm: f64,
+    },
+    /// The linear solver inside Newton failed on the step from `t` even
+    /// after the allowed retries.
+    #[error("linear solver failed on the step from t = {t} after {retries} retries: {source}")]
+    LinearSolver {
+        /// The time reached.
+        t: f64,
+        /// Number of retries made.
+        retries: usize,
+        /// The solver's error.
+        #[source]
+        source: SparseError,
+    },
+    /// The dense Jacobian of a first-order Newton step is singular.
+    #[error("singular Newton matrix at t = {t} (pivot {pivot} is zero)")]
+    SingularMatrix {
+        /// The time reached.
+        t: f64,
+        /// The zero pivot.
+        pivot: usize,
+    },
+    /// The method does not apply to this kind of problem (for example
+    /// Stoermer-Verlet on a first-order problem).
+    #[error("method {method} does not apply to {problem} problems")]
+    UnsupportedMethod {
+        /// The method's name.
+        method: String,
+        /// The problem kind.
+        problem: &'static str,
+    },
+    /// A Butcher tableau is malformed (sizes, implicit where explicit is needed).
+    #[error("invalid Butcher tableau: {reason}")]
+    InvalidTableau {
+        /// What is wrong.
+        reason: &'static str,
+    },
+    /// A method name that [`Method`](crate::Method)'s `FromStr` does not know.
+    #[error("unknown method {name:?}")]
+    UnknownMethod {
+        /// The name given.
+        name: String,
+    },
+    /// An error of `hookean-sparse` outside a Newton solve (set-up, constraints).
+    #[error(transparent)]
+    Sparse(#[from] SparseError),
+    /// An error of `hookean-nonlinear` while setting up Newton (bad options).
+    #[error(transparent)]
+    Nonlinear(#[from] NonlinearError),
+    /// An error of `hookean-nonlinear` during the step from `t` that a
+    /// smaller step would not cure (for example an error of the problem).
+    #[error("Newton solver error on the step from t = {t}: {source}")]
+    NewtonSolver {
+        /// The time reached.
+        t: f64,
+        /// The solver's error.
+        #[source]
+        source: NonlinearError,
+    },
+}

@@ -1,0 +1,165 @@
+//! Choosing a method by name: the [`Method`] enum.
+
+use std::fmt;
+use std::str::FromStr;
+
+use crate::error::OdeError;
+use crate::tableau::ButcherTableau;
+
+/// The integration methods of the tutorial's section 2 and the filtering
+/// paper's section 3.2, by name (`FromStr`/`Display` use the names below).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Method {
+    /// `"explicit-euler"`: eq. (10), order 1.
+    ExplicitEuler,
+    /// `"midpoint"`: the explicit midpoint rule, eqs. (16)-(17), order 2.
+    Midpoint,
+    /// `"rk4"`: the classical Runge-Kutta method (table 2(b)), order 4.
+    Rk4,
+    /// Any explicit Runge-Kutta method given by its tableau (eq. 19). Its
+    /// `Display` is the tableau's name; it has no `FromStr` name.
+    ExplicitRk(ButcherTableau),
+    /// `"fb-euler"`: forward-backward (symplectic) Euler for second-order
+    /// problems, `v_{n+1} = v_n + h M^{-1} f(x_n, v_n)`,
+    /// `x_{n+1} = x_n + h v_{n+1}` (filtering paper, section 3.2), order 1.
+    FbEuler,
+    /// `"verlet"`: Stoermer-Verlet / leapfrog for second-order problems,
+    /// eqs. (44)-(45) with `f(x_n, v_{n-1})` when `f` depends on `v`, order 2
+    /// (1 when the force depends on the velocity).
+    Verlet,
+    /// `"implicit-euler"`: eq. (24), order 1.
+    ImplicitEuler,
+    /// `"implicit-midpoint"`: eq. (32), order 2.
+    ImplicitMidpoint,
+    /// `"bdf1"` .. `"bdf6"`: fixed-step BDF(k) (eq. 36), order k.
+    Bdf(usize),
+    /// `"bdf2-variable"`: BDF2 with variable step size, a local error
+    /// estimate and step-size control.
+    Bdf2Variable,
+}
+
+impl Method {
+    /// All methods that have a name, in a fixed order.
+    pub fn all_named() -> Vec<Method> {
+        let mut v = vec![
+            Method::ExplicitEuler,
+            Method::Midpoint,
+            Method::Rk4,
+            Method::FbEuler,
+            Method::Verlet,
+            Method::ImplicitEuler,
+            Method::ImplicitMidpoint,
+        ];
+        v.extend((1..=6).map(Method::Bdf));
+        v.push(Method::Bdf2Variable);
+        v
+    }
+
+    /// The classical order of convergence (for Verlet: on forces that do
+    /// not depend on the velocity; for a custom tableau: its order from
+    /// the order conditions up to 4).
+    pub fn order(&self) -> usize {
+        match self {
+            Method::ExplicitEuler | Method::FbEuler | Method::ImplicitEuler => 1,
+            Method::Midpoint | Method::Verlet | Method::ImplicitMidpoint | Method::Bdf2Variable => {
+                2
+            }
+            Method::Rk4 => 4,
+            Method::ExplicitRk(t) => t.order(1e-12),
+            Method::Bdf(k) => *k,
+        }
+    }
+
+    /// True for the methods that solve a nonlinear system every step.
+    pub fn is_implicit(&self) -> bool {
+        matches!(
+            self,
+            Method::ImplicitEuler
+                | Method::ImplicitMidpoint
+                | Method::Bdf(_)
+                | Method::Bdf2Variable
+        )
+    }
+
+    /// True for the methods that only apply to second-order problems.
+    pub fn is_second_order_only(&self) -> bool {
+        matches!(self, Method::FbEuler | Method::Verlet)
+    }
+
+    /// True for the variable-step method.
+    pub fn is_variable_step(&self) -> bool {
+        matches!(self, Method::Bdf2Variable)
+    }
+
+    /// The Butcher tableau of a Runge-Kutta method (explicit ones, implicit
+    /// Euler, implicit midpoint and BDF1 = implicit Euler), `None` for the
+    /// multistep and the second-order-only methods.
+    pub fn tableau(&self) -> Option<ButcherTableau> {
+        match self {
+            Method::ExplicitEuler => Some(ButcherTableau::explicit_euler()),
+            Method::Midpoint => Some(ButcherTableau::explicit_midpoint()),
+            Method::Rk4 => Some(ButcherTableau::rk4()),
+            Method::ExplicitRk(t) => Some(t.clone()),
+            Method::ImplicitEuler | Method::Bdf(1) => Some(ButcherTableau::implicit_euler()),
+            Method::ImplicitMidpoint => Some(ButcherTableau::implicit_midpoint()),
+            _ => None,
+        }
+    }
+
+    pub(crate) fn check(&self) -> Result<(), OdeError> {
+        match self {
+            Method::Bdf(k) if !(1..=6).contains(k) => Err(OdeError::InvalidParameter {
+                name: "k",
+                value: *k as f64,
+                reason: "BDF(k) exists for k = 1..6 only",
+            }),
+            Method::ExplicitRk(t) if !t.is_explicit() => Err(OdeError::InvalidTableau {
+                reason: "the integrator runs explicit tableaus only (A strictly lower triangular)",
+            }),
+            _ => Ok(()),
+        }
+    }
+}
+
+impl fmt::Display for Method {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Method::ExplicitEuler => f.write_str("explicit-euler"),
+            Method::Midpoint => f.write_str("midpoint"),
+            Method::Rk4 => f.write_str("rk4"),
+            Method::ExplicitRk(t) => f.write_str(t.name()),
+            Method::FbEuler => f.write_str("fb-euler"),
+            Method::Verlet => f.write_str("verlet"),
+            Method::ImplicitEuler => f.write_str("implicit-euler"),
+            Method::ImplicitMidpoint => f.write_str("implicit-midpoint"),
+            Method::Bdf(k) => write!(f, "bdf{k}"),
+            Method::Bdf2Variable => f.write_str("bdf2-variable"),
+        }
+    }
+}
+
+impl FromStr for Method {
+    type Err = OdeError;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let m = match s {
+            "explicit-euler" | "euler" => Method::ExplicitEuler,
+            "midpoint" | "explicit-midpoint" => Method::Midpoint,
+            "rk4" => Method::Rk4,
+            "fb-euler" => Method::FbEuler,
+            "verlet" | "leapfrog" => Method::Verlet,
+            "implicit-euler" => Method::ImplicitEuler,
+            "implicit-midpoint" => Method::ImplicitMidpoint,
+            "bdf2-variable" => Method::Bdf2Variable,
+            _ => match s.strip_prefix("bdf").and_then(|k| k.parse::<usize>().ok()) {
+                Some(k) if (1..=6).contains(&k) => Method::Bdf(k),
+                _ => {
+                    return Err(OdeError::UnknownMethod {
+                        name: s.to_string(),
+                    });
+                }
+            },
+        };
+        Ok(m)
+    }
+}

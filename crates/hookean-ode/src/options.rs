@@ -1,0 +1,237 @@
+//! Options, statistics and step reports of the integrators.
+
+use hookean_nonlinear::{IterationControllerOptions, NewtonMethod, PiControllerOptions};
+use hookean_sparse::PrecondKind;
+
+use crate::error::OdeError;
+
+/// Options of the Newton iteration that solves each implicit step (the
+/// tutorial's section 3), run by `hookean-nonlinear`'s [`Newton`](hookean_nonlinear::Newton).
+#[derive(Debug, Clone, PartialEq)]
+pub struct NewtonOptions {
+    /// The Newton variant: exact (Algorithm 1), inexact with a forcing term
+    /// (Algorithm 2), simplified, or inexact simplified with the problem's
+    /// linearised Jacobians (Algorithm 3,
+    /// [`SecondOrderProblem::linearized_jacobians`](crate::SecondOrderProblem::linearized_jacobians)).
+    /// Default [`NewtonMethod::Exact`].
+    pub method: NewtonMethod,
+    /// Maximum Newton iterations per step attempt. Default 10.
+    pub max_iter: usize,
+    /// Converged when `|G(Y_k)| <= atol + rtol |G(Y_0)|` (Euclidean norms of
+    /// the stage residual; `Y_0` is the predictor). Default `1e-10`.
+    pub rtol: f64,
+    /// Absolute residual tolerance. Default `1e-12`.
+    pub atol: f64,
+    /// Relative tolerance of PCG for the exact variants (second-order
+    /// problems). Default `1e-10`.
+    pub linear_rtol: f64,
+    /// Iteration limit of PCG; `None` means `2 n`. Default `None`.
+    pub linear_max_iter: Option<usize>,
+    /// Preconditioner of PCG (second-order problems). Default block-Jacobi.
+    pub preconditioner: PrecondKind,
+}
+
+impl Default for NewtonOptions {
+    fn default() -> Self {
+        Self {
+            method: NewtonMethod::Exact,
+            max_iter: 10,
+            rtol: 1e-10,
+            atol: 1e-12,
+            linear_rtol: 1e-10,
+            linear_max_iter: None,
+            preconditioner: PrecondKind::BlockJacobi,
+        }
+    }
+}
+
+/// How the variable-step method chooses its step sizes: one of
+/// `hookean-nonlinear`'s controllers. Their `h_min`/`h_max` are replaced by
+/// [`SolverOptions::h_min`] (at least `1e-300`) and [`SolverOptions::h_max`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum StepControl {
+    /// The error-based (PI) controller: accept when the weighted RMS norm
+    /// of the local error estimate is `<= 1`, next step from the error
+    /// ([`PiController`](hookean_nonlinear::PiController)).
+    ErrorBased(PiControllerOptions),
+    /// The Newton-iteration controller of the tutorial's section 3.4: the
+    /// number of Newton iterations decides whether `h` grows or shrinks;
+    /// every converged step is accepted, no error estimate is used
+    /// ([`IterationController`](hookean_nonlinear::IterationController)).
+    NewtonIterations(IterationControllerOptions),
+}
+
+impl StepControl {
+    /// The PI controller for BDF2 (`order = 2`) with its default gains and
+    /// the step ratio capped at 2 (`max_factor`), below BDF2's
+    /// zero-stability bound `1 + sqrt 2`.
+    pub fn error_based() -> Self {
+        StepControl::ErrorBased(PiControllerOptions {
+            order: 2,
+            max_factor: 2.0,
+            ..PiControllerOptions::default()
+        })
+    }
+
+    /// The Newton-iteration controller with its default thresholds.
+    pub fn newton_iterations() -> Self {
+        StepControl::NewtonIterations(IterationControllerOptions::default())
+    }
+}
+
+impl Default for StepControl {
+    fn default() -> Self {
+        Self::error_based()
+    }
+}
+
+/// Options of an integrator run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SolverOptions {
+    /// The step size of the fixed-step methods and the initial step size
+    /// of the variable-step method. Default `1e-2` (DESIGN.md's drape scene).
+    pub h: f64,
+    /// Relative tolerance of the variable-step method. Default `1e-6`.
+    pub rtol: f64,
+    /// Absolute tolerance of the variable-step method. Default `1e-8`.
+    pub atol: f64,
+    /// Smallest admissible step size (variable step and retries). Default `1e-14`.
+    pub h_min: f64,
+    /// Largest step size of the variable-step method. Default infinite.
+    pub h_max: f64,
+    /// Step-size control of the variable-step method. Default error-based.
+    pub control: StepControl,
+    /// How often a step whose Newton iteration failed is retried with a
+    /// smaller step (`h/4` for the variable-step method, `2^r` substeps
+    /// for the fixed-step methods) before the run fails. Default 6.
+    pub max_retries: usize,
+    /// The Newton iteration of the implicit methods.
+    pub newton: NewtonOptions,
+}
+
+impl Default for SolverOptions {
+    fn default() -> Self {
+        Self {
+            h: 1e-2,
+            rtol: 1e-6,
+            atol: 1e-8,
+            h_min: 1e-14,
+            h_max: f64::INFINITY,
+            control: StepControl::default(),
+            max_retries: 6,
+            newton: NewtonOptions::default(),
+        }
+    }
+}
+
+impl SolverOptions {
+    /// Default options with step size `h`.
+    pub fn with_h(h: f64) -> Self {
+        Self {
+            h,
+            ..Self::default()
+        }
+    }
+
+    pub(crate) fn check(&self) -> Result<(), OdeError> {
+        let positive = [
+            ("h", self.h),
+            ("rtol", self.rtol),
+            ("h_max", self.h_max),
+            ("newton.rtol", self.newton.rtol),
+        ];
+        for (name, value) in positive {
+            if value.is_nan() || value <= 0.0 {
+                return Err(OdeError::InvalidParameter {
+                    name,
+                    value,
+                    reason: "must be positive",
+                });
+            }
+        }
+        for (name, value) in [
+            ("atol", self.atol),
+            ("h_min", self.h_min),
+            ("newton.atol", self.newton.atol),
+        ] {
+            if !(value >= 0.0 && value.is_finite()) {
+                return Err(OdeError::InvalidParameter {
+                    name,
+                    value,
+                    reason: "must be finite and non-negative",
+                });
+            }
+        }
+        if !self.h.is_finite() {
+            return Err(OdeError::InvalidParameter {
+                name: "h",
+                value: self.h,
+                reason: "must be finite",
+            });
+        }
+        if !(self.newton.linear_rtol > 0.0 && self.newton.linear_rtol < 1.0) {
+            return Err(OdeError::InvalidParameter {
+                name: "newton.linear_rtol",
+                value: self.newton.linear_rtol,
+                reason: "must lie in (0, 1)",
+            });
+        }
+        if self.newton.max_iter == 0 {
+            return Err(OdeError::InvalidParameter {
+                name: "newton.max_iter",
+                value: 0.0,
+                reason: "must be at least 1",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Counters of a run (cumulative since the integrator was built).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Stats {
+    /// Accepted steps.
+    pub steps: usize,
+    /// Rejected step attempts (error test or Newton failure).
+    pub rejected_steps: usize,
+    /// Evaluations of the right-hand side `f` (or of the force).
+    pub f_evals: usize,
+    /// Evaluations of the Jacobian (analytic, or by finite differences).
+    pub jacobian_evals: usize,
+    /// Newton iterations.
+    pub newton_iterations: usize,
+    /// Linear-solver iterations (PCG; 0 for direct solves).
+    pub linear_iterations: usize,
+    /// Linear-solver set-ups (LU factorisations, preconditioner set-ups).
+    pub linear_setups: usize,
+}
+
+/// What one call of `step()` did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepReport {
+    /// The time reached.
+    pub t: f64,
+    /// The step size taken (the sum of the substeps for a retried fixed step).
+    pub h: f64,
+    /// Rejected attempts before this step was accepted.
+    pub rejected: usize,
+    /// Newton iterations of this step (all attempts).
+    pub newton_iterations: usize,
+    /// Linear iterations of this step (all attempts).
+    pub linear_iterations: usize,
+    /// The weighted RMS norm of the local error estimate (variable step only).
+    pub error_estimate: Option<f64>,
+    /// The step size proposed for the next step.
+    pub h_next: f64,
+}
+
+/// What `integrate()` did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IntegrateInfo {
+    /// The time reached.
+    pub t: f64,
+    /// True when the callback stopped the run before `t_end`.
+    pub stopped_by_callback: bool,
+    /// The integrator's counters after the run.
+    pub stats: Stats,
+}

@@ -1,0 +1,791 @@
+//! The two problem kinds seen by the integrator core as "a state vector
+//! and a stage equation": first-order `y' = f(t, y)` (Newton with a dense
+//! LU) and second-order `M x'' = f(t, x, v)` (the reduced velocity form
+//! with PCG). Both stage equations are solved by `hookean-nonlinear`'s
+//! [`Newton`]. Private except for [`FirstOrderForm`].
+
+use std::cell::RefCell;
+
+use hookean_nonlinear::{
+    DenseLu, LinearSolveStats, LinearSolver, Newton, NewtonStats, NonlinearError, NonlinearSystem,
+    SparseLu,
+};
+use hookean_sparse::{
+    AnyPreconditioner, CgParams, CgWorkspace, Constraints, InitialGuess, PrecondKind,
+    PreconditionerSetup, SparseError, SymBlockMatrix, filtered_pcg, pcg,
+};
+
+use crate::error::OdeError;
+use crate::options::{NewtonOptions, Stats};
+use crate::problem::{FirstOrderProblem, SecondOrderProblem};
+
+/// Why one attempt at solving a stage equation failed.
+#[derive(Debug)]
+pub(crate) enum StageFailure {
+    /// No convergence within the iteration limit, or divergence.
+    NoConvergence { iterations: usize, update_norm: f64 },
+    /// The linear solver failed.
+    Linear(SparseError),
+    /// The dense Newton matrix is singular.
+    Singular { pivot: usize },
+    /// Any other error of the Newton solver (not worth a retry).
+    Other(NonlinearError),
+}
+
+/// Newton statistics of one successful stage solve.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct StageInfo {
+    pub iterations: usize,
+}
+
+/// The integrator core's view of a problem.
+pub(crate) trait System {
+    /// Length of the state vector (`y`, or `[x; v]`).
+    fn state_len(&self) -> usize;
+    /// True for second-order problems (state `[x; v]`).
+    fn is_second_order(&self) -> bool;
+    /// Time derivative of the state: `f(t, y)`, or `[v; M^{-1} f(t, x, v)]`.
+    fn derivative(&mut self, t: f64, s: &[f64], ds: &mut [f64], stats: &mut Stats);
+    /// Lets the model adjust the state and set constraints before a step.
+    fn begin_step(&mut self, t: f64, s: &mut [f64]);
+    /// Imposes the step's velocity constraints on a state (second order).
+    fn impose(&self, s: &mut [f64]);
+    /// Solves the stage equation `K = psi + gh F(tau, K)` for `K` (in: the
+    /// initial guess, out: the solution); the shape shared by implicit
+    /// Euler, the implicit midpoint rule and BDF(k).
+    fn solve_stage(
+        &mut self,
+        tau: f64,
+        gh: f64,
+        psi: &[f64],
+        k: &mut [f64],
+        opts: &NewtonOptions,
+        stats: &mut Stats,
+    ) -> Result<StageInfo, StageFailure>;
+    /// For second-order systems: writes `M^{-1} f(t, x, v)` into `acc` and
+    /// returns `true`; first-order systems return `false`.
+    fn acceleration(
+        &mut self,
+        t: f64,
+        x: &[f64],
+        v: &[f64],
+        acc: &mut [f64],
+        stats: &mut Stats,
+    ) -> bool;
+}
+
+/// The options of `hookean-nonlinear`'s Newton from ours.
+fn newton_options(opts: &NewtonOptions) -> hookean_nonlinear::NewtonOptions {
+    hookean_nonlinear::NewtonOptions {
+        method: opts.method,
+        atol: opts.atol,
+        rtol: opts.rtol,
+        max_iter: opts.max_iter,
+        linear_rtol: opts.linear_rtol,
+        ..hookean_nonlinear::NewtonOptions::default()
+    }
+}
+
+/// Books a Newton run (successful or not) into the counters and maps the result.
+fn account(
+    result: Result<NewtonStats, NonlinearError>,
+    extra_f_evals: usize,
+    stats: &mut Stats,
+) -> Result<StageInfo, StageFailure> {
+    let ns = match &result {
+        Ok(s) => Some(s),
+        Err(e) => e.stats(),
+    };
+    stats.f_evals += extra_f_evals;
+    if let Some(ns) = ns {
+        stats.f_evals += ns.residual_evaluations;
+        stats.jacobian_evals += ns.jacobian_evaluations;
+        stats.newton_iterations += ns.iterations;
+        stats.linear_iterations += ns.linear_iterations;
+        stats.linear_setups += ns.linear_setups;
+    }
+    match result {
+        Ok(ns) => Ok(StageInfo {
+            iterations: ns.iterations,
+        }),
+        Err(NonlinearError::LinearNotConverged {
+            iterations,
+            relative_residual,
+            ..
+        }) => Err(StageFailure::Linear(SparseError::NotConverged {
+            method: "PCG",
+            iterations,
+            relative_residual,
+        })),
+        Err(NonlinearError::Linear(e)) => Err(StageFailure::Linear(e)),
+        Err(NonlinearError::SingularJacobian { pivot, .. }) => {
+            Err(StageFailure::Singular { pivot })
+        }
+        Err(e) if e.is_step_failure() => {
+            let (iterations, update_norm) = e.stats().map_or((0, f64::NAN), |s| {
+                (
+                    s.iterations,
+                    s.step_norms.last().copied().unwrap_or(f64::NAN),
+                )
+            });
+            Err(StageFailure::NoConvergence {
+                iterations,
+                update_norm,
+            })
+        }
+        Err(e) => Err(StageFailure::Other(e)),
+    }
+}
+
+/// The stage equation of a first-order problem as a nonlinear system:
+/// `G(K) = K - psi - gh f(tau, K)`, Jacobian `I - gh df/dy`.
+struct FirstStage<'a, P> {
+    problem: &'a P,
+    tau: f64,
+    gh: f64,
+    psi: &'a [f64],
+    jac: &'a mut [f64],
+    f: &'a mut [f64],
+    tmp: &'a mut [f64],
+    col: &'a mut [f64],
+    fd_evals: usize,
+}
+
+impl<P: FirstOrderProblem> NonlinearSystem for FirstStage<'_, P> {
+    type Jacobian = faer::Mat<f64>;
+
+    fn dim(&self) -> usize {
+        self.psi.len()
+    }
+
+    fn residual(&mut self, y: &[f64], g: &mut [f64]) -> Result<(), NonlinearError> {
+        self.problem.rhs(self.tau, y, self.f);
+        for i in 0..g.len() {
+            g[i] = y[i] - self.psi[i] - self.gh * self.f[i];
+        }
+        Ok(())
+    }
+
+    fn jacobian(&mut self, y: &[f64], jac: &mut faer::Mat<f64>) -> Result<(), NonlinearError> {
+        let n = y.len();
+        if !self.problem.jacobian(self.tau, y, self.jac) {
+            // Forward differences around y.
+            self.problem.rhs(self.tau, y, self.f);
+            self.tmp.copy_from_slice(y);
+            for j in 0..n {
+                let eps = f64::EPSILON.sqrt() * y[j].abs().max(1.0);
+                self.tmp[j] = y[j] + eps;
+                self.problem.rhs(self.tau, self.tmp, self.col);
+                for i in 0..n {
+                    self.jac[i * n + j] = (self.col[i] - self.f[i]) / eps;
+                }
+                self.tmp[j] = y[j];
+            }
+            self.fd_evals += n + 1;
+        }
+        for i in 0..n {
+            for j in 0..n {
+                let id = if i == j { 1.0 } else { 0.0 };
+                jac[(i, j)] = id - self.gh * self.jac[i * n + j];
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The stage equation of a first-order problem with a sparse Jacobian:
+/// the Newton matrix `I - gh df/dy` on the problem's pattern.
+struct SparseFirstStage<'a, P> {
+    problem: &'a P,
+    tau: f64,
+    gh: f64,
+    psi: &'a [f64],
+    f: &'a mut [f64],
+    jsp: &'a mut sprs::CsMat<f64>,
+    diag: &'a [usize],
+}
+
+impl<P: FirstOrderProblem> NonlinearSystem for SparseFirstStage<'_, P> {
+    type Jacobian = sprs::CsMat<f64>;
+
+    fn dim(&self) -> usize {
+        self.psi.len()
+    }
+
+    fn residual(&mut self, y: &[f64], g: &mut [f64]) -> Result<(), NonlinearError> {
+        self.problem.rhs(self.tau, y, self.f);
+        for i in 0..g.len() {
+            g[i] = y[i] - self.psi[i] - self.gh * self.f[i];
+        }
+        Ok(())
+    }
+
+    fn jacobian(&mut self, y: &[f64], a: &mut sprs::CsMat<f64>) -> Result<(), NonlinearError> {
+        if !self.problem.jacobian_sparse(self.tau, y, self.jsp) {
+            return Err(NonlinearError::System {
+                message: "the problem gave a sparse Jacobian pattern but no jacobian_sparse values"
+                    .into(),
+            });
+        }
+        if self.jsp.nnz() != a.nnz() {
+            return Err(NonlinearError::System {
+                message: "jacobian_sparse changed the sparsity pattern".into(),
+            });
+        }
+        let gh = self.gh;
+        for (dst, src) in a.data_mut().iter_mut().zip(self.jsp.data()) {
+            *dst = -gh * src;
+        }
+        for &k in self.diag {
+            a.data_mut()[k] += 1.0;
+        }
+        Ok(())
+    }
+}
+
+/// Newton for first-order stages: dense LU, or sparse LU on the problem's pattern.
+enum FirstNewton {
+    Dense(Option<Newton<faer::Mat<f64>, DenseLu>>),
+    Sparse {
+        newton: Newton<sprs::CsMat<f64>, SparseLu>,
+        jsp: sprs::CsMat<f64>,
+        diag: Vec<usize>,
+    },
+}
+
+/// First-order problems: `hookean-nonlinear`'s Newton with a dense LU, or a
+/// sparse LU when the problem has a sparse Jacobian pattern.
+pub(crate) struct FirstSys<P> {
+    pub problem: P,
+    n: usize,
+    newton: FirstNewton,
+    last_gh: f64,
+    jac: Vec<f64>,
+    f: Vec<f64>,
+    tmp: Vec<f64>,
+    col: Vec<f64>,
+}
+
+impl<P: FirstOrderProblem> FirstSys<P> {
+    pub fn new(problem: P, opts: &NewtonOptions) -> Result<Self, OdeError> {
+        let n = problem.dim();
+        let newton = match problem.sparse_jacobian_pattern() {
+            None => FirstNewton::Dense(None),
+            Some(pattern) => {
+                if pattern.shape() != (n, n) {
+                    return Err(OdeError::DimensionMismatch {
+                        what: "sparse Jacobian pattern (rows)",
+                        expected: n,
+                        found: pattern.rows(),
+                    });
+                }
+                let mut diag = vec![usize::MAX; n];
+                let mut k = 0;
+                for (outer, vec) in pattern.outer_iterator().enumerate() {
+                    for (inner, _) in vec.iter() {
+                        if inner == outer {
+                            diag[outer] = k;
+                        }
+                        k += 1;
+                    }
+                }
+                if let Some(i) = diag.iter().position(|&d| d == usize::MAX) {
+                    return Err(OdeError::InvalidParameter {
+                        name: "sparse Jacobian pattern",
+                        value: i as f64,
+                        reason: "must contain the diagonal (missing at the row given as value)",
+                    });
+                }
+                FirstNewton::Sparse {
+                    newton: Newton::new(newton_options(opts), pattern.clone(), SparseLu::new())?,
+                    jsp: pattern,
+                    diag,
+                }
+            }
+        };
+        Ok(Self {
+            problem,
+            n,
+            newton,
+            last_gh: f64::NAN,
+            jac: vec![0.0; n * n],
+            f: vec![0.0; n],
+            tmp: vec![0.0; n],
+            col: vec![0.0; n],
+        })
+    }
+}
+
+impl<P: FirstOrderProblem> System for FirstSys<P> {
+    fn state_len(&self) -> usize {
+        self.n
+    }
+
+    fn is_second_order(&self) -> bool {
+        false
+    }
+
+    fn derivative(&mut self, t: f64, s: &[f64], ds: &mut [f64], stats: &mut Stats) {
+        stats.f_evals += 1;
+        self.problem.rhs(t, s, ds);
+    }
+
+    fn begin_step(&mut self, _t: f64, _s: &mut [f64]) {}
+
+    fn impose(&self, _s: &mut [f64]) {}
+
+    fn acceleration(
+        &mut self,
+        _t: f64,
+        _x: &[f64],
+        _v: &[f64],
+        _acc: &mut [f64],
+        _stats: &mut Stats,
+    ) -> bool {
+        false
+    }
+
+    fn solve_stage(
+        &mut self,
+        tau: f64,
+        gh: f64,
+        psi: &[f64],
+        k: &mut [f64],
+        opts: &NewtonOptions,
+        stats: &mut Stats,
+    ) -> Result<StageInfo, StageFailure> {
+        let nopts = newton_options(opts);
+        let gh_changed = gh != self.last_gh;
+        self.last_gh = gh;
+        match &mut self.newton {
+            FirstNewton::Dense(slot) => {
+                let newton = match slot {
+                    Some(nw) => {
+                        if nw.options() != &nopts {
+                            nw.set_options(nopts).map_err(StageFailure::Other)?;
+                        }
+                        nw
+                    }
+                    None => slot.insert(
+                        Newton::new(nopts, faer::Mat::zeros(self.n, self.n), DenseLu::new())
+                            .map_err(StageFailure::Other)?,
+                    ),
+                };
+                // The Newton matrix depends on gh: a kept Jacobian (simplified
+                // variants) is only valid for the same gh.
+                if gh_changed {
+                    newton.invalidate_jacobian();
+                }
+                let mut stage = FirstStage {
+                    problem: &self.problem,
+                    tau,
+                    gh,
+                    psi,
+                    jac: &mut self.jac,
+                    f: &mut self.f,
+                    tmp: &mut self.tmp,
+                    col: &mut self.col,
+                    fd_evals: 0,
+                };
+                let result = newton.solve(&mut stage, k);
+                let fd = stage.fd_evals;
+                account(result, fd, stats)
+            }
+            FirstNewton::Sparse { newton, jsp, diag } => {
+                if newton.options() != &nopts {
+                    newton.set_options(nopts).map_err(StageFailure::Other)?;
+                }
+                if gh_changed {
+                    newton.invalidate_jacobian();
+                }
+                let mut stage = SparseFirstStage {
+                    problem: &self.problem,
+                    tau,
+                    gh,
+                    psi,
+                    f: &mut self.f,
+                    jsp,
+                    diag,
+                };
+                account(newton.solve(&mut stage, k), 0, stats)
+            }
+        }
+    }
+}
+
+/// PCG for the Newton corrections of the reduced form, filtered by the
+/// step's velocity constraints: the corrections must keep the prescribed
+/// components, so the constrained part `z` (the prescribed values) is
+/// moved to the right-hand side, `A s' = rhs + A z` is solved by filtered PCG
+/// with `s'` taking the prescribed values, and `s = s' - z` has zero
+/// constrained components.
+pub(crate) struct StageLinearSolver {
+    precond: AnyPreconditioner,
+    ws: CgWorkspace,
+    constraints: Constraints,
+    max_iter: Option<usize>,
+    z: Vec<f64>,
+    rhs: Vec<f64>,
+}
+
+impl LinearSolver<SymBlockMatrix> for StageLinearSolver {
+    fn setup(&mut self, jac: &SymBlockMatrix) -> Result<(), NonlinearError> {
+        self.precond.setup(jac)?;
+        Ok(())
+    }
+
+    fn solve(
+        &mut self,
+        jac: &SymBlockMatrix,
+        rhs: &[f64],
+        x: &mut [f64],
+        rtol: f64,
+    ) -> Result<LinearSolveStats, NonlinearError> {
+        let params = CgParams {
+            rtol,
+            atol: 0.0,
+            max_iter: self.max_iter,
+            initial_guess: InitialGuess::Zero,
+            record_history: false,
+        };
+        let info = if self.constraints.is_empty() {
+            pcg(jac, &self.precond, rhs, x, &params, &mut self.ws, None)?
+        } else {
+            let n = rhs.len();
+            self.z.resize(n, 0.0);
+            self.rhs.resize(n, 0.0);
+            self.z.fill(0.0);
+            self.constraints.impose(&mut self.z);
+            jac.mul_vec(&self.z, &mut self.rhs)?;
+            for i in 0..n {
+                self.rhs[i] += rhs[i];
+            }
+            let info = filtered_pcg(
+                jac,
+                &self.precond,
+                &self.rhs,
+                x,
+                &self.constraints,
+                &params,
+                &mut self.ws,
+                None,
+            )?;
+            for i in 0..n {
+                x[i] -= self.z[i];
+            }
+            info
+        };
+        Ok(LinearSolveStats {
+            iterations: info.iterations,
+            residual_norm: info.residual_norm,
+            relative_residual: info.relative_residual,
+            converged: info.converged,
+        })
+    }
+}
+
+/// The reduced velocity form of one stage as a nonlinear system in `V`:
+/// `G(V) = P [M (V - psi_v) - gh f(tau, psi_x + gh V, V)]` (`P` removes the
+/// constrained components), Jacobian `M - gh df/dv - gh^2 df/dx`.
+struct ReducedStage<'a, P> {
+    problem: &'a P,
+    tau: f64,
+    gh: f64,
+    psi_x: &'a [f64],
+    psi_v: &'a [f64],
+    x: &'a mut [f64],
+    force: &'a mut [f64],
+    dfdx: &'a mut SymBlockMatrix,
+    dfdv: &'a mut SymBlockMatrix,
+    constraints: &'a Constraints,
+}
+
+impl<P: SecondOrderProblem> ReducedStage<'_, P> {
+    fn positions(&mut self, v: &[f64]) {
+        for i in 0..v.len() {
+            self.x[i] = self.psi_x[i] + self.gh * v[i];
+        }
+    }
+
+    fn assemble(&self, a: &mut SymBlockMatrix) -> Result<(), NonlinearError> {
+        a.set_zero();
+        a.add_scaled(-self.gh * self.gh, self.dfdx)?;
+        a.add_scaled(-self.gh, self.dfdv)?;
+        a.add_to_diagonal(self.problem.mass())?;
+        Ok(())
+    }
+}
+
+impl<P: SecondOrderProblem> NonlinearSystem for ReducedStage<'_, P> {
+    type Jacobian = SymBlockMatrix;
+
+    fn dim(&self) -> usize {
+        self.psi_v.len()
+    }
+
+    fn residual(&mut self, v: &[f64], g: &mut [f64]) -> Result<(), NonlinearError> {
+        self.positions(v);
+        self.problem.force(self.tau, self.x, v, self.force);
+        let mass = self.problem.mass();
+        for i in 0..g.len() {
+            g[i] = mass[i] * (v[i] - self.psi_v[i]) - self.gh * self.force[i];
+        }
+        if !self.constraints.is_empty() {
+            self.constraints.project(g);
+        }
+        Ok(())
+    }
+
+    fn jacobian(&mut self, v: &[f64], a: &mut SymBlockMatrix) -> Result<(), NonlinearError> {
+        self.positions(v);
+        self.problem
+            .force_jacobians(self.tau, self.x, v, self.dfdx, self.dfdv);
+        self.assemble(a)
+    }
+
+    fn approximate_jacobian(
+        &mut self,
+        _v: &[f64],
+        a: &mut SymBlockMatrix,
+    ) -> Result<bool, NonlinearError> {
+        if !self.problem.linearized_jacobians(self.dfdx, self.dfdv) {
+            return Ok(false);
+        }
+        self.assemble(a)?;
+        Ok(true)
+    }
+}
+
+/// Second-order problems in the reduced velocity form (DESIGN.md): the
+/// state is `[x; v]`; the stage `K = [X; V]` satisfies `X = psi_x + gh V`
+/// and `G(V) = M (V - psi_v) - gh f(tau, psi_x + gh V, V) = 0`, solved by
+/// `hookean-nonlinear`'s Newton with the SPD matrix
+/// `A = M - gh df/dv - gh^2 df/dx` and (filtered) PCG.
+pub(crate) struct SecondSys<P> {
+    pub problem: P,
+    n: usize,
+    pub constraints: Constraints,
+    dfdx: SymBlockMatrix,
+    dfdv: SymBlockMatrix,
+    newton: Newton<SymBlockMatrix, StageLinearSolver>,
+    precond_kind: PrecondKind,
+    last_gh: f64,
+    force: Vec<f64>,
+    xs: Vec<f64>,
+}
+
+impl<P: SecondOrderProblem> SecondSys<P> {
+    pub fn new(problem: P, opts: &NewtonOptions) -> Result<Self, OdeError> {
+        let n = problem.dim();
+        let pattern = problem.jacobian_pattern();
+        if pattern.dim() != n {
+            return Err(OdeError::DimensionMismatch {
+                what: "jacobian pattern (3 x blocks)",
+                expected: n,
+                found: pattern.dim(),
+            });
+        }
+        let linear = StageLinearSolver {
+            precond: AnyPreconditioner::new(opts.preconditioner)?,
+            ws: CgWorkspace::new(n),
+            constraints: Constraints::new(n / 3),
+            max_iter: opts.linear_max_iter,
+            z: vec![0.0; n],
+            rhs: vec![0.0; n],
+        };
+        let newton = Newton::new(
+            newton_options(opts),
+            SymBlockMatrix::new(pattern.clone()),
+            linear,
+        )?;
+        Ok(Self {
+            n,
+            constraints: Constraints::new(n / 3),
+            dfdx: SymBlockMatrix::new(pattern.clone()),
+            dfdv: SymBlockMatrix::new(pattern),
+            newton,
+            precond_kind: opts.preconditioner,
+            last_gh: f64::NAN,
+            force: vec![0.0; n],
+            xs: vec![0.0; n],
+            problem,
+        })
+    }
+}
+
+impl<P: SecondOrderProblem> System for SecondSys<P> {
+    fn state_len(&self) -> usize {
+        2 * self.n
+    }
+
+    fn is_second_order(&self) -> bool {
+        true
+    }
+
+    fn derivative(&mut self, t: f64, s: &[f64], ds: &mut [f64], stats: &mut Stats) {
+        let n = self.n;
+        let (x, v) = s.split_at(n);
+        let (dx, dv) = ds.split_at_mut(n);
+        dx.copy_from_slice(v);
+        self.problem.force(t, x, v, dv);
+        stats.f_evals += 1;
+        for (a, m) in dv.iter_mut().zip(self.problem.mass()) {
+            *a /= m;
+        }
+    }
+
+    fn begin_step(&mut self, t: f64, s: &mut [f64]) {
+        let (x, v) = s.split_at_mut(self.n);
+        self.constraints.clear();
+        self.problem.begin_step(t, x, v, &mut self.constraints);
+    }
+
+    fn impose(&self, s: &mut [f64]) {
+        if !self.constraints.is_empty() {
+            self.constraints.impose(&mut s[self.n..]);
+        }
+    }
+
+    fn acceleration(
+        &mut self,
+        t: f64,
+        x: &[f64],
+        v: &[f64],
+        acc: &mut [f64],
+        stats: &mut Stats,
+    ) -> bool {
+        self.problem.force(t, x, v, acc);
+        stats.f_evals += 1;
+        for (a, m) in acc.iter_mut().zip(self.problem.mass()) {
+            *a /= m;
+        }
+        true
+    }
+
+    fn solve_stage(
+        &mut self,
+        tau: f64,
+        gh: f64,
+        psi: &[f64],
+        k: &mut [f64],
+        opts: &NewtonOptions,
+        stats: &mut Stats,
+    ) -> Result<StageInfo, StageFailure> {
+        let n = self.n;
+        let nopts = newton_options(opts);
+        if self.newton.options() != &nopts {
+            self.newton
+                .set_options(nopts)
+                .map_err(StageFailure::Other)?;
+        }
+        let linear = self.newton.linear_solver_mut();
+        if opts.preconditioner != self.precond_kind {
+            linear.precond =
+                AnyPreconditioner::new(opts.preconditioner).map_err(StageFailure::Linear)?;
+            self.precond_kind = opts.preconditioner;
+        }
+        linear.max_iter = opts.linear_max_iter;
+        // One copy of the step's constraints per stage solve (they change
+        // between steps; none is made while the set is empty).
+        if !(self.constraints.is_empty() && linear.constraints.is_empty()) {
+            linear.constraints.clone_from(&self.constraints);
+        }
+        // A kept Jacobian (simplified variants) is only valid for this gh.
+        if gh != self.last_gh {
+            self.newton.invalidate_jacobian();
+            self.last_gh = gh;
+        }
+        let (psi_x, psi_v) = psi.split_at(n);
+        let (kx, kv) = k.split_at_mut(n);
+        if !self.constraints.is_empty() {
+            self.constraints.impose(kv);
+        }
+        let mut stage = ReducedStage {
+            problem: &self.problem,
+            tau,
+            gh,
+            psi_x,
+            psi_v,
+            x: &mut self.xs,
+            force: &mut self.force,
+            dfdx: &mut self.dfdx,
+            dfdv: &mut self.dfdv,
+            constraints: &self.constraints,
+        };
+        let result = self.newton.solve(&mut stage, kv);
+        let info = account(result, 0, stats)?;
+        for i in 0..n {
+            kx[i] = psi_x[i] + gh * kv[i];
+        }
+        Ok(info)
+    }
+}
+
+/// A second-order problem `M x'' = f(t, x, v)` seen as the first-order
+/// system (6) of size `2 dim`: `y = [x; v]`, `y' = [v; M^{-1} f]`, with the
+/// dense Jacobian `[[0, I], [M^{-1} df/dx, M^{-1} df/dv]]`. For comparisons
+/// and small problems (it allocates in `jacobian`); the integrators solve
+/// second-order problems in the reduced form instead.
+pub struct FirstOrderForm<P> {
+    problem: P,
+    scratch: RefCell<(SymBlockMatrix, SymBlockMatrix, Vec<f64>)>,
+}
+
+impl<P: SecondOrderProblem> FirstOrderForm<P> {
+    /// Wraps `problem`.
+    pub fn new(problem: P) -> Self {
+        let pattern = problem.jacobian_pattern();
+        let n = problem.dim();
+        Self {
+            scratch: RefCell::new((
+                SymBlockMatrix::new(pattern.clone()),
+                SymBlockMatrix::new(pattern),
+                vec![0.0; n],
+            )),
+            problem,
+        }
+    }
+
+    /// The wrapped problem.
+    pub fn inner(&self) -> &P {
+        &self.problem
+    }
+}
+
+impl<P: SecondOrderProblem> FirstOrderProblem for FirstOrderForm<P> {
+    fn dim(&self) -> usize {
+        2 * self.problem.dim()
+    }
+
+    fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        let n = self.problem.dim();
+        let (x, v) = y.split_at(n);
+        let (dx, dv) = dy.split_at_mut(n);
+        dx.copy_from_slice(v);
+        self.problem.force(t, x, v, dv);
+        for (a, m) in dv.iter_mut().zip(self.problem.mass()) {
+            *a /= m;
+        }
+    }
+
+    fn jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) -> bool {
+        let n = self.problem.dim();
+        let n2 = 2 * n;
+        let (x, v) = y.split_at(n);
+        let mut s = self.scratch.borrow_mut();
+        let (dfdx, dfdv, _) = &mut *s;
+        self.problem.force_jacobians(t, x, v, dfdx, dfdv);
+        jac.fill(0.0);
+        for i in 0..n {
+            jac[i * n2 + n + i] = 1.0;
+        }
+        let mass = self.problem.mass();
+        for (mat, off) in [(&*dfdx, 0), (&*dfdv, n)] {
+            let csr = mat.to_csr();
+            for (&val, (r, c)) in csr.iter() {
+                jac[(n + r) * n2 + off + c] += val / mass[r];
+            }
+        }
+        true
+    }
+}
