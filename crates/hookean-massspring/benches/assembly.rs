@@ -28,7 +28,7 @@ fn deformed(x: &mut [f64], v: &mut [f64], amp: f64) {
 }
 
 fn assembly(c: &mut Criterion) {
-    for n in [128usize] {
+    for n in [64usize, 128] {
         let (model, mut state) = cloth(&ClothParams {
             nu: n,
             nv: n,
