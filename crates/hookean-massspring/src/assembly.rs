@@ -84,6 +84,69 @@ fn neg(a: &Block3) -> Block3 {
     block::scale(a, -1.0)
 }
 
+/// The 6 unique entries of a symmetric block.
+#[inline(always)]
+fn sym6(b: &Block3) -> [f64; 6] {
+    [b[0][0], b[0][1], b[0][2], b[1][1], b[1][2], b[2][2]]
+}
+
+/// The symmetric block of 6 unique entries.
+#[inline(always)]
+fn unsym6(a: &[f64]) -> Block3 {
+    [[a[0], a[1], a[2]], [a[1], a[3], a[4]], [a[2], a[4], a[5]]]
+}
+
+/// Writes a spring's symmetric block `b` (`df_i/dx_j`, before projection):
+/// the off-diagonal block is assigned (first spring of its pair) or added,
+/// and `-b` (projected: `-P_i b P_i`, `-P_j b P_j`) is accumulated into the
+/// diagonal accumulators at offset `at` (0: `df/dx`, 6: `df/dv`): `loc` of
+/// the row's particle `min(i, j)`, `acc_c` of the other one.
+#[inline(always)]
+fn scatter_sym(
+    vals: &mut [Block3],
+    loc: &mut [f64; 12],
+    acc_c: &mut [f64; 12],
+    at: usize,
+    h: &crate::model::HotSpring,
+    constrained: bool,
+    proj: &[Block3],
+    b: &Block3,
+) {
+    let (i, j) = (h.i, h.j);
+    let (off, di, dj) = if constrained {
+        let (pi, pj) = (&proj[i], &proj[j]);
+        let pb = matmul(pi, b);
+        let mut off = matmul(&pb, pj);
+        if h.transposed {
+            off = block::transpose(&off);
+        }
+        (
+            off,
+            sym6(&matmul(&pb, pi)),
+            sym6(&matmul(&matmul(pj, b), pj)),
+        )
+    } else {
+        let d = sym6(b);
+        (*b, d, d)
+    };
+    if h.first {
+        vals[h.upper] = off;
+    } else {
+        let t = &mut vals[h.upper];
+        for r in 0..3 {
+            for c in 0..3 {
+                t[r][c] += off[r][c];
+            }
+        }
+    }
+    // The row's own particle is min(i, j).
+    let (dr, dc) = if h.transposed { (dj, di) } else { (di, dj) };
+    for t in 0..6 {
+        loc[at + t] -= dr[t];
+        acc_c[at + t] -= dc[t];
+    }
+}
+
 /// Which parts a private assembly call computes.
 #[derive(Clone, Copy)]
 pub(crate) struct AssemblyMode {
@@ -92,6 +155,17 @@ pub(crate) struct AssemblyMode {
 }
 
 impl MassSpringModel {
+    /// Gravity, external forces and air friction: the per-particle part of `f`.
+    fn init_force(&self, v: &[f64], f: &mut [f64]) {
+        let g = self.options.gravity;
+        let c = self.options.air_friction;
+        for (p, &m) in self.particle_mass.iter().enumerate() {
+            for r in 0..3 {
+                f[3 * p + r] = m * g[r] + self.external[3 * p + r] - c * v[3 * p + r];
+            }
+        }
+    }
+
     /// `f(x, v)` into `f`: gravity, external forces, air friction, springs,
     /// then `f_p <- P_p f_p` for constrained particles. No allocation.
     pub(crate) fn eval_force(&self, x: &[f64], v: &[f64], f: &mut [f64]) {
@@ -101,23 +175,17 @@ impl MassSpringModel {
             "force: x, v and f must have length 3 n = {}",
             3 * n
         );
-        let g = self.options.gravity;
-        let c = self.options.air_friction;
-        for p in 0..n {
-            let m = self.particle_mass[p];
-            for r in 0..3 {
-                f[3 * p + r] = m * g[r] + self.external[3 * p + r] - c * v[3 * p + r];
-            }
-        }
+        self.init_force(v, f);
         let damping = self.options.damping;
-        for s in &self.springs {
+        for s in &self.hot {
             let (i, j) = (s.i, s.j);
             let e = point(x, j) - point(x, i);
             let l = e.norm();
-            if l <= 0.0 {
+            if l <= 0.0 || l.is_nan() {
                 continue; // coincident endpoints: no direction, no force
             }
-            let u = e / l;
+            let inv_l = 1.0 / l;
+            let u = e * inv_l;
             let mut fi = u * (s.stiffness * (l - s.rest_length));
             match damping {
                 SpringDamping::Projected => {
@@ -147,20 +215,142 @@ impl MassSpringModel {
         }
     }
 
-    /// Adds a spring block `b` (off-diagonal `b`, diagonals `-b`), projected
-    /// for constrained endpoints.
-    #[inline(always)]
-    fn scatter(&self, m: &mut SymBlockMatrix, sl: &SpringSlots, i: usize, j: usize, b: &Block3) {
-        if self.constrained[i] || self.constrained[j] {
-            let (pi, pj) = (&self.proj[i], &self.proj[j]);
-            m.add_to_slot(sl.ij, &matmul(&matmul(pi, b), pj));
-            m.add_to_slot(sl.ii, &neg(&matmul(&matmul(pi, b), pi)));
-            m.add_to_slot(sl.jj, &neg(&matmul(&matmul(pj, b), pj)));
-        } else {
-            let nb = neg(b);
-            m.add_to_slot(sl.ij, b);
-            m.add_to_slot(sl.ii, &nb);
-            m.add_to_slot(sl.jj, &nb);
+    /// Refills `dfdx` and (if given) `dfdv` at `(x, v)`, and (if given) the
+    /// force `f` in the same sweep over the springs. No allocation (unless
+    /// another thread assembles the same model concurrently).
+    ///
+    /// Every stored block is overwritten: off-diagonal blocks are assigned
+    /// (in storage order) by the first spring of their pair, and the
+    /// diagonal blocks are accumulated in a contiguous scratch array and
+    /// written at the end, so the matrices need no zeroing pass.
+    pub(crate) fn assemble(
+        &self,
+        x: &[f64],
+        v: &[f64],
+        mut f: Option<&mut [f64]>,
+        dfdx: &mut SymBlockMatrix,
+        dfdv: Option<&mut SymBlockMatrix>,
+        mode: AssemblyMode,
+    ) {
+        let n = self.n_particles();
+        assert!(
+            x.len() == 3 * n && v.len() == 3 * n && f.as_ref().is_none_or(|f| f.len() == 3 * n),
+            "force_jacobians: x, v (and f) must have length 3 n = {}",
+            3 * n
+        );
+        assert!(
+            dfdx.n_blocks() == n
+                && dfdx.values().len() == self.pattern.stored_blocks()
+                && dfdv
+                    .as_ref()
+                    .is_none_or(|m| m.values().len() == self.pattern.stored_blocks()),
+            "force_jacobians: matrices must be on the model's pattern (use jacobian_pattern())"
+        );
+        if let Some(f) = f.as_deref_mut() {
+            self.init_force(v, f);
+        }
+        let mut guard = self.diag_acc.0.try_lock();
+        let mut local: Vec<[f64; 12]> = Vec::new();
+        let acc: &mut [[f64; 12]] = match guard.as_deref_mut() {
+            Ok(buf) if buf.len() == n => buf,
+            _ => {
+                local.resize(n, [0.0; 12]);
+                &mut local
+            }
+        };
+        acc.fill([0.0; 12]);
+        let damping = self.options.damping;
+        let damping_dx = damping == SpringDamping::Projected
+            && mode.damping_in_dfdx == DampingInDfdx::Symmetrize;
+        let need_dv = damping_dx || (f.is_some() && damping != SpringDamping::None);
+        let vx = dfdx.values_mut();
+        let mut vv: Option<&mut [Block3]> = dfdv.map(|m| m.values_mut());
+        // Row by row (r = min(i, j)): the diagonal contributions to r stay in
+        // a local accumulator, those to the other endpoint go to `acc`; when
+        // the row is done its diagonal block is final and written. Springs go
+        // in chunks: the square roots and divisions of a chunk are
+        // independent, so they overlap instead of serialising the loop.
+        const CHUNK: usize = 8;
+        let c_air = self.options.air_friction;
+        let mut geo = [(Vector3::<f64>::zeros(), 0.0_f64, 0.0_f64); CHUNK];
+        for r in 0..n {
+            let mut loc = acc[r];
+            let row = &self.hot[self.hot_row_ptr[r]..self.hot_row_ptr[r + 1]];
+            for chunk in row.chunks(CHUNK) {
+                for (g, h) in geo.iter_mut().zip(chunk) {
+                    let e = point(x, h.j) - point(x, h.i);
+                    let l = e.norm();
+                    *g = (e, l, 1.0 / l);
+                }
+                for (&(e, l, inv_l), h) in geo.iter().zip(chunk) {
+                    let (i, j) = (h.i, h.j);
+                    if l <= 0.0 || l.is_nan() {
+                        // Coincident endpoints: no direction, no force, no Jacobian.
+                        if h.first {
+                            vx[h.upper] = block::ZERO;
+                            if let Some(vv) = vv.as_deref_mut() {
+                                vv[h.upper] = block::ZERO;
+                            }
+                        }
+                        continue;
+                    }
+                    let u = e * inv_l;
+                    let dv = if need_dv {
+                        point(v, j) - point(v, i)
+                    } else {
+                        Vector3::zeros()
+                    };
+                    if let Some(f) = f.as_deref_mut() {
+                        let mut fi = u * (h.stiffness * (l - h.rest_length));
+                        match damping {
+                            SpringDamping::Projected => fi += u * (h.damping * dv.dot(&u)),
+                            SpringDamping::Incorrect => fi += dv * h.damping,
+                            SpringDamping::None => {}
+                        }
+                        for q in 0..3 {
+                            f[3 * i + q] += fi[q];
+                            f[3 * j + q] -= fi[q];
+                        }
+                    }
+                    let mut a = 1.0 - h.rest_length * inv_l;
+                    if mode.clamp && a < 0.0 {
+                        a = 0.0;
+                    }
+                    let mut kb = stiffness_block(h.stiffness, a, &u);
+                    if damping_dx && h.damping != 0.0 {
+                        let g = damping_position_block(h.damping, l, &u, &dv);
+                        for p in 0..3 {
+                            for q in 0..3 {
+                                kb[p][q] += 0.5 * (g[p][q] + g[q][p]);
+                            }
+                        }
+                    }
+                    let constrained = self.constrained[i] || self.constrained[j];
+                    let other = i.max(j);
+                    let acc_c = &mut acc[other];
+                    scatter_sym(vx, &mut loc, acc_c, 0, h, constrained, &self.proj, &kb);
+                    if let Some(vv) = vv.as_deref_mut() {
+                        let db = match damping {
+                            SpringDamping::Projected => outer_scaled(h.damping, &u),
+                            SpringDamping::Incorrect => block::scale(&block::IDENTITY, h.damping),
+                            SpringDamping::None => block::ZERO,
+                        };
+                        scatter_sym(vv, &mut loc, acc_c, 6, h, constrained, &self.proj, &db);
+                    }
+                }
+            }
+            let idx = self.diag_index[r];
+            vx[idx] = unsym6(&loc[..6]);
+            if let Some(vv) = vv.as_deref_mut() {
+                let mut d = unsym6(&loc[6..]);
+                if c_air != 0.0 {
+                    d = block::add(&d, &block::scale(&self.proj[r], -c_air));
+                }
+                vv[idx] = d;
+            }
+        }
+        if let Some(f) = f {
+            self.project_rows(f);
         }
     }
 
@@ -170,69 +360,39 @@ impl MassSpringModel {
         x: &[f64],
         v: &[f64],
         dfdx: &mut SymBlockMatrix,
-        mut dfdv: Option<&mut SymBlockMatrix>,
+        dfdv: Option<&mut SymBlockMatrix>,
         mode: AssemblyMode,
     ) {
-        let n = self.n_particles();
-        assert!(
-            x.len() == 3 * n && v.len() == 3 * n,
-            "force_jacobians: x and v must have length 3 n = {}",
-            3 * n
+        self.assemble(x, v, None, dfdx, dfdv, mode);
+    }
+
+    /// `f(x, v)`, `df/dx` and `df/dv` in one sweep over the springs (the
+    /// geometry of each spring is computed once): what an implicit step
+    /// needs at the start of a Newton iteration. Same results as
+    /// [`force`](SecondOrderProblem::force) followed by
+    /// [`force_jacobians`](SecondOrderProblem::force_jacobians). No allocation.
+    ///
+    /// # Panics
+    /// If a slice length or matrix pattern does not match the model.
+    pub fn force_and_jacobians(
+        &self,
+        x: &[f64],
+        v: &[f64],
+        f: &mut [f64],
+        dfdx: &mut SymBlockMatrix,
+        dfdv: &mut SymBlockMatrix,
+    ) {
+        self.assemble(
+            x,
+            v,
+            Some(f),
+            dfdx,
+            Some(dfdv),
+            AssemblyMode {
+                clamp: self.options.clamp_stiffness,
+                damping_in_dfdx: self.options.damping_in_dfdx,
+            },
         );
-        assert!(
-            dfdx.n_blocks() == n && dfdv.as_ref().is_none_or(|m| m.n_blocks() == n),
-            "force_jacobians: matrices must have {n} block rows (use jacobian_pattern())"
-        );
-        dfdx.set_zero();
-        if let Some(m) = dfdv.as_deref_mut() {
-            m.set_zero();
-        }
-        let damping = self.options.damping;
-        let damping_dx = damping == SpringDamping::Projected
-            && mode.damping_in_dfdx == DampingInDfdx::Symmetrize;
-        for (s, sl) in self.springs.iter().zip(&self.slots) {
-            let (i, j) = (s.i, s.j);
-            let e = point(x, j) - point(x, i);
-            let l = e.norm();
-            if l <= 0.0 {
-                continue;
-            }
-            let u = e / l;
-            let mut a = 1.0 - s.rest_length / l;
-            if mode.clamp && a < 0.0 {
-                a = 0.0;
-            }
-            let mut kb = stiffness_block(s.stiffness, a, &u);
-            if damping_dx && s.damping != 0.0 {
-                let dv = point(v, j) - point(v, i);
-                let g = damping_position_block(s.damping, l, &u, &dv);
-                for r in 0..3 {
-                    for c in 0..3 {
-                        kb[r][c] += 0.5 * (g[r][c] + g[c][r]);
-                    }
-                }
-            }
-            self.scatter(dfdx, sl, i, j, &kb);
-            if let Some(m) = dfdv.as_deref_mut() {
-                match damping {
-                    SpringDamping::Projected => {
-                        self.scatter(m, sl, i, j, &outer_scaled(s.damping, &u));
-                    }
-                    SpringDamping::Incorrect => {
-                        self.scatter(m, sl, i, j, &block::scale(&block::IDENTITY, s.damping));
-                    }
-                    SpringDamping::None => {}
-                }
-            }
-        }
-        let c = self.options.air_friction;
-        if c != 0.0
-            && let Some(m) = dfdv
-        {
-            for p in 0..n {
-                m.add_to_slot(self.diag_slots[p], &block::scale(&self.proj[p], -c));
-            }
-        }
     }
 
     /// The exact, generally non-symmetric `df/dx` at `(x, v)` as a CSR
@@ -260,7 +420,8 @@ impl MassSpringModel {
             let (i, j) = (s.i, s.j);
             let e = point(x, j) - point(x, i);
             let l = e.norm();
-            let u = e / l;
+            let inv_l = 1.0 / l;
+            let u = e * inv_l;
             let mut b = stiffness_block(s.stiffness, 1.0 - s.rest_length / l, &u);
             if self.options.damping == SpringDamping::Projected {
                 let dv = point(v, j) - point(v, i);

@@ -187,6 +187,40 @@ pub(crate) struct SpringSlots {
     pub(crate) ij: Slot,
 }
 
+/// A spring prepared for the hot loops: springs are kept in the storage
+/// order of their upper block, so that assembly writes the off-diagonal
+/// blocks sequentially.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct HotSpring {
+    pub(crate) i: usize,
+    pub(crate) j: usize,
+    pub(crate) rest_length: f64,
+    pub(crate) stiffness: f64,
+    pub(crate) damping: f64,
+    /// Index of the stored upper block `(min, max)` in the value array.
+    pub(crate) upper: usize,
+    /// Whether this spring is the first (in storage order) of its block:
+    /// it assigns the block, later springs of the same pair add to it.
+    pub(crate) first: bool,
+    /// `i > j`: the stored block is `(df_i/dx_j)^T`.
+    pub(crate) transposed: bool,
+}
+
+/// Per-particle diagonal accumulators of assembly (6 unique entries of the
+/// symmetric diagonal block of `df/dx`, then of `df/dv`), kept contiguous so
+/// that the scatter to the second endpoint of a spring hits a compact array.
+/// Behind a mutex because the `SecondOrderProblem` methods take `&self`; a
+/// concurrent second caller falls back to a temporary buffer.
+#[derive(Debug, Default)]
+pub(crate) struct DiagScratch(pub(crate) std::sync::Mutex<Vec<[f64; 12]>>);
+
+impl Clone for DiagScratch {
+    fn clone(&self) -> Self {
+        let n = self.0.lock().map(|v| v.len()).unwrap_or(0);
+        DiagScratch(std::sync::Mutex::new(vec![[0.0; 12]; n]))
+    }
+}
+
 /// A mass-spring system `M x'' = f(x, v)` (the tutorial's section 1.1, the
 /// filtering paper's eq. 1) with lumped masses, springs, gravity, external
 /// forces, air friction, pinned / sliding particles and colliders.
@@ -218,6 +252,14 @@ pub struct MassSpringModel {
     pub(crate) pattern: Arc<BlockPattern>,
     pub(crate) slots: Vec<SpringSlots>,
     pub(crate) diag_slots: Vec<Slot>,
+    /// The springs in storage order of their upper block.
+    pub(crate) hot: Vec<HotSpring>,
+    /// `hot[hot_row_ptr[r]..hot_row_ptr[r + 1]]` are the springs whose
+    /// upper block lies in block row `r = min(i, j)`.
+    pub(crate) hot_row_ptr: Vec<usize>,
+    /// Value index of each diagonal block.
+    pub(crate) diag_index: Vec<usize>,
+    pub(crate) diag_acc: DiagScratch,
     /// Permanent constraints (pins, sliding), per particle.
     pub(crate) fixes: Vec<Dirs>,
     /// Active constraint directions of the current step (permanent + contacts).
@@ -314,6 +356,38 @@ impl MassSpringModel {
             .map(|p| probe.slot(p, p))
             .collect::<Result<Vec<_>, _>>()?;
         let mass = masses.iter().flat_map(|&m| [m, m, m]).collect();
+        let row_ptr = pattern.row_ptr();
+        let col_idx = pattern.col_idx();
+        let mut hot: Vec<HotSpring> = Vec::with_capacity(springs.len());
+        for s in &springs {
+            let (r, c) = (s.i.min(s.j), s.i.max(s.j));
+            let start = row_ptr[r] + 1;
+            let k = col_idx[start..row_ptr[r + 1]]
+                .binary_search(&(c as u32))
+                .map_err(|_| hookean_sparse::SparseError::NotInPattern { row: r, col: c })?;
+            hot.push(HotSpring {
+                i: s.i,
+                j: s.j,
+                rest_length: s.rest_length,
+                stiffness: s.stiffness,
+                damping: s.damping,
+                upper: start + k,
+                first: false,
+                transposed: s.i > s.j,
+            });
+        }
+        hot.sort_by_key(|h| h.upper);
+        for k in 0..hot.len() {
+            hot[k].first = k == 0 || hot[k - 1].upper != hot[k].upper;
+        }
+        let diag_index = (0..n).map(|p| row_ptr[p]).collect();
+        let mut hot_row_ptr = vec![0usize; n + 1];
+        for h in &hot {
+            hot_row_ptr[h.i.min(h.j) + 1] += 1;
+        }
+        for r in 0..n {
+            hot_row_ptr[r + 1] += hot_row_ptr[r];
+        }
         Ok(Self {
             particle_mass: masses,
             mass,
@@ -323,6 +397,10 @@ impl MassSpringModel {
             pattern,
             slots,
             diag_slots,
+            hot,
+            hot_row_ptr,
+            diag_index,
+            diag_acc: DiagScratch(std::sync::Mutex::new(vec![[0.0; 12]; n])),
             fixes: vec![Dirs::EMPTY; n],
             active: vec![Dirs::EMPTY; n],
             proj: vec![block::IDENTITY; n],
