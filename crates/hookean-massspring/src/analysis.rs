@@ -1,0 +1,308 @@
+//! Analysis of a state: the explicit stability limit (the filtering
+//! paper's eq. 11), energies and momenta, and the linearised implicit-Euler
+//! system with its Matrix Market export.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+use hookean_sparse::{MatrixFree, PowerParams, SymBlockMatrix, power_method};
+
+use crate::assembly::AssemblyMode;
+use crate::error::{MassSpringError, io_err};
+use crate::model::{DampingInDfdx, MassSpringModel, SpringDamping, point};
+
+/// A transformation of the power-method iterate between iterations (the
+/// filtering paper's Algorithm 1 applies its velocity filter here).
+pub type PowerHook<'a> = &'a mut dyn FnMut(&mut [f64]);
+
+/// The explicit stability limit of a state.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StabilityInfo {
+    /// `k0`: the largest eigenvalue of `M^-1 K`, `K = -df/dx` (clamped,
+    /// constrained directions projected out).
+    pub k0: f64,
+    /// `dt_max = 2 / sqrt(k0)` (the filtering paper's eq. 11).
+    pub dt_max: f64,
+    /// Power-method iterations.
+    pub iterations: usize,
+}
+
+/// Energies of a state (J).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Energies {
+    /// `1/2 sum_p m_p |v_p|^2`.
+    pub kinetic: f64,
+    /// `-sum_p m_p g . x_p` (zero at the origin).
+    pub gravitational: f64,
+    /// `1/2 sum_s k_s (l_s - l0_s)^2`.
+    pub spring: f64,
+}
+
+impl Energies {
+    /// Kinetic + gravitational + spring energy.
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.gravitational + self.spring
+    }
+}
+
+/// Linear and angular momentum of a state.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Momentum {
+    /// `sum_p m_p v_p` (kg m/s).
+    pub linear: [f64; 3],
+    /// `sum_p m_p x_p x v_p` about the origin (kg m^2/s).
+    pub angular: [f64; 3],
+}
+
+/// Buffers of the linearised implicit-Euler system, reusable across steps
+/// (see [`MassSpringModel::assemble_implicit_euler`]).
+#[derive(Debug, Clone)]
+pub struct ImplicitSystem {
+    /// `A = M - h df/dv - h^2 df/dx`.
+    pub a: SymBlockMatrix,
+    /// `b = h (f + h df/dx v)`.
+    pub b: Vec<f64>,
+    /// `df/dx` at the state.
+    pub dfdx: SymBlockMatrix,
+    /// `df/dv` at the state.
+    pub dfdv: SymBlockMatrix,
+    /// `f` at the state.
+    pub f: Vec<f64>,
+    kv: Vec<f64>,
+}
+
+impl MassSpringModel {
+    /// The largest eigenvalue `k0` of `M^-1 K` at `x` (`K = -df/dx`,
+    /// clamped stiffness only, constrained directions projected out) by the
+    /// power method of hookean-sparse on a matrix-free operator, and the
+    /// explicit stability limit `dt_max = 2 / sqrt(k0)` (the filtering
+    /// paper's eq. 11). `hook` transforms the iterate between iterations (the
+    /// paper's Algorithm 1 plugs a velocity filter in); `None` for the plain
+    /// method.
+    ///
+    /// # Errors
+    /// As [`check_state`](Self::check_state) (with `v = 0`);
+    /// [`MassSpringError::Sparse`] from the power method (no springs: the
+    /// iterate vanishes); [`MassSpringError::PowerMethodNotConverged`].
+    pub fn stability(
+        &self,
+        x: &[f64],
+        params: &PowerParams,
+        hook: Option<PowerHook<'_>>,
+    ) -> Result<StabilityInfo, MassSpringError> {
+        let v = vec![0.0; x.len()];
+        self.check_state(x, &v)?;
+        let mut dfdx = SymBlockMatrix::new(self.pattern.clone());
+        self.assemble_jacobians(
+            x,
+            &v,
+            &mut dfdx,
+            None,
+            AssemblyMode {
+                clamp: true,
+                damping_in_dfdx: DampingInDfdx::Drop,
+            },
+        );
+        let mass = &self.mass;
+        let op = MatrixFree::new(x.len(), |z: &[f64], y: &mut [f64]| {
+            dfdx.mul_vec(z, y).expect("sizes match by construction");
+            for (yi, mi) in y.iter_mut().zip(mass) {
+                *yi = -*yi / mi;
+            }
+        });
+        let info = power_method(&op, params, hook)?;
+        if !info.converged {
+            return Err(MassSpringError::PowerMethodNotConverged {
+                iterations: info.iterations,
+                estimate: info.eigenvalue,
+            });
+        }
+        let k0 = info.eigenvalue;
+        Ok(StabilityInfo {
+            k0,
+            dt_max: if k0 > 0.0 {
+                2.0 / k0.sqrt()
+            } else {
+                f64::INFINITY
+            },
+            iterations: info.iterations,
+        })
+    }
+
+    /// Kinetic, gravitational and spring energy of `(x, v)`.
+    ///
+    /// # Errors
+    /// As [`check_state`](Self::check_state).
+    pub fn energies(&self, x: &[f64], v: &[f64]) -> Result<Energies, MassSpringError> {
+        self.check_state(x, v)?;
+        let g = nalgebra::Vector3::from(self.options.gravity);
+        let mut e = Energies::default();
+        for (p, &m) in self.particle_mass.iter().enumerate() {
+            e.kinetic += 0.5 * m * point(v, p).norm_squared();
+            e.gravitational -= m * g.dot(&point(x, p));
+        }
+        for s in &self.springs {
+            let l = (point(x, s.j) - point(x, s.i)).norm();
+            e.spring += 0.5 * s.stiffness * (l - s.rest_length).powi(2);
+        }
+        Ok(e)
+    }
+
+    /// Linear and angular momentum of `(x, v)`.
+    ///
+    /// # Errors
+    /// As [`check_state`](Self::check_state).
+    pub fn momentum(&self, x: &[f64], v: &[f64]) -> Result<Momentum, MassSpringError> {
+        self.check_state(x, v)?;
+        let mut lin = nalgebra::Vector3::zeros();
+        let mut ang = nalgebra::Vector3::zeros();
+        for (p, &m) in self.particle_mass.iter().enumerate() {
+            let vp = point(v, p) * m;
+            lin += vp;
+            ang += point(x, p).cross(&vp);
+        }
+        Ok(Momentum {
+            linear: [lin.x, lin.y, lin.z],
+            angular: [ang.x, ang.y, ang.z],
+        })
+    }
+
+    /// Buffers for [`assemble_implicit_euler`](Self::assemble_implicit_euler).
+    pub fn implicit_system(&self) -> ImplicitSystem {
+        let dim = 3 * self.n_particles();
+        ImplicitSystem {
+            a: SymBlockMatrix::new(self.pattern.clone()),
+            b: vec![0.0; dim],
+            dfdx: SymBlockMatrix::new(self.pattern.clone()),
+            dfdv: SymBlockMatrix::new(self.pattern.clone()),
+            f: vec![0.0; dim],
+            kv: vec![0.0; dim],
+        }
+    }
+
+    /// The linearised implicit-Euler system of the state (Baraff-Witkin's
+    /// velocity form, the tutorial's setting (6) with one Newton step):
+    /// `A dv = b`, `A = M - h df/dv - h^2 df/dx`, `b = h (f + h df/dx v)`,
+    /// with the model's Jacobian options. No allocation.
+    ///
+    /// # Errors
+    /// As [`check_state`](Self::check_state); [`MassSpringError::InvalidParameter`]
+    /// for `h <= 0` or non-finite.
+    pub fn assemble_implicit_euler(
+        &self,
+        h: f64,
+        x: &[f64],
+        v: &[f64],
+        sys: &mut ImplicitSystem,
+    ) -> Result<(), MassSpringError> {
+        if !(h > 0.0 && h.is_finite()) {
+            return Err(MassSpringError::InvalidParameter {
+                name: "h",
+                message: format!("step size {h} must be positive and finite"),
+            });
+        }
+        self.check_state(x, v)?;
+        for (what, len) in [("b", sys.b.len()), ("f", sys.f.len()), ("kv", sys.kv.len())] {
+            if len != x.len() {
+                return Err(MassSpringError::DimensionMismatch {
+                    what,
+                    expected: x.len(),
+                    found: len,
+                });
+            }
+        }
+        self.eval_force(x, v, &mut sys.f);
+        self.jacobians_checked(
+            x,
+            v,
+            self.options.clamp_stiffness,
+            &mut sys.dfdx,
+            &mut sys.dfdv,
+        )?;
+        sys.dfdx.mul_vec(v, &mut sys.kv)?;
+        for ((b, f), kv) in sys.b.iter_mut().zip(&sys.f).zip(&sys.kv) {
+            *b = h * (f + h * kv);
+        }
+        sys.a.set_zero();
+        sys.a.add_to_diagonal(&self.mass)?;
+        sys.a.add_scaled(-h, &sys.dfdv)?;
+        sys.a.add_scaled(-h * h, &sys.dfdx)?;
+        Ok(())
+    }
+
+    /// Writes the linearised implicit-Euler system `(A, b)` of the state
+    /// (see [`assemble_implicit_euler`](Self::assemble_implicit_euler)) as
+    /// Matrix Market: `A` as `coordinate real symmetric`, `b` as an array.
+    ///
+    /// # Errors
+    /// As [`assemble_implicit_euler`](Self::assemble_implicit_euler);
+    /// [`MassSpringError::Sparse`] / [`MassSpringError::Io`] when writing fails.
+    pub fn write_implicit_euler_system(
+        &self,
+        h: f64,
+        x: &[f64],
+        v: &[f64],
+        a_out: impl Write,
+        b_out: impl Write,
+    ) -> Result<(), MassSpringError> {
+        let mut sys = self.implicit_system();
+        self.assemble_implicit_euler(h, x, v, &mut sys)?;
+        hookean_sparse::write_matrix_market(a_out, &sys.a.to_csr(), true)?;
+        hookean_sparse::write_vector_market(b_out, &sys.b)?;
+        Ok(())
+    }
+
+    /// [`write_implicit_euler_system`](Self::write_implicit_euler_system) to two files.
+    ///
+    /// # Errors
+    /// As [`write_implicit_euler_system`](Self::write_implicit_euler_system).
+    pub fn export_implicit_euler_system(
+        &self,
+        h: f64,
+        x: &[f64],
+        v: &[f64],
+        a_path: impl AsRef<Path>,
+        b_path: impl AsRef<Path>,
+    ) -> Result<(), MassSpringError> {
+        let open = |p: &Path| {
+            File::create(p)
+                .map(BufWriter::new)
+                .map_err(|e| io_err(&p.display().to_string(), e))
+        };
+        let mut a = open(a_path.as_ref())?;
+        let mut b = open(b_path.as_ref())?;
+        self.write_implicit_euler_system(h, x, v, &mut a, &mut b)?;
+        a.flush()
+            .map_err(|e| io_err(&a_path.as_ref().display().to_string(), e))?;
+        b.flush()
+            .map_err(|e| io_err(&b_path.as_ref().display().to_string(), e))?;
+        Ok(())
+    }
+
+    /// The damping power `sum_p f^damp_p . v_p` (W) of the spring damping
+    /// and air friction at `(x, v)`: zero for a rigid rotation under
+    /// projected damping, negative under the incorrect one.
+    ///
+    /// # Errors
+    /// As [`check_state`](Self::check_state).
+    pub fn damping_power(&self, x: &[f64], v: &[f64]) -> Result<f64, MassSpringError> {
+        self.check_state(x, v)?;
+        let mut power = 0.0;
+        for s in &self.springs {
+            let e = point(x, s.j) - point(x, s.i);
+            let u = e / e.norm();
+            let dv = point(v, s.j) - point(v, s.i);
+            // f_i . v_i + f_j . v_j = -f_i . dv.
+            power -= match self.options.damping {
+                SpringDamping::Projected => s.damping * dv.dot(&u).powi(2),
+                SpringDamping::Incorrect => s.damping * dv.norm_squared(),
+                SpringDamping::None => 0.0,
+            };
+        }
+        for p in 0..self.n_particles() {
+            power -= self.options.air_friction * point(v, p).norm_squared();
+        }
+        Ok(power)
+    }
+}

@@ -1,0 +1,78 @@
+//! Mass-spring models for soft objects: particles, springs, damping,
+//! constraints and collisions, and the models of both papers the Hookean
+//! workspace follows (Hauth's Eurographics 2004 tutorial, section 1.1 and its
+//! example 3; Ahmad et al.'s filtered mass-spring systems: rope, cloth, 3D
+//! body).
+//!
+//! - [`MassSpringModel`] (module `model`): lumped masses, [`Spring`]s with
+//!   stiffness and damping ([`SpringDamping`]: projected, the "incorrect"
+//!   `d (v_j - v_i)`, or none), air friction, gravity, external forces,
+//!   pinned and sliding particles. It implements
+//!   [`hookean_ode::SecondOrderProblem`]: `f(x, v)`, `df/dx` (exact or
+//!   definiteness-clamped) and `df/dv` assembled into the 3x3 block
+//!   matrices of `hookean-sparse` on a pattern built once, refilled in place
+//!   without allocation; the tutorial's constant linearised Jacobian (eq. 50);
+//!   `begin_step` handles pins and [`Collider`]s and fills the
+//!   [`hookean_sparse::Constraints`] of the filtered PCG.
+//! - Analysis: [`MassSpringModel::stability`] (`k0` of `M^-1 K` by the
+//!   power method and `dt_max = 2 / sqrt(k0)`, the filtering paper's eq. 11),
+//!   [`MassSpringModel::energies`], [`MassSpringModel::momentum`],
+//!   [`MassSpringModel::dfdx_exact`] (the full non-symmetric Jacobian), and
+//!   the linearised implicit-Euler system `(A, b)` with Matrix Market export
+//!   ([`MassSpringModel::export_implicit_euler_system`]).
+//! - [`builders`]: [`tutorial_example3`], [`rope`], [`cloth`],
+//!   [`jelly_block`], [`from_mesh`].
+//! - [`obj`]: [`parse_obj`] / [`read_obj_file`], [`write_obj`] with per-vertex
+//!   colours ([`speed_colours`]).
+//!
+//! # Example: one linearised implicit-Euler step of a hanging rope
+//!
+//! ```
+//! use hookean_massspring::{rope, RopeParams, SecondOrderProblem};
+//! use hookean_sparse::{filtered_pcg, BlockJacobi, CgParams, CgWorkspace, Constraints,
+//!                      PreconditionerSetup};
+//!
+//! let (mut model, mut state) = rope(&RopeParams { n: 8, ..Default::default() })?;
+//! let h = 0.01;
+//! // Pins act in begin_step: they fill the constraints of the filtered solve.
+//! let mut constraints = Constraints::new(model.n_particles());
+//! model.begin_step(0.0, &mut state.x, &mut state.v, &mut constraints);
+//!
+//! // A dv = b with A = M - h df/dv - h^2 df/dx, b = h (f + h df/dx v).
+//! let mut sys = model.implicit_system();
+//! model.assemble_implicit_euler(h, &state.x, &state.v, &mut sys)?;
+//! let mut precond = BlockJacobi::new();
+//! precond.setup(&sys.a)?;
+//! let mut dv = vec![0.0; model.dim()];
+//! let info = filtered_pcg(&sys.a, &precond, &sys.b, &mut dv, &constraints,
+//!                         &CgParams::default(), &mut CgWorkspace::new(model.dim()), None)?;
+//! assert!(info.converged);
+//! assert_eq!(&dv[..3], &[0.0; 3]); // the pinned end does not move
+//! assert!(dv[5] < 0.0);            // the free end starts falling
+//!
+//! // The explicit stability limit of this state (the filtering paper's eq. 11).
+//! let stab = model.stability(&state.x, &Default::default(), None)?;
+//! assert!(stab.dt_max > 0.0 && stab.dt_max < h);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+mod analysis;
+mod assembly;
+pub mod builders;
+mod collide;
+mod error;
+mod model;
+pub mod obj;
+
+pub use analysis::{Energies, ImplicitSystem, Momentum, PowerHook, StabilityInfo};
+pub use builders::{
+    BlockParams, ClothParams, ClothPins, MeshParams, RopeParams, SpringMaterial, State, cloth,
+    from_mesh, jelly_block, rope, tutorial_example3,
+};
+pub use collide::Collider;
+pub use error::MassSpringError;
+pub use hookean_ode::SecondOrderProblem;
+pub use model::{
+    DampingInDfdx, MassSpringModel, ModelOptions, ParticleConstraint, Spring, SpringDamping,
+};
+pub use obj::{ObjMesh, parse_obj, read_obj_file, speed_colours, write_obj};
