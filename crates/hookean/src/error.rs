@@ -1,0 +1,58 @@
+//! The facade's error type: every crate's error, plus scenes and output.
+
+use thiserror::Error;
+
+/// Everything that can go wrong in a simulation run.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum HookeanError {
+    /// From the integrators.
+    #[error(transparent)]
+    Ode(#[from] hookean_ode::OdeError),
+    /// From the model.
+    #[error(transparent)]
+    MassSpring(#[from] hookean_massspring::MassSpringError),
+    /// From the velocity filter.
+    #[error(transparent)]
+    Filter(#[from] hookean_filter::FilterError),
+    /// From the sparse linear algebra.
+    #[error(transparent)]
+    Sparse(#[from] hookean_sparse::SparseError),
+    /// A scene file is malformed: where and why.
+    #[error("{file}:{line}:{column}: {message}")]
+    Scene {
+        /// The scene file.
+        file: String,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// An option combination that cannot work.
+    #[error("invalid option {name}: {message}")]
+    InvalidOption {
+        /// The option.
+        name: String,
+        /// Why.
+        message: String,
+    },
+    /// Writing an output failed.
+    #[error("{path}: {message}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The operating system's message.
+        message: String,
+    },
+}
+
+impl HookeanError {
+    pub(crate) fn io(path: &std::path::Path, e: std::io::Error) -> Self {
+        HookeanError::Io {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        }
+    }
+}

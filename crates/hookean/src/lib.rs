@@ -1,0 +1,96 @@
+//! Hookean: soft-object simulation with mass-spring systems.
+//!
+//! The facade composes the workspace's crates, each re-exported as a module
+//! behind a feature of its own (all on by default):
+//!
+//! | module | crate | what |
+//! |---|---|---|
+//! | [`sparse`] | `hookean-sparse` | 3x3 block matrices, PCG and filtered PCG, Jacobi / block-Jacobi / SSOR / IC(0) |
+//! | [`nonlinear`] | `hookean-nonlinear` | Newton, inexact Newton (forcing terms), simplified Newton, step controllers |
+//! | [`ode`] | `hookean-ode` | explicit, symplectic, implicit and BDF integrators, stability regions |
+//! | [`massspring`] | `hookean-massspring` | particles, springs, damping, pins, colliders, builders, OBJ |
+//! | [`filter`] | `hookean-filter` | velocity filtering of explicit schemes, `dt_max` |
+//!
+//! and adds [`Simulation`] (a model, an integrator and its solvers, run
+//! step-wise or to an end time, with output [`Sink`]s) and scene files
+//! ([`scene`]).
+//!
+//! # Drape a cloth
+//!
+//! ```
+//! use hookean::prelude::*;
+//!
+//! let (model, state) = cloth(&ClothParams { nu: 24, nv: 24, ..Default::default() })?;
+//! let mut sim = Simulation::new(model, state, SimulationOptions::default())?; // implicit Euler, h = 0.01
+//! let summary = sim.run_until(0.5, |_, _| std::ops::ControlFlow::Continue(()))?;
+//! let lowest = sim.x().chunks(3).map(|p| p[2]).fold(f64::INFINITY, f64::min);
+//! assert!(lowest < -0.1, "the free corners fall");
+//! println!("{} steps, {} CG iterations", summary.stats.steps, summary.stats.linear_iterations);
+//! # Ok::<(), hookean::HookeanError>(())
+//! ```
+
+#[cfg(feature = "filter")]
+pub use hookean_filter as filter;
+#[cfg(feature = "massspring")]
+pub use hookean_massspring as massspring;
+#[cfg(feature = "nonlinear")]
+pub use hookean_nonlinear as nonlinear;
+#[cfg(feature = "ode")]
+pub use hookean_ode as ode;
+#[cfg(feature = "sparse")]
+pub use hookean_sparse as sparse;
+
+#[cfg(feature = "filter")]
+mod error;
+#[cfg(feature = "filter")]
+mod simulation;
+
+#[cfg(feature = "filter")]
+pub use error::HookeanError;
+#[cfg(feature = "filter")]
+pub use simulation::{RunSummary, Simulation, SimulationOptions, Sink};
+
+/// The velocity filter of a model: its springs as the filter's graph, its
+/// pinned particles kept.
+#[cfg(feature = "filter")]
+pub(crate) fn filter_for(
+    model: &hookean_massspring::MassSpringModel,
+    options: hookean_filter::FilterOptions,
+) -> Result<hookean_filter::VelocityFilter, HookeanError> {
+    use hookean_massspring::ParticleConstraint;
+    let edges: Vec<hookean_filter::Edge> = model
+        .springs()
+        .iter()
+        .map(|s| hookean_filter::Edge {
+            i: s.i,
+            j: s.j,
+            rest_length: s.rest_length,
+        })
+        .collect();
+    let pinned: Vec<bool> = (0..model.n_particles())
+        .map(|p| matches!(model.constraint(p), Ok(ParticleConstraint::Pinned { .. })))
+        .collect();
+    Ok(hookean_filter::VelocityFilter::new(
+        model.n_particles(),
+        &edges,
+        Some(&pinned),
+        options,
+    )?)
+}
+
+/// The names most programs need.
+pub mod prelude {
+    #[cfg(feature = "filter")]
+    pub use crate::{HookeanError, RunSummary, Simulation, SimulationOptions, Sink};
+    #[cfg(feature = "filter")]
+    pub use hookean_filter::{FilterOptions, Kernel, VelocityFilter};
+    #[cfg(feature = "massspring")]
+    pub use hookean_massspring::{
+        ClothParams, ClothPins, Collider, MassSpringModel, RopeParams, SpringMaterial, State, cloth,
+        jelly_block, rope,
+    };
+    #[cfg(feature = "ode")]
+    pub use hookean_ode::{ForcingTerm, Method, NewtonMethod, SolverOptions};
+    #[cfg(feature = "sparse")]
+    pub use hookean_sparse::PrecondKind;
+}

@@ -1,0 +1,285 @@
+//! [`Simulation`]: a mass-spring model, an integrator (explicit, symplectic,
+//! implicit, BDF, or explicit with the velocity filter), its Newton and PCG
+//! settings, run step by step or to an end time, with output sinks.
+
+use std::ops::ControlFlow;
+use std::time::{Duration, Instant};
+
+use hookean_filter::{FilterOptions, VelocityFilter};
+use hookean_massspring::{Energies, MassSpringModel, State};
+use hookean_ode::{
+    ForcingTerm, Method, NewtonMethod, NewtonOptions, SecondOrderIntegrator, SolverOptions, Stats,
+    StepReport,
+};
+use hookean_sparse::PrecondKind;
+
+use crate::error::HookeanError;
+
+/// How a [`Simulation`] integrates.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimulationOptions {
+    /// The integration method. Default [`Method::ImplicitEuler`].
+    pub method: Method,
+    /// Step size, step control, Newton and PCG settings. Default: see
+    /// [`SimulationOptions::drape_solver`].
+    pub solver: SolverOptions,
+    /// The velocity filter applied after every step of an explicit method
+    /// (the filtering paper). Default `None`.
+    pub filter: Option<FilterOptions>,
+}
+
+impl SimulationOptions {
+    /// The solver settings of the reference drape: `h = 0.01`, inexact
+    /// Newton with the tutorial's forcing term `eta = 0.02` (so PCG stops
+    /// at `|r| <= 0.02 |G|` instead of a tight tolerance), nonlinear
+    /// tolerance `|G| <= 1e-6 |G_0|` at most 8 iterations, block-Jacobi PCG.
+    ///
+    /// Why these: at 1e-8 from a zero start PCG needs hundreds of
+    /// iterations on these systems; within inexact Newton the forcing term
+    /// sets a loose tolerance and the Newton correction from the previous
+    /// iterate is small, so a few tens of cheap block-Jacobi iterations per
+    /// step suffice (IC(0) needs fewer iterations, but its setup and
+    /// triangular solves cost more than they save at this tolerance).
+    pub fn drape_solver() -> SolverOptions {
+        SolverOptions {
+            h: 0.01,
+            newton: NewtonOptions {
+                method: NewtonMethod::Inexact(ForcingTerm::TUTORIAL),
+                max_iter: 8,
+                rtol: 1e-6,
+                atol: 1e-12,
+                linear_rtol: 0.02,
+                linear_max_iter: Some(500),
+                preconditioner: PrecondKind::BlockJacobi,
+            },
+            ..SolverOptions::default()
+        }
+    }
+}
+
+impl Default for SimulationOptions {
+    fn default() -> Self {
+        Self {
+            method: Method::ImplicitEuler,
+            solver: Self::drape_solver(),
+            filter: None,
+        }
+    }
+}
+
+/// What a run did: the integrator's counters and the clock.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunSummary {
+    /// Simulated time reached.
+    pub t: f64,
+    /// Simulated seconds covered by this run.
+    pub simulated: f64,
+    /// Wall-clock time of the steps (outputs excluded).
+    pub wall: Duration,
+    /// Steps, rejections, f and Jacobian evaluations, Newton and CG iterations.
+    pub stats: Stats,
+    /// Whether a callback stopped the run early.
+    pub stopped: bool,
+}
+
+impl RunSummary {
+    /// Simulated seconds per wall-clock second.
+    pub fn speed(&self) -> f64 {
+        self.simulated / self.wall.as_secs_f64().max(1e-12)
+    }
+}
+
+/// A consumer of simulation output (frames, statistics, pictures).
+pub trait Sink {
+    /// Called after every accepted step.
+    ///
+    /// # Errors
+    /// An output error stops the run.
+    fn step(&mut self, sim: &Simulation, report: &StepReport) -> Result<(), HookeanError>;
+
+    /// Called once at the end of a run.
+    ///
+    /// # Errors
+    /// An output error.
+    fn finish(&mut self, _sim: &Simulation, _summary: &RunSummary) -> Result<(), HookeanError> {
+        Ok(())
+    }
+}
+
+/// A mass-spring model in motion.
+///
+/// ```
+/// use hookean::prelude::*;
+///
+/// // The reference drape at 16 x 16 particles, one tenth of a second.
+/// let (model, state) = cloth(&ClothParams { nu: 16, nv: 16, ..Default::default() })?;
+/// let mut sim = Simulation::new(model, state, SimulationOptions::default())?;
+/// let summary = sim.run_until(0.1, |_, _| std::ops::ControlFlow::Continue(()))?;
+/// assert_eq!(summary.stats.steps, 10);
+/// assert!(sim.x().iter().all(|v| v.is_finite()));
+/// # Ok::<(), hookean::HookeanError>(())
+/// ```
+pub struct Simulation {
+    integrator: SecondOrderIntegrator<MassSpringModel>,
+    filter: Option<VelocityFilter>,
+    filtered_v: Vec<f64>,
+    wall: Duration,
+}
+
+impl Simulation {
+    /// A simulation of `model` from `state` at `t = 0`.
+    ///
+    /// # Errors
+    /// [`HookeanError::InvalidOption`] for a filter with an implicit method;
+    /// the integrator's and the filter's errors for bad options or states.
+    pub fn new(model: MassSpringModel, state: State, options: SimulationOptions) -> Result<Self, HookeanError> {
+        model.check_state(&state.x, &state.v)?;
+        let filter = match &options.filter {
+            None => None,
+            Some(f) => {
+                if options.method.is_implicit() {
+                    return Err(HookeanError::InvalidOption {
+                        name: "filter".into(),
+                        message: format!(
+                            "the velocity filter is for explicit methods; {} is implicit (it filters by itself)",
+                            options.method
+                        ),
+                    });
+                }
+                Some(crate::filter_for(&model, f.clone())?)
+            }
+        };
+        let integrator = SecondOrderIntegrator::new(model, options.method, 0.0, &state.x, &state.v, options.solver)?;
+        let n = integrator.x().len();
+        Ok(Self {
+            integrator,
+            filter,
+            filtered_v: vec![0.0; n],
+            wall: Duration::ZERO,
+        })
+    }
+
+    /// Advances one accepted step (then filters the velocities, if a filter is set).
+    ///
+    /// # Errors
+    /// The integrator's typed errors (they carry the time reached).
+    pub fn step(&mut self) -> Result<StepReport, HookeanError> {
+        let t0 = Instant::now();
+        let report = self.integrator.step()?;
+        if let Some(f) = self.filter.as_mut() {
+            self.filtered_v.copy_from_slice(self.integrator.v());
+            f.apply(&mut self.filtered_v)?;
+            let t = self.integrator.t();
+            let x = self.integrator.x().to_vec();
+            self.integrator.set_state(t, &x, &self.filtered_v)?;
+        }
+        self.wall += t0.elapsed();
+        Ok(report)
+    }
+
+    /// Steps until `t_end` (the last step may be shortened to land on it),
+    /// calling `on_step` after each; `ControlFlow::Break` stops early.
+    ///
+    /// # Errors
+    /// As [`step`](Self::step).
+    pub fn run_until(
+        &mut self,
+        t_end: f64,
+        mut on_step: impl FnMut(&Simulation, &StepReport) -> ControlFlow<()>,
+    ) -> Result<RunSummary, HookeanError> {
+        let (t_start, wall_start, stats_start) = (self.t(), self.wall, self.stats());
+        let mut stopped = false;
+        while self.t() < t_end - 1e-12 * t_end.abs().max(1.0) {
+            let report = self.step()?;
+            if on_step(self, &report).is_break() {
+                stopped = true;
+                break;
+            }
+        }
+        let _ = stats_start;
+        Ok(RunSummary {
+            t: self.t(),
+            simulated: self.t() - t_start,
+            wall: self.wall - wall_start,
+            stats: self.stats(),
+            stopped,
+        })
+    }
+
+    /// As [`run_until`](Self::run_until), feeding every step to the sinks.
+    ///
+    /// # Errors
+    /// As [`step`](Self::step), and the sinks' output errors.
+    pub fn run_with_sinks(&mut self, t_end: f64, sinks: &mut [&mut dyn Sink]) -> Result<RunSummary, HookeanError> {
+        let mut failure = None;
+        let summary = self.run_until(t_end, |sim, report| {
+            for s in sinks.iter_mut() {
+                if let Err(e) = s.step(sim, report) {
+                    failure = Some(e);
+                    return ControlFlow::Break(());
+                }
+            }
+            ControlFlow::Continue(())
+        })?;
+        if let Some(e) = failure {
+            return Err(e);
+        }
+        for s in sinks.iter_mut() {
+            s.finish(self, &summary)?;
+        }
+        Ok(summary)
+    }
+
+    /// Simulated time.
+    pub fn t(&self) -> f64 {
+        self.integrator.t()
+    }
+
+    /// Positions.
+    pub fn x(&self) -> &[f64] {
+        self.integrator.x()
+    }
+
+    /// Velocities.
+    pub fn v(&self) -> &[f64] {
+        self.integrator.v()
+    }
+
+    /// The model.
+    pub fn model(&self) -> &MassSpringModel {
+        self.integrator.problem()
+    }
+
+    /// Mutable access to the model between steps (forces, pins, colliders).
+    pub fn model_mut(&mut self) -> &mut MassSpringModel {
+        self.integrator.problem_mut()
+    }
+
+    /// Counters of everything done so far.
+    pub fn stats(&self) -> Stats {
+        self.integrator.stats()
+    }
+
+    /// The step size the next step will try.
+    pub fn h_next(&self) -> f64 {
+        self.integrator.h_next()
+    }
+
+    /// The method.
+    pub fn method(&self) -> &Method {
+        self.integrator.method()
+    }
+
+    /// Wall-clock time spent stepping so far.
+    pub fn wall(&self) -> Duration {
+        self.wall
+    }
+
+    /// Kinetic, gravitational and spring energy of the current state.
+    ///
+    /// # Errors
+    /// The model's errors (a NaN state).
+    pub fn energies(&self) -> Result<Energies, HookeanError> {
+        Ok(self.model().energies(self.x(), self.v())?)
+    }
+}
