@@ -12,7 +12,7 @@ mod cloth;
 
 use std::time::Duration;
 
-use cloth::ClothStep;
+use cloth::{ClothStep, LinearizedCloth};
 use criterion::{Criterion, criterion_group, criterion_main};
 use hookean_nonlinear::*;
 use hookean_sparse::BlockJacobi;
@@ -67,6 +67,31 @@ fn bench(c: &mut Criterion) {
                 if !keep {
                     newton.invalidate_jacobian();
                 }
+                newton.solve(&mut sys, &mut dv).unwrap()
+            })
+        });
+    }
+    {
+        // eq. (50) in isotropic-block storage, Jacobian kept across solves.
+        let mut step = ClothStep::new(64, 1e4, 0.1, 0.01, 0.02, 7);
+        let pcg =
+            PcgSolver::new(BlockJacobi::new()).with_constraints(step.correction_constraints());
+        let mut sys = LinearizedCloth(&mut step);
+        let options = NewtonOptions {
+            method: NewtonMethod::InexactSimplified(ForcingTerm::TUTORIAL),
+            rtol: 1e-3,
+            atol: 0.0,
+            max_iter: 200,
+            ..Default::default()
+        };
+        let mut newton = Newton::new(options, sys.jacobian_storage(), pcg).unwrap();
+        let mut dv = vec![0.0; sys.dim()];
+        newton
+            .solve(&mut sys, &mut dv)
+            .expect("the variant converges on this step");
+        group.bench_function("inexact_simplified_eq50_iso_kept", |b| {
+            b.iter(|| {
+                dv.fill(0.0);
                 newton.solve(&mut sys, &mut dv).unwrap()
             })
         });
