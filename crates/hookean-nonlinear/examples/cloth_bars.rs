@@ -32,9 +32,9 @@ fn main() {
         }
     );
     println!(
-        "| method | Newton its | CG its (total) | Jacobian evals | |G|/|G_0| at exit | time (ms) |"
+        "| method | Newton its | CG its (total) | Jacobian evals | |G|/|G_0| at exit | time (ms) | ms per CG it |"
     );
-    println!("|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|");
     let methods: [(&str, NewtonMethod); 6] = [
         ("exact (linear rtol 1e-10)", NewtonMethod::Exact),
         (
