@@ -3,7 +3,7 @@
 //! implicit Euler step, and the nonzeros of the full vs the linearised
 //! Jacobian. Prints markdown tables.
 //!
-//! `cargo run --release -p hookean-nonlinear --example cloth_bars -- [N] [jitter] [rtol] [clamped|exact] [h]`
+//! `cargo run --release -p hookean-nonlinear --example cloth_bars -- [N] [jitter] [rtol] [clamped|exact] [h] [eta_initial]`
 
 #[path = "../tests/common/cloth.rs"]
 mod cloth;
@@ -21,6 +21,7 @@ fn main() {
     let rtol: f64 = args.get(3).map_or(1e-8, |s| s.parse().expect("rtol"));
     let clamp = args.get(4).is_none_or(|s| s != "exact");
     let h: f64 = args.get(5).map_or(0.01, |s| s.parse().expect("h"));
+    let eta_initial: f64 = args.get(6).map_or(0.5, |s| s.parse().expect("eta_initial"));
     let (k, d) = (1e4, 0.1);
     println!(
         "drape N = {n}, k = {k:e}, d = {d}, h = {h}, start at rest from a grid jittered by {jitter} spacings, \
@@ -64,6 +65,7 @@ fn main() {
             rtol,
             atol: 0.0,
             max_iter: 200,
+            eta_initial,
             ..Default::default()
         };
         let mut newton = Newton::new(options, sys.jacobian_storage(), pcg).unwrap();
