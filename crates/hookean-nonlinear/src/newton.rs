@@ -341,8 +341,9 @@ impl Stop {
 
 /// A reusable Newton solver: options, the Jacobian's storage `J`, a linear
 /// solver `L` and the work vectors. Once warmed up (first call at a given
-/// dimension), iterations allocate nothing; a call allocates only the
-/// statistics' history vectors.
+/// dimension), iterations with [`PcgSolver`](crate::PcgSolver) allocate
+/// nothing (faer's LU factorisations allocate their factors at each
+/// setup); a call allocates only the statistics' history vectors.
 ///
 /// ```
 /// use hookean_nonlinear::*;

@@ -767,3 +767,26 @@ fn matrix_free_jacobian_with_unpreconditioned_cg() {
     assert!(max_diff(&u, &u2) < 1e-9);
     assert!(max_diff(&u, &bratu_exact(n)) < 1e-5);
 }
+
+#[test]
+fn step_criterion_estimates_the_remaining_error() {
+    // On Powell singular, Newton contracts linearly with theta = 1/2, so
+    // |s_k| theta / (1 - theta) = |s_k| estimates |Y_{k+1} - Y*| (Hairer-Wanner).
+    let mut sys = powell();
+    let mut y = [3.0, -1.0, 0.0, 1.0];
+    let options = NewtonOptions {
+        atol: 0.0,
+        rtol: 0.0,
+        step_tol: 1e-6,
+        ..Default::default()
+    };
+    let stats = dense_newton(4, options).solve(&mut sys, &mut y).unwrap();
+    assert_eq!(stats.converged_by, Some(ConvergedBy::Step));
+    // The estimate is as good as theta (0.5 within a few per cent) ...
+    let e = dist(&y, &[0.0; 4]);
+    assert!(e <= 1.05e-6, "{e}");
+    // ... and the iteration stopped as soon as it fell below 1e-6: the
+    // error of the previous iterate was still above the tolerance.
+    let prev = dist(&sys.iterates[sys.iterates.len() - 2], &[0.0; 4]);
+    assert!(prev > 1e-6 && prev < 2.5e-6, "{prev}");
+}

@@ -61,6 +61,7 @@ mod cg;
 mod constraints;
 mod direct;
 mod error;
+mod iso;
 mod matrix;
 mod mtx;
 mod operator;
@@ -75,6 +76,7 @@ pub use cg::{
 pub use constraints::Constraints;
 pub use direct::DirectCholesky;
 pub use error::SparseError;
+pub use iso::{IsoBlockMatrix, IsoSlot};
 pub use matrix::{BlockPattern, Slot, SymBlockMatrix};
 pub use mtx::{
     MatrixMarket, read_matrix_market, read_matrix_market_file, write_matrix_market,

@@ -154,3 +154,45 @@ impl NonlinearSystem for ClothStep {
 pub fn scalar_nonzeros(m: &SymBlockMatrix) -> usize {
     m.to_csr().iter().filter(|(v, _)| **v != 0.0).count()
 }
+
+/// The same step with the linearised Jacobian of eq. (50) stored with
+/// isotropic blocks (one scalar per block): `jacobian` fills
+/// `J = M - h D_lin - h^2 K_lin`, `J_ij = -(h d + h^2 k)` per spring.
+pub struct LinearizedCloth<'a>(pub &'a mut ClothStep);
+
+impl LinearizedCloth<'_> {
+    /// Storage for the isotropic Jacobian.
+    pub fn jacobian_storage(&self) -> hookean_sparse::IsoBlockMatrix {
+        hookean_sparse::IsoBlockMatrix::new(self.0.pattern.clone())
+    }
+}
+
+impl NonlinearSystem for LinearizedCloth<'_> {
+    type Jacobian = hookean_sparse::IsoBlockMatrix;
+
+    fn dim(&self) -> usize {
+        self.0.dim()
+    }
+
+    fn residual(&mut self, dv: &[f64], g: &mut [f64]) -> Result<(), NonlinearError> {
+        self.0.residual(dv, g)
+    }
+
+    fn jacobian(
+        &mut self,
+        _dv: &[f64],
+        jac: &mut hookean_sparse::IsoBlockMatrix,
+    ) -> Result<(), NonlinearError> {
+        let s = &*self.0;
+        jac.set_zero();
+        for sp in &s.springs {
+            let c = s.h * s.d + s.h * s.h * sp.k;
+            jac.add_to_block(sp.i, sp.j, -c)?;
+            jac.add_to_block(sp.i, sp.i, c)?;
+            jac.add_to_block(sp.j, sp.j, c)?;
+        }
+        let m: Vec<f64> = s.mass.iter().step_by(3).copied().collect();
+        jac.add_to_diagonal(&m)?;
+        Ok(())
+    }
+}
