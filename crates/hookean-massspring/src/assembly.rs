@@ -177,30 +177,37 @@ impl MassSpringModel {
         );
         self.init_force(v, f);
         let damping = self.options.damping;
-        for s in &self.hot {
-            let (i, j) = (s.i, s.j);
-            let e = point(x, j) - point(x, i);
-            let l = e.norm();
-            if l <= 0.0 || l.is_nan() {
-                continue; // coincident endpoints: no direction, no force
+        // Chunks of independent square roots / divisions (see `assemble`).
+        const CHUNK: usize = 8;
+        let mut geo = [(Vector3::<f64>::zeros(), 0.0_f64, 0.0_f64); CHUNK];
+        for chunk in self.hot.chunks(CHUNK) {
+            for (g, h) in geo.iter_mut().zip(chunk) {
+                let e = point(x, h.j) - point(x, h.i);
+                let l = e.norm();
+                *g = (e, l, 1.0 / l);
             }
-            let inv_l = 1.0 / l;
-            let u = e * inv_l;
-            let mut fi = u * (s.stiffness * (l - s.rest_length));
-            match damping {
-                SpringDamping::Projected => {
-                    let dv = point(v, j) - point(v, i);
-                    fi += u * (s.damping * dv.dot(&u));
+            for (&(e, l, inv_l), s) in geo.iter().zip(chunk) {
+                if l <= 0.0 || l.is_nan() {
+                    continue; // coincident endpoints: no direction, no force
                 }
-                SpringDamping::Incorrect => {
-                    let dv = point(v, j) - point(v, i);
-                    fi += dv * s.damping;
+                let (i, j) = (s.i, s.j);
+                let u = e * inv_l;
+                let mut fi = u * (s.stiffness * (l - s.rest_length));
+                match damping {
+                    SpringDamping::Projected => {
+                        let dv = point(v, j) - point(v, i);
+                        fi += u * (s.damping * dv.dot(&u));
+                    }
+                    SpringDamping::Incorrect => {
+                        let dv = point(v, j) - point(v, i);
+                        fi += dv * s.damping;
+                    }
+                    SpringDamping::None => {}
                 }
-                SpringDamping::None => {}
-            }
-            for r in 0..3 {
-                f[3 * i + r] += fi[r];
-                f[3 * j + r] -= fi[r];
+                for r in 0..3 {
+                    f[3 * i + r] += fi[r];
+                    f[3 * j + r] -= fi[r];
+                }
             }
         }
         self.project_rows(f);
@@ -271,6 +278,7 @@ impl MassSpringModel {
         // in chunks: the square roots and divisions of a chunk are
         // independent, so they overlap instead of serialising the loop.
         const CHUNK: usize = 8;
+        let clamp_floor = if mode.clamp { 0.0 } else { f64::NEG_INFINITY };
         let c_air = self.options.air_friction;
         let mut geo = [(Vector3::<f64>::zeros(), 0.0_f64, 0.0_f64); CHUNK];
         for r in 0..n {
@@ -312,10 +320,8 @@ impl MassSpringModel {
                             f[3 * j + q] -= fi[q];
                         }
                     }
-                    let mut a = 1.0 - h.rest_length * inv_l;
-                    if mode.clamp && a < 0.0 {
-                        a = 0.0;
-                    }
+                    // Branch-free clamp (the sign of 1 - l0/l is random in a deformed cloth).
+                    let a = (1.0 - h.rest_length * inv_l).max(clamp_floor);
                     let mut kb = stiffness_block(h.stiffness, a, &u);
                     if damping_dx && h.damping != 0.0 {
                         let g = damping_position_block(h.damping, l, &u, &dv);
