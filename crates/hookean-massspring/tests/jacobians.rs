@@ -297,9 +297,22 @@ fn clamped_implicit_matrix_is_spd_on_random_compressed_and_stretched_states() {
 
 #[test]
 fn linearized_jacobians_are_the_isotropic_blocks_of_eq_50() {
-    let (model, s) = random_model(5, SpringDamping::Projected, 0.2, 91);
+    let (mut model, s) = random_model(5, SpringDamping::Projected, 0.2, 91);
     let (mut dfdx, mut dfdv) = model.new_jacobians();
     assert!(model.linearized_jacobians(&mut dfdx, &mut dfdv));
+    // The material revision tells when to rebuild it.
+    let rev = model.material_revision();
+    let mut c = hookean_sparse::Constraints::new(5);
+    let (mut x, mut v) = (s.x.clone(), s.v.clone());
+    model.begin_step(0.0, &mut x, &mut v, &mut c);
+    assert_eq!(
+        model.material_revision(),
+        rev,
+        "a step does not change the material"
+    );
+    let mut m2 = model.clone();
+    m2.set_options(*model.options()).unwrap();
+    assert!(m2.material_revision() > rev);
     // Eq. 50: f_lin_i = sum_j k_ij (x_j - x_i) + d_ij (v_j - v_i) (and - c v_i):
     // its Jacobians applied to (x, v) must equal the linear force.
     let n = model.n_particles();
