@@ -147,6 +147,54 @@ fn scatter_sym(
     }
 }
 
+/// Springs per chunk of [`ChunkGeometry`].
+const CHUNK: usize = 8;
+
+/// The geometry of a chunk of springs in structure-of-arrays form: the
+/// square roots and divisions of a chunk are independent and vectorise
+/// (`sqrtpd` / `divpd`) instead of serialising the spring loop.
+struct ChunkGeometry {
+    e: [[f64; CHUNK]; 3],
+    l: [f64; CHUNK],
+    inv_l: [f64; CHUNK],
+}
+
+impl ChunkGeometry {
+    fn new() -> Self {
+        Self {
+            e: [[1.0; CHUNK]; 3],
+            l: [1.0; CHUNK],
+            inv_l: [1.0; CHUNK],
+        }
+    }
+
+    /// `e = x_j - x_i`, `l = |e|`, `1 / l` for every spring of `chunk`.
+    #[inline(always)]
+    fn compute(&mut self, x: &[f64], chunk: &[crate::model::HotSpring]) {
+        for (k, h) in chunk.iter().enumerate() {
+            for r in 0..3 {
+                self.e[r][k] = x[3 * h.j + r] - x[3 * h.i + r];
+            }
+        }
+        for k in 0..CHUNK {
+            let l2 = self.e[0][k] * self.e[0][k]
+                + self.e[1][k] * self.e[1][k]
+                + self.e[2][k] * self.e[2][k];
+            self.l[k] = l2.sqrt();
+            self.inv_l[k] = 1.0 / self.l[k];
+        }
+    }
+
+    #[inline(always)]
+    fn get(&self, k: usize) -> (Vector3<f64>, f64, f64) {
+        (
+            Vector3::new(self.e[0][k], self.e[1][k], self.e[2][k]),
+            self.l[k],
+            self.inv_l[k],
+        )
+    }
+}
+
 /// Which parts a private assembly call computes.
 #[derive(Clone, Copy)]
 pub(crate) struct AssemblyMode {
@@ -177,16 +225,11 @@ impl MassSpringModel {
         );
         self.init_force(v, f);
         let damping = self.options.damping;
-        // Chunks of independent square roots / divisions (see `assemble`).
-        const CHUNK: usize = 8;
-        let mut geo = [(Vector3::<f64>::zeros(), 0.0_f64, 0.0_f64); CHUNK];
+        let mut geo = ChunkGeometry::new();
         for chunk in self.hot.chunks(CHUNK) {
-            for (g, h) in geo.iter_mut().zip(chunk) {
-                let e = point(x, h.j) - point(x, h.i);
-                let l = e.norm();
-                *g = (e, l, 1.0 / l);
-            }
-            for (&(e, l, inv_l), s) in geo.iter().zip(chunk) {
+            geo.compute(x, chunk);
+            for (k, s) in chunk.iter().enumerate() {
+                let (e, l, inv_l) = geo.get(k);
                 if l <= 0.0 || l.is_nan() {
                     continue; // coincident endpoints: no direction, no force
                 }
@@ -277,20 +320,16 @@ impl MassSpringModel {
         // the row is done its diagonal block is final and written. Springs go
         // in chunks: the square roots and divisions of a chunk are
         // independent, so they overlap instead of serialising the loop.
-        const CHUNK: usize = 8;
         let clamp_floor = if mode.clamp { 0.0 } else { f64::NEG_INFINITY };
         let c_air = self.options.air_friction;
-        let mut geo = [(Vector3::<f64>::zeros(), 0.0_f64, 0.0_f64); CHUNK];
+        let mut geo = ChunkGeometry::new();
         for r in 0..n {
             let mut loc = acc[r];
             let row = &self.hot[self.hot_row_ptr[r]..self.hot_row_ptr[r + 1]];
             for chunk in row.chunks(CHUNK) {
-                for (g, h) in geo.iter_mut().zip(chunk) {
-                    let e = point(x, h.j) - point(x, h.i);
-                    let l = e.norm();
-                    *g = (e, l, 1.0 / l);
-                }
-                for (&(e, l, inv_l), h) in geo.iter().zip(chunk) {
+                geo.compute(x, chunk);
+                for (k, h) in chunk.iter().enumerate() {
+                    let (e, l, inv_l) = geo.get(k);
                     let (i, j) = (h.i, h.j);
                     if l <= 0.0 || l.is_nan() {
                         // Coincident endpoints: no direction, no force, no Jacobian.
