@@ -40,18 +40,6 @@ fn stiffness_block(k: f64, a: f64, u: &Vector3<f64>) -> Block3 {
     m
 }
 
-/// `s u u^T`.
-#[inline(always)]
-fn outer_scaled(s: f64, u: &Vector3<f64>) -> Block3 {
-    let mut m = [[0.0; 3]; 3];
-    for r in 0..3 {
-        for c in 0..3 {
-            m[r][c] = s * u[r] * u[c];
-        }
-    }
-    m
-}
-
 /// `G = d/l [ (u . dv)(I - u u^T) + u w^T ]`, `w = dv - (u . dv) u`.
 #[inline(always)]
 fn damping_position_block(d: f64, l: f64, u: &Vector3<f64>, dv: &Vector3<f64>) -> Block3 {
@@ -96,7 +84,8 @@ fn unsym6(a: &[f64]) -> Block3 {
     [[a[0], a[1], a[2]], [a[1], a[3], a[4]], [a[2], a[4], a[5]]]
 }
 
-/// Writes a spring's symmetric block `b` (`df_i/dx_j`, before projection):
+/// Writes a spring's symmetric block `b` (`df_i/dx_j`, before projection,
+/// given by its 6 unique entries `b6`):
 /// the off-diagonal block is assigned (first spring of its pair) or added,
 /// and `-b` (projected: `-P_i b P_i`, `-P_j b P_j`) is accumulated into the
 /// diagonal accumulators at offset `at` (0: `df/dx`, 6: `df/dv`): `loc` of
@@ -110,10 +99,11 @@ fn scatter_sym(
     h: &crate::model::HotSpring,
     constrained: bool,
     proj: &[Block3],
-    b: &Block3,
+    b6: &[f64; 6],
 ) {
     let (i, j) = (h.i, h.j);
     let (off, di, dj) = if constrained {
+        let b = &unsym6(b6);
         let (pi, pj) = (&proj[i], &proj[j]);
         let pb = matmul(pi, b);
         let mut off = matmul(&pb, pj);
@@ -126,8 +116,7 @@ fn scatter_sym(
             sym6(&matmul(&matmul(pj, b), pj)),
         )
     } else {
-        let d = sym6(b);
-        (*b, d, d)
+        (unsym6(b6), *b6, *b6)
     };
     if h.first {
         vals[h.upper] = off;
@@ -361,26 +350,40 @@ impl MassSpringModel {
                     }
                     // Branch-free clamp (the sign of 1 - l0/l is random in a deformed cloth).
                     let a = (1.0 - h.rest_length * inv_l).max(clamp_floor);
-                    let mut kb = stiffness_block(h.stiffness, a, &u);
+                    // u u^T once (6 unique entries), shared by both blocks.
+                    let uu = [
+                        u.x * u.x,
+                        u.x * u.y,
+                        u.x * u.z,
+                        u.y * u.y,
+                        u.y * u.z,
+                        u.z * u.z,
+                    ];
+                    // k [ a I + (1 - a) u u^T ].
+                    let (beta, gamma) = (h.stiffness * (1.0 - a), h.stiffness * a);
+                    let mut k6 = uu.map(|w| beta * w);
+                    k6[0] += gamma;
+                    k6[3] += gamma;
+                    k6[5] += gamma;
                     if damping_dx && h.damping != 0.0 {
                         let g = damping_position_block(h.damping, l, &u, &dv);
-                        for p in 0..3 {
-                            for q in 0..3 {
-                                kb[p][q] += 0.5 * (g[p][q] + g[q][p]);
-                            }
+                        let gs = sym6(&block::add(&g, &block::transpose(&g)));
+                        for t in 0..6 {
+                            k6[t] += 0.5 * gs[t];
                         }
                     }
                     let constrained = self.constrained[i] || self.constrained[j];
                     let other = i.max(j);
                     let acc_c = &mut acc[other];
-                    scatter_sym(vx, &mut loc, acc_c, 0, h, constrained, &self.proj, &kb);
+                    scatter_sym(vx, &mut loc, acc_c, 0, h, constrained, &self.proj, &k6);
                     if let Some(vv) = vv.as_deref_mut() {
-                        let db = match damping {
-                            SpringDamping::Projected => outer_scaled(h.damping, &u),
-                            SpringDamping::Incorrect => block::scale(&block::IDENTITY, h.damping),
-                            SpringDamping::None => block::ZERO,
+                        let d = h.damping;
+                        let d6 = match damping {
+                            SpringDamping::Projected => uu.map(|w| d * w),
+                            SpringDamping::Incorrect => [d, 0.0, 0.0, d, 0.0, d],
+                            SpringDamping::None => [0.0; 6],
                         };
-                        scatter_sym(vv, &mut loc, acc_c, 6, h, constrained, &self.proj, &db);
+                        scatter_sym(vv, &mut loc, acc_c, 6, h, constrained, &self.proj, &d6);
                     }
                 }
             }

@@ -21,29 +21,36 @@ fn all(n: usize) -> Vec<usize> {
 
 #[test]
 fn dfdv_matches_finite_differences_for_every_damping_model() {
-    for (seed, &(damping, air)) in MODELS.iter().enumerate() {
-        let (model, s) = random_model(7, damping, air, 10 + seed as u64);
-        let (mut dfdx, mut dfdv) = model.new_jacobians();
-        model
-            .jacobians_checked(&s.x, &s.v, false, &mut dfdx, &mut dfdv)
-            .unwrap();
-        let fd = fd_jacobian(&model, &s.x, &s.v, false, &all(s.x.len()));
-        let err = rel_err(&dense(&dfdv), &fd);
-        assert!(err < 1e-6, "{damping:?} air {air}: df/dv rel error {err:e}");
-        // Non-trivial wherever some damping is present.
-        let damped = damping != SpringDamping::None || air > 0.0;
-        assert_eq!(fd.iter().flatten().any(|v| v.abs() > 0.1), damped);
+    for (m, &(damping, air)) in MODELS.iter().enumerate() {
+        for seed in 0..5u64 {
+            let (model, s) = random_model(7, damping, air, 100 * seed + m as u64);
+            let (mut dfdx, mut dfdv) = model.new_jacobians();
+            model
+                .jacobians_checked(&s.x, &s.v, false, &mut dfdx, &mut dfdv)
+                .unwrap();
+            let fd = fd_jacobian(&model, &s.x, &s.v, false, &all(s.x.len()));
+            let err = rel_err(&dense(&dfdv), &fd);
+            assert!(err < 1e-6, "{damping:?} air {air}: df/dv rel error {err:e}");
+            // Non-trivial wherever some damping is present.
+            let damped = damping != SpringDamping::None || air > 0.0;
+            assert_eq!(fd.iter().flatten().any(|v| v.abs() > 0.1), damped);
+        }
     }
 }
 
 #[test]
 fn exact_dfdx_matches_finite_differences_for_every_damping_model() {
-    for (seed, &(damping, air)) in MODELS.iter().enumerate() {
-        let (model, s) = random_model(7, damping, air, 20 + seed as u64);
-        let exact = dense_of_csr(&model.dfdx_exact(&s.x, &s.v).unwrap());
-        let fd = fd_jacobian(&model, &s.x, &s.v, true, &all(s.x.len()));
-        let err = rel_err(&exact, &fd);
-        assert!(err < 1e-6, "{damping:?}: exact df/dx rel error {err:e}");
+    for (m, &(damping, air)) in MODELS.iter().enumerate() {
+        for seed in 0..5u64 {
+            let (model, s) = random_model(7, damping, air, 1000 + 100 * seed + m as u64);
+            let exact = dense_of_csr(&model.dfdx_exact(&s.x, &s.v).unwrap());
+            let fd = fd_jacobian(&model, &s.x, &s.v, true, &all(s.x.len()));
+            let err = rel_err(&exact, &fd);
+            assert!(
+                err < 1e-6,
+                "{damping:?} seed {seed}: exact df/dx rel error {err:e}"
+            );
+        }
     }
 }
 
