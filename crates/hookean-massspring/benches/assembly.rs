@@ -41,12 +41,38 @@ fn assembly(c: &mut Criterion) {
         let mut f = vec![0.0; model.dim()];
         let mut y = vec![0.0; model.dim()];
         let mut group = c.benchmark_group(format!("cloth{n}x{n}"));
-        group.sample_size(50);
-        group.bench_function("assemble f + df/dx + df/dv", |b| {
+        group.sample_size(30);
+        group.warm_up_time(std::time::Duration::from_secs(1));
+        group.measurement_time(std::time::Duration::from_secs(3));
+        group.bench_function(
+            "assemble f + df/dx + df/dv (trait: force, force_jacobians)",
+            |b| {
+                b.iter(|| {
+                    model.force(0.0, black_box(&state.x), black_box(&state.v), &mut f);
+                    model.force_jacobians(0.0, &state.x, &state.v, &mut dfdx, &mut dfdv);
+                    black_box((&f, &dfdx, &dfdv));
+                })
+            },
+        );
+        group.bench_function(
+            "assemble f + df/dx + df/dv (fused force_and_jacobians)",
+            |b| {
+                b.iter(|| {
+                    model.force_and_jacobians(
+                        black_box(&state.x),
+                        black_box(&state.v),
+                        &mut f,
+                        &mut dfdx,
+                        &mut dfdv,
+                    );
+                    black_box((&f, &dfdx, &dfdv));
+                })
+            },
+        );
+        group.bench_function("df/dx + df/dv only", |b| {
             b.iter(|| {
-                model.force(0.0, black_box(&state.x), black_box(&state.v), &mut f);
-                model.force_jacobians(0.0, &state.x, &state.v, &mut dfdx, &mut dfdv);
-                black_box((&f, &dfdx, &dfdv));
+                model.force_jacobians(0.0, black_box(&state.x), &state.v, &mut dfdx, &mut dfdv);
+                black_box((&dfdx, &dfdv));
             })
         });
         group.bench_function("force f only", |b| {

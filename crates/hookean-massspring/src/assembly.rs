@@ -40,18 +40,6 @@ fn stiffness_block(k: f64, a: f64, u: &Vector3<f64>) -> Block3 {
     m
 }
 
-/// `s u u^T`.
-#[inline(always)]
-fn outer_scaled(s: f64, u: &Vector3<f64>) -> Block3 {
-    let mut m = [[0.0; 3]; 3];
-    for r in 0..3 {
-        for c in 0..3 {
-            m[r][c] = s * u[r] * u[c];
-        }
-    }
-    m
-}
-
 /// `G = d/l [ (u . dv)(I - u u^T) + u w^T ]`, `w = dv - (u . dv) u`.
 #[inline(always)]
 fn damping_position_block(d: f64, l: f64, u: &Vector3<f64>, dv: &Vector3<f64>) -> Block3 {
@@ -96,7 +84,8 @@ fn unsym6(a: &[f64]) -> Block3 {
     [[a[0], a[1], a[2]], [a[1], a[3], a[4]], [a[2], a[4], a[5]]]
 }
 
-/// Writes a spring's symmetric block `b` (`df_i/dx_j`, before projection):
+/// Writes a spring's symmetric block `b` (`df_i/dx_j`, before projection,
+/// given by its 6 unique entries `b6`):
 /// the off-diagonal block is assigned (first spring of its pair) or added,
 /// and `-b` (projected: `-P_i b P_i`, `-P_j b P_j`) is accumulated into the
 /// diagonal accumulators at offset `at` (0: `df/dx`, 6: `df/dv`): `loc` of
@@ -110,10 +99,11 @@ fn scatter_sym(
     h: &crate::model::HotSpring,
     constrained: bool,
     proj: &[Block3],
-    b: &Block3,
+    b6: &[f64; 6],
 ) {
     let (i, j) = (h.i, h.j);
     let (off, di, dj) = if constrained {
+        let b = &unsym6(b6);
         let (pi, pj) = (&proj[i], &proj[j]);
         let pb = matmul(pi, b);
         let mut off = matmul(&pb, pj);
@@ -126,8 +116,7 @@ fn scatter_sym(
             sym6(&matmul(&matmul(pj, b), pj)),
         )
     } else {
-        let d = sym6(b);
-        (*b, d, d)
+        (unsym6(b6), *b6, *b6)
     };
     if h.first {
         vals[h.upper] = off;
@@ -144,6 +133,54 @@ fn scatter_sym(
     for t in 0..6 {
         loc[at + t] -= dr[t];
         acc_c[at + t] -= dc[t];
+    }
+}
+
+/// Springs per chunk of [`ChunkGeometry`].
+const CHUNK: usize = 8;
+
+/// The geometry of a chunk of springs in structure-of-arrays form: the
+/// square roots and divisions of a chunk are independent and vectorise
+/// (`sqrtpd` / `divpd`) instead of serialising the spring loop.
+struct ChunkGeometry {
+    e: [[f64; CHUNK]; 3],
+    l: [f64; CHUNK],
+    inv_l: [f64; CHUNK],
+}
+
+impl ChunkGeometry {
+    fn new() -> Self {
+        Self {
+            e: [[1.0; CHUNK]; 3],
+            l: [1.0; CHUNK],
+            inv_l: [1.0; CHUNK],
+        }
+    }
+
+    /// `e = x_j - x_i`, `l = |e|`, `1 / l` for every spring of `chunk`.
+    #[inline(always)]
+    fn compute(&mut self, x: &[f64], chunk: &[crate::model::HotSpring]) {
+        for (k, h) in chunk.iter().enumerate() {
+            for r in 0..3 {
+                self.e[r][k] = x[3 * h.j + r] - x[3 * h.i + r];
+            }
+        }
+        for k in 0..CHUNK {
+            let l2 = self.e[0][k] * self.e[0][k]
+                + self.e[1][k] * self.e[1][k]
+                + self.e[2][k] * self.e[2][k];
+            self.l[k] = l2.sqrt();
+            self.inv_l[k] = 1.0 / self.l[k];
+        }
+    }
+
+    #[inline(always)]
+    fn get(&self, k: usize) -> (Vector3<f64>, f64, f64) {
+        (
+            Vector3::new(self.e[0][k], self.e[1][k], self.e[2][k]),
+            self.l[k],
+            self.inv_l[k],
+        )
     }
 }
 
@@ -177,30 +214,32 @@ impl MassSpringModel {
         );
         self.init_force(v, f);
         let damping = self.options.damping;
-        for s in &self.hot {
-            let (i, j) = (s.i, s.j);
-            let e = point(x, j) - point(x, i);
-            let l = e.norm();
-            if l <= 0.0 || l.is_nan() {
-                continue; // coincident endpoints: no direction, no force
-            }
-            let inv_l = 1.0 / l;
-            let u = e * inv_l;
-            let mut fi = u * (s.stiffness * (l - s.rest_length));
-            match damping {
-                SpringDamping::Projected => {
-                    let dv = point(v, j) - point(v, i);
-                    fi += u * (s.damping * dv.dot(&u));
+        let mut geo = ChunkGeometry::new();
+        for chunk in self.hot.chunks(CHUNK) {
+            geo.compute(x, chunk);
+            for (k, s) in chunk.iter().enumerate() {
+                let (e, l, inv_l) = geo.get(k);
+                if l <= 0.0 || l.is_nan() {
+                    continue; // coincident endpoints: no direction, no force
                 }
-                SpringDamping::Incorrect => {
-                    let dv = point(v, j) - point(v, i);
-                    fi += dv * s.damping;
+                let (i, j) = (s.i, s.j);
+                let u = e * inv_l;
+                let mut fi = u * (s.stiffness * (l - s.rest_length));
+                match damping {
+                    SpringDamping::Projected => {
+                        let dv = point(v, j) - point(v, i);
+                        fi += u * (s.damping * dv.dot(&u));
+                    }
+                    SpringDamping::Incorrect => {
+                        let dv = point(v, j) - point(v, i);
+                        fi += dv * s.damping;
+                    }
+                    SpringDamping::None => {}
                 }
-                SpringDamping::None => {}
-            }
-            for r in 0..3 {
-                f[3 * i + r] += fi[r];
-                f[3 * j + r] -= fi[r];
+                for r in 0..3 {
+                    f[3 * i + r] += fi[r];
+                    f[3 * j + r] -= fi[r];
+                }
             }
         }
         self.project_rows(f);
@@ -270,19 +309,16 @@ impl MassSpringModel {
         // the row is done its diagonal block is final and written. Springs go
         // in chunks: the square roots and divisions of a chunk are
         // independent, so they overlap instead of serialising the loop.
-        const CHUNK: usize = 8;
+        let clamp_floor = if mode.clamp { 0.0 } else { f64::NEG_INFINITY };
         let c_air = self.options.air_friction;
-        let mut geo = [(Vector3::<f64>::zeros(), 0.0_f64, 0.0_f64); CHUNK];
+        let mut geo = ChunkGeometry::new();
         for r in 0..n {
             let mut loc = acc[r];
             let row = &self.hot[self.hot_row_ptr[r]..self.hot_row_ptr[r + 1]];
             for chunk in row.chunks(CHUNK) {
-                for (g, h) in geo.iter_mut().zip(chunk) {
-                    let e = point(x, h.j) - point(x, h.i);
-                    let l = e.norm();
-                    *g = (e, l, 1.0 / l);
-                }
-                for (&(e, l, inv_l), h) in geo.iter().zip(chunk) {
+                geo.compute(x, chunk);
+                for (k, h) in chunk.iter().enumerate() {
+                    let (e, l, inv_l) = geo.get(k);
                     let (i, j) = (h.i, h.j);
                     if l <= 0.0 || l.is_nan() {
                         // Coincident endpoints: no direction, no force, no Jacobian.
@@ -312,30 +348,42 @@ impl MassSpringModel {
                             f[3 * j + q] -= fi[q];
                         }
                     }
-                    let mut a = 1.0 - h.rest_length * inv_l;
-                    if mode.clamp && a < 0.0 {
-                        a = 0.0;
-                    }
-                    let mut kb = stiffness_block(h.stiffness, a, &u);
+                    // Branch-free clamp (the sign of 1 - l0/l is random in a deformed cloth).
+                    let a = (1.0 - h.rest_length * inv_l).max(clamp_floor);
+                    // u u^T once (6 unique entries), shared by both blocks.
+                    let uu = [
+                        u.x * u.x,
+                        u.x * u.y,
+                        u.x * u.z,
+                        u.y * u.y,
+                        u.y * u.z,
+                        u.z * u.z,
+                    ];
+                    // k [ a I + (1 - a) u u^T ].
+                    let (beta, gamma) = (h.stiffness * (1.0 - a), h.stiffness * a);
+                    let mut k6 = uu.map(|w| beta * w);
+                    k6[0] += gamma;
+                    k6[3] += gamma;
+                    k6[5] += gamma;
                     if damping_dx && h.damping != 0.0 {
                         let g = damping_position_block(h.damping, l, &u, &dv);
-                        for p in 0..3 {
-                            for q in 0..3 {
-                                kb[p][q] += 0.5 * (g[p][q] + g[q][p]);
-                            }
+                        let gs = sym6(&block::add(&g, &block::transpose(&g)));
+                        for t in 0..6 {
+                            k6[t] += 0.5 * gs[t];
                         }
                     }
                     let constrained = self.constrained[i] || self.constrained[j];
                     let other = i.max(j);
                     let acc_c = &mut acc[other];
-                    scatter_sym(vx, &mut loc, acc_c, 0, h, constrained, &self.proj, &kb);
+                    scatter_sym(vx, &mut loc, acc_c, 0, h, constrained, &self.proj, &k6);
                     if let Some(vv) = vv.as_deref_mut() {
-                        let db = match damping {
-                            SpringDamping::Projected => outer_scaled(h.damping, &u),
-                            SpringDamping::Incorrect => block::scale(&block::IDENTITY, h.damping),
-                            SpringDamping::None => block::ZERO,
+                        let d = h.damping;
+                        let d6 = match damping {
+                            SpringDamping::Projected => uu.map(|w| d * w),
+                            SpringDamping::Incorrect => [d, 0.0, 0.0, d, 0.0, d],
+                            SpringDamping::None => [0.0; 6],
                         };
-                        scatter_sym(vv, &mut loc, acc_c, 6, h, constrained, &self.proj, &db);
+                        scatter_sym(vv, &mut loc, acc_c, 6, h, constrained, &self.proj, &d6);
                     }
                 }
             }

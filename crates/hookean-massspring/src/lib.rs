@@ -14,6 +14,9 @@
 //!   without allocation; the tutorial's constant linearised Jacobian (eq. 50);
 //!   `begin_step` handles pins and [`Collider`]s and fills the
 //!   [`hookean_sparse::Constraints`] of the filtered PCG.
+//!   [`MassSpringModel::force_and_jacobians`] computes all three in one sweep;
+//!   [`MassSpringModel::material_revision`] tells when the constant
+//!   linearised Jacobian must be rebuilt.
 //! - Analysis: [`MassSpringModel::stability`] (`k0` of `M^-1 K` by the
 //!   power method and `dt_max = 2 / sqrt(k0)`, the filtering paper's eq. 11),
 //!   [`MassSpringModel::energies`], [`MassSpringModel::momentum`],

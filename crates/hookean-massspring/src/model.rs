@@ -241,7 +241,11 @@ impl Clone for DiagScratch {
 /// implicit matrix `M - h df/dv - h^2 df/dx` restricted to a constrained
 /// direction is just the mass: even an unfiltered solve gives `d . dv_p = 0`.
 /// Implicit integrators also get the directions as [`hookean_sparse::Constraints`]
-/// from `begin_step`.
+/// from `begin_step`: each active direction `d` of particle `p` is passed
+/// with value 0, meaning `d . dv_p = 0` for the unknown `dv` (the velocity
+/// change of the reduced velocity form); `begin_step` has already zeroed
+/// the constrained velocity components (`v_p = 0` for a pinned particle,
+/// the inward normal velocity removed for a contact), so they stay zero.
 #[derive(Debug, Clone)]
 pub struct MassSpringModel {
     pub(crate) particle_mass: Vec<f64>,
@@ -274,6 +278,7 @@ pub struct MassSpringModel {
     pub(crate) contact_count: usize,
     pub(crate) scratch: Vec<f64>,
     pub(crate) faces: Vec<[usize; 3]>,
+    pub(crate) revision: u64,
 }
 
 impl MassSpringModel {
@@ -410,6 +415,7 @@ impl MassSpringModel {
             contact_count: 0,
             scratch: vec![0.0; 3 * n],
             faces: Vec::new(),
+            revision: 0,
         })
     }
 
@@ -428,6 +434,16 @@ impl MassSpringModel {
         &self.springs
     }
 
+    /// A counter that changes whenever the material or the permanent
+    /// constraints change ([`set_options`](Self::set_options),
+    /// [`pin`](Self::pin), [`constrain_direction`](Self::constrain_direction),
+    /// [`release`](Self::release)): the tutorial's constant linearised
+    /// Jacobian (eq. 50) needs rebuilding only when this (or the step size)
+    /// changes.
+    pub fn material_revision(&self) -> u64 {
+        self.revision
+    }
+
     /// The model options.
     pub fn options(&self) -> &ModelOptions {
         &self.options
@@ -441,6 +457,7 @@ impl MassSpringModel {
     pub fn set_options(&mut self, options: ModelOptions) -> Result<(), MassSpringError> {
         check_options(&options)?;
         self.options = options;
+        self.revision += 1;
         Ok(())
     }
 
@@ -486,6 +503,7 @@ impl MassSpringModel {
         }
         self.fixes[particle] = d;
         self.refresh_permanent();
+        self.revision += 1;
         Ok(())
     }
 
@@ -529,6 +547,7 @@ impl MassSpringModel {
         }
         self.fixes[particle] = d;
         self.refresh_permanent();
+        self.revision += 1;
         Ok(())
     }
 
@@ -540,6 +559,7 @@ impl MassSpringModel {
         self.check_particle(particle)?;
         self.fixes[particle] = Dirs::EMPTY;
         self.refresh_permanent();
+        self.revision += 1;
         Ok(())
     }
 

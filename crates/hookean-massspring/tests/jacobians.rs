@@ -21,29 +21,36 @@ fn all(n: usize) -> Vec<usize> {
 
 #[test]
 fn dfdv_matches_finite_differences_for_every_damping_model() {
-    for (seed, &(damping, air)) in MODELS.iter().enumerate() {
-        let (model, s) = random_model(7, damping, air, 10 + seed as u64);
-        let (mut dfdx, mut dfdv) = model.new_jacobians();
-        model
-            .jacobians_checked(&s.x, &s.v, false, &mut dfdx, &mut dfdv)
-            .unwrap();
-        let fd = fd_jacobian(&model, &s.x, &s.v, false, &all(s.x.len()));
-        let err = rel_err(&dense(&dfdv), &fd);
-        assert!(err < 1e-6, "{damping:?} air {air}: df/dv rel error {err:e}");
-        // Non-trivial wherever some damping is present.
-        let damped = damping != SpringDamping::None || air > 0.0;
-        assert_eq!(fd.iter().flatten().any(|v| v.abs() > 0.1), damped);
+    for (m, &(damping, air)) in MODELS.iter().enumerate() {
+        for seed in 0..5u64 {
+            let (model, s) = random_model(7, damping, air, 100 * seed + m as u64);
+            let (mut dfdx, mut dfdv) = model.new_jacobians();
+            model
+                .jacobians_checked(&s.x, &s.v, false, &mut dfdx, &mut dfdv)
+                .unwrap();
+            let fd = fd_jacobian(&model, &s.x, &s.v, false, &all(s.x.len()));
+            let err = rel_err(&dense(&dfdv), &fd);
+            assert!(err < 1e-6, "{damping:?} air {air}: df/dv rel error {err:e}");
+            // Non-trivial wherever some damping is present.
+            let damped = damping != SpringDamping::None || air > 0.0;
+            assert_eq!(fd.iter().flatten().any(|v| v.abs() > 0.1), damped);
+        }
     }
 }
 
 #[test]
 fn exact_dfdx_matches_finite_differences_for_every_damping_model() {
-    for (seed, &(damping, air)) in MODELS.iter().enumerate() {
-        let (model, s) = random_model(7, damping, air, 20 + seed as u64);
-        let exact = dense_of_csr(&model.dfdx_exact(&s.x, &s.v).unwrap());
-        let fd = fd_jacobian(&model, &s.x, &s.v, true, &all(s.x.len()));
-        let err = rel_err(&exact, &fd);
-        assert!(err < 1e-6, "{damping:?}: exact df/dx rel error {err:e}");
+    for (m, &(damping, air)) in MODELS.iter().enumerate() {
+        for seed in 0..5u64 {
+            let (model, s) = random_model(7, damping, air, 1000 + 100 * seed + m as u64);
+            let exact = dense_of_csr(&model.dfdx_exact(&s.x, &s.v).unwrap());
+            let fd = fd_jacobian(&model, &s.x, &s.v, true, &all(s.x.len()));
+            let err = rel_err(&exact, &fd);
+            assert!(
+                err < 1e-6,
+                "{damping:?} seed {seed}: exact df/dx rel error {err:e}"
+            );
+        }
     }
 }
 
@@ -297,9 +304,22 @@ fn clamped_implicit_matrix_is_spd_on_random_compressed_and_stretched_states() {
 
 #[test]
 fn linearized_jacobians_are_the_isotropic_blocks_of_eq_50() {
-    let (model, s) = random_model(5, SpringDamping::Projected, 0.2, 91);
+    let (mut model, s) = random_model(5, SpringDamping::Projected, 0.2, 91);
     let (mut dfdx, mut dfdv) = model.new_jacobians();
     assert!(model.linearized_jacobians(&mut dfdx, &mut dfdv));
+    // The material revision tells when to rebuild it.
+    let rev = model.material_revision();
+    let mut c = hookean_sparse::Constraints::new(5);
+    let (mut x, mut v) = (s.x.clone(), s.v.clone());
+    model.begin_step(0.0, &mut x, &mut v, &mut c);
+    assert_eq!(
+        model.material_revision(),
+        rev,
+        "a step does not change the material"
+    );
+    let mut m2 = model.clone();
+    m2.set_options(*model.options()).unwrap();
+    assert!(m2.material_revision() > rev);
     // Eq. 50: f_lin_i = sum_j k_ij (x_j - x_i) + d_ij (v_j - v_i) (and - c v_i):
     // its Jacobians applied to (x, v) must equal the linear force.
     let n = model.n_particles();
@@ -349,4 +369,106 @@ fn spring_energy_gradient_is_minus_the_elastic_force() {
             -f[k]
         );
     }
+}
+
+/// Directional finite difference `(f(x + eps w) - f(x - eps w)) / (2 eps)`
+/// (in `x` or in `v`).
+fn fd_dir(model: &MassSpringModel, s: &State, w: &[f64], wrt_x: bool) -> Vec<f64> {
+    let eps = 1e-6;
+    let n = w.len();
+    let (mut fp, mut fm) = (vec![0.0; n], vec![0.0; n]);
+    let shift = |base: &[f64], sign: f64| -> Vec<f64> {
+        base.iter()
+            .zip(w)
+            .map(|(b, d)| b + sign * eps * d)
+            .collect()
+    };
+    if wrt_x {
+        model.force(0.0, &shift(&s.x, 1.0), &s.v, &mut fp);
+        model.force(0.0, &shift(&s.x, -1.0), &s.v, &mut fm);
+    } else {
+        model.force(0.0, &s.x, &shift(&s.v, 1.0), &mut fp);
+        model.force(0.0, &s.x, &shift(&s.v, -1.0), &mut fm);
+    }
+    (0..n).map(|k| (fp[k] - fm[k]) / (2.0 * eps)).collect()
+}
+
+#[test]
+fn jacobians_with_sliding_particles_and_reversed_springs_are_exact_on_admissible_motions() {
+    // Random springs, half of them given as (j, i), so that stored blocks
+    // are transposed; particle 1 slides in a plane, particle 4 along a line.
+    let (base, s) = random_model(6, SpringDamping::Incorrect, 0.4, 111);
+    let springs: Vec<Spring> = base
+        .springs()
+        .iter()
+        .enumerate()
+        .map(|(k, sp)| {
+            if k % 2 == 0 {
+                Spring::new(sp.j, sp.i, sp.rest_length, sp.stiffness, sp.damping)
+            } else {
+                *sp
+            }
+        })
+        .collect();
+    // A duplicated spring: its block is shared by two springs.
+    let mut springs = springs;
+    springs.push(Spring::new(3, 2, 0.7, 25.0, 0.3));
+    springs.push(Spring::new(2, 3, 0.9, 15.0, 0.6));
+    let mut model =
+        MassSpringModel::new(base.particle_masses().to_vec(), springs, *base.options()).unwrap();
+    let p1 = [s.x[3], s.x[4], s.x[5]];
+    let p4 = [s.x[12], s.x[13], s.x[14]];
+    model.constrain_direction(1, [0.3, -1.0, 0.5], p1).unwrap();
+    model.constrain_direction(4, [1.0, 1.0, 0.0], p4).unwrap();
+    model.constrain_direction(4, [0.0, 0.2, 1.0], p4).unwrap();
+    let mut s = s;
+    let mut c = hookean_sparse::Constraints::new(6);
+    model.begin_step(0.0, &mut s.x, &mut s.v, &mut c);
+    assert_eq!((c.count(1), c.count(4)), (1, 2));
+    let (mut dfdx, mut dfdv) = model.new_jacobians();
+    model
+        .jacobians_checked(&s.x, &s.v, false, &mut dfdx, &mut dfdv)
+        .unwrap();
+    let exact = model.dfdx_exact(&s.x, &s.v).unwrap();
+    let n = s.x.len();
+    for trial in 0..4 {
+        // A random admissible direction: w <- P w.
+        let mut w: Vec<f64> = (0..n)
+            .map(|k| (((k + 3 * trial) * 7919 % 23) as f64 / 11.0) - 1.0)
+            .collect();
+        c.project(&mut w);
+        for (wrt_x, mat) in [(true, &dfdx), (false, &dfdv)] {
+            let fd = fd_dir(&model, &s, &w, wrt_x);
+            let mut y = vec![0.0; n];
+            mat.mul_vec(&w, &mut y).unwrap();
+            let scale = fd.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+            let err = y
+                .iter()
+                .zip(&fd)
+                .fold(0.0_f64, |a, (p, q)| a.max((p - q).abs()));
+            assert!(
+                scale > 1e-3 && err < 1e-6 * scale,
+                "wrt_x {wrt_x}: {err:e} / {scale:e}"
+            );
+        }
+        let fd = fd_dir(&model, &s, &w, true);
+        let mut y = vec![0.0; n];
+        hookean_sparse::LinearOperator::apply(&exact, &w, &mut y);
+        let err = y
+            .iter()
+            .zip(&fd)
+            .fold(0.0_f64, |a, (p, q)| a.max((p - q).abs()));
+        assert!(err < 1e-6 * fd.iter().fold(0.0_f64, |a, v| a.max(v.abs())));
+    }
+    // The fused sweep gives the same bits as the separate calls.
+    let mut f1 = vec![0.0; n];
+    let mut f2 = vec![0.0; n];
+    model.force(0.0, &s.x, &s.v, &mut f1);
+    let (mut a, mut b) = model.new_jacobians();
+    model.force_jacobians(0.0, &s.x, &s.v, &mut a, &mut b);
+    let (mut a2, mut b2) = model.new_jacobians();
+    model.force_and_jacobians(&s.x, &s.v, &mut f2, &mut a2, &mut b2);
+    assert_eq!(f1, f2);
+    assert_eq!(a.values(), a2.values());
+    assert_eq!(b.values(), b2.values());
 }

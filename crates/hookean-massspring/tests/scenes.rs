@@ -362,3 +362,87 @@ fn dt_max_separates_stable_from_unstable_symplectic_euler() {
     assert!(run(0.95 * dt_max) < 1e-1);
     assert!(run(1.05 * dt_max) > 1e3);
 }
+
+/// One linearised implicit-Euler step written against the trait only, as
+/// hookean-ode's integrators use the model.
+fn generic_step<P: SecondOrderProblem>(p: &mut P, s: &mut State, h: f64, c: &mut Constraints) {
+    use hookean_sparse::{
+        BlockJacobi, CgParams, CgWorkspace, PreconditionerSetup, SymBlockMatrix, filtered_pcg,
+    };
+    p.begin_step(0.0, &mut s.x, &mut s.v, c);
+    let pattern = p.jacobian_pattern();
+    let (mut dfdx, mut dfdv) = (
+        SymBlockMatrix::new(pattern.clone()),
+        SymBlockMatrix::new(pattern.clone()),
+    );
+    p.force_jacobians(0.0, &s.x, &s.v, &mut dfdx, &mut dfdv);
+    let n = p.dim();
+    let mut f = vec![0.0; n];
+    p.force(0.0, &s.x, &s.v, &mut f);
+    let mut kv = vec![0.0; n];
+    dfdx.mul_vec(&s.v, &mut kv).unwrap();
+    let b: Vec<f64> = (0..n).map(|k| h * (f[k] + h * kv[k])).collect();
+    let mut a = SymBlockMatrix::new(pattern);
+    a.add_to_diagonal(p.mass()).unwrap();
+    a.add_scaled(-h, &dfdv).unwrap();
+    a.add_scaled(-h * h, &dfdx).unwrap();
+    let mut pre = BlockJacobi::new();
+    pre.setup(&a).unwrap();
+    let mut dv = vec![0.0; n];
+    let params = CgParams {
+        rtol: 1e-12,
+        ..CgParams::default()
+    };
+    filtered_pcg(
+        &a,
+        &pre,
+        &b,
+        &mut dv,
+        c,
+        &params,
+        &mut CgWorkspace::new(n),
+        None,
+    )
+    .unwrap()
+    .ensure_converged()
+    .unwrap();
+    for k in 0..n {
+        s.v[k] += dv[k];
+        s.x[k] += h * s.v[k];
+    }
+}
+
+#[test]
+fn the_trait_alone_drives_an_implicit_step_like_the_model_helpers() {
+    let (model0, s0) = cloth(&ClothParams {
+        nu: 5,
+        nv: 5,
+        ..Default::default()
+    })
+    .unwrap();
+    let (mut m1, mut s1) = (model0.clone(), s0.clone());
+    let (mut m2, mut s2) = (model0, s0);
+    m1.add_collider(Collider::plane([0.0, 0.0, -0.1], [0.0, 0.0, 1.0], 0.0).unwrap());
+    m2.add_collider(Collider::plane([0.0, 0.0, -0.1], [0.0, 0.0, 1.0], 0.0).unwrap());
+    let mut st = Stepper::new(&m1);
+    let mut c = Constraints::new(m2.n_particles());
+    for _ in 0..40 {
+        st.step(&mut m1, &mut s1, 0.01);
+        generic_step(&mut m2, &mut s2, 0.01, &mut c);
+    }
+    assert!(m2.contact_count() > 0, "the cloth reached the floor");
+    let diff =
+        s1.x.iter()
+            .zip(&s2.x)
+            .fold(0.0_f64, |a, (p, q)| a.max((p - q).abs()));
+    assert!(diff < 1e-10, "{diff}");
+    // After the next begin_step every particle is on or above the floor.
+    m2.begin_step(0.0, &mut s2.x, &mut s2.v, &mut c);
+    for p in 0..m2.n_particles() {
+        assert!(
+            s2.x[3 * p + 2] >= -0.1,
+            "particle {p}: z = {}",
+            s2.x[3 * p + 2]
+        );
+    }
+}
