@@ -6,7 +6,7 @@ use std::ops::ControlFlow;
 use crate::bdf::{BdfCoefficients, variable_bdf2, variable_bdf2_error_constant};
 use crate::error::OdeError;
 use crate::method::Method;
-use crate::options::{IntegrateInfo, SolverOptions, Stats, StepControl, StepReport};
+use crate::options::{IntegrateInfo, Predictor, SolverOptions, Stats, StepControl, StepReport};
 use hookean_nonlinear::{
     IterationController, IterationControllerOptions, NewtonOutcome, NonlinearError, PiController,
     PiControllerOptions, StepDecision,
@@ -45,6 +45,10 @@ pub(crate) struct Core<S> {
     hist: Vec<Vec<f64>>,
     hist_len: usize,
     hist_h: f64,
+    /// The state before the last accepted implicit Euler step and its step
+    /// size (NaN when invalid), for the extrapolating predictor.
+    prev: Vec<f64>,
+    prev_h: f64,
     f_n: Vec<f64>,
     f_nm1: Vec<f64>,
     f_new: Vec<f64>,
@@ -157,6 +161,8 @@ impl<S: System> Core<S> {
             hist,
             hist_len: 1,
             hist_h: f64::NAN,
+            prev: vec![0.0; m],
+            prev_h: f64::NAN,
             f_n: vec![0.0; m],
             f_nm1: vec![0.0; m],
             f_new: vec![0.0; m],
@@ -195,6 +201,7 @@ impl<S: System> Core<S> {
         self.hist_len = 1;
         self.f_valid = false;
         self.acc_valid = false;
+        self.prev_h = f64::NAN;
     }
 
     /// Invalidates values that depend on the problem (cached forces).
@@ -368,6 +375,11 @@ impl<S: System> Core<S> {
             Method::ImplicitEuler | Method::Bdf(1) => {
                 self.psi.copy_from_slice(&self.s);
                 self.kbuf.copy_from_slice(&self.s);
+                if self.opts.newton.predictor == Predictor::Extrapolate && self.prev_h == h {
+                    for ((k, s), p) in self.kbuf.iter_mut().zip(&self.s).zip(&self.prev) {
+                        *k += s - p;
+                    }
+                }
                 let info = self.sys.solve_stage(
                     t + h,
                     h,
@@ -376,6 +388,8 @@ impl<S: System> Core<S> {
                     &self.opts.newton,
                     &mut self.stats,
                 )?;
+                self.prev.copy_from_slice(&self.s);
+                self.prev_h = h;
                 self.s.copy_from_slice(&self.kbuf);
                 Ok(info)
             }

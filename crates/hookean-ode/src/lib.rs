@@ -58,7 +58,9 @@ pub use error::OdeError;
 pub use hookean_nonlinear::{ForcingTerm, NewtonMethod};
 pub use integrator::{FirstOrderIntegrator, SecondOrderIntegrator};
 pub use method::Method;
-pub use options::{IntegrateInfo, NewtonOptions, SolverOptions, Stats, StepControl, StepReport};
+pub use options::{
+    IntegrateInfo, NewtonOptions, Predictor, SolverOptions, Stats, StepControl, StepReport,
+};
 pub use problem::{FirstOrderProblem, SecondOrderProblem};
 pub use system::FirstOrderForm;
 pub use tableau::ButcherTableau;

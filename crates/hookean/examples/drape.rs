@@ -1,7 +1,7 @@
 //! Drapes the reference cloth and prints what it cost:
 //!
 //! ```text
-//! cargo run --release -p hookean --example drape -- [N] [SECONDS]
+//! cargo run --release -p hookean --example drape -- [N] [SECONDS] [NEWTON_RTOL] [PRECOND] [ETA] [H]
 //! ```
 
 use std::ops::ControlFlow;
@@ -12,12 +12,33 @@ fn main() -> Result<(), HookeanError> {
     let mut args = std::env::args().skip(1);
     let n: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(64);
     let seconds: f64 = args.next().and_then(|s| s.parse().ok()).unwrap_or(5.0);
-    let (model, state) = cloth(&ClothParams {
+    let mut params = ClothParams {
         nu: n,
         nv: n,
         ..Default::default()
-    })?;
-    let mut sim = Simulation::new(model, state, SimulationOptions::default())?;
+    };
+    if std::env::var("SYM").is_ok() {
+        params.options.damping_in_dfdx = hookean::massspring::DampingInDfdx::Symmetrize;
+    }
+    let (model, state) = cloth(&params)?;
+    let mut options = SimulationOptions::default();
+    if let Some(r) = args.next().and_then(|s| s.parse().ok()) {
+        options.solver.newton.rtol = r;
+    }
+    if let Some(p) = args.next().and_then(|s| s.parse().ok()) {
+        options.solver.newton.preconditioner = p;
+    }
+    if let Some(f) = args.next().and_then(|s| s.parse().ok()) {
+        options.solver.newton.method =
+            hookean::ode::NewtonMethod::Inexact(hookean::ode::ForcingTerm::Constant(f));
+    }
+    if let Some(h) = args.next().and_then(|s| s.parse().ok()) {
+        options.solver.h = h;
+    }
+    if let Some(a) = args.next().and_then(|s| s.parse().ok()) {
+        options.solver.newton.atol = a;
+    }
+    let mut sim = Simulation::new(model, state, options)?;
     let summary = sim.run_until(seconds, |_, _| ControlFlow::Continue(()))?;
     let s = summary.stats;
     println!(
@@ -28,7 +49,12 @@ fn main() -> Result<(), HookeanError> {
         summary.wall.as_secs_f64(),
         summary.speed()
     );
-    let lowest = sim.x().chunks(3).map(|p| p[2]).fold(f64::INFINITY, f64::min);
-    println!("lowest point z = {lowest:.3} m");
+    let lowest = sim
+        .x()
+        .chunks(3)
+        .map(|p| p[2])
+        .fold(f64::INFINITY, f64::min);
+    let mean = sim.x().chunks(3).map(|p| p[2]).sum::<f64>() / (n * n) as f64;
+    println!("lowest point z = {lowest:.4} m, mean z = {mean:.4} m");
     Ok(())
 }

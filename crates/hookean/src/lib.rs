@@ -43,6 +43,8 @@ pub use hookean_sparse as sparse;
 #[cfg(feature = "filter")]
 mod error;
 #[cfg(feature = "filter")]
+pub mod scene;
+#[cfg(feature = "filter")]
 mod simulation;
 
 #[cfg(feature = "filter")]
@@ -86,8 +88,8 @@ pub mod prelude {
     pub use hookean_filter::{FilterOptions, Kernel, VelocityFilter};
     #[cfg(feature = "massspring")]
     pub use hookean_massspring::{
-        ClothParams, ClothPins, Collider, MassSpringModel, RopeParams, SpringMaterial, State, cloth,
-        jelly_block, rope,
+        ClothParams, ClothPins, Collider, MassSpringModel, RopeParams, SpringMaterial, State,
+        cloth, jelly_block, rope,
     };
     #[cfg(feature = "ode")]
     pub use hookean_ode::{ForcingTerm, Method, NewtonMethod, SolverOptions};

@@ -1,0 +1,986 @@
+//! Scene files (TOML): which model to build, how to integrate it, for how
+//! long, and what to write.
+//!
+//! A scene has exactly one model table — `[cloth]`, `[rope]`, `[jelly]` or
+//! `[particle]` (the tutorial's example 3) — and optional `[integrator]`,
+//! `[solver]`, `[filter]`, `[model]`, `[[collider]]` and `[output]` tables.
+//! Every key has a documented default (the field docs below; `scenes/drape.toml`
+//! spells them all out). Unknown keys, wrong types and out-of-range values
+//! are errors that name the file, line and column.
+//!
+//! ```
+//! let scene = hookean::scene::Scene::from_toml_str("inline.toml", r#"
+//!     duration = 0.05
+//!     [cloth]
+//!     n = 8
+//! "#)?;
+//! let mut sim = scene.build()?;
+//! sim.run_until(scene.duration, |_, _| std::ops::ControlFlow::Continue(()))?;
+//! # Ok::<(), hookean::HookeanError>(())
+//! ```
+
+use std::path::Path;
+
+use hookean_filter::{FilterOptions, Form, Kernel};
+use hookean_massspring::{
+    BlockParams, ClothParams, ClothPins, Collider, ModelOptions, RopeParams, SpringDamping,
+    SpringMaterial,
+};
+use hookean_ode::{ForcingTerm, Method, NewtonMethod, SolverOptions, StepControl};
+use hookean_sparse::PrecondKind;
+use serde::Deserialize;
+use serde::de::{Deserializer, Error as _};
+
+use crate::error::HookeanError;
+use crate::simulation::{Simulation, SimulationOptions};
+
+fn positive<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let v = f64::deserialize(d)?;
+    if v > 0.0 && v.is_finite() {
+        Ok(v)
+    } else {
+        Err(D::Error::custom(format!(
+            "must be a positive number, got {v}"
+        )))
+    }
+}
+
+fn non_negative<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let v = f64::deserialize(d)?;
+    if v >= 0.0 && v.is_finite() {
+        Ok(v)
+    } else {
+        Err(D::Error::custom(format!(
+            "must be a non-negative number, got {v}"
+        )))
+    }
+}
+
+fn fraction<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let v = f64::deserialize(d)?;
+    if v > 0.0 && v < 1.0 {
+        Ok(v)
+    } else {
+        Err(D::Error::custom(format!("must lie in (0, 1), got {v}")))
+    }
+}
+
+fn at_least_two<'de, D: Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
+    let v = usize::deserialize(d)?;
+    if v >= 2 {
+        Ok(v)
+    } else {
+        Err(D::Error::custom(format!(
+            "needs at least 2 particles, got {v}"
+        )))
+    }
+}
+
+fn at_least_one<'de, D: Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
+    let v = usize::deserialize(d)?;
+    if v >= 1 {
+        Ok(v)
+    } else {
+        Err(D::Error::custom("must be at least 1"))
+    }
+}
+
+fn finite3<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
+    let v = <[f64; 3]>::deserialize(d)?;
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(v)
+    } else {
+        Err(D::Error::custom("components must be finite numbers"))
+    }
+}
+
+fn method<'de, D: Deserializer<'de>>(d: D) -> Result<Method, D::Error> {
+    let s = String::deserialize(d)?;
+    s.parse().map_err(|e| D::Error::custom(format!("{e}")))
+}
+
+fn precond<'de, D: Deserializer<'de>>(d: D) -> Result<PrecondKind, D::Error> {
+    let s = String::deserialize(d)?;
+    s.parse().map_err(|e| D::Error::custom(format!("{e}")))
+}
+
+fn omega<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let v = f64::deserialize(d)?;
+    if v > 0.0 && v < 2.0 {
+        Ok(v)
+    } else {
+        Err(D::Error::custom(format!(
+            "SSOR relaxation must lie in (0, 2), got {v}"
+        )))
+    }
+}
+
+/// A scene: one model, how to integrate it, for how long, what to write.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Simulated seconds. Default 5.
+    #[serde(default = "d_duration", deserialize_with = "positive")]
+    pub duration: f64,
+    /// The cloth grid model.
+    pub cloth: Option<ClothScene>,
+    /// The rope model.
+    pub rope: Option<RopeScene>,
+    /// The 3D lattice ("jelly block").
+    pub jelly: Option<JellyScene>,
+    /// The tutorial's example 3: one particle on a spring to the origin.
+    pub particle: Option<ParticleScene>,
+    /// Damping model, air friction and gravity.
+    #[serde(default)]
+    pub model: ModelScene,
+    /// The time integrator.
+    #[serde(default)]
+    pub integrator: IntegratorScene,
+    /// Newton and PCG.
+    #[serde(default)]
+    pub solver: SolverScene,
+    /// The velocity filter (explicit methods only).
+    pub filter: Option<FilterScene>,
+    /// Planes and spheres.
+    #[serde(default, rename = "collider")]
+    pub colliders: Vec<ColliderScene>,
+    /// What to write.
+    #[serde(default)]
+    pub output: OutputScene,
+}
+
+fn d_duration() -> f64 {
+    5.0
+}
+
+/// `[cloth]`: the reference drape of DESIGN.md by default.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClothScene {
+    /// Particles per side. Default 64.
+    #[serde(default = "d_cloth_n", deserialize_with = "at_least_two")]
+    pub n: usize,
+    /// Side length (m). Default 1.
+    #[serde(default = "one", deserialize_with = "positive")]
+    pub size: f64,
+    /// Total mass (kg). Default 1.
+    #[serde(default = "one", deserialize_with = "positive")]
+    pub mass: f64,
+    /// Structural and shear stiffness (N/m). Default 1e4.
+    #[serde(default = "d_k", deserialize_with = "positive")]
+    pub stiffness: f64,
+    /// Bend stiffness (N/m); 0 leaves bend springs out. Default stiffness / 10.
+    #[serde(default, deserialize_with = "opt_non_negative")]
+    pub bend_stiffness: Option<f64>,
+    /// Spring damping (N s/m). Default 0.1.
+    #[serde(default = "d_damping", deserialize_with = "non_negative")]
+    pub damping: f64,
+    /// `"two-corners"` (default), `"four-corners"`, `"edge"` or `"none"`.
+    #[serde(default = "d_pins")]
+    pub pins: PinScene,
+    /// `"horizontal"` (default: the xy plane) or `"vertical"` (the xz plane).
+    #[serde(default)]
+    pub plane: PlaneScene,
+    /// Position of the first particle. Default `[0, 0, 0]`.
+    #[serde(default, deserialize_with = "finite3")]
+    pub origin: [f64; 3],
+}
+
+fn opt_non_negative<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+    non_negative(d).map(Some)
+}
+
+fn d_cloth_n() -> usize {
+    64
+}
+fn one() -> f64 {
+    1.0
+}
+fn d_k() -> f64 {
+    1e4
+}
+fn d_damping() -> f64 {
+    0.1
+}
+fn d_pins() -> PinScene {
+    PinScene::TwoCorners
+}
+
+/// Which cloth particles are pinned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PinScene {
+    /// The two corners of one edge.
+    TwoCorners,
+    /// All four corners.
+    FourCorners,
+    /// A whole edge.
+    Edge,
+    /// None.
+    None,
+}
+
+/// The cloth's plane.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PlaneScene {
+    /// The xy plane (gravity along -z).
+    #[default]
+    Horizontal,
+    /// The xz plane.
+    Vertical,
+}
+
+/// `[rope]`: the filtering paper's figure 1.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RopeScene {
+    /// Particles. Default 20.
+    #[serde(default = "d_rope_n", deserialize_with = "at_least_two")]
+    pub n: usize,
+    /// Length (m). Default 1.
+    #[serde(default = "one", deserialize_with = "positive")]
+    pub length: f64,
+    /// Total mass (kg). Default 1.
+    #[serde(default = "one", deserialize_with = "positive")]
+    pub mass: f64,
+    /// Stiffness (N/m). Default 1e4.
+    #[serde(default = "d_k", deserialize_with = "positive")]
+    pub stiffness: f64,
+    /// Damping (N s/m). Default 0.1.
+    #[serde(default = "d_damping", deserialize_with = "non_negative")]
+    pub damping: f64,
+    /// Direction from the first to the last particle. Default `[1, 0, 0]` (horizontal).
+    #[serde(default = "d_dir", deserialize_with = "finite3")]
+    pub direction: [f64; 3],
+    /// Pin the first particle. Default true.
+    #[serde(default = "yes")]
+    pub pin_start: bool,
+    /// Pin the last particle. Default false.
+    #[serde(default)]
+    pub pin_end: bool,
+}
+
+fn d_rope_n() -> usize {
+    20
+}
+fn d_dir() -> [f64; 3] {
+    [1.0, 0.0, 0.0]
+}
+fn yes() -> bool {
+    true
+}
+
+/// `[jelly]`: a block lattice with edge, face- and body-diagonal springs.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JellyScene {
+    /// Particles per axis. Default `[6, 6, 6]`.
+    #[serde(default = "d_jelly_n")]
+    pub n: [usize; 3],
+    /// Lattice spacing (m). Default 0.05.
+    #[serde(default = "d_spacing", deserialize_with = "positive")]
+    pub spacing: f64,
+    /// Total mass (kg). Default 1.
+    #[serde(default = "one", deserialize_with = "positive")]
+    pub mass: f64,
+    /// Stiffness of every spring (N/m). Default 1e3.
+    #[serde(default = "d_jelly_k", deserialize_with = "positive")]
+    pub stiffness: f64,
+    /// Damping (N s/m). Default 0.1.
+    #[serde(default = "d_damping", deserialize_with = "non_negative")]
+    pub damping: f64,
+    /// Minimum corner. Default `[0, 0, 0.5]`.
+    #[serde(default = "d_jelly_origin", deserialize_with = "finite3")]
+    pub origin: [f64; 3],
+}
+
+fn d_jelly_n() -> [usize; 3] {
+    [6, 6, 6]
+}
+fn d_spacing() -> f64 {
+    0.05
+}
+fn d_jelly_k() -> f64 {
+    1e3
+}
+fn d_jelly_origin() -> [f64; 3] {
+    [0.0, 0.0, 0.5]
+}
+
+/// `[particle]`: the tutorial's example 3 with its parameters (no keys).
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParticleScene {}
+
+/// `[model]`: force model options shared by all builders.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelScene {
+    /// `"projected"` (default), `"incorrect"` (d (v_j - v_i), damps rotation) or `"none"`.
+    #[serde(default)]
+    pub damping: DampingScene,
+    /// Air friction c in `-c v` (N s/m). Default 0.
+    #[serde(default, deserialize_with = "non_negative")]
+    pub air_friction: f64,
+    /// Gravity (m/s^2). Default `[0, 0, -9.81]`.
+    #[serde(default = "d_gravity", deserialize_with = "finite3")]
+    pub gravity: [f64; 3],
+}
+
+impl Default for ModelScene {
+    fn default() -> Self {
+        Self {
+            damping: DampingScene::Projected,
+            air_friction: 0.0,
+            gravity: d_gravity(),
+        }
+    }
+}
+
+fn d_gravity() -> [f64; 3] {
+    [0.0, 0.0, -9.81]
+}
+
+/// The spring damping model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DampingScene {
+    /// Along the spring.
+    #[default]
+    Projected,
+    /// `d (v_j - v_i)`.
+    Incorrect,
+    /// None.
+    None,
+}
+
+/// `[integrator]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IntegratorScene {
+    /// A method name of `hookean-ode` (`implicit-euler`, `implicit-midpoint`,
+    /// `bdf1`..`bdf6`, `bdf2-variable`, `explicit-euler`, `midpoint`, `rk4`,
+    /// `fb-euler`, `verlet`). Default `implicit-euler`.
+    #[serde(default = "d_method", deserialize_with = "method")]
+    pub method: Method,
+    /// (Initial) step size (s). Default 0.01.
+    #[serde(default = "d_h", deserialize_with = "positive")]
+    pub h: f64,
+    /// Step control of `bdf2-variable`: `"error"` (default) or `"newton"` (Newton iterations).
+    #[serde(default)]
+    pub control: ControlScene,
+    /// Relative error tolerance of error control. Default 1e-3.
+    #[serde(default = "d_rtol", deserialize_with = "positive")]
+    pub rtol: f64,
+    /// Absolute error tolerance. Default 1e-4.
+    #[serde(default = "d_atol", deserialize_with = "positive")]
+    pub atol: f64,
+    /// Largest step (s). Default 0.05.
+    #[serde(default = "d_hmax", deserialize_with = "positive")]
+    pub h_max: f64,
+}
+
+impl Default for IntegratorScene {
+    fn default() -> Self {
+        Self {
+            method: d_method(),
+            h: d_h(),
+            control: ControlScene::Error,
+            rtol: d_rtol(),
+            atol: d_atol(),
+            h_max: d_hmax(),
+        }
+    }
+}
+
+fn d_method() -> Method {
+    Method::ImplicitEuler
+}
+fn d_h() -> f64 {
+    0.01
+}
+fn d_rtol() -> f64 {
+    1e-3
+}
+fn d_atol() -> f64 {
+    1e-4
+}
+fn d_hmax() -> f64 {
+    0.05
+}
+
+/// Step-size control of variable-step methods.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ControlScene {
+    /// Error-based PI control.
+    #[default]
+    Error,
+    /// Newton-iteration control (tutorial 3.4).
+    Newton,
+}
+
+/// `[solver]`: Newton and PCG.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverScene {
+    /// `"inexact"` (default), `"exact"`, `"simplified"` or `"inexact-simplified"`.
+    #[serde(default)]
+    pub newton: NewtonScene,
+    /// Forcing term of the inexact variants: a number in (0, 1) (default 0.02,
+    /// the tutorial's), `"ew1"` or `"ew2"` (Eisenstat-Walker).
+    #[serde(default)]
+    pub forcing: ForcingScene,
+    /// Nonlinear tolerance `|G| <= rtol |G_0|`. Default 1e-6.
+    #[serde(default = "d_newton_rtol", deserialize_with = "fraction")]
+    pub newton_rtol: f64,
+    /// Newton iteration limit. Default 8.
+    #[serde(default = "d_newton_max", deserialize_with = "at_least_one")]
+    pub max_newton: usize,
+    /// PCG tolerance of exact Newton solves. Default 1e-8.
+    #[serde(default = "d_cg_rtol", deserialize_with = "fraction")]
+    pub cg_rtol: f64,
+    /// PCG iteration limit. Default 500.
+    #[serde(default = "d_cg_max", deserialize_with = "at_least_one")]
+    pub max_cg: usize,
+    /// `none`, `jacobi`, `block-jacobi` (default), `ssor` or `ic0`.
+    #[serde(default = "d_precond", deserialize_with = "precond")]
+    pub preconditioner: PrecondKind,
+    /// SSOR relaxation in (0, 2). Default 1.
+    #[serde(default = "one", deserialize_with = "omega")]
+    pub omega: f64,
+}
+
+impl Default for SolverScene {
+    fn default() -> Self {
+        Self {
+            newton: NewtonScene::Inexact,
+            forcing: ForcingScene::default(),
+            newton_rtol: d_newton_rtol(),
+            max_newton: d_newton_max(),
+            cg_rtol: d_cg_rtol(),
+            max_cg: d_cg_max(),
+            preconditioner: d_precond(),
+            omega: 1.0,
+        }
+    }
+}
+
+fn d_newton_rtol() -> f64 {
+    1e-6
+}
+fn d_newton_max() -> usize {
+    8
+}
+fn d_cg_rtol() -> f64 {
+    1e-8
+}
+fn d_cg_max() -> usize {
+    500
+}
+fn d_precond() -> PrecondKind {
+    PrecondKind::BlockJacobi
+}
+
+/// The Newton variant.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum NewtonScene {
+    /// Inexact Newton (Algorithm 2).
+    #[default]
+    Inexact,
+    /// Newton with tight linear solves (Algorithm 1).
+    Exact,
+    /// Simplified Newton.
+    Simplified,
+    /// Inexact simplified Newton with the linearised Jacobian (Algorithm 3).
+    InexactSimplified,
+}
+
+/// A forcing term: a constant or an Eisenstat-Walker choice.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ForcingScene {
+    /// A constant in (0, 1).
+    Constant(f64),
+    /// Eisenstat-Walker choice 1.
+    Ew1,
+    /// Eisenstat-Walker choice 2 (gamma 0.9, alpha 2).
+    Ew2,
+}
+
+impl Default for ForcingScene {
+    fn default() -> Self {
+        ForcingScene::Constant(0.02)
+    }
+}
+
+impl<'de> Deserialize<'de> for ForcingScene {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Raw {
+            Number(f64),
+            Name(String),
+        }
+        match Raw::deserialize(d)? {
+            Raw::Number(v) if v > 0.0 && v < 1.0 => Ok(ForcingScene::Constant(v)),
+            Raw::Number(v) => Err(D::Error::custom(format!(
+                "a constant forcing term must lie in (0, 1), got {v}"
+            ))),
+            Raw::Name(s) if s == "ew1" => Ok(ForcingScene::Ew1),
+            Raw::Name(s) if s == "ew2" => Ok(ForcingScene::Ew2),
+            Raw::Name(s) => Err(D::Error::custom(format!(
+                "unknown forcing term '{s}' (a number in (0, 1), \"ew1\" or \"ew2\")"
+            ))),
+        }
+    }
+}
+
+/// `[filter]`: the velocity filter after explicit steps.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FilterScene {
+    /// Filter sharpness lambda > 0. Default 1.
+    #[serde(default = "one", deserialize_with = "positive")]
+    pub lambda: f64,
+    /// `"exponential"` (default) or `"gaussian"`.
+    #[serde(default)]
+    pub kernel: KernelScene,
+    /// `"symmetric"` (default) or `"plain"`.
+    #[serde(default)]
+    pub form: FormScene,
+    /// Neighbourhood radius in rings of the spring graph. Default 1.
+    #[serde(default = "d_rings", deserialize_with = "at_least_one")]
+    pub rings: usize,
+}
+
+fn d_rings() -> usize {
+    1
+}
+
+/// The filter kernel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum KernelScene {
+    /// `lambda exp(-lambda d)`.
+    #[default]
+    Exponential,
+    /// `exp(-(lambda d)^2 / 2)`.
+    Gaussian,
+}
+
+/// The filter form.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FormScene {
+    /// `(v_i + sum beta v_j) / 2`.
+    #[default]
+    Symmetric,
+    /// `sum beta v_j`.
+    Plain,
+}
+
+/// `[[collider]]`: a plane or a sphere.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, tag = "kind", rename_all = "kebab-case")]
+pub enum ColliderScene {
+    /// The half-space above a plane.
+    Plane {
+        /// A point of the plane.
+        #[serde(deserialize_with = "finite3")]
+        point: [f64; 3],
+        /// Its outward normal (normalised on use).
+        #[serde(deserialize_with = "finite3")]
+        normal: [f64; 3],
+        /// Contact margin (m). Default 0.
+        #[serde(default, deserialize_with = "non_negative")]
+        margin: f64,
+    },
+    /// The outside of a ball.
+    Sphere {
+        /// Centre.
+        #[serde(deserialize_with = "finite3")]
+        center: [f64; 3],
+        /// Radius (m).
+        #[serde(deserialize_with = "positive")]
+        radius: f64,
+        /// Contact margin (m). Default 0.
+        #[serde(default, deserialize_with = "non_negative")]
+        margin: f64,
+    },
+}
+
+/// `[output]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputScene {
+    /// OBJ frames per simulated second (0: none). Default 10.
+    #[serde(default = "d_frame_rate", deserialize_with = "non_negative")]
+    pub frame_rate: f64,
+    /// Width of `final.png` in pixels. Default 800.
+    #[serde(default = "d_width", deserialize_with = "at_least_one")]
+    pub width: usize,
+    /// Height of `final.png` in pixels. Default 600.
+    #[serde(default = "d_height", deserialize_with = "at_least_one")]
+    pub height: usize,
+}
+
+impl Default for OutputScene {
+    fn default() -> Self {
+        Self {
+            frame_rate: d_frame_rate(),
+            width: d_width(),
+            height: d_height(),
+        }
+    }
+}
+
+fn d_frame_rate() -> f64 {
+    10.0
+}
+fn d_width() -> usize {
+    800
+}
+fn d_height() -> usize {
+    600
+}
+
+/// 1-based line and column of a byte offset.
+fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, column)
+}
+
+fn scene_error(file: &str, text: &str, e: &toml::de::Error) -> HookeanError {
+    let (line, column) = e.span().map_or((1, 1), |s| line_column(text, s.start));
+    HookeanError::Scene {
+        file: file.to_string(),
+        line,
+        column,
+        message: e.message().trim().to_string(),
+    }
+}
+
+impl Scene {
+    /// Parses a scene from TOML text; `file` names it in error messages.
+    ///
+    /// # Errors
+    /// [`HookeanError::Scene`] with the line and column of the offending
+    /// key or value.
+    pub fn from_toml_str(file: &str, text: &str) -> Result<Self, HookeanError> {
+        Self::with_overrides(file, text, &[])
+    }
+
+    /// Reads a scene file.
+    ///
+    /// # Errors
+    /// [`HookeanError::Io`] if it cannot be read; as [`from_toml_str`](Self::from_toml_str).
+    pub fn from_file(path: &Path, overrides: &[String]) -> Result<Self, HookeanError> {
+        let text = std::fs::read_to_string(path).map_err(|e| HookeanError::io(path, e))?;
+        Self::with_overrides(&path.display().to_string(), &text, overrides)
+    }
+
+    /// Parses a scene and applies `key=value` overrides (`cloth.n=32`,
+    /// `integrator.method="fb-euler"`; the value is TOML, a bare word is
+    /// taken as a string). Each override is appended to the text as a
+    /// dotted-key assignment in the root table, so its errors also name a
+    /// line and column (past the file's end: `<file> + --set`).
+    ///
+    /// # Errors
+    /// As [`from_toml_str`](Self::from_toml_str); [`HookeanError::InvalidOption`]
+    /// for an override without `=`, or one that sets a key twice.
+    pub fn with_overrides(
+        file: &str,
+        text: &str,
+        overrides: &[String],
+    ) -> Result<Self, HookeanError> {
+        let scene: Scene = toml::from_str(text).map_err(|e| scene_error(file, text, &e))?;
+        if overrides.is_empty() {
+            scene.check(file)?;
+            return Ok(scene);
+        }
+        let mut table: toml::Table =
+            toml::from_str(text).map_err(|e| scene_error(file, text, &e))?;
+        for o in overrides {
+            let (key, value) = o
+                .split_once('=')
+                .ok_or_else(|| HookeanError::InvalidOption {
+                    name: "--set".into(),
+                    message: format!("'{o}' is not key=value"),
+                })?;
+            let value: toml::Value = match toml::from_str::<toml::Table>(&format!("v = {value}")) {
+                Ok(mut t) => t.remove("v").expect("just parsed"),
+                Err(_) => toml::Value::String(value.trim().to_string()),
+            };
+            let mut cursor = &mut table;
+            let parts: Vec<&str> = key.trim().split('.').collect();
+            for part in &parts[..parts.len() - 1] {
+                let entry = cursor
+                    .entry(part.to_string())
+                    .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+                cursor = entry
+                    .as_table_mut()
+                    .ok_or_else(|| HookeanError::InvalidOption {
+                        name: "--set".into(),
+                        message: format!("'{key}': '{part}' is not a table"),
+                    })?;
+            }
+            cursor.insert(parts[parts.len() - 1].to_string(), value);
+        }
+        let merged = toml::to_string(&table).map_err(|e| HookeanError::InvalidOption {
+            name: "--set".into(),
+            message: e.to_string(),
+        })?;
+        let label = format!("{file} (after --set {})", overrides.join(" "));
+        let scene: Scene = toml::from_str(&merged).map_err(|e| scene_error(&label, &merged, &e))?;
+        scene.check(&label)?;
+        Ok(scene)
+    }
+
+    fn check(&self, file: &str) -> Result<(), HookeanError> {
+        let models = [
+            self.cloth.is_some(),
+            self.rope.is_some(),
+            self.jelly.is_some(),
+            self.particle.is_some(),
+        ]
+        .iter()
+        .filter(|&&b| b)
+        .count();
+        if models != 1 {
+            return Err(HookeanError::Scene {
+                file: file.to_string(),
+                line: 1,
+                column: 1,
+                message: format!(
+                    "a scene needs exactly one model table ([cloth], [rope], [jelly] or [particle]), found {models}"
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    /// The model options of the scene.
+    fn model_options(&self) -> ModelOptions {
+        ModelOptions {
+            damping: match self.model.damping {
+                DampingScene::Projected => SpringDamping::Projected,
+                DampingScene::Incorrect => SpringDamping::Incorrect,
+                DampingScene::None => SpringDamping::None,
+            },
+            air_friction: self.model.air_friction,
+            gravity: self.model.gravity,
+            ..ModelOptions::default()
+        }
+    }
+
+    /// The integrator, Newton and PCG options of the scene.
+    pub fn simulation_options(&self) -> SimulationOptions {
+        let s = &self.solver;
+        let forcing = match s.forcing {
+            ForcingScene::Constant(eta) => ForcingTerm::Constant(eta),
+            ForcingScene::Ew1 => ForcingTerm::EisenstatWalker1,
+            ForcingScene::Ew2 => ForcingTerm::EW2_DEFAULT,
+        };
+        let mut solver: SolverOptions = SimulationOptions::drape_solver();
+        solver.h = self.integrator.h;
+        solver.rtol = self.integrator.rtol;
+        solver.atol = self.integrator.atol;
+        solver.h_max = self.integrator.h_max;
+        solver.control = match self.integrator.control {
+            ControlScene::Error => StepControl::error_based(),
+            ControlScene::Newton => StepControl::newton_iterations(),
+        };
+        solver.newton.method = match s.newton {
+            NewtonScene::Exact => NewtonMethod::Exact,
+            NewtonScene::Inexact => NewtonMethod::Inexact(forcing),
+            NewtonScene::Simplified => NewtonMethod::Simplified,
+            NewtonScene::InexactSimplified => NewtonMethod::InexactSimplified(forcing),
+        };
+        solver.newton.rtol = s.newton_rtol;
+        solver.newton.max_iter = s.max_newton;
+        solver.newton.linear_rtol = match s.newton {
+            NewtonScene::Exact | NewtonScene::Simplified => s.cg_rtol,
+            _ => solver.newton.linear_rtol,
+        };
+        solver.newton.linear_max_iter = Some(s.max_cg);
+        solver.newton.preconditioner = match s.preconditioner {
+            PrecondKind::Ssor { .. } => PrecondKind::Ssor { omega: s.omega },
+            other => other,
+        };
+        SimulationOptions {
+            method: self.integrator.method.clone(),
+            solver,
+            filter: self.filter.as_ref().map(|f| FilterOptions {
+                kernel: match f.kernel {
+                    KernelScene::Exponential => Kernel::Exponential { lambda: f.lambda },
+                    KernelScene::Gaussian => Kernel::Gaussian { lambda: f.lambda },
+                },
+                form: match f.form {
+                    FormScene::Symmetric => Form::Symmetric,
+                    FormScene::Plain => Form::Plain,
+                },
+                rings: f.rings,
+            }),
+        }
+    }
+
+    /// Builds the model and the simulation the scene describes.
+    ///
+    /// # Errors
+    /// The builders' and the integrator's typed errors.
+    pub fn build(&self) -> Result<Simulation, HookeanError> {
+        let options = self.model_options();
+        let (mut model, state) = if let Some(c) = &self.cloth {
+            let axis_v = match c.plane {
+                PlaneScene::Horizontal => [0.0, 1.0, 0.0],
+                PlaneScene::Vertical => [0.0, 0.0, 1.0],
+            };
+            hookean_massspring::cloth(&ClothParams {
+                nu: c.n,
+                nv: c.n,
+                width: c.size,
+                height: c.size,
+                origin: c.origin,
+                axis_u: [1.0, 0.0, 0.0],
+                axis_v,
+                total_mass: c.mass,
+                structural: SpringMaterial::new(c.stiffness, c.damping),
+                shear: SpringMaterial::new(c.stiffness, c.damping),
+                bend: SpringMaterial::new(
+                    c.bend_stiffness.unwrap_or(c.stiffness / 10.0),
+                    c.damping,
+                ),
+                pins: match c.pins {
+                    PinScene::TwoCorners => ClothPins::TwoCorners,
+                    PinScene::FourCorners => ClothPins::FourCorners,
+                    PinScene::Edge => ClothPins::Edge,
+                    PinScene::None => ClothPins::None,
+                },
+                options,
+            })?
+        } else if let Some(r) = &self.rope {
+            hookean_massspring::rope(&RopeParams {
+                n: r.n,
+                length: r.length,
+                total_mass: r.mass,
+                material: SpringMaterial::new(r.stiffness, r.damping),
+                direction: r.direction,
+                pin_start: r.pin_start,
+                pin_end: r.pin_end,
+                options,
+                ..RopeParams::default()
+            })?
+        } else if let Some(j) = &self.jelly {
+            let m = SpringMaterial::new(j.stiffness, j.damping);
+            hookean_massspring::jelly_block(&BlockParams {
+                n: j.n,
+                spacing: j.spacing,
+                origin: j.origin,
+                total_mass: j.mass,
+                edge: m,
+                face: m,
+                body: m,
+                options,
+            })?
+        } else {
+            let (mut model, state) = hookean_massspring::tutorial_example3()?;
+            if self.model.damping != DampingScene::Projected
+                || self.model.air_friction != 0.0
+                || self.model.gravity != d_gravity()
+            {
+                model.set_options(options)?;
+            }
+            (model, state)
+        };
+        for c in &self.colliders {
+            model.add_collider(match *c {
+                ColliderScene::Plane {
+                    point,
+                    normal,
+                    margin,
+                } => Collider::plane(point, normal, margin)?,
+                ColliderScene::Sphere {
+                    center,
+                    radius,
+                    margin,
+                } => Collider::sphere(center, radius, margin)?,
+            });
+        }
+        Simulation::new(model, state, self.simulation_options())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn err(text: &str) -> (usize, usize, String) {
+        match Scene::from_toml_str("s.toml", text) {
+            Err(HookeanError::Scene {
+                line,
+                column,
+                message,
+                ..
+            }) => (line, column, message),
+            other => panic!("expected a scene error, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn defaults_are_the_reference_drape() {
+        let s = Scene::from_toml_str("s.toml", "[cloth]\n").unwrap();
+        let c = s.cloth.as_ref().unwrap();
+        assert_eq!(
+            (c.n, c.size, c.mass, c.stiffness, c.damping),
+            (64, 1.0, 1.0, 1e4, 0.1)
+        );
+        assert_eq!(c.pins, PinScene::TwoCorners);
+        assert_eq!(s.duration, 5.0);
+        assert_eq!(s.integrator.method, Method::ImplicitEuler);
+        assert_eq!(s.integrator.h, 0.01);
+    }
+
+    #[test]
+    fn unknown_keys_wrong_types_and_bad_values_name_line_and_column() {
+        let (l, c, m) = err("duration = 1.0\n[cloth]\nn = 8\nstifness = 3\n");
+        assert_eq!((l, c), (4, 1), "{m}");
+        assert!(m.contains("stifness"), "{m}");
+        let (l, c, m) = err("[cloth]\nn = \"many\"\n");
+        assert_eq!((l, c), (2, 5), "{m}");
+        let (l, c, m) = err("[cloth]\n  damping = -1.0\n");
+        assert_eq!((l, c), (2, 13), "{m}");
+        assert!(m.contains("non-negative"), "{m}");
+        let (l, _, m) = err("[cloth]\n[integrator]\nmethod = \"rk5\"\n");
+        assert_eq!(l, 3, "{m}");
+        let (l, _, m) = err("[rope]\n[solver]\nforcing = 1.5\n");
+        assert_eq!(l, 3, "{m}");
+        let (_, _, m) = err("[rope]\n[cloth]\n");
+        assert!(m.contains("exactly one model"), "{m}");
+        let (l, _, _) = err("[cloth]\n[[collider]]\nkind = \"cube\"\n");
+        assert!(l >= 2);
+    }
+
+    #[test]
+    fn overrides_change_values_and_are_checked() {
+        let s = Scene::with_overrides(
+            "s.toml",
+            "[cloth]\nn = 8\n",
+            &["cloth.n=5".into(), "integrator.method=fb-euler".into()],
+        )
+        .unwrap();
+        assert_eq!(s.cloth.unwrap().n, 5);
+        assert_eq!(s.integrator.method, Method::FbEuler);
+        match Scene::with_overrides("s.toml", "[cloth]\n", &["cloth.n=1".into()]) {
+            Err(HookeanError::Scene { message, .. }) => assert!(message.contains("at least 2")),
+            other => panic!("{other:?}"),
+        }
+        assert!(matches!(
+            Scene::with_overrides("s.toml", "[cloth]\n", &["cloth.n".into()]),
+            Err(HookeanError::InvalidOption { .. })
+        ));
+    }
+}
