@@ -246,11 +246,14 @@ impl<P: FirstOrderProblem> NonlinearSystem for SparseFirstStage<'_, P> {
 /// Newton for first-order stages: dense LU, or sparse LU on the problem's pattern.
 enum FirstNewton {
     Dense(Option<Newton<faer::Mat<f64>, DenseLu>>),
-    Sparse {
-        newton: Newton<sprs::CsMat<f64>, SparseLu>,
-        jsp: sprs::CsMat<f64>,
-        diag: Vec<usize>,
-    },
+    Sparse(Box<SparseNewton>),
+}
+
+/// The sparse branch of [`FirstNewton`].
+struct SparseNewton {
+    newton: Newton<sprs::CsMat<f64>, SparseLu>,
+    jsp: sprs::CsMat<f64>,
+    diag: Vec<usize>,
 }
 
 /// First-order problems: `hookean-nonlinear`'s Newton with a dense LU, or a
@@ -296,11 +299,11 @@ impl<P: FirstOrderProblem> FirstSys<P> {
                         reason: "must contain the diagonal (missing at the row given as value)",
                     });
                 }
-                FirstNewton::Sparse {
+                FirstNewton::Sparse(Box::new(SparseNewton {
                     newton: Newton::new(newton_options(opts), pattern.clone(), SparseLu::new())?,
                     jsp: pattern,
                     diag,
-                }
+                }))
             }
         };
         Ok(Self {
@@ -391,7 +394,8 @@ impl<P: FirstOrderProblem> System for FirstSys<P> {
                 let fd = stage.fd_evals;
                 account(result, fd, stats)
             }
-            FirstNewton::Sparse { newton, jsp, diag } => {
+            FirstNewton::Sparse(sp) => {
+                let SparseNewton { newton, jsp, diag } = &mut **sp;
                 if newton.options() != &nopts {
                     newton.set_options(nopts).map_err(StageFailure::Other)?;
                 }
