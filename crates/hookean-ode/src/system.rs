@@ -245,7 +245,7 @@ impl<P: FirstOrderProblem> NonlinearSystem for SparseFirstStage<'_, P> {
 
 /// Newton for first-order stages: dense LU, or sparse LU on the problem's pattern.
 enum FirstNewton {
-    Dense(Option<Newton<faer::Mat<f64>, DenseLu>>),
+    Dense(Option<Box<Newton<faer::Mat<f64>, DenseLu>>>),
     Sparse(Box<SparseNewton>),
 }
 
@@ -369,10 +369,10 @@ impl<P: FirstOrderProblem> System for FirstSys<P> {
                         }
                         nw
                     }
-                    None => slot.insert(
+                    None => slot.insert(Box::new(
                         Newton::new(nopts, faer::Mat::zeros(self.n, self.n), DenseLu::new())
                             .map_err(StageFailure::Other)?,
-                    ),
+                    )),
                 };
                 // The Newton matrix depends on gh: a kept Jacobian (simplified
                 // variants) is only valid for the same gh.
