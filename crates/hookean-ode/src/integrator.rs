@@ -137,8 +137,9 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
 ///
 /// Constraints prescribe the velocity solved for: the new velocity for
 /// implicit Euler and BDF, the stage velocity `(v_n + v_{n+1})/2` for the
-/// implicit midpoint rule; explicit methods impose them on the velocities
-/// they compute.
+/// implicit midpoint rule; explicit and symplectic methods remove the
+/// constrained components of the acceleration and impose the prescribed
+/// velocities on the velocities they compute.
 pub struct SecondOrderIntegrator<P: SecondOrderProblem> {
     core: Core<SecondSys<P>>,
 }

@@ -636,6 +636,11 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
         for (a, m) in dv.iter_mut().zip(self.problem.mass()) {
             *a /= m;
         }
+        // Constrained directions do not accelerate: their velocities keep
+        // the prescribed values.
+        if !self.constraints.is_empty() {
+            self.constraints.project(dv);
+        }
     }
 
     fn begin_step(&mut self, t: f64, s: &mut [f64]) {
@@ -662,6 +667,9 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
         stats.f_evals += 1;
         for (a, m) in acc.iter_mut().zip(self.problem.mass()) {
             *a /= m;
+        }
+        if !self.constraints.is_empty() {
+            self.constraints.project(acc);
         }
         true
     }
