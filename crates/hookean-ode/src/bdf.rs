@@ -1,6 +1,6 @@
 //! Coefficients of the backward differentiation formulas (the tutorial's
 //! eqs. 34, 36, 37 and table 3), derived rather than copied: BDF(k) is
-//! `sum_{j=1..k} (1/j) nabla^j y_{n+1} = h f_{n+1}` ([HW96] III.1), with the
+//! `sum_{j=1..k} (1/j) nabla^j y_{n+1} = h f_{n+1}` (Hairer-Wanner III.1), with the
 //! backward difference `nabla^j y_{n+1} = sum_{i=0..j} (-1)^i C(j, i) y_{n+1-i}`.
 
 use num_complex::Complex64;
@@ -32,7 +32,7 @@ impl BdfCoefficients {
     ///
     /// # Errors
     /// [`OdeError::InvalidParameter`] unless `1 <= k <= 6` (BDF(k) is not
-    /// zero-stable for k > 6, [HW96]).
+    /// zero-stable for k > 6, Hairer-Wanner).
     pub fn new(k: usize) -> Result<Self, OdeError> {
         if !(1..=6).contains(&k) {
             return Err(OdeError::InvalidParameter {
@@ -175,7 +175,7 @@ fn polynomial_roots(c: &[Complex64]) -> Vec<Complex64> {
 }
 
 /// Coefficients of the variable-step BDF2 formula for the step ratio
-/// `omega = h_n / h_{n-1}` ([HW96] III.5):
+/// `omega = h_n / h_{n-1}` (Hairer-Wanner III.5):
 /// `y_{n+1} + a1 y_n + a2 y_{n-1} = h_n beta f_{n+1}` with
 /// `a1 = -(1 + omega)^2 / (1 + 2 omega)`, `a2 = omega^2 / (1 + 2 omega)`,
 /// `beta = (1 + omega) / (1 + 2 omega)`; omega = 1 gives eq. (37).

@@ -336,8 +336,10 @@ impl<S: System> Core<S> {
         Ok(())
     }
 
-    /// A failed step retried as `m` substeps of the method's one-step form
-    /// (BDF(k): the extrapolated midpoint rule); the history restarts.
+    /// A failed step retried as `m` substeps of the method's one-step form;
+    /// BDF(k) retries with implicit Euler substeps (L-stable and one stage
+    /// solve each: robustness first, the retried step is first order) and
+    /// its history restarts.
     fn substeps(&mut self, t: f64, h: f64, m: usize) -> Result<(), StageFailure> {
         let hs = h / m as f64;
         for j in 0..m {
@@ -346,7 +348,9 @@ impl<S: System> Core<S> {
                 self.sys.begin_step(tj, &mut self.s);
             }
             match self.method {
-                Method::Bdf(k) if k >= 2 => self.extrapolated_midpoint(tj, hs)?,
+                Method::Bdf(k) if k >= 2 => {
+                    self.implicit_euler(tj, hs)?;
+                }
                 _ => {
                     self.one_step(tj, hs)?;
                 }
@@ -356,6 +360,29 @@ impl<S: System> Core<S> {
             self.reset_history();
         }
         Ok(())
+    }
+
+    /// Implicit Euler (24) on the state: `K = y + h f(t + h, K)`.
+    fn implicit_euler(&mut self, t: f64, h: f64) -> Result<StageInfo, StageFailure> {
+        self.psi.copy_from_slice(&self.s);
+        self.kbuf.copy_from_slice(&self.s);
+        if self.opts.newton.predictor == Predictor::Extrapolate && self.prev_h == h {
+            for ((k, s), p) in self.kbuf.iter_mut().zip(&self.s).zip(&self.prev) {
+                *k += s - p;
+            }
+        }
+        let info = self.sys.solve_stage(
+            t + h,
+            h,
+            &self.psi,
+            &mut self.kbuf,
+            &self.opts.newton,
+            &mut self.stats,
+        )?;
+        self.prev.copy_from_slice(&self.s);
+        self.prev_h = h;
+        self.s.copy_from_slice(&self.kbuf);
+        Ok(info)
     }
 
     fn one_step(&mut self, t: f64, h: f64) -> Result<StageInfo, StageFailure> {
@@ -372,27 +399,7 @@ impl<S: System> Core<S> {
                 self.verlet(t, h);
                 Ok(StageInfo::default())
             }
-            Method::ImplicitEuler | Method::Bdf(1) => {
-                self.psi.copy_from_slice(&self.s);
-                self.kbuf.copy_from_slice(&self.s);
-                if self.opts.newton.predictor == Predictor::Extrapolate && self.prev_h == h {
-                    for ((k, s), p) in self.kbuf.iter_mut().zip(&self.s).zip(&self.prev) {
-                        *k += s - p;
-                    }
-                }
-                let info = self.sys.solve_stage(
-                    t + h,
-                    h,
-                    &self.psi,
-                    &mut self.kbuf,
-                    &self.opts.newton,
-                    &mut self.stats,
-                )?;
-                self.prev.copy_from_slice(&self.s);
-                self.prev_h = h;
-                self.s.copy_from_slice(&self.kbuf);
-                Ok(info)
-            }
+            Method::ImplicitEuler | Method::Bdf(1) => self.implicit_euler(t, h),
             Method::ImplicitMidpoint => {
                 let mut s = std::mem::take(&mut self.s);
                 let r = self.midpoint_on(t, h, &mut s);

@@ -137,8 +137,25 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
 ///
 /// Constraints prescribe the velocity solved for: the new velocity for
 /// implicit Euler and BDF, the stage velocity `(v_n + v_{n+1})/2` for the
-/// implicit midpoint rule; explicit methods impose them on the velocities
-/// they compute.
+/// implicit midpoint rule; explicit and symplectic methods remove the
+/// constrained components of the acceleration and impose the prescribed
+/// velocities on the velocities they compute.
+///
+/// ```
+/// use hookean_ode::{Method, SecondOrderIntegrator, SolverOptions};
+/// use hookean_testkit::tutorial::LinearOscillator;
+///
+/// // The tutorial's example 3: a particle on a damped spring under gravity.
+/// let ex3 = LinearOscillator::example3();
+/// let mut ode = SecondOrderIntegrator::new(
+///     ex3.particle(), Method::Bdf(2), 0.0, &ex3.x0(), &ex3.v0_vec(), SolverOptions::with_h(1e-3),
+/// )?;
+/// ode.integrate(ex3.t_end)?;
+/// let [z, v] = ex3.exact(ex3.t_end);
+/// assert!((ode.x()[2] - z).abs() < 1e-5 && (ode.v()[2] - v).abs() < 1e-4);
+/// assert!(ode.stats().linear_iterations > 0); // PCG on the reduced form
+/// # Ok::<(), hookean_ode::OdeError>(())
+/// ```
 pub struct SecondOrderIntegrator<P: SecondOrderProblem> {
     core: Core<SecondSys<P>>,
 }

@@ -122,7 +122,8 @@ pub struct SolverOptions {
     pub control: StepControl,
     /// How often a step whose Newton iteration failed is retried with a
     /// smaller step (`h/4` for the variable-step method, `2^r` substeps
-    /// for the fixed-step methods) before the run fails. Default 6.
+    /// for the fixed-step methods; implicit Euler substeps for BDF(k)) before
+    /// the run fails. Default 6.
     pub max_retries: usize,
     /// The Newton iteration of the implicit methods.
     pub newton: NewtonOptions,

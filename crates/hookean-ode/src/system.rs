@@ -245,12 +245,15 @@ impl<P: FirstOrderProblem> NonlinearSystem for SparseFirstStage<'_, P> {
 
 /// Newton for first-order stages: dense LU, or sparse LU on the problem's pattern.
 enum FirstNewton {
-    Dense(Option<Newton<faer::Mat<f64>, DenseLu>>),
-    Sparse {
-        newton: Newton<sprs::CsMat<f64>, SparseLu>,
-        jsp: sprs::CsMat<f64>,
-        diag: Vec<usize>,
-    },
+    Dense(Option<Box<Newton<faer::Mat<f64>, DenseLu>>>),
+    Sparse(Box<SparseNewton>),
+}
+
+/// The sparse branch of [`FirstNewton`].
+struct SparseNewton {
+    newton: Newton<sprs::CsMat<f64>, SparseLu>,
+    jsp: sprs::CsMat<f64>,
+    diag: Vec<usize>,
 }
 
 /// First-order problems: `hookean-nonlinear`'s Newton with a dense LU, or a
@@ -296,11 +299,11 @@ impl<P: FirstOrderProblem> FirstSys<P> {
                         reason: "must contain the diagonal (missing at the row given as value)",
                     });
                 }
-                FirstNewton::Sparse {
+                FirstNewton::Sparse(Box::new(SparseNewton {
                     newton: Newton::new(newton_options(opts), pattern.clone(), SparseLu::new())?,
                     jsp: pattern,
                     diag,
-                }
+                }))
             }
         };
         Ok(Self {
@@ -366,10 +369,10 @@ impl<P: FirstOrderProblem> System for FirstSys<P> {
                         }
                         nw
                     }
-                    None => slot.insert(
+                    None => slot.insert(Box::new(
                         Newton::new(nopts, faer::Mat::zeros(self.n, self.n), DenseLu::new())
                             .map_err(StageFailure::Other)?,
-                    ),
+                    )),
                 };
                 // The Newton matrix depends on gh: a kept Jacobian (simplified
                 // variants) is only valid for the same gh.
@@ -391,7 +394,8 @@ impl<P: FirstOrderProblem> System for FirstSys<P> {
                 let fd = stage.fd_evals;
                 account(result, fd, stats)
             }
-            FirstNewton::Sparse { newton, jsp, diag } => {
+            FirstNewton::Sparse(sp) => {
+                let SparseNewton { newton, jsp, diag } = &mut **sp;
                 if newton.options() != &nopts {
                     newton.set_options(nopts).map_err(StageFailure::Other)?;
                 }
@@ -632,6 +636,11 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
         for (a, m) in dv.iter_mut().zip(self.problem.mass()) {
             *a /= m;
         }
+        // Constrained directions do not accelerate: their velocities keep
+        // the prescribed values.
+        if !self.constraints.is_empty() {
+            self.constraints.project(dv);
+        }
     }
 
     fn begin_step(&mut self, t: f64, s: &mut [f64]) {
@@ -658,6 +667,9 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
         stats.f_evals += 1;
         for (a, m) in acc.iter_mut().zip(self.problem.mass()) {
             *a /= m;
+        }
+        if !self.constraints.is_empty() {
+            self.constraints.project(acc);
         }
         true
     }

@@ -183,7 +183,7 @@ impl ButcherTableau {
     }
 
     /// The largest `p <= 4` for which the Runge-Kutta order conditions (the
-    /// rooted-tree conditions up to order 4, [HNW93] II.2) hold to
+    /// rooted-tree conditions up to order 4, Hairer-Norsett-Wanner II.2) hold to
     /// `tol`; 0 if not even consistency `sum b_i = 1` holds. Assumes the
     /// row-sum condition `c_i = sum_j a_ij`, which is checked too.
     pub fn order(&self, tol: f64) -> usize {

@@ -367,3 +367,61 @@ fn check_span(t0: f64, t_end: f64) -> Result<f64, OdeError> {
     }
     Ok(span)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn synthetic(h: f64, error: f64) -> WorkPrecisionRow {
+        WorkPrecisionRow {
+            method: "m".into(),
+            h,
+            tol: None,
+            h_mean: h,
+            error,
+            stats: Stats {
+                steps: 10,
+                ..Stats::default()
+            },
+            wall_time_s: 0.5,
+            failure: None,
+        }
+    }
+
+    #[test]
+    fn observed_order_of_an_exact_power_law() {
+        // error = 3 h^2.5 exactly: the fitted slope is 2.5.
+        let rows: Vec<_> = (0..5)
+            .map(|i| {
+                let h = 0.1 / 2f64.powi(i);
+                synthetic(h, 3.0 * h.powf(2.5))
+            })
+            .collect();
+        assert!((observed_order(&rows).unwrap() - 2.5).abs() < 1e-12);
+        // Failed runs (infinite error) are left out; one point is not enough.
+        let mut with_failure = rows.clone();
+        with_failure.push(synthetic(1.0, f64::INFINITY));
+        assert!((observed_order(&with_failure).unwrap() - 2.5).abs() < 1e-12);
+        assert!(observed_order(&rows[..1]).is_none());
+    }
+
+    #[test]
+    fn csv_and_json_rows() {
+        let mut r = synthetic(0.25, 1e-3);
+        r.failure = Some("a, b".into());
+        let line = r.to_csv();
+        assert_eq!(
+            line.split(',').count(),
+            WorkPrecisionRow::CSV_HEADER.split(',').count()
+        );
+        assert!(line.starts_with("m,2.5e-1,,2.5e-1,1e-3,10,"));
+        let mut out = Vec::new();
+        write_csv(&mut out, &[r.clone()]).unwrap();
+        assert_eq!(String::from_utf8(out).unwrap().lines().count(), 2);
+        let json = r.to_json();
+        assert!(json.contains("\"error\":1e-3") && json.contains("\"tol\":null"));
+        assert!(json.contains("\"failure\":\"a, b\""));
+        r.error = f64::INFINITY;
+        assert!(r.to_json().contains("\"error\":null"));
+    }
+}

@@ -83,7 +83,7 @@ fn reduced_form_and_first_order_form_give_the_same_step() {
 }
 
 #[test]
-fn pinned_particles_stay_put_in_implicit_steps() {
+fn pinned_particles_stay_put() {
     let mut chain = SpringChain::new(10, 0.01, 1e3, 0.1, 0.1, 9.81);
     chain.pinned = vec![0, 9];
     let (x0, v0) = chain.initial_state(1.0);
@@ -93,6 +93,9 @@ fn pinned_particles_stay_put_in_implicit_steps() {
         Method::Bdf2Variable,
         Method::FbEuler,
         Method::Verlet,
+        Method::Rk4,
+        Method::ImplicitMidpoint,
+        Method::Bdf(4),
     ] {
         let h = if method.is_implicit() { 1e-2 } else { 1e-4 };
         let mut ode = SecondOrderIntegrator::new(
