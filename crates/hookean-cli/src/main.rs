@@ -1,6 +1,7 @@
 //! `hookean`: the command-line front end of the Hookean crates.
 //!
 //! ```text
+//! hookean run SCENE [--out DIR] [--set key=value]... [--force]
 //! hookean solve A.mtx [--rhs b.mtx] [--precond all] [--omega 1.0] [--rtol 1e-8] [--max-iter N] [--repeat K]
 //! ```
 //!
@@ -13,6 +14,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod render;
+mod run;
 mod solve;
 
 /// Soft-object simulation with mass-spring systems: solvers, scenes, plots.
@@ -25,6 +28,8 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Simulate a scene file: summary.json, steps.csv, OBJ frames and final.png in the output folder.
+    Run(run::RunArgs),
     /// Solve A x = b from Matrix Market files with PCG (every preconditioner) or sparse Cholesky,
     /// printing one JSON object per line and per solver.
     Solve(solve::SolveArgs),
@@ -37,6 +42,8 @@ pub enum CliError {
     Input(String),
     /// A solver failed on valid input (exit code 1); details were printed.
     SolverFailed,
+    /// A run failed on valid input (exit code 1), with the reason.
+    Failed(String),
 }
 
 impl From<hookean_sparse::SparseError> for CliError {
@@ -48,6 +55,7 @@ impl From<hookean_sparse::SparseError> for CliError {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Run(args) => run::run(&args),
         Command::Solve(args) => solve::run(&args),
     };
     match result {
@@ -57,5 +65,9 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
         Err(CliError::SolverFailed) => ExitCode::from(1),
+        Err(CliError::Failed(message)) => {
+            eprintln!("hookean: error: {message}");
+            ExitCode::from(1)
+        }
     }
 }

@@ -1,0 +1,153 @@
+//! `hookean run` end to end on small variants of the shipped scenes.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn hookean(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hookean"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("the hookean binary runs")
+}
+
+fn repo(path: &str) -> String {
+    let p: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "..", path]
+        .iter()
+        .collect();
+    p.to_string_lossy().into_owned()
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("hookean-run-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+/// Decodes an RGB PNG and returns (width, height, pixels).
+fn decode(path: &Path) -> (u32, u32, Vec<u8>) {
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    buf.truncate(info.buffer_size());
+    (info.width, info.height, buf)
+}
+
+#[test]
+fn the_main_job_writes_every_promised_file_consistently() {
+    // The README's main job on a small, short variant of the drape.
+    let out = scratch("drape");
+    let o = hookean(&[
+        "run",
+        &repo("scenes/drape.toml"),
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "cloth.n=12",
+        "--set",
+        "duration=0.3",
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let csv = std::fs::read_to_string(out.join("steps.csv")).unwrap();
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(
+        csv.lines().next().unwrap(),
+        "t,h,newton_iterations,cg_iterations,kinetic,gravitational,spring,total"
+    );
+    // Counts agree between the summary and the per-step rows.
+    assert_eq!(summary["steps"].as_u64().unwrap() as usize, rows.len());
+    let newton: f64 = rows.iter().map(|r| r[2]).sum();
+    let cg: f64 = rows.iter().map(|r| r[3]).sum();
+    assert!(newton <= summary["newton_iterations"].as_f64().unwrap());
+    assert!(cg <= summary["cg_iterations"].as_f64().unwrap());
+    assert!((rows.last().unwrap()[0] - 0.3).abs() < 1e-9);
+    assert_eq!(summary["particles"], 144);
+    assert!(summary["simulated_s_per_wall_s"].as_f64().unwrap() > 0.0);
+    // The cloth fell: gravitational energy decreased.
+    assert!(rows.last().unwrap()[5] < rows[0][5]);
+    // OBJ frames at 10 per second: t = 0, 0.1, 0.2, 0.3.
+    let frames = summary["frames"].as_u64().unwrap();
+    assert_eq!(frames, 4);
+    for k in 0..frames {
+        let obj = std::fs::read_to_string(out.join(format!("frame-{k:04}.obj"))).unwrap();
+        assert_eq!(obj.lines().filter(|l| l.starts_with("v ")).count(), 144);
+        assert!(obj.lines().any(|l| l.starts_with("f ")));
+    }
+    // The picture decodes, has the configured size and is not blank.
+    let (w, h, px) = decode(&out.join("final.png"));
+    assert_eq!((w, h), (800, 600));
+    let coloured = px.chunks(3).filter(|p| p != &[255, 255, 255]).count();
+    assert!(
+        coloured > (w * h / 20) as usize,
+        "only {coloured} coloured pixels"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn an_existing_output_folder_is_not_overwritten_without_force() {
+    let out = scratch("existing");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("keep.txt"), "mine").unwrap();
+    let args = [
+        "run",
+        &repo("scenes/rope.toml"),
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "duration=0.05",
+        "--quiet",
+    ];
+    let o = hookean(&args);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--force"));
+    assert!(!out.join("summary.json").exists());
+    let mut forced = args.to_vec();
+    forced.push("--force");
+    assert!(hookean(&forced).status.success());
+    assert!(out.join("summary.json").exists());
+    assert_eq!(
+        std::fs::read_to_string(out.join("keep.txt")).unwrap(),
+        "mine"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn a_bad_scene_names_its_line_and_column() {
+    let dir = scratch("bad");
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("bad.toml");
+    std::fs::write(&scene, "duration = 1.0\n[cloth]\nn = 8\nstiffness = -5.0\n").unwrap();
+    let o = hookean(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        dir.join("out").to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("bad.toml:4:13"), "{stderr}");
+    assert!(stderr.contains("positive"), "{stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1);
+    let o = hookean(&["run", "/nonexistent/scene.toml"]);
+    assert_eq!(o.status.code(), Some(2));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn every_shipped_scene_parses() {
+    for entry in std::fs::read_dir(repo("scenes")).unwrap() {
+        let path = entry.unwrap().path();
+        hookean::scene::Scene::from_file(&path, &[])
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    }
+}
