@@ -138,7 +138,7 @@ struct Progress {
 impl Sink for Progress {
     fn step(&mut self, sim: &Simulation, r: &StepReport) -> Result<(), HookeanError> {
         self.steps += 1;
-        if self.steps % 8 == 0 {
+        if self.steps.is_multiple_of(8) {
             let rate = self.steps as f64 / self.start.elapsed().as_secs_f64().max(1e-9);
             self.bar.set_position((sim.t() * 1000.0) as u64);
             self.bar.set_message(format!(
