@@ -347,9 +347,8 @@ impl SymBlockMatrix {
             let end = row_ptr[i + 1];
             let xi = x3[i];
             let mut yi = block::mul_vec(&vals[start], &xi);
-            for k in start + 1..end {
-                let j = cols[k] as usize;
-                let b = &vals[k];
+            for (&j, b) in cols[start + 1..end].iter().zip(&vals[start + 1..end]) {
+                let j = j as usize;
                 let xj = &x3[j];
                 let t = block::mul_vec(b, xj);
                 yi[0] += t[0];
@@ -388,14 +387,22 @@ impl SymBlockMatrix {
         let (p3, _) = p.as_chunks_mut::<3>();
         let (q3, _) = q.as_chunks_mut::<3>();
         let (z3, p3, q3) = (&z3[..n], &mut p3[..n], &mut q3[..n]);
-        q3.fill([0.0; 3]);
         let row_ptr = &self.pattern.row_ptr;
         let cols = &self.pattern.col_idx;
         let vals = &self.values;
         let mut dot = 0.0;
+        // q is zeroed just ahead of the rows that scatter into it, in the
+        // same pass, instead of in a separate sweep: entries up to the
+        // largest column seen so far are zero or accumulating.
+        let mut zeroed = 0;
         for i in 0..n {
             let start = row_ptr[i];
             let end = row_ptr[i + 1];
+            let reach = (cols[end - 1] as usize).max(i) + 1;
+            if reach > zeroed {
+                q3[zeroed..reach].fill([0.0; 3]);
+                zeroed = reach;
+            }
             let (zi, pi_old) = (z3[i], p3[i]);
             let pi = [
                 zi[0] + beta * pi_old[0],
@@ -404,9 +411,8 @@ impl SymBlockMatrix {
             ];
             p3[i] = pi;
             let mut yi = block::mul_vec(&vals[start], &pi);
-            for k in start + 1..end {
-                let j = cols[k] as usize;
-                let b = &vals[k];
+            for (&j, b) in cols[start + 1..end].iter().zip(&vals[start + 1..end]) {
+                let j = j as usize;
                 let (zj, pj_old) = (&z3[j], &p3[j]);
                 let pj = [
                     zj[0] + beta * pj_old[0],
