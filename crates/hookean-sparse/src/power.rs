@@ -42,8 +42,9 @@ pub struct PowerInfo {
 }
 
 /// The power method with max-norm scaling, as the filtering paper's
-/// Algorithm 1: `v <- A v; alpha <- max(v); v <- v / alpha; v <- hook(v)`,
-/// where `max(v)` is the entry of largest magnitude (with its sign).
+/// Algorithm 1: `w <- A v; alpha <- w_i / v_i` at the largest entry `i` of
+/// `v` (the paper's `max(v)` for a converged iterate, but with a stable sign);
+/// `v <- w / max|w|; v <- hook(v)`.
 ///
 /// The start vector is pseudo-random with entries in [0.5, 1.5), deterministic in
 /// [`PowerParams::seed`]. `hook` (optional) transforms the scaled vector
@@ -98,18 +99,20 @@ pub fn power_method<A: LinearOperator + ?Sized>(
                 index: None,
             });
         }
-        let new_alpha = w
-            .iter()
-            .copied()
-            .fold(0.0_f64, |m, x| if x.abs() > m.abs() { x } else { m });
-        if new_alpha == 0.0 {
+        // The estimate is the ratio at the largest entry of the current
+        // iterate, which keeps its sign even when an eigenvector has two
+        // entries of equal magnitude and opposite signs.
+        let i = largest_entry(&v);
+        let new_alpha = w[i] / v[i];
+        let scale = w[largest_entry(&w)].abs();
+        if scale == 0.0 {
             return Err(SparseError::InvalidParameter {
                 name: "operator",
                 message: "the power iterate vanished (start vector in the null space?)".into(),
             });
         }
         for (vi, wi) in v.iter_mut().zip(&w) {
-            *vi = wi / new_alpha;
+            *vi = wi / scale;
         }
         if let Some(h) = hook.as_mut() {
             h(&mut v);
@@ -133,10 +136,41 @@ pub fn power_method<A: LinearOperator + ?Sized>(
     })
 }
 
+/// Index of the entry of largest magnitude (the first one on ties).
+fn largest_entry(v: &[f64]) -> usize {
+    let mut best = 0;
+    for (i, x) in v.iter().enumerate() {
+        if x.abs() > v[best].abs() {
+            best = i;
+        }
+    }
+    best
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::precond::testutil::*;
+
+    #[test]
+    fn symmetric_eigenvector_with_equal_extremes_keeps_a_positive_estimate() {
+        // [[1, -1], [-1, 1]]: eigenvalue 2 with eigenvector (1, -1), whose two
+        // entries have equal magnitude and opposite signs.
+        let a = crate::MatrixFree::new(2, |x: &[f64], y: &mut [f64]| {
+            y[0] = x[0] - x[1];
+            y[1] = x[1] - x[0];
+        });
+        let info = power_method(&a, &PowerParams::default(), None).unwrap();
+        assert!(info.converged);
+        assert!((info.eigenvalue - 2.0).abs() < 1e-12, "{}", info.eigenvalue);
+        // A negative dominant eigenvalue keeps its sign.
+        let b = crate::MatrixFree::new(2, |x: &[f64], y: &mut [f64]| {
+            y[0] = -3.0 * x[0];
+            y[1] = 1.0 * x[1];
+        });
+        let info = power_method(&b, &PowerParams::default(), None).unwrap();
+        assert!((info.eigenvalue + 3.0).abs() < 1e-6, "{}", info.eigenvalue);
+    }
 
     #[test]
     fn dominant_eigenvalue_of_the_1d_laplacian() {
