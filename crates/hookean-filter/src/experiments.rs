@@ -418,9 +418,14 @@ pub fn predict_dt_max(
             model.stability(x, params, Some(&mut hook))?
         }
     };
+    // `M^-1 K` is positive semidefinite, but Algorithm 1 normalises by the
+    // entry of largest magnitude, whose sign can flip when the eigenvector
+    // has two entries of equal magnitude and opposite sign (symmetric
+    // bodies such as the jelly block): the magnitude is the eigenvalue.
+    let k0 = info.k0.abs();
     Ok(Prediction {
-        k0: info.k0,
-        dt_max: crate::stability::dt_max(info.k0, scheme),
+        k0,
+        dt_max: crate::stability::dt_max(k0, scheme),
         iterations: info.iterations,
     })
 }
