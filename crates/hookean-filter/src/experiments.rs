@@ -86,18 +86,26 @@ impl Simulation {
         h: f64,
         filter: Option<(FilterOptions, FilterCoupling)>,
     ) -> Result<Self, FilterError> {
+        Self::with_options(model, state, method, SolverOptions::with_h(h), filter)
+    }
+
+    /// As [`new`](Self::new) with full solver options (e.g. the Newton and
+    /// PCG tolerances of implicit Euler).
+    ///
+    /// # Errors
+    /// The integrator's and the filter's construction errors.
+    pub fn with_options(
+        model: MassSpringModel,
+        state: &State,
+        method: Method,
+        options: SolverOptions,
+        filter: Option<(FilterOptions, FilterCoupling)>,
+    ) -> Result<Self, FilterError> {
         let vf = match &filter {
             Some((o, _)) => Some(VelocityFilter::from_model(&model, o.clone())?),
             None => None,
         };
-        let inner = SecondOrderIntegrator::new(
-            model,
-            method,
-            0.0,
-            &state.x,
-            &state.v,
-            SolverOptions::with_h(h),
-        )?;
+        let inner = SecondOrderIntegrator::new(model, method, 0.0, &state.x, &state.v, options)?;
         Ok(match (vf, filter) {
             (Some(f), Some((_, c))) => Simulation::Filtered(FilteredIntegrator::new(inner, f, c)?),
             _ => Simulation::Plain(inner),

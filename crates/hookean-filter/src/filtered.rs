@@ -4,7 +4,7 @@
 
 use std::ops::ControlFlow;
 
-use hookean_ode::{SecondOrderIntegrator, SecondOrderProblem, Stats, StepReport};
+use hookean_ode::{Method, SecondOrderIntegrator, SecondOrderProblem, Stats, StepReport};
 
 use crate::error::FilterError;
 use crate::velocity::VelocityFilter;
@@ -28,8 +28,13 @@ pub enum FilterCoupling {
     /// modified power method predicts (Algorithm 1 iterates `F A`).
     CorrectPositions,
     /// Filter the velocity *change* of the step (the force filtering the
-    /// paper mentions in section 4): `v_{n+1} <- v_n + F (v_{n+1} - v_n)`,
-    /// positions corrected as for [`CorrectPositions`](Self::CorrectPositions).
+    /// paper mentions in section 4): `dv = v_{n+1} - v_n`,
+    /// `v_{n+1} <- v_n + F dv`, and the positions moved by the share of the
+    /// step's acceleration they took: `x_{n+1} <- x_{n+1} + theta h (F dv - dv)`
+    /// with `theta` of the method (`x_{n+1} = x_n + h v_n + theta h^2 a` for
+    /// a constant acceleration `a`): 1 for FB Euler, 0 for explicit Euler,
+    /// 1/2 for Verlet, the midpoint rule and RK4, `sum_i b_i c_i` for a
+    /// tableau ([`position_weight`]).
     /// For FB Euler this is `v_{n+1} = v_n + h F M^-1 f_n`, stable for
     /// `h^2 a phi < 4`: exactly `dt_max = 2 / sqrt(k0)` with the `k0` of the
     /// modified power method (the largest eigenvalue of `F A`). It does not
@@ -59,6 +64,7 @@ pub struct FilteredIntegrator<P: SecondOrderProblem> {
     inner: SecondOrderIntegrator<P>,
     filter: VelocityFilter,
     coupling: FilterCoupling,
+    theta: f64,
     x: Vec<f64>,
     v: Vec<f64>,
     raw: Vec<f64>,
@@ -91,10 +97,12 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
                 found: 3 * filter.n_particles(),
             });
         }
+        let theta = position_weight(inner.method());
         Ok(Self {
             inner,
             filter,
             coupling,
+            theta,
             x: vec![0.0; n],
             v: vec![0.0; n],
             raw: vec![0.0; n],
@@ -132,7 +140,10 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
             }
         }
         if self.coupling != FilterCoupling::VelocityOnly {
-            let h = report.h;
+            let h = match self.coupling {
+                FilterCoupling::Increment => self.theta * report.h,
+                _ => report.h,
+            };
             for ((x, v), r) in self.x.iter_mut().zip(&self.v).zip(&self.raw) {
                 *x += h * (v - r);
             }
@@ -225,5 +236,19 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
     /// Unwraps the integrator.
     pub fn into_inner(self) -> SecondOrderIntegrator<P> {
         self.inner
+    }
+}
+
+/// `theta` of an explicit method: the weight of the step's acceleration in
+/// its position update, `x_{n+1} = x_n + h v_n + theta h^2 a` for a constant
+/// acceleration `a` (`sum_i b_i c_i` of the tableau run on the first-order
+/// form): 1 for FB Euler, 0 for explicit Euler, 1/2 for Verlet, the
+/// midpoint rule and RK4. Implicit methods get 1/2 (they are not wrapped).
+pub fn position_weight(method: &Method) -> f64 {
+    match method {
+        Method::FbEuler => 1.0,
+        Method::ExplicitEuler => 0.0,
+        Method::ExplicitRk(t) => t.b().iter().zip(t.c()).map(|(b, c)| b * c).sum(),
+        _ => 0.5,
     }
 }

@@ -91,7 +91,7 @@ pub use experiments::{
     StableStep, StableStepRow, VelocityRun, drape_velocity_run, measure_stable_step,
     predict_dt_max, run_bounded, stable_step_against_lambda,
 };
-pub use filtered::{FilterCoupling, FilterStats, FilteredIntegrator};
+pub use filtered::{FilterCoupling, FilterStats, FilteredIntegrator, position_weight};
 pub use spectrum::{VelocityImage, fftshift, high_frequency_fraction, power_spectrum};
 pub use stability::{ExplicitScheme, dt_max, filtered_k0};
 pub use velocity::{Edge, FilterOptions, Form, Kernel, VelocityFilter};
