@@ -277,7 +277,7 @@ fn run_observed(
         out.steps += 1;
         out.t_reached = sim.t();
         observe(sim);
-        if out.steps % every == 0 || sim.t() >= t_end * (1.0 - 1e-12) {
+        if out.steps.is_multiple_of(every) || sim.t() >= t_end * (1.0 - 1e-12) {
             let e = sim.energy();
             if !(e <= limit) {
                 out.bounded = false;
