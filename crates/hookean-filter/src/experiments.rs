@@ -66,10 +66,10 @@ impl DrapeScene {
 /// A mass-spring simulation with an explicit or implicit method, filtered
 /// or not: the common driver of the experiments.
 pub enum Simulation {
-    /// A plain integrator (explicit or implicit).
-    Plain(SecondOrderIntegrator<MassSpringModel>),
-    /// A filtered explicit integrator.
-    Filtered(FilteredIntegrator<MassSpringModel>),
+    /// A plain integrator (explicit or implicit), boxed (it is large).
+    Plain(Box<SecondOrderIntegrator<MassSpringModel>>),
+    /// A filtered explicit integrator, boxed.
+    Filtered(Box<FilteredIntegrator<MassSpringModel>>),
 }
 
 impl Simulation {
@@ -107,8 +107,10 @@ impl Simulation {
         };
         let inner = SecondOrderIntegrator::new(model, method, 0.0, &state.x, &state.v, options)?;
         Ok(match (vf, filter) {
-            (Some(f), Some((_, c))) => Simulation::Filtered(FilteredIntegrator::new(inner, f, c)?),
-            _ => Simulation::Plain(inner),
+            (Some(f), Some((_, c))) => {
+                Simulation::Filtered(Box::new(FilteredIntegrator::new(inner, f, c)?))
+            }
+            _ => Simulation::Plain(Box::new(inner)),
         })
     }
 
