@@ -122,30 +122,35 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
         }
         let report = self.inner.step()?;
         self.x.copy_from_slice(self.inner.x());
-        self.v.copy_from_slice(self.inner.v());
-        self.raw.copy_from_slice(&self.v);
-        match self.coupling {
-            FilterCoupling::VelocityOnly => self.filter.apply(&mut self.v)?,
-            FilterCoupling::CorrectPositions => {
-                self.filter.apply(&mut self.v)?;
+        self.raw.copy_from_slice(self.inner.v());
+        let h = match self.coupling {
+            FilterCoupling::VelocityOnly => 0.0,
+            FilterCoupling::CorrectPositions => report.h,
+            FilterCoupling::Increment => self.theta * report.h,
+        };
+        if self.coupling == FilterCoupling::Increment {
+            // Filter the increment dv = v_{n+1} - v_n, then v = v_n + F dv.
+            for ((v, r), p) in self.v.iter_mut().zip(&self.raw).zip(&self.prev) {
+                *v = r - p;
             }
-            FilterCoupling::Increment => {
-                for (v, p) in self.v.iter_mut().zip(&self.prev) {
-                    *v -= p;
-                }
-                self.filter.apply(&mut self.v)?;
-                for (v, p) in self.v.iter_mut().zip(&self.prev) {
-                    *v += p;
-                }
+            self.filter.apply(&mut self.v)?;
+            for (((v, x), r), p) in self
+                .v
+                .iter_mut()
+                .zip(self.x.iter_mut())
+                .zip(&self.raw)
+                .zip(&self.prev)
+            {
+                *v += p;
+                *x += h * (*v - r);
             }
-        }
-        if self.coupling != FilterCoupling::VelocityOnly {
-            let h = match self.coupling {
-                FilterCoupling::Increment => self.theta * report.h,
-                _ => report.h,
-            };
-            for ((x, v), r) in self.x.iter_mut().zip(&self.v).zip(&self.raw) {
-                *x += h * (v - r);
+        } else {
+            self.v.copy_from_slice(&self.raw);
+            self.filter.apply(&mut self.v)?;
+            if h != 0.0 {
+                for ((x, v), r) in self.x.iter_mut().zip(&self.v).zip(&self.raw) {
+                    *x += h * (v - r);
+                }
             }
         }
         self.inner.set_state(report.t, &self.x, &self.v)?;
