@@ -257,3 +257,24 @@ pub fn position_weight(method: &Method) -> f64 {
         _ => 0.5,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hookean_ode::ButcherTableau;
+
+    #[test]
+    fn position_weight_is_sum_b_c_of_the_tableau() {
+        // RK4: b = (1/6, 1/3, 1/3, 1/6), c = (0, 1/2, 1/2, 1): sum b c = 1/2.
+        let rk4 = position_weight(&Method::ExplicitRk(ButcherTableau::rk4()));
+        assert!((rk4 - 0.5).abs() < 1e-15);
+        assert_eq!(
+            position_weight(&Method::ExplicitRk(ButcherTableau::explicit_euler())),
+            0.0
+        );
+        let mid = position_weight(&Method::ExplicitRk(ButcherTableau::explicit_midpoint()));
+        assert!((mid - 0.5).abs() < 1e-15);
+        assert_eq!(position_weight(&Method::FbEuler), 1.0);
+        assert_eq!(position_weight(&Method::Rk4), 0.5);
+    }
+}
