@@ -1,10 +1,12 @@
 //! The error type of `hookean-filter`.
 
+use hookean_massspring::MassSpringError;
+use hookean_ode::OdeError;
 use hookean_sparse::SparseError;
 use thiserror::Error;
 
 /// Everything that can go wrong in `hookean-filter`.
-#[derive(Debug, Clone, PartialEq, Error)]
+#[derive(Debug, Error)]
 #[non_exhaustive]
 pub enum FilterError {
     /// The filter parameter lambda must be a positive finite number.
@@ -53,7 +55,29 @@ pub enum FilterError {
         /// Particles given.
         particles: usize,
     },
+    /// A parameter out of its range (step size, run length, bisection bracket, ...).
+    #[error("invalid parameter {name} = {value}: {reason}")]
+    InvalidParameter {
+        /// The parameter.
+        name: &'static str,
+        /// The value given.
+        value: f64,
+        /// The admissible range.
+        reason: &'static str,
+    },
+    /// Velocity filtering wraps explicit integrators only (implicit ones filter by themselves).
+    #[error("method {method} is implicit: velocity filtering wraps explicit integrators")]
+    ImplicitMethod {
+        /// The method's name.
+        method: String,
+    },
     /// The power method failed.
     #[error(transparent)]
     Sparse(#[from] SparseError),
+    /// The wrapped integrator failed.
+    #[error(transparent)]
+    Ode(#[from] OdeError),
+    /// The mass-spring model rejected a state or parameter.
+    #[error(transparent)]
+    MassSpring(#[from] MassSpringError),
 }

@@ -20,6 +20,19 @@ pub enum ExplicitScheme {
 }
 
 impl ExplicitScheme {
+    /// The scheme of an explicit `hookean-ode` method that eq. 11 covers
+    /// (explicit Euler, FB Euler, Verlet, RK4); `None` otherwise.
+    pub fn from_method(method: &hookean_ode::Method) -> Option<Self> {
+        use hookean_ode::Method;
+        match method {
+            Method::ExplicitEuler => Some(ExplicitScheme::ForwardEuler),
+            Method::FbEuler => Some(ExplicitScheme::ForwardBackwardEuler),
+            Method::Verlet => Some(ExplicitScheme::Verlet),
+            Method::Rk4 => Some(ExplicitScheme::Rk4),
+            _ => None,
+        }
+    }
+
     /// The constant `c` of `dt_max = c / sqrt(k0)`: 2 for forward Euler,
     /// forward-backward Euler and Verlet (eq. 11), `sqrt(8.75)` for RK4
     /// (Shinya 2005, as the paper's section 7.2 uses).

@@ -1,5 +1,7 @@
 //! The velocity filter of Ahmad et al. (section 4.1, eq. 10).
 
+use hookean_massspring::{MassSpringModel, ParticleConstraint};
+
 use crate::error::FilterError;
 
 /// The filter kernel `beta(d)` as a function of the distance `d`.
@@ -252,6 +254,39 @@ impl VelocityFilter {
         })
     }
 
+    /// Builds the filter on the spring graph of a mass-spring model: one
+    /// [`Edge`] per spring (its rest length), and the model's pinned
+    /// particles (fully constrained, [`ParticleConstraint::Pinned`]) left
+    /// unfiltered. Sliding particles are filtered; the integrator
+    /// re-imposes their constraints in its next step.
+    ///
+    /// # Errors
+    /// As [`new`](Self::new).
+    pub fn from_model(
+        model: &MassSpringModel,
+        options: FilterOptions,
+    ) -> Result<Self, FilterError> {
+        let n = model.n_particles();
+        let edges: Vec<Edge> = model
+            .springs()
+            .iter()
+            .map(|s| Edge {
+                i: s.i,
+                j: s.j,
+                rest_length: s.rest_length,
+            })
+            .collect();
+        let pinned: Vec<bool> = (0..n)
+            .map(|p| matches!(model.constraint(p), Ok(ParticleConstraint::Pinned { .. })))
+            .collect();
+        Self::new(n, &edges, Some(&pinned), options)
+    }
+
+    /// Whether particle `i` is pinned (kept unfiltered); `false` out of range.
+    pub fn is_pinned(&self, i: usize) -> bool {
+        self.pinned.get(i).copied().unwrap_or(false)
+    }
+
     /// Number of particles.
     pub fn n_particles(&self) -> usize {
         self.offsets.len() - 1
@@ -474,10 +509,10 @@ mod tests {
             rings: 0,
             ..Default::default()
         };
-        assert_eq!(
-            VelocityFilter::new(3, &e, None, o).unwrap_err(),
-            FilterError::InvalidRadius { rings: 0 }
-        );
+        assert!(matches!(
+            VelocityFilter::new(3, &e, None, o),
+            Err(FilterError::InvalidRadius { rings: 0 })
+        ));
         let bad = [Edge {
             i: 0,
             j: 7,

@@ -234,6 +234,36 @@ impl<S: System> Core<S> {
         Ok(())
     }
 
+    /// [`set_state`](Self::set_state) from the two halves `[x; v]` of a
+    /// second-order state, without allocating (used after every step by
+    /// post-processing wrappers such as velocity filters).
+    pub fn set_state_parts(&mut self, t: f64, x: &[f64], v: &[f64]) -> Result<(), OdeError> {
+        let n = self.m / 2;
+        if x.len() != n || v.len() != n || 2 * n != self.m {
+            return Err(OdeError::DimensionMismatch {
+                what: "state",
+                expected: n,
+                found: if x.len() != n { x.len() } else { v.len() },
+            });
+        }
+        if !t.is_finite() {
+            return Err(OdeError::InvalidParameter {
+                name: "t",
+                value: t,
+                reason: "must be finite",
+            });
+        }
+        check_finite(x, "state", t)?;
+        check_finite(v, "state", t)?;
+        self.t = t;
+        self.t_base = t;
+        self.n_fixed = 0;
+        self.s[..n].copy_from_slice(x);
+        self.s[n..].copy_from_slice(v);
+        self.reset_history();
+        Ok(())
+    }
+
     fn begin_step(&mut self) {
         self.pre.copy_from_slice(&self.s);
         self.sys.begin_step(self.t, &mut self.s);

@@ -278,17 +278,9 @@ impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
     /// # Errors
     /// [`OdeError::DimensionMismatch`], [`OdeError::NonFinite`], [`OdeError::InvalidParameter`].
     pub fn set_state(&mut self, t: f64, x: &[f64], v: &[f64]) -> Result<(), OdeError> {
-        let n = self.core.s.len() / 2;
-        if x.len() != n || v.len() != n {
-            return Err(OdeError::DimensionMismatch {
-                what: "state",
-                expected: n,
-                found: if x.len() != n { x.len() } else { v.len() },
-            });
-        }
-        let mut s = x.to_vec();
-        s.extend_from_slice(v);
-        self.core.set_state(t, &s)
+        // Copies the halves in place: no allocation, so that wrappers may
+        // hand a post-processed state back after every step.
+        self.core.set_state_parts(t, x, v)
     }
 
     /// The constraints set by the last [`SecondOrderProblem::begin_step`].

@@ -1,0 +1,66 @@
+//! The filter's cost against one FB Euler step on the N = 64 drape
+//! (the paper's section 7.1: filtering costs about 5% of a step).
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use hookean_filter::{
+    DrapeScene, ExplicitScheme, FilterCoupling, FilterOptions, FilteredIntegrator, VelocityFilter,
+    predict_dt_max,
+};
+use hookean_ode::{Method, SecondOrderIntegrator, SolverOptions};
+
+fn bench(c: &mut Criterion) {
+    let scene = DrapeScene {
+        n: 64,
+        ..Default::default()
+    };
+    let (model, state) = scene.build().unwrap();
+    let dt = predict_dt_max(
+        &model,
+        &state.x,
+        None,
+        ExplicitScheme::ForwardBackwardEuler,
+        &Default::default(),
+    )
+    .unwrap()
+    .dt_max;
+    let h = 0.5 * dt;
+    let mut g = c.benchmark_group("filter_cost_n64");
+    g.sample_size(30);
+    g.measurement_time(std::time::Duration::from_secs(4));
+
+    let mut plain = SecondOrderIntegrator::new(
+        model.clone(),
+        Method::FbEuler,
+        0.0,
+        &state.x,
+        &state.v,
+        SolverOptions::with_h(h),
+    )
+    .unwrap();
+    g.bench_function("fb_euler_step", |b| b.iter(|| plain.step().unwrap()));
+
+    let mut filter = VelocityFilter::from_model(&model, FilterOptions::default()).unwrap();
+    let mut v: Vec<f64> = (0..state.v.len()).map(|k| (k as f64).sin()).collect();
+    g.bench_function("filter_apply", |b| b.iter(|| filter.apply(&mut v).unwrap()));
+
+    for coupling in [FilterCoupling::Increment, FilterCoupling::CorrectPositions] {
+        let inner = SecondOrderIntegrator::new(
+            model.clone(),
+            Method::FbEuler,
+            0.0,
+            &state.x,
+            &state.v,
+            SolverOptions::with_h(h),
+        )
+        .unwrap();
+        let vf = VelocityFilter::from_model(&model, FilterOptions::default()).unwrap();
+        let mut fi = FilteredIntegrator::new(inner, vf, coupling).unwrap();
+        g.bench_function(format!("filtered_fb_euler_step_{coupling:?}"), |b| {
+            b.iter(|| fi.step().unwrap())
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
