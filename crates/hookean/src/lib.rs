@@ -52,34 +52,6 @@ pub use error::HookeanError;
 #[cfg(feature = "filter")]
 pub use simulation::{RunSummary, Simulation, SimulationOptions, Sink};
 
-/// The velocity filter of a model: its springs as the filter's graph, its
-/// pinned particles kept.
-#[cfg(feature = "filter")]
-pub(crate) fn filter_for(
-    model: &hookean_massspring::MassSpringModel,
-    options: hookean_filter::FilterOptions,
-) -> Result<hookean_filter::VelocityFilter, HookeanError> {
-    use hookean_massspring::ParticleConstraint;
-    let edges: Vec<hookean_filter::Edge> = model
-        .springs()
-        .iter()
-        .map(|s| hookean_filter::Edge {
-            i: s.i,
-            j: s.j,
-            rest_length: s.rest_length,
-        })
-        .collect();
-    let pinned: Vec<bool> = (0..model.n_particles())
-        .map(|p| matches!(model.constraint(p), Ok(ParticleConstraint::Pinned { .. })))
-        .collect();
-    Ok(hookean_filter::VelocityFilter::new(
-        model.n_particles(),
-        &edges,
-        Some(&pinned),
-        options,
-    )?)
-}
-
 /// The names most programs need.
 pub mod prelude {
     #[cfg(feature = "filter")]

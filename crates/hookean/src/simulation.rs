@@ -5,7 +5,7 @@
 use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
-use hookean_filter::{FilterOptions, VelocityFilter};
+use hookean_filter::{FilterCoupling, FilterOptions, FilteredIntegrator, VelocityFilter};
 use hookean_massspring::{Energies, MassSpringModel, State};
 use hookean_ode::{
     ForcingTerm, Method, NewtonMethod, NewtonOptions, Predictor, SecondOrderIntegrator,
@@ -24,7 +24,8 @@ pub struct SimulationOptions {
     /// [`SimulationOptions::drape_solver`].
     pub solver: SolverOptions,
     /// The velocity filter applied after every step of an explicit method
-    /// (the filtering paper). Default `None`.
+    /// (the filtering paper), with `hookean-filter`'s default coupling (the
+    /// step's velocity change is filtered). Default `None`.
     pub filter: Option<FilterOptions>,
 }
 
@@ -129,10 +130,23 @@ pub trait Sink {
 /// # Ok::<(), hookean::HookeanError>(())
 /// ```
 pub struct Simulation {
-    integrator: SecondOrderIntegrator<MassSpringModel>,
-    filter: Option<VelocityFilter>,
-    filtered_v: Vec<f64>,
+    integrator: Integrator,
     wall: Duration,
+}
+
+/// Static dispatch over the two integrator kinds, one `match` per call.
+enum Integrator {
+    Plain(SecondOrderIntegrator<MassSpringModel>),
+    Filtered(FilteredIntegrator<MassSpringModel>),
+}
+
+impl Integrator {
+    fn inner(&self) -> &SecondOrderIntegrator<MassSpringModel> {
+        match self {
+            Integrator::Plain(i) => i,
+            Integrator::Filtered(f) => f.inner(),
+        }
+    }
 }
 
 impl Simulation {
@@ -147,22 +161,20 @@ impl Simulation {
         options: SimulationOptions,
     ) -> Result<Self, HookeanError> {
         model.check_state(&state.x, &state.v)?;
+        if options.filter.is_some() && options.method.is_implicit() {
+            return Err(HookeanError::InvalidOption {
+                name: "filter".into(),
+                message: format!(
+                    "the velocity filter is for explicit methods; {} is implicit (it filters by itself)",
+                    options.method
+                ),
+            });
+        }
         let filter = match &options.filter {
+            Some(f) => Some(VelocityFilter::from_model(&model, f.clone())?),
             None => None,
-            Some(f) => {
-                if options.method.is_implicit() {
-                    return Err(HookeanError::InvalidOption {
-                        name: "filter".into(),
-                        message: format!(
-                            "the velocity filter is for explicit methods; {} is implicit (it filters by itself)",
-                            options.method
-                        ),
-                    });
-                }
-                Some(crate::filter_for(&model, f.clone())?)
-            }
         };
-        let integrator = SecondOrderIntegrator::new(
+        let inner = SecondOrderIntegrator::new(
             model,
             options.method,
             0.0,
@@ -170,29 +182,30 @@ impl Simulation {
             &state.v,
             options.solver,
         )?;
-        let n = integrator.x().len();
+        let integrator = match filter {
+            None => Integrator::Plain(inner),
+            Some(f) => Integrator::Filtered(FilteredIntegrator::new(
+                inner,
+                f,
+                FilterCoupling::default(),
+            )?),
+        };
         Ok(Self {
             integrator,
-            filter,
-            filtered_v: vec![0.0; n],
             wall: Duration::ZERO,
         })
     }
 
-    /// Advances one accepted step (then filters the velocities, if a filter is set).
+    /// Advances one accepted step (and filters the velocities, if a filter is set).
     ///
     /// # Errors
     /// The integrator's typed errors (they carry the time reached).
     pub fn step(&mut self) -> Result<StepReport, HookeanError> {
         let t0 = Instant::now();
-        let report = self.integrator.step()?;
-        if let Some(f) = self.filter.as_mut() {
-            self.filtered_v.copy_from_slice(self.integrator.v());
-            f.apply(&mut self.filtered_v)?;
-            let t = self.integrator.t();
-            let x = self.integrator.x().to_vec();
-            self.integrator.set_state(t, &x, &self.filtered_v)?;
-        }
+        let report = match &mut self.integrator {
+            Integrator::Plain(i) => i.step()?,
+            Integrator::Filtered(f) => f.step()?,
+        };
         self.wall += t0.elapsed();
         Ok(report)
     }
@@ -207,7 +220,7 @@ impl Simulation {
         t_end: f64,
         mut on_step: impl FnMut(&Simulation, &StepReport) -> ControlFlow<()>,
     ) -> Result<RunSummary, HookeanError> {
-        let (t_start, wall_start, stats_start) = (self.t(), self.wall, self.stats());
+        let (t_start, wall_start) = (self.t(), self.wall);
         let mut stopped = false;
         while self.t() < t_end - 1e-12 * t_end.abs().max(1.0) {
             let report = self.step()?;
@@ -216,7 +229,6 @@ impl Simulation {
                 break;
             }
         }
-        let _ = stats_start;
         Ok(RunSummary {
             t: self.t(),
             simulated: self.t() - t_start,
@@ -256,42 +268,45 @@ impl Simulation {
 
     /// Simulated time.
     pub fn t(&self) -> f64 {
-        self.integrator.t()
+        self.integrator.inner().t()
     }
 
     /// Positions.
     pub fn x(&self) -> &[f64] {
-        self.integrator.x()
+        self.integrator.inner().x()
     }
 
     /// Velocities.
     pub fn v(&self) -> &[f64] {
-        self.integrator.v()
+        self.integrator.inner().v()
     }
 
     /// The model.
     pub fn model(&self) -> &MassSpringModel {
-        self.integrator.problem()
+        self.integrator.inner().problem()
     }
 
     /// Mutable access to the model between steps (forces, pins, colliders).
     pub fn model_mut(&mut self) -> &mut MassSpringModel {
-        self.integrator.problem_mut()
+        match &mut self.integrator {
+            Integrator::Plain(i) => i.problem_mut(),
+            Integrator::Filtered(f) => f.inner_mut().problem_mut(),
+        }
     }
 
     /// Counters of everything done so far.
     pub fn stats(&self) -> Stats {
-        self.integrator.stats()
+        self.integrator.inner().stats()
     }
 
     /// The step size the next step will try.
     pub fn h_next(&self) -> f64 {
-        self.integrator.h_next()
+        self.integrator.inner().h_next()
     }
 
     /// The method.
     pub fn method(&self) -> &Method {
-        self.integrator.method()
+        self.integrator.inner().method()
     }
 
     /// Wall-clock time spent stepping so far.

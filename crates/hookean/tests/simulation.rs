@@ -1,0 +1,117 @@
+//! The facade composes the crates: implicit and filtered explicit runs,
+//! option errors, sinks.
+
+use std::ops::ControlFlow;
+
+use hookean::prelude::*;
+use hookean::{RunSummary, Sink};
+
+fn small_cloth(n: usize) -> (MassSpringModel, State) {
+    cloth(&ClothParams {
+        nu: n,
+        nv: n,
+        ..Default::default()
+    })
+    .unwrap()
+}
+
+#[test]
+fn pinned_corners_stay_put_and_the_cloth_falls() {
+    let (model, state) = small_cloth(10);
+    let pinned = [90usize, 99];
+    let x0: Vec<f64> = pinned
+        .iter()
+        .flat_map(|&p| state.x[3 * p..3 * p + 3].to_vec())
+        .collect();
+    let mut sim = Simulation::new(model, state, SimulationOptions::default()).unwrap();
+    let summary = sim
+        .run_until(0.3, |_, _| ControlFlow::Continue(()))
+        .unwrap();
+    assert_eq!(summary.stats.steps, 30);
+    let x1: Vec<f64> = pinned
+        .iter()
+        .flat_map(|&p| sim.x()[3 * p..3 * p + 3].to_vec())
+        .collect();
+    assert_eq!(x0, x1, "pinned corners moved");
+    // The far edge fell by a visible amount: free fall would give g t^2 / 2 = 0.44 m.
+    let lowest = sim
+        .x()
+        .chunks(3)
+        .map(|p| p[2])
+        .fold(f64::INFINITY, f64::min);
+    assert!(lowest < -0.1 && lowest > -0.5, "{lowest}");
+    assert!(summary.stats.newton_iterations > 0 && summary.stats.linear_iterations > 0);
+}
+
+#[test]
+fn filtered_fb_euler_runs_and_a_filter_on_an_implicit_method_is_refused() {
+    let (model, state) = small_cloth(6);
+    let options = SimulationOptions {
+        method: Method::FbEuler,
+        solver: SolverOptions::with_h(1e-4),
+        filter: Some(FilterOptions::default()),
+    };
+    let mut sim = Simulation::new(model, state, options).unwrap();
+    sim.run_until(0.01, |_, _| ControlFlow::Continue(()))
+        .unwrap();
+    assert!(sim.v().iter().all(|v| v.is_finite() && v.abs() < 10.0));
+    assert_eq!(sim.stats().newton_iterations, 0);
+
+    let (model, state) = small_cloth(6);
+    let bad = SimulationOptions {
+        filter: Some(FilterOptions::default()),
+        ..Default::default()
+    };
+    assert!(matches!(
+        Simulation::new(model, state, bad),
+        Err(HookeanError::InvalidOption { .. })
+    ));
+}
+
+#[test]
+fn sinks_see_every_step_and_the_end() {
+    struct Count {
+        steps: usize,
+        finished: bool,
+    }
+    impl Sink for Count {
+        fn step(
+            &mut self,
+            _: &Simulation,
+            _: &hookean::ode::StepReport,
+        ) -> Result<(), HookeanError> {
+            self.steps += 1;
+            Ok(())
+        }
+        fn finish(&mut self, _: &Simulation, s: &RunSummary) -> Result<(), HookeanError> {
+            self.finished = s.stats.steps == self.steps;
+            Ok(())
+        }
+    }
+    let (model, state) = small_cloth(5);
+    let mut sim = Simulation::new(model, state, SimulationOptions::default()).unwrap();
+    let mut count = Count {
+        steps: 0,
+        finished: false,
+    };
+    sim.run_with_sinks(0.05, &mut [&mut count]).unwrap();
+    assert_eq!(count.steps, 5);
+    assert!(count.finished);
+}
+
+#[test]
+fn a_callback_can_stop_the_run() {
+    let (model, state) = small_cloth(5);
+    let mut sim = Simulation::new(model, state, SimulationOptions::default()).unwrap();
+    let summary = sim
+        .run_until(1.0, |s, _| {
+            if s.t() >= 0.03 - 1e-12 {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        })
+        .unwrap();
+    assert!(summary.stopped);
+    assert_eq!(summary.stats.steps, 3);
+}
