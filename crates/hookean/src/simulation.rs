@@ -137,7 +137,7 @@ pub struct Simulation {
 /// Static dispatch over the two integrator kinds, one `match` per call.
 enum Integrator {
     Plain(SecondOrderIntegrator<MassSpringModel>),
-    Filtered(FilteredIntegrator<MassSpringModel>),
+    Filtered(Box<FilteredIntegrator<MassSpringModel>>),
 }
 
 impl Integrator {
