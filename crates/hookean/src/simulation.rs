@@ -184,11 +184,11 @@ impl Simulation {
         )?;
         let integrator = match filter {
             None => Integrator::Plain(inner),
-            Some(f) => Integrator::Filtered(FilteredIntegrator::new(
+            Some(f) => Integrator::Filtered(Box::new(FilteredIntegrator::new(
                 inner,
                 f,
                 FilterCoupling::default(),
-            )?),
+            )?)),
         };
         Ok(Self {
             integrator,
