@@ -136,7 +136,7 @@ pub struct Simulation {
 
 /// Static dispatch over the two integrator kinds, one `match` per call.
 enum Integrator {
-    Plain(SecondOrderIntegrator<MassSpringModel>),
+    Plain(Box<SecondOrderIntegrator<MassSpringModel>>),
     Filtered(Box<FilteredIntegrator<MassSpringModel>>),
 }
 
@@ -183,7 +183,7 @@ impl Simulation {
             options.solver,
         )?;
         let integrator = match filter {
-            None => Integrator::Plain(inner),
+            None => Integrator::Plain(Box::new(inner)),
             Some(f) => Integrator::Filtered(Box::new(FilteredIntegrator::new(
                 inner,
                 f,
