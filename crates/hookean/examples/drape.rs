@@ -17,6 +17,9 @@ fn main() -> Result<(), HookeanError> {
         nv: n,
         ..Default::default()
     };
+    if std::env::var("PREVIOUS").is_ok() {
+        // (set below, after the options exist)
+    }
     if std::env::var("SYM").is_ok() {
         params.options.damping_in_dfdx = hookean::massspring::DampingInDfdx::Symmetrize;
     }
@@ -38,6 +41,9 @@ fn main() -> Result<(), HookeanError> {
     if let Some(a) = args.next().and_then(|s| s.parse().ok()) {
         options.solver.newton.atol = a;
     }
+    if std::env::var("PREVIOUS").is_ok() {
+        options.solver.newton.predictor = hookean::ode::Predictor::Previous;
+    }
     let mut sim = Simulation::new(model, state, options)?;
     let summary = sim.run_until(seconds, |_, _| ControlFlow::Continue(()))?;
     let s = summary.stats;
@@ -55,6 +61,11 @@ fn main() -> Result<(), HookeanError> {
         .map(|p| p[2])
         .fold(f64::INFINITY, f64::min);
     let mean = sim.x().chunks(3).map(|p| p[2]).sum::<f64>() / (n * n) as f64;
-    println!("lowest point z = {lowest:.4} m, mean z = {mean:.4} m");
+    let e = sim.energies()?;
+    println!(
+        "lowest point z = {lowest:.4} m, mean z = {mean:.4} m, kinetic {:.3} J, total {:.3} J",
+        e.kinetic,
+        e.total()
+    );
     Ok(())
 }
