@@ -33,7 +33,7 @@ pub struct BenchPrecondArgs {
     #[arg(long, value_delimiter = ',', default_values_t = [32, 64, 128])]
     n: Vec<usize>,
     /// Comma-separated structural/shear stiffnesses k (bend k / 10).
-    #[arg(long, value_delimiter = ',', default_values_t = [1e2, 1e4, 1e6])]
+    #[arg(long, value_delimiter = ',', default_values_t = [1e2, 1e4, 1e6], allow_hyphen_values = true)]
     k: Vec<f64>,
     /// none, jacobi, block-jacobi, ssor, ic0, direct or all.
     #[arg(long, default_value = "all")]

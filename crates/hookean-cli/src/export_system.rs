@@ -23,7 +23,7 @@ pub struct ExportSystemArgs {
     /// The scene file (TOML).
     scene: PathBuf,
     /// Simulated time of the exported state (s); 0 is the initial state.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     at: f64,
     /// Output folder (created; must not exist unless --force).
     #[arg(long)]

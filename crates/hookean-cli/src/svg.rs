@@ -325,7 +325,7 @@ pub struct RegionPanels {
 }
 
 /// Tick positions: multiples of a "nice" step (1, 2 or 5 times a power of
-/// ten) giving about 4 to 8 ticks in `[lo, hi]`.
+/// ten) giving about 3 to 7 ticks in `[lo, hi]`.
 pub fn linear_ticks(lo: f64, hi: f64) -> Vec<f64> {
     let span = hi - lo;
     if !(span > 0.0 && span.is_finite()) {
@@ -336,7 +336,7 @@ pub fn linear_ticks(lo: f64, hi: f64) -> Vec<f64> {
     let step = [1.0, 2.0, 5.0, 10.0]
         .iter()
         .map(|m| m * p)
-        .find(|s| span / s <= 8.0)
+        .find(|s| span / s <= 6.0)
         .unwrap_or(10.0 * p);
     let first = (lo / step).ceil() as i64;
     let last = (hi / step).floor() as i64;
