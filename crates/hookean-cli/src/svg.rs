@@ -147,6 +147,11 @@ pub fn decades(values: impl Iterator<Item = f64>) -> (i32, i32) {
     (a, b)
 }
 
+/// Label every `n`-th decade so that at most about 10 labels share an axis.
+fn label_every(lo: i32, hi: i32) -> i32 {
+    ((hi - lo) / 10 + 1).max(1)
+}
+
 fn usable(p: &(f64, f64)) -> bool {
     p.0.is_finite() && p.0 > 0.0 && p.1.is_finite() && p.1 > 0.0
 }
@@ -207,14 +212,25 @@ impl LogLogPlot {
             c(pw),
             c(ph)
         );
+        // Every decade gets a tick; labels thin out to at most about 10 per axis.
+        let (lx, ly) = (label_every(x0, x1), label_every(y0, y1));
         for k in x0..=x1 {
             let x = sx(10f64.powi(k));
             let _ = writeln!(
                 out,
-                "<line x1=\"{x}\" y1=\"{b}\" x2=\"{x}\" y2=\"{b2}\" stroke=\"black\"/>\n<text x=\"{x}\" y=\"{t}\" text-anchor=\"middle\">10<tspan dy=\"-5\" font-size=\"9\">{k}</tspan></text>",
+                "<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"black\"/>",
+                c(x),
+                c(top + ph),
+                c(x),
+                c(top + ph + 5.0)
+            );
+            if (k - x0) % lx != 0 {
+                continue;
+            }
+            let _ = writeln!(
+                out,
+                "<text x=\"{x}\" y=\"{t}\" text-anchor=\"middle\">10<tspan dy=\"-5\" font-size=\"9\">{k}</tspan></text>",
                 x = c(x),
-                b = c(top + ph),
-                b2 = c(top + ph + 5.0),
                 t = c(top + ph + 20.0)
             );
         }
@@ -222,12 +238,19 @@ impl LogLogPlot {
             let y = sy(10f64.powi(k));
             let _ = writeln!(
                 out,
-                "<line x1=\"{l2}\" y1=\"{y}\" x2=\"{l}\" y2=\"{y}\" stroke=\"black\"/>\n<text x=\"{t}\" y=\"{yt}\" text-anchor=\"end\">10<tspan dy=\"-5\" font-size=\"9\">{k}</tspan></text>",
-                l = c(left),
-                l2 = c(left - 5.0),
-                y = c(y),
-                t = c(left - 8.0),
-                yt = c(y + 4.0)
+                "<line x1=\"{}\" y1=\"{y}\" x2=\"{}\" y2=\"{y}\" stroke=\"black\"/>",
+                c(left - 5.0),
+                c(left),
+                y = c(y)
+            );
+            if (k - y0) % ly != 0 {
+                continue;
+            }
+            let _ = writeln!(
+                out,
+                "<text x=\"{}\" y=\"{}\" text-anchor=\"end\">10<tspan dy=\"-5\" font-size=\"9\">{k}</tspan></text>",
+                c(left - 8.0),
+                c(y + 4.0)
             );
         }
         let _ = writeln!(
