@@ -3,6 +3,10 @@
 //! ```text
 //! hookean run SCENE [--out DIR] [--set key=value]... [--force]
 //! hookean solve A.mtx [--rhs b.mtx] [--precond all] [--omega 1.0] [--rtol 1e-8] [--max-iter N] [--repeat K]
+//! hookean workprecision --problem tutorial1|tutorial2|tutorial3|wave [--methods a,b] --out wp.csv [--plot wp.svg] [--force]
+//! hookean stability [--methods a,b] --plot regions.svg [--re -5,3] [--im -4,4] [--force]
+//! hookean bench-precond [--n 32,64,128] [--k 1e2,1e4,1e6] [--rtol 1e-8] [--repeat K]
+//! hookean export-system SCENE --at T --out DIR [--force]
 //! ```
 //!
 //! Bad input (missing or malformed files, wrong sizes, unknown names) is a
@@ -14,9 +18,14 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod bench_precond;
+mod export_system;
 mod render;
 mod run;
 mod solve;
+mod stability;
+mod svg;
+mod workprecision;
 
 /// Soft-object simulation with mass-spring systems: solvers, scenes, plots.
 #[derive(Debug, Parser)]
@@ -33,6 +42,14 @@ enum Command {
     /// Solve A x = b from Matrix Market files with PCG (every preconditioner) or sparse Cholesky,
     /// printing one JSON object per line and per solver.
     Solve(solve::SolveArgs),
+    /// Work-precision diagrams of the tutorial's examples (figures 3, 5, 7): CSV and SVG.
+    Workprecision(workprecision::WorkPrecisionArgs),
+    /// Stability regions of the methods in the complex plane (the tutorial's figure 4): SVG.
+    Stability(stability::StabilityArgs),
+    /// Preconditioner comparison on cloth implicit-Euler systems: JSON lines on stdout, a table on stderr.
+    BenchPrecond(bench_precond::BenchPrecondArgs),
+    /// Write the linearised implicit-Euler system (A.mtx, b.mtx) of a scene's state at time T.
+    ExportSystem(export_system::ExportSystemArgs),
 }
 
 /// How a command failed.
@@ -57,6 +74,10 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run(args) => run::run(&args),
         Command::Solve(args) => solve::run(&args),
+        Command::Workprecision(args) => workprecision::run(&args),
+        Command::Stability(args) => stability::run(&args),
+        Command::BenchPrecond(args) => bench_precond::run(&args),
+        Command::ExportSystem(args) => export_system::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -59,12 +59,18 @@ pub struct SolveRecord {
     pub error: Option<String>,
 }
 
-enum Solver {
+/// One solver of the comparison: PCG with a preconditioner, or the direct
+/// sparse Cholesky baseline.
+pub enum Solver {
+    /// PCG with this preconditioner.
     Pcg(PrecondKind),
+    /// faer's sparse Cholesky.
     Direct,
 }
 
-fn parse_solvers(name: &str, omega: f64) -> Result<Vec<Solver>, CliError> {
+/// `all` (every preconditioner, then `direct`), `direct`, or one
+/// preconditioner name (SSOR with relaxation `omega`).
+pub fn parse_solvers(name: &str, omega: f64) -> Result<Vec<Solver>, CliError> {
     let mut out = Vec::new();
     if name == "all" {
         out.extend(PrecondKind::all(omega).into_iter().map(Solver::Pcg));
@@ -82,27 +88,55 @@ fn parse_solvers(name: &str, omega: f64) -> Result<Vec<Solver>, CliError> {
 }
 
 /// The matrix in the storage PCG runs on.
-enum Matrix {
+pub enum Matrix {
+    /// Symmetric 3x3-block storage.
     Block(SymBlockMatrix),
+    /// Plain CSR.
     Csr(sprs::CsMat<f64>),
 }
 
-pub fn run(args: &SolveArgs) -> Result<(), CliError> {
-    if args.repeat == 0 {
+/// Runs one solver on `A x = b` (`matrix` in PCG's storage, `original` the
+/// same matrix as CSR, for the residual and the direct solver), the best
+/// times of `repeat` runs, as a record with an empty `matrix` name and
+/// zero `rows` / `nnz` for the caller to fill in. Shared by `hookean solve`
+/// and `hookean bench-precond`.
+pub fn run_solver(
+    solver: &Solver,
+    matrix: &Matrix,
+    original: &sprs::CsMat<f64>,
+    b: &[f64],
+    params: &CgParams,
+    repeat: usize,
+) -> SolveRecord {
+    match solver {
+        Solver::Pcg(kind) => match matrix {
+            Matrix::Block(m) => run_pcg(m, original, b, *kind, params, repeat, "sym-block-3x3"),
+            Matrix::Csr(m) => run_pcg(m, original, b, *kind, params, repeat, "csr"),
+        },
+        Solver::Direct => run_direct(original, b, repeat),
+    }
+}
+
+/// Checks the options `hookean solve` and `hookean bench-precond` share.
+pub fn check_options(repeat: usize, omega: f64, rtol: f64) -> Result<(), CliError> {
+    if repeat == 0 {
         return Err(CliError::Input("--repeat must be at least 1".into()));
     }
-    if !(args.omega > 0.0 && args.omega < 2.0) {
+    if !(omega > 0.0 && omega < 2.0) {
         return Err(CliError::Input(format!(
-            "--omega must lie in (0, 2), got {}",
-            args.omega
+            "--omega must lie in (0, 2), got {omega}"
         )));
     }
-    if !(args.rtol >= 0.0 && args.rtol.is_finite()) {
+    if !(rtol >= 0.0 && rtol.is_finite()) {
         return Err(CliError::Input(format!(
-            "--rtol must be a non-negative number, got {}",
-            args.rtol
+            "--rtol must be a non-negative number, got {rtol}"
         )));
     }
+    Ok(())
+}
+
+pub fn run(args: &SolveArgs) -> Result<(), CliError> {
+    check_options(args.repeat, args.omega, args.rtol)?;
     let solvers = parse_solvers(&args.precond, args.omega)?;
     let a = read_matrix_market_file(&args.matrix)?.into_csr();
     let (rows, cols) = a.shape();
@@ -158,15 +192,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let name = args.matrix.display().to_string();
     let mut failed = false;
     for solver in &solvers {
-        let record = match solver {
-            Solver::Pcg(kind) => match &matrix {
-                Matrix::Block(m) => {
-                    run_pcg(m, &a, &b, *kind, &params, args.repeat, "sym-block-3x3")
-                }
-                Matrix::Csr(m) => run_pcg(m, &a, &b, *kind, &params, args.repeat, "csr"),
-            },
-            Solver::Direct => run_direct(&a, &b, args.repeat),
-        };
+        let record = run_solver(solver, &matrix, &a, &b, &params, args.repeat);
         let record = SolveRecord {
             matrix: name.clone(),
             rows,

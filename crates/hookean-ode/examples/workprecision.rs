@@ -17,9 +17,9 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::process::ExitCode;
 
+use hookean_ode::tutorial::{Dahlquist, LinearOscillator};
 use hookean_ode::workprecision::{self, Sweep, WorkPrecisionRow, observed_order};
 use hookean_ode::{Method, NewtonOptions, SolverOptions};
-use hookean_testkit::tutorial::{Dahlquist, LinearOscillator};
 
 fn options() -> SolverOptions {
     SolverOptions {

@@ -143,7 +143,7 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
 ///
 /// ```
 /// use hookean_ode::{Method, SecondOrderIntegrator, SolverOptions};
-/// use hookean_testkit::tutorial::LinearOscillator;
+/// use hookean_ode::tutorial::LinearOscillator;
 ///
 /// // The tutorial's example 3: a particle on a damped spring under gravity.
 /// let ex3 = LinearOscillator::example3();

@@ -16,6 +16,8 @@
 //! - [`stability`]: stability functions `R(z)`, BDF boundary loci,
 //!   [`is_a_stable`](stability::is_a_stable), region sampling (figure 4).
 //! - [`bdf`]: BDF coefficients derived from backward differences.
+//! - [`tutorial`]: the tutorial's examples 1-3 (Dahlquist's equation, the
+//!   overdamped wave equation, the particle on a spring) with exact solutions.
 //! - [`workprecision`]: error against work over step sizes or tolerances
 //!   (figures 3, 5, 7) and observed orders.
 //!
@@ -58,6 +60,7 @@ pub mod problem;
 pub mod stability;
 mod system;
 pub mod tableau;
+pub mod tutorial;
 pub mod workprecision;
 
 pub use bdf::BdfCoefficients;

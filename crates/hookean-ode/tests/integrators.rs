@@ -3,13 +3,13 @@
 
 use std::ops::ControlFlow;
 
+use hookean_ode::tutorial::{Dahlquist, LinearOscillator};
 use hookean_ode::workprecision::{self, Sweep};
 use hookean_ode::{
     FirstOrderForm, FirstOrderIntegrator, FirstOrderProblem, Method, NewtonMethod, NewtonOptions,
     OdeError, SecondOrderIntegrator, SolverOptions, StepControl,
 };
 use hookean_testkit::springs::SpringChain;
-use hookean_testkit::tutorial::{Dahlquist, LinearOscillator};
 
 fn tight(h: f64) -> SolverOptions {
     SolverOptions {

@@ -1,9 +1,9 @@
 //! Observed orders of convergence (slope of log error against log h over
 //! four halvings) against the theory, on the tutorial's examples.
 
+use hookean_ode::tutorial::{Dahlquist, LinearOscillator};
 use hookean_ode::workprecision::{self, Sweep, observed_order};
 use hookean_ode::{Method, NewtonOptions, SolverOptions};
-use hookean_testkit::tutorial::{Dahlquist, LinearOscillator};
 
 fn tight() -> SolverOptions {
     SolverOptions {

@@ -5,8 +5,8 @@ use hookean_ode::stability::{
     ComplexGrid, amplification, is_a_stable, oscillator_spectral_radius, sample_region,
     stability_function,
 };
+use hookean_ode::tutorial::Dahlquist;
 use hookean_ode::{BdfCoefficients, ButcherTableau, FirstOrderIntegrator, Method, SolverOptions};
-use hookean_testkit::tutorial::Dahlquist;
 use num_complex::Complex64;
 
 fn c(re: f64, im: f64) -> Complex64 {
