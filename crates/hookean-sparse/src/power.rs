@@ -42,9 +42,11 @@ pub struct PowerInfo {
 }
 
 /// The power method with max-norm scaling, as the filtering paper's
-/// Algorithm 1: `w <- A v; alpha <- w_i / v_i` at the largest entry `i` of
-/// `v` (the paper's `max(v)` for a converged iterate, but with a stable sign);
-/// `v <- w / max|w|; v <- hook(v)`.
+/// Algorithm 1: `w <- A v; alpha <- max(w); v <- w / alpha; v <- hook(v)`,
+/// where `max(w)` is the entry of largest magnitude, signed by `w_i / v_i`
+/// (so that an eigenvector with extreme entries `+c` and `-c` keeps a stable
+/// sign). At the fixed point `hook(A v) = alpha v`: alpha is the dominant
+/// eigenvalue of `hook o A`.
 ///
 /// The start vector is pseudo-random with entries in [0.5, 1.5), deterministic in
 /// [`PowerParams::seed`]. `hook` (optional) transforms the scaled vector
@@ -99,25 +101,30 @@ pub fn power_method<A: LinearOperator + ?Sized>(
                 index: None,
             });
         }
-        // The estimate is the ratio at the largest entry of the current
-        // iterate, which keeps its sign even when an eigenvector has two
-        // entries of equal magnitude and opposite signs.
-        let i = largest_entry(&v);
-        let new_alpha = w[i] / v[i];
-        let scale = w[largest_entry(&w)].abs();
-        if scale == 0.0 {
+        // alpha is the entry of largest magnitude of w (the paper's max(v)),
+        // signed by w_i / v_i: an eigenvector with two extreme entries of
+        // equal magnitude and opposite signs then keeps a stable sign.
+        let i = largest_entry(&w);
+        let magnitude = w[i].abs();
+        if magnitude == 0.0 {
             return Err(SparseError::InvalidParameter {
                 name: "operator",
                 message: "the power iterate vanished (start vector in the null space?)".into(),
             });
         }
+        let sign = if v[i] != 0.0 {
+            (w[i] / v[i]).signum()
+        } else {
+            w[i].signum()
+        };
+        let new_alpha = sign * magnitude;
         for (vi, wi) in v.iter_mut().zip(&w) {
-            *vi = wi / scale;
+            *vi = wi / new_alpha;
         }
         if let Some(h) = hook.as_mut() {
             h(&mut v);
         }
-        let settled = (new_alpha - alpha).abs() <= params.rtol * new_alpha.abs();
+        let settled = k > 1 && (new_alpha - alpha).abs() <= params.rtol * new_alpha.abs();
         alpha = new_alpha;
         if settled {
             return Ok(PowerInfo {
