@@ -151,6 +151,23 @@ struct FirstStage<'a, P> {
     fd_evals: usize,
 }
 
+/// The stage residual `G(y) = y - psi - gh f(tau, y)` shared by the dense and
+/// sparse first-order stages.
+fn first_order_stage_residual<P: FirstOrderProblem>(
+    problem: &P,
+    tau: f64,
+    gh: f64,
+    psi: &[f64],
+    f: &mut [f64],
+    y: &[f64],
+    g: &mut [f64],
+) {
+    problem.rhs(tau, y, f);
+    for i in 0..g.len() {
+        g[i] = y[i] - psi[i] - gh * f[i];
+    }
+}
+
 impl<P: FirstOrderProblem> NonlinearSystem for FirstStage<'_, P> {
     type Jacobian = faer::Mat<f64>;
 
@@ -159,10 +176,7 @@ impl<P: FirstOrderProblem> NonlinearSystem for FirstStage<'_, P> {
     }
 
     fn residual(&mut self, y: &[f64], g: &mut [f64]) -> Result<(), NonlinearError> {
-        self.problem.rhs(self.tau, y, self.f);
-        for i in 0..g.len() {
-            g[i] = y[i] - self.psi[i] - self.gh * self.f[i];
-        }
+        first_order_stage_residual(self.problem, self.tau, self.gh, self.psi, self.f, y, g);
         Ok(())
     }
 
@@ -213,10 +227,7 @@ impl<P: FirstOrderProblem> NonlinearSystem for SparseFirstStage<'_, P> {
     }
 
     fn residual(&mut self, y: &[f64], g: &mut [f64]) -> Result<(), NonlinearError> {
-        self.problem.rhs(self.tau, y, self.f);
-        for i in 0..g.len() {
-            g[i] = y[i] - self.psi[i] - self.gh * self.f[i];
-        }
+        first_order_stage_residual(self.problem, self.tau, self.gh, self.psi, self.f, y, g);
         Ok(())
     }
 
