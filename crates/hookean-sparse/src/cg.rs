@@ -299,8 +299,18 @@ where
     filter.project(z);
     p.fill(0.0);
     let mut beta = 0.0;
+    // The step x += alpha p of an iteration is applied inside the next
+    // iteration's fused SpMV (which reads p anyway); `pending` is its alpha,
+    // applied directly whenever x must be current (exit, callback).
+    let mut pending = 0.0;
     let mut k = 0;
     loop {
+        if pending != 0.0 && (r_norm <= threshold || k >= max_iter || callback.is_some()) {
+            for (xi, pi) in x.iter_mut().zip(p.iter()) {
+                *xi += pending * pi;
+            }
+            pending = 0.0;
+        }
         info.iterations = k;
         info.residual_norm = r_norm;
         info.relative_residual = rel(r_norm);
@@ -324,8 +334,9 @@ where
             break;
         }
         check_preconditioned(rz, k)?;
-        // p = z + beta p; q = P A p; p . q (p lies in range(P): p . A p = p . P A p).
-        let pq = a.update_and_apply_dot(z, beta, p, q);
+        // x += pending p; p = z + beta p; q = P A p; p . q (p lies in range(P):
+        // p . A p = p . P A p).
+        let pq = a.update_and_apply_dot(z, beta, pending, x, p, q);
         filter.project(q);
         if !pq.is_finite() {
             return Err(SparseError::NonFinite {
@@ -340,8 +351,9 @@ where
             });
         }
         let alpha = rz / pq;
-        // x += alpha p; r -= alpha q; z = M^-1 r; one pass for pointwise preconditioners.
-        let (rr, rz_new) = precond.update_and_apply(alpha, p, q, x, r, z);
+        pending = alpha;
+        // r -= alpha q; z = M^-1 r; one pass for pointwise preconditioners.
+        let (rr, rz_new) = precond.update_and_apply(alpha, q, r, z);
         filter.project(z);
         r_norm = rr.sqrt();
         beta = rz_new / rz;

@@ -370,23 +370,27 @@ impl SymBlockMatrix {
         dot
     }
 
-    /// CG's fused direction update and product: `p <- z + beta p`, `q = A p`,
-    /// returns `p . q`, in one pass over the matrix. Row `i` stores its new
-    /// `p_i`; the upper neighbours `j > i` are not updated yet, so their new
-    /// values `z_j + beta p_j` are formed on the fly.
+    /// CG's fused updates and product, in one pass over the matrix:
+    /// `x <- x + alpha p` (old `p`), `p <- z + beta p`, `q = A p`; returns
+    /// `p . q`. Row `i` stores its new `p_i`; the upper neighbours `j > i`
+    /// are not updated yet, so their new values `z_j + beta p_j` are formed
+    /// on the fly.
     #[inline]
     pub(crate) fn update_spmv_dot(
         &self,
         z: &[f64],
         beta: f64,
+        alpha: f64,
+        x: &mut [f64],
         p: &mut [f64],
         q: &mut [f64],
     ) -> f64 {
         let n = self.pattern.n;
         let (z3, _) = z.as_chunks::<3>();
+        let (x3, _) = x.as_chunks_mut::<3>();
         let (p3, _) = p.as_chunks_mut::<3>();
         let (q3, _) = q.as_chunks_mut::<3>();
-        let (z3, p3, q3) = (&z3[..n], &mut p3[..n], &mut q3[..n]);
+        let (z3, x3, p3, q3) = (&z3[..n], &mut x3[..n], &mut p3[..n], &mut q3[..n]);
         let row_ptr = &self.pattern.row_ptr;
         let cols = &self.pattern.col_idx;
         let vals = &self.values;
@@ -404,6 +408,10 @@ impl SymBlockMatrix {
                 zeroed = reach;
             }
             let (zi, pi_old) = (z3[i], p3[i]);
+            let xi = &mut x3[i];
+            xi[0] += alpha * pi_old[0];
+            xi[1] += alpha * pi_old[1];
+            xi[2] += alpha * pi_old[2];
             let pi = [
                 zi[0] + beta * pi_old[0],
                 zi[1] + beta * pi_old[1],
@@ -676,7 +684,13 @@ mod tests {
         let beta = 0.37;
         let mut p = p0.clone();
         let mut q = vec![f64::NAN; 18];
-        let pq = a.update_spmv_dot(&z, beta, &mut p, &mut q);
+        let x0: Vec<f64> = (0..18).map(|i| i as f64 * 0.1).collect();
+        let mut x = x0.clone();
+        let alpha = 0.8;
+        let pq = a.update_spmv_dot(&z, beta, alpha, &mut x, &mut p, &mut q);
+        for i in 0..18 {
+            assert_eq!(x[i], x0[i] + alpha * p0[i]);
+        }
         let expected_p: Vec<f64> = z.iter().zip(&p0).map(|(z, p)| z + beta * p).collect();
         let mut expected_q = vec![0.0; 18];
         a.mul_vec(&expected_p, &mut expected_q).unwrap();

@@ -26,10 +26,20 @@ pub trait LinearOperator {
         dot(x, y)
     }
 
-    /// CG's direction update fused with the product: `p <- z + beta p`,
-    /// `q = A p`, returns `p . q`. The block matrix does this in one pass.
-    fn update_and_apply_dot(&self, z: &[f64], beta: f64, p: &mut [f64], q: &mut [f64]) -> f64 {
-        for (pi, zi) in p.iter_mut().zip(z) {
+    /// CG's updates fused with the product: `x <- x + alpha p` (the previous
+    /// iteration's step, with the old `p`), then `p <- z + beta p`, `q = A p`;
+    /// returns `p . q`. The block matrix does all of it in one pass.
+    fn update_and_apply_dot(
+        &self,
+        z: &[f64],
+        beta: f64,
+        alpha: f64,
+        x: &mut [f64],
+        p: &mut [f64],
+        q: &mut [f64],
+    ) -> f64 {
+        for ((xi, pi), zi) in x.iter_mut().zip(p.iter_mut()).zip(z) {
+            *xi += alpha * *pi;
             *pi = zi + beta * *pi;
         }
         self.apply_dot(p, q)
@@ -46,8 +56,16 @@ impl<T: LinearOperator + ?Sized> LinearOperator for &T {
     fn apply_dot(&self, x: &[f64], y: &mut [f64]) -> f64 {
         (**self).apply_dot(x, y)
     }
-    fn update_and_apply_dot(&self, z: &[f64], beta: f64, p: &mut [f64], q: &mut [f64]) -> f64 {
-        (**self).update_and_apply_dot(z, beta, p, q)
+    fn update_and_apply_dot(
+        &self,
+        z: &[f64],
+        beta: f64,
+        alpha: f64,
+        x: &mut [f64],
+        p: &mut [f64],
+        q: &mut [f64],
+    ) -> f64 {
+        (**self).update_and_apply_dot(z, beta, alpha, x, p, q)
     }
 }
 
@@ -64,8 +82,16 @@ impl LinearOperator for SymBlockMatrix {
         self.spmv_dot(x, y)
     }
     #[inline]
-    fn update_and_apply_dot(&self, z: &[f64], beta: f64, p: &mut [f64], q: &mut [f64]) -> f64 {
-        self.update_spmv_dot(z, beta, p, q)
+    fn update_and_apply_dot(
+        &self,
+        z: &[f64],
+        beta: f64,
+        alpha: f64,
+        x: &mut [f64],
+        p: &mut [f64],
+        q: &mut [f64],
+    ) -> f64 {
+        self.update_spmv_dot(z, beta, alpha, x, p, q)
     }
 }
 

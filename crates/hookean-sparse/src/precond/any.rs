@@ -145,16 +145,8 @@ impl Preconditioner for AnyPreconditioner {
     fn apply_dot(&self, r: &[f64], z: &mut [f64]) -> f64 {
         dispatch!(self, p => p.apply_dot(r, z))
     }
-    fn update_and_apply(
-        &self,
-        alpha: f64,
-        p: &[f64],
-        q: &[f64],
-        x: &mut [f64],
-        r: &mut [f64],
-        z: &mut [f64],
-    ) -> (f64, f64) {
-        dispatch!(self, pc => pc.update_and_apply(alpha, p, q, x, r, z))
+    fn update_and_apply(&self, alpha: f64, q: &[f64], r: &mut [f64], z: &mut [f64]) -> (f64, f64) {
+        dispatch!(self, pc => pc.update_and_apply(alpha, q, r, z))
     }
 }
 

@@ -73,35 +73,18 @@ impl Preconditioner for Jacobi {
         acc
     }
     #[inline]
-    fn update_and_apply(
-        &self,
-        alpha: f64,
-        p: &[f64],
-        q: &[f64],
-        x: &mut [f64],
-        r: &mut [f64],
-        z: &mut [f64],
-    ) -> (f64, f64) {
+    fn update_and_apply(&self, alpha: f64, q: &[f64], r: &mut [f64], z: &mut [f64]) -> (f64, f64) {
         // Four independent partial sums keep the two reductions from
         // serialising the pass on floating-point add latency.
-        let n = x.len();
-        let (x4, _) = x.as_chunks_mut::<4>();
+        let n = r.len();
         let (r4, _) = r.as_chunks_mut::<4>();
         let (z4, _) = z.as_chunks_mut::<4>();
-        let (p4, _) = p.as_chunks::<4>();
         let (q4, _) = q.as_chunks::<4>();
         let (d4, _) = self.inv_diag.as_chunks::<4>();
         let mut rr = [0.0; 4];
         let mut rz = [0.0; 4];
-        for ((((x, r), z), (p, q)), d) in x4
-            .iter_mut()
-            .zip(r4.iter_mut())
-            .zip(z4.iter_mut())
-            .zip(p4.iter().zip(q4))
-            .zip(d4)
-        {
+        for (((r, z), q), d) in r4.iter_mut().zip(z4.iter_mut()).zip(q4).zip(d4) {
             for l in 0..4 {
-                x[l] += alpha * p[l];
                 let ri = r[l] - alpha * q[l];
                 r[l] = ri;
                 let zi = ri * d[l];
@@ -115,7 +98,6 @@ impl Preconditioner for Jacobi {
             (rz[0] + rz[1]) + (rz[2] + rz[3]),
         );
         for i in n - n % 4..n {
-            x[i] += alpha * p[i];
             let ri = r[i] - alpha * q[i];
             r[i] = ri;
             let zi = ri * self.inv_diag[i];

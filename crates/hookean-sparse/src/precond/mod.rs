@@ -49,25 +49,14 @@ pub trait Preconditioner {
         dot(r, z)
     }
 
-    /// CG's update fused with the preconditioner: `x += alpha p`,
-    /// `r -= alpha q`, `z = M^-1 r`; returns `(r . r, r . z)` of the new `r`.
-    /// Pointwise preconditioners (Jacobi) do it in one pass.
-    #[allow(clippy::too_many_arguments)]
-    fn update_and_apply(
-        &self,
-        alpha: f64,
-        p: &[f64],
-        q: &[f64],
-        x: &mut [f64],
-        r: &mut [f64],
-        z: &mut [f64],
-    ) -> (f64, f64) {
+    /// CG's residual update fused with the preconditioner: `r -= alpha q`,
+    /// `z = M^-1 r`; returns `(r . r, r . z)` of the new `r`. Pointwise
+    /// preconditioners (Jacobi) do it in one pass.
+    fn update_and_apply(&self, alpha: f64, q: &[f64], r: &mut [f64], z: &mut [f64]) -> (f64, f64) {
         let mut rr = 0.0;
-        for i in 0..x.len() {
-            x[i] += alpha * p[i];
-            let ri = r[i] - alpha * q[i];
-            r[i] = ri;
-            rr += ri * ri;
+        for (ri, qi) in r.iter_mut().zip(q) {
+            *ri -= alpha * qi;
+            rr += *ri * *ri;
         }
         (rr, self.apply_dot(r, z))
     }
@@ -95,16 +84,8 @@ impl<P: Preconditioner + ?Sized> Preconditioner for &P {
     fn apply_dot(&self, r: &[f64], z: &mut [f64]) -> f64 {
         (**self).apply_dot(r, z)
     }
-    fn update_and_apply(
-        &self,
-        alpha: f64,
-        p: &[f64],
-        q: &[f64],
-        x: &mut [f64],
-        r: &mut [f64],
-        z: &mut [f64],
-    ) -> (f64, f64) {
-        (**self).update_and_apply(alpha, p, q, x, r, z)
+    fn update_and_apply(&self, alpha: f64, q: &[f64], r: &mut [f64], z: &mut [f64]) -> (f64, f64) {
+        (**self).update_and_apply(alpha, q, r, z)
     }
 }
 
