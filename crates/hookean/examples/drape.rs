@@ -1,8 +1,16 @@
 //! Drapes the reference cloth and prints what it cost:
 //!
 //! ```text
-//! cargo run --release -p hookean --example drape -- [N] [SECONDS] [NEWTON_RTOL] [PRECOND] [ETA] [H]
+//! [PREVIOUS=1] [SYM=1] cargo run --release -p hookean --example drape -- \
+//!     [N] [SECONDS] [NEWTON_RTOL] [PRECOND] [ETA] [H] [ATOL]
 //! ```
+//!
+//! Defaults: the drape scene's settings ([`SimulationOptions::default`]),
+//! except the Newton start: `PREVIOUS=1` starts from the current velocity
+//! (as the scene does), without it from the extrapolated one
+//! (`Predictor::Extrapolate`); `SYM=1`
+//! keeps the symmetric part of the damping term in `df/dx`. The tables of
+//! docs/PERFORMANCE.md that chose the scene's settings come from this program.
 
 use std::ops::ControlFlow;
 
@@ -17,9 +25,6 @@ fn main() -> Result<(), HookeanError> {
         nv: n,
         ..Default::default()
     };
-    if std::env::var("PREVIOUS").is_ok() {
-        // (set below, after the options exist)
-    }
     if std::env::var("SYM").is_ok() {
         params.options.damping_in_dfdx = hookean::massspring::DampingInDfdx::Symmetrize;
     }
@@ -41,9 +46,11 @@ fn main() -> Result<(), HookeanError> {
     if let Some(a) = args.next().and_then(|s| s.parse().ok()) {
         options.solver.newton.atol = a;
     }
-    if std::env::var("PREVIOUS").is_ok() {
-        options.solver.newton.predictor = hookean::ode::Predictor::Previous;
-    }
+    options.solver.newton.predictor = if std::env::var("PREVIOUS").is_ok() {
+        hookean::ode::Predictor::Previous
+    } else {
+        hookean::ode::Predictor::Extrapolate
+    };
     let mut sim = Simulation::new(model, state, options)?;
     let summary = sim.run_until(seconds, |_, _| ControlFlow::Continue(()))?;
     let s = summary.stats;
