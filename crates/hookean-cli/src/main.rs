@@ -7,6 +7,7 @@
 //! hookean stability [--methods a,b] --plot regions.svg [--re -5,3] [--im -4,4] [--force]
 //! hookean bench-precond [--n 32,64,128] [--k 1e2,1e4,1e6] [--rtol 1e-8] [--repeat K]
 //! hookean export-system SCENE --at T --out DIR [--force]
+//! hookean filter-analysis SCENE --plot DIR [--n 16] [--t-end 1.0] [--force]
 //! ```
 //!
 //! Bad input (missing or malformed files, wrong sizes, unknown names) is a
@@ -20,6 +21,7 @@ use clap::{Parser, Subcommand};
 
 mod bench_precond;
 mod export_system;
+mod filter_analysis;
 mod render;
 mod run;
 mod solve;
@@ -48,6 +50,8 @@ enum Command {
     Stability(stability::StabilityArgs),
     /// Preconditioner comparison on cloth implicit-Euler systems: JSON lines on stdout, a table on stderr.
     BenchPrecond(bench_precond::BenchPrecondArgs),
+    /// The filtering paper's figures 4, 5 and 6 for a cloth scene: PNGs, an SVG and analysis.json.
+    FilterAnalysis(filter_analysis::FilterAnalysisArgs),
     /// Write the linearised implicit-Euler system (A.mtx, b.mtx) of a scene's state at time T.
     ExportSystem(export_system::ExportSystemArgs),
 }
@@ -78,6 +82,7 @@ fn main() -> ExitCode {
         Command::Stability(args) => stability::run(&args),
         Command::BenchPrecond(args) => bench_precond::run(&args),
         Command::ExportSystem(args) => export_system::run(&args),
+        Command::FilterAnalysis(args) => filter_analysis::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

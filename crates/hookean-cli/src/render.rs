@@ -24,6 +24,13 @@ impl Canvas {
         }
     }
 
+    /// Sets one pixel (ignored outside the canvas).
+    pub fn set(&mut self, x: usize, y: usize, colour: [u8; 3]) {
+        if x < self.width && y < self.height {
+            self.pixels[y * self.width + x] = colour;
+        }
+    }
+
     /// Fills the triangle with corners `p` (pixel coordinates) in one colour.
     pub fn fill_triangle(&mut self, p: [[f64; 2]; 3], colour: [u8; 3]) {
         let min_x = p
