@@ -44,8 +44,12 @@ pub enum Predictor {
     /// Linear extrapolation of the last two accepted states of the same step
     /// size, `Y_0 = 2 y_n - y_{n-1}` (the previous step's velocity change as
     /// the guess of this one's); falls back to `Previous` after a restart.
-    /// With an absolute Newton tolerance this saves Newton and PCG
-    /// iterations when the motion is smooth.
+    /// With a tight (or absolute) Newton tolerance this saves Newton and PCG
+    /// iterations when the motion is smooth. With a loose relative tolerance
+    /// beware: a Newton iteration stopped early then errs in the direction
+    /// of the extrapolation (anti-damping, where `Previous` errs toward
+    /// `y_n`, like damping), which pumped energy into the swinging drape
+    /// (docs/PERFORMANCE.md).
     Extrapolate,
 }
 
