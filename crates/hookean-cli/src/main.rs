@@ -27,6 +27,7 @@ mod run;
 mod solve;
 mod stability;
 mod svg;
+mod tutorial_run;
 mod workprecision;
 
 /// Soft-object simulation with mass-spring systems: solvers, scenes, plots.

@@ -186,6 +186,9 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     }
     std::fs::create_dir_all(&out)
         .map_err(|e| CliError::Input(format!("{}: {e}", out.display())))?;
+    if let Some(t) = &scene.tutorial {
+        return crate::tutorial_run::run(&scene, t, &args.scene, &out, args.quiet);
+    }
     let mut sim = scene.build().map_err(|e| CliError::Input(e.to_string()))?;
 
     let mut csv = StepsCsv::create(out.join("steps.csv")).map_err(failed)?;

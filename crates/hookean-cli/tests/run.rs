@@ -151,3 +151,54 @@ fn every_shipped_scene_parses() {
             .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     }
 }
+
+#[test]
+fn tutorial_example_1_matches_the_implicit_euler_recurrence() {
+    let out = scratch("tutorial1");
+    let o = hookean(&[
+        "run",
+        &repo("scenes/tutorial1.toml"),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    // Implicit Euler on y' = -15 y with h = 0.01: y_100 = (1 + 0.15)^-100 (eq. 26).
+    let expected = 1.15f64.powi(-100);
+    let y = s["y_final"].as_f64().unwrap();
+    assert!((y / expected - 1.0).abs() < 1e-10, "{y} vs {expected}");
+    assert!((s["exact_final"].as_f64().unwrap() - (-15.0f64).exp()).abs() < 1e-18);
+    assert_eq!(s["steps"], 100);
+    let csv = std::fs::read_to_string(out.join("steps.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 101);
+    assert!(out.join("final.png").exists());
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn tutorial_example_2_with_bdf2_is_second_order_accurate() {
+    // Halving h divides BDF2's error at t = 10 by about 4.
+    let mut errors = Vec::new();
+    for h in ["0.02", "0.01"] {
+        let out = scratch(&format!("tutorial2-{h}"));
+        let o = hookean(&[
+            "run",
+            &repo("scenes/tutorial2.toml"),
+            "--out",
+            out.to_str().unwrap(),
+            "--set",
+            &format!("integrator.h={h}"),
+            "--quiet",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let s: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
+                .unwrap();
+        errors.push(s["error_final"].as_f64().unwrap());
+        let _ = std::fs::remove_dir_all(&out);
+    }
+    let ratio = errors[0] / errors[1];
+    assert!((3.5..4.5).contains(&ratio), "{errors:?}");
+}

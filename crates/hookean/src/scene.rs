@@ -1,8 +1,9 @@
 //! Scene files (TOML): which model to build, how to integrate it, for how
 //! long, and what to write.
 //!
-//! A scene has exactly one model table — `[cloth]`, `[rope]`, `[jelly]` or
-//! `[particle]` (the tutorial's example 3) — and optional `[integrator]`,
+//! A scene has exactly one model table — `[cloth]`, `[rope]`, `[jelly]`,
+//! `[particle]` (the tutorial's example 3) or `[tutorial]` (its scalar
+//! examples 1 and 2, run as first-order ODEs) — and optional `[integrator]`,
 //! `[solver]`, `[filter]`, `[model]`, `[[collider]]` and `[output]` tables.
 //! Every key has a documented default (the field docs below; `scenes/drape.toml`
 //! spells them all out). Unknown keys, wrong types and out-of-range values
@@ -130,6 +131,9 @@ pub struct Scene {
     pub jelly: Option<JellyScene>,
     /// The tutorial's example 3: one particle on a spring to the origin.
     pub particle: Option<ParticleScene>,
+    /// The tutorial's examples 1 and 2: scalar ODEs (not mass-spring models),
+    /// integrated as first-order systems by `hookean run`.
+    pub tutorial: Option<TutorialScene>,
     /// Damping model, air friction and gravity.
     #[serde(default)]
     pub model: ModelScene,
@@ -312,6 +316,44 @@ fn d_jelly_origin() -> [f64; 3] {
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ParticleScene {}
+
+/// `[tutorial]`: the tutorial's example 1 (`y' = lambda y`, `y(0) = 1`) or
+/// example 2 (`y'' = lambda/2 y + lambda y'` with `lambda = -5`, `y(0) = 0`,
+/// `y'(0) = 1`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TutorialScene {
+    /// 1 or 2.
+    #[serde(deserialize_with = "example_number")]
+    pub example: u8,
+    /// `lambda` of example 1 (example 2 has its own). Default -15.
+    #[serde(default = "d_lambda", deserialize_with = "finite")]
+    pub lambda: f64,
+}
+
+fn d_lambda() -> f64 {
+    -15.0
+}
+
+fn example_number<'de, D: Deserializer<'de>>(d: D) -> Result<u8, D::Error> {
+    let v = u8::deserialize(d)?;
+    if v == 1 || v == 2 {
+        Ok(v)
+    } else {
+        Err(D::Error::custom(format!(
+            "the tutorial scenes are examples 1 and 2 (example 3 is [particle]), got {v}"
+        )))
+    }
+}
+
+fn finite<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let v = f64::deserialize(d)?;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(D::Error::custom("must be a finite number"))
+    }
+}
 
 /// `[model]`: force model options shared by all builders.
 #[derive(Debug, Clone, Deserialize)]
@@ -746,6 +788,7 @@ impl Scene {
             self.rope.is_some(),
             self.jelly.is_some(),
             self.particle.is_some(),
+            self.tutorial.is_some(),
         ]
         .iter()
         .filter(|&&b| b)
@@ -756,7 +799,7 @@ impl Scene {
                 line: 1,
                 column: 1,
                 message: format!(
-                    "a scene needs exactly one model table ([cloth], [rope], [jelly] or [particle]), found {models}"
+                    "a scene needs exactly one model table ([cloth], [rope], [jelly], [particle] or [tutorial]), found {models}"
                 ),
             });
         }
@@ -833,6 +876,14 @@ impl Scene {
     /// # Errors
     /// The builders' and the integrator's typed errors.
     pub fn build(&self) -> Result<Simulation, HookeanError> {
+        if self.tutorial.is_some() {
+            return Err(HookeanError::InvalidOption {
+                name: "tutorial".into(),
+                message: "a [tutorial] scene is a scalar ODE, not a mass-spring model: \
+                          integrate it with hookean-ode's FirstOrderIntegrator (as `hookean run` does)"
+                    .into(),
+            });
+        }
         let options = self.model_options();
         let (mut model, state) = if let Some(c) = &self.cloth {
             let axis_v = match c.plane {
