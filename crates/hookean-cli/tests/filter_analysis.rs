@@ -1,23 +1,8 @@
 //! `hookean filter-analysis` on a small cloth: every figure is written and
 //! the numbers behave as the filtering paper says.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
-
-fn hookean(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hookean"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the hookean binary runs")
-}
-
-fn repo(path: &str) -> String {
-    let p: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "..", path]
-        .iter()
-        .collect();
-    p.to_string_lossy().into_owned()
-}
+mod common;
+use common::*;
 
 #[test]
 fn writes_figures_4_5_6_and_the_filter_raises_the_stable_step() {

@@ -2,16 +2,10 @@
 //! they promise, errors that fall with h for convergent methods, and bad
 //! input as one line on stderr with exit code 2.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
+mod common;
+use common::*;
 
-fn hookean(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hookean"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the hookean binary runs")
-}
+use std::path::PathBuf;
 
 /// A fresh scratch folder per test.
 fn scratch(test: &str) -> PathBuf {
@@ -23,23 +17,6 @@ fn scratch(test: &str) -> PathBuf {
 
 fn s(p: &std::path::Path) -> String {
     p.to_string_lossy().into_owned()
-}
-
-fn assert_ok(out: &Output) {
-    assert!(
-        out.status.success(),
-        "stderr: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
-fn assert_input_error(out: &Output, needle: &str) {
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "stderr: {stderr}");
-    assert_eq!(stderr.trim_end().lines().count(), 1, "one line: {stderr}");
-    assert!(stderr.starts_with("hookean: error: "), "{stderr}");
-    assert!(stderr.contains(needle), "expected '{needle}' in: {stderr}");
-    assert!(!stderr.contains("panicked"), "{stderr}");
 }
 
 /// CSV rows as maps from header names to fields.

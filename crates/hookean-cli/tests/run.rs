@@ -1,22 +1,9 @@
 //! `hookean run` end to end on small variants of the shipped scenes.
 
+mod common;
+use common::*;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn hookean(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hookean"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the hookean binary runs")
-}
-
-fn repo(path: &str) -> String {
-    let p: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "..", path]
-        .iter()
-        .collect();
-    p.to_string_lossy().into_owned()
-}
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("hookean-run-{}-{name}", std::process::id()));

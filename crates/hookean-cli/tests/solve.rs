@@ -1,22 +1,19 @@
 //! `hookean solve` end to end: JSON output on the bundled system, and bad
 //! input as one line on stderr with exit code 2.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
+mod common;
+use common::*;
 
-fn hookean(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hookean"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the hookean binary runs")
+use std::process::Output;
+
+/// Bad input prints no JSON, then follows the shared error convention.
+fn assert_input_error(out: &Output, needle: &str) {
+    assert!(out.stdout.is_empty(), "no JSON on bad input");
+    common::assert_input_error(out, needle);
 }
 
 fn data(name: &str) -> String {
-    let p: PathBuf = [env!("CARGO_MANIFEST_DIR"), "..", "..", "data", name]
-        .iter()
-        .collect();
-    p.to_string_lossy().into_owned()
+    repo(&format!("data/{name}"))
 }
 
 fn scratch(name: &str, contents: &str) -> String {
@@ -25,15 +22,6 @@ fn scratch(name: &str, contents: &str) -> String {
     let p = dir.join(name);
     std::fs::write(&p, contents).unwrap();
     p.to_string_lossy().into_owned()
-}
-
-fn assert_input_error(out: &Output, needle: &str) {
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "stderr: {stderr}");
-    assert!(out.stdout.is_empty(), "no JSON on bad input");
-    assert_eq!(stderr.trim_end().lines().count(), 1, "one line: {stderr}");
-    assert!(stderr.contains(needle), "expected '{needle}' in: {stderr}");
-    assert!(!stderr.contains("panicked"), "{stderr}");
 }
 
 #[test]
@@ -79,7 +67,7 @@ fn solves_the_bundled_system_with_every_solver() {
 }
 
 #[test]
-fn default_rhs_is_a_times_ones_so_the_solution_is_ones() {
+fn default_rhs_is_a_times_ones_and_csr_storage_meets_the_tolerance() {
     // A 3x3 SPD matrix in CSR form (n not a multiple of 3 would use CSR too).
     let a = scratch(
         "spd.mtx",

@@ -1,15 +1,10 @@
 //! `hookean bench-precond` and `hookean export-system` end to end.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+use common::*;
 
-fn hookean(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hookean"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the hookean binary runs")
-}
+use std::path::{Path, PathBuf};
+use std::process::Output;
 
 fn scratch(test: &str) -> PathBuf {
     let dir =
@@ -21,22 +16,6 @@ fn scratch(test: &str) -> PathBuf {
 
 fn s(p: &Path) -> String {
     p.to_string_lossy().into_owned()
-}
-
-fn assert_ok(out: &Output) {
-    assert!(
-        out.status.success(),
-        "stderr: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
-fn assert_input_error(out: &Output, needle: &str) {
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "stderr: {stderr}");
-    assert_eq!(stderr.trim_end().lines().count(), 1, "one line: {stderr}");
-    assert!(stderr.contains(needle), "expected '{needle}' in: {stderr}");
-    assert!(!stderr.contains("panicked"), "{stderr}");
 }
 
 fn json_lines(out: &Output) -> Vec<serde_json::Value> {
