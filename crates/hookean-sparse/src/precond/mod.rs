@@ -17,6 +17,7 @@
 //! and for scalar `sprs::CsMat<f64>`; [`AnyPreconditioner`] picks one by name.
 
 mod any;
+mod block_ic0;
 mod ic0;
 mod jacobi;
 mod ssor;
