@@ -32,6 +32,12 @@ pub struct NewtonOptions {
     /// Starting guess of implicit Euler's Newton iteration. Default
     /// [`Predictor::Previous`].
     pub predictor: Predictor,
+    /// Starts the first linear solve of each step (second-order problems)
+    /// from the previous step's velocity change instead of from zero. The
+    /// Newton start and its stop `|G| <= rtol |G(Y_0)|` stay as they are;
+    /// only PCG begins closer to the answer. Ignored after a change of step
+    /// size. Default `false`.
+    pub warm_start: bool,
 }
 
 /// The starting guess `Y_0` of the Newton iteration of an implicit Euler step.
@@ -64,6 +70,7 @@ impl Default for NewtonOptions {
             linear_max_iter: None,
             preconditioner: PrecondKind::BlockJacobi,
             predictor: Predictor::Previous,
+            warm_start: false,
         }
     }
 }

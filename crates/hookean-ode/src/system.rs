@@ -441,6 +441,10 @@ pub(crate) struct StageLinearSolver {
     max_iter: Option<usize>,
     z: Vec<f64>,
     rhs: Vec<f64>,
+    /// The starting guess of the next solve (armed by `solve_stage` for the
+    /// first Newton correction of a step; every other solve starts at zero).
+    guess: Vec<f64>,
+    use_guess: bool,
 }
 
 impl LinearSolver<SymBlockMatrix> for StageLinearSolver {
@@ -456,11 +460,18 @@ impl LinearSolver<SymBlockMatrix> for StageLinearSolver {
         x: &mut [f64],
         rtol: f64,
     ) -> Result<LinearSolveStats, NonlinearError> {
+        let initial_guess = if self.use_guess {
+            self.use_guess = false;
+            x.copy_from_slice(&self.guess);
+            InitialGuess::Given
+        } else {
+            InitialGuess::Zero
+        };
         let params = CgParams {
             rtol,
             atol: 0.0,
             max_iter: self.max_iter,
-            initial_guess: InitialGuess::Zero,
+            initial_guess,
             record_history: false,
         };
         let info = if self.constraints.is_empty() {
@@ -474,6 +485,11 @@ impl LinearSolver<SymBlockMatrix> for StageLinearSolver {
             jac.mul_vec(&self.z, &mut self.rhs)?;
             for i in 0..n {
                 self.rhs[i] += rhs[i];
+            }
+            if initial_guess == InitialGuess::Given {
+                for i in 0..n {
+                    x[i] += self.z[i];
+                }
             }
             let info = filtered_pcg(
                 jac,
@@ -587,6 +603,10 @@ pub(crate) struct SecondSys<P> {
     last_gh: f64,
     force: Vec<f64>,
     xs: Vec<f64>,
+    /// `V - psi_v` of the last solved stage and its `gh` (NaN: none), the
+    /// warm start of the next stage's first linear solve.
+    last_delta: Vec<f64>,
+    last_delta_gh: f64,
 }
 
 impl<P: SecondOrderProblem> SecondSys<P> {
@@ -607,6 +627,8 @@ impl<P: SecondOrderProblem> SecondSys<P> {
             max_iter: opts.linear_max_iter,
             z: vec![0.0; n],
             rhs: vec![0.0; n],
+            guess: vec![0.0; n],
+            use_guess: false,
         };
         let newton = Newton::new(
             newton_options(opts),
@@ -623,6 +645,8 @@ impl<P: SecondOrderProblem> SecondSys<P> {
             last_gh: f64::NAN,
             force: vec![0.0; n],
             xs: vec![0.0; n],
+            last_delta: vec![0.0; n],
+            last_delta_gh: f64::NAN,
             problem,
         })
     }
@@ -723,6 +747,15 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
         if !self.constraints.is_empty() {
             self.constraints.impose(kv);
         }
+        // Warm start: the first correction V_1 - V_0 is guessed so that
+        // V_1 - psi_v repeats the last stage's V - psi_v (same gh only).
+        let linear = self.newton.linear_solver_mut();
+        linear.use_guess = opts.warm_start && self.last_delta_gh == gh;
+        if linear.use_guess {
+            for i in 0..n {
+                linear.guess[i] = self.last_delta[i] - (kv[i] - psi_v[i]);
+            }
+        }
         let mut stage = ReducedStage {
             problem: &self.problem,
             tau,
@@ -736,10 +769,13 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
             constraints: &self.constraints,
         };
         let result = self.newton.solve(&mut stage, kv);
+        self.newton.linear_solver_mut().use_guess = false;
         let info = account(result, 0, stats)?;
         for i in 0..n {
             kx[i] = psi_x[i] + gh * kv[i];
+            self.last_delta[i] = kv[i] - psi_v[i];
         }
+        self.last_delta_gh = gh;
         Ok(info)
     }
 }

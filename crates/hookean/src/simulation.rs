@@ -58,6 +58,7 @@ impl SimulationOptions {
                 linear_max_iter: Some(500),
                 preconditioner: PrecondKind::BlockJacobi,
                 predictor: Predictor::Previous,
+                warm_start: false,
             },
             ..SolverOptions::default()
         }
