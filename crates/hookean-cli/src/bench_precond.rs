@@ -35,7 +35,7 @@ pub struct BenchPrecondArgs {
     /// Comma-separated structural/shear stiffnesses k (bend k / 10).
     #[arg(long, value_delimiter = ',', default_values_t = [1e2, 1e4, 1e6], allow_hyphen_values = true)]
     k: Vec<f64>,
-    /// none, jacobi, block-jacobi, ssor, ic0, direct or all.
+    /// none, jacobi, block-jacobi, ssor, ic0, mic0, direct or all.
     #[arg(long, default_value = "all")]
     precond: String,
     /// SSOR relaxation, in (0, 2).

@@ -20,7 +20,7 @@ pub struct SolveArgs {
     /// The right-hand side b (Matrix Market, one column); default b = A * ones.
     #[arg(long)]
     rhs: Option<PathBuf>,
-    /// none, jacobi, block-jacobi, ssor, ic0, direct (faer sparse Cholesky) or all.
+    /// none, jacobi, block-jacobi, ssor, ic0, mic0 (block storage only), direct (faer sparse Cholesky) or all.
     #[arg(long, default_value = "all")]
     precond: String,
     /// SSOR relaxation, in (0, 2).
@@ -74,6 +74,9 @@ pub fn parse_solvers(name: &str, omega: f64) -> Result<Vec<Solver>, CliError> {
     let mut out = Vec::new();
     if name == "all" {
         out.extend(PrecondKind::all(omega).into_iter().map(Solver::Pcg));
+        out.push(Solver::Pcg(PrecondKind::Mic0 {
+            omega: PrecondKind::MIC_OMEGA,
+        }));
         out.push(Solver::Direct);
     } else if name == "direct" {
         out.push(Solver::Direct);
@@ -184,6 +187,15 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             )));
         }
     };
+    // MIC(0) exists for block storage only: "all" skips it on CSR.
+    let solvers: Vec<Solver> = solvers
+        .into_iter()
+        .filter(|s| {
+            !(args.precond == "all"
+                && matches!(matrix, Matrix::Csr(_))
+                && matches!(s, Solver::Pcg(PrecondKind::Mic0 { .. })))
+        })
+        .collect();
     let params = CgParams {
         rtol: args.rtol,
         max_iter: args.max_iter,

@@ -52,7 +52,15 @@ fn solves_the_bundled_system_with_every_solver() {
         .collect();
     assert_eq!(
         names,
-        ["none", "jacobi", "block-jacobi", "ssor", "ic0", "direct"]
+        [
+            "none",
+            "jacobi",
+            "block-jacobi",
+            "ssor",
+            "ic0",
+            "mic0",
+            "direct"
+        ]
     );
     for v in &lines {
         assert_eq!(v["rows"], 768);

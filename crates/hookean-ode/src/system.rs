@@ -482,9 +482,14 @@ impl LinearSolver<SymBlockMatrix> for StageLinearSolver {
             self.rhs.resize(n, 0.0);
             self.z.fill(0.0);
             self.constraints.impose(&mut self.z);
-            jac.mul_vec(&self.z, &mut self.rhs)?;
-            for i in 0..n {
-                self.rhs[i] += rhs[i];
+            if self.z.iter().all(|&v| v == 0.0) {
+                // Homogeneous constraints (pins): A z = 0, no product needed.
+                self.rhs.copy_from_slice(rhs);
+            } else {
+                jac.mul_vec(&self.z, &mut self.rhs)?;
+                for i in 0..n {
+                    self.rhs[i] += rhs[i];
+                }
             }
             if initial_guess == InitialGuess::Given {
                 for i in 0..n {

@@ -116,6 +116,17 @@ fn omega<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
     }
 }
 
+fn mic_omega<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let v = f64::deserialize(d)?;
+    if (0.0..=1.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err(D::Error::custom(format!(
+            "MIC(0) relaxation must lie in [0, 1], got {v}"
+        )))
+    }
+}
+
 /// A scene: one model, how to integrate it, for how long, what to write.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -487,12 +498,15 @@ pub struct SolverScene {
     /// PCG iteration limit. Default 500.
     #[serde(default = "d_cg_max", deserialize_with = "at_least_one")]
     pub max_cg: usize,
-    /// `none`, `jacobi`, `block-jacobi` (default), `ssor` or `ic0`.
+    /// `none`, `jacobi`, `block-jacobi` (default), `ssor`, `ic0` or `mic0`.
     #[serde(default = "d_precond", deserialize_with = "precond")]
     pub preconditioner: PrecondKind,
     /// SSOR relaxation in (0, 2). Default 1.
     #[serde(default = "one", deserialize_with = "omega")]
     pub omega: f64,
+    /// MIC(0) relaxation in [0, 1]. Default 0.99.
+    #[serde(default = "d_mic_omega", deserialize_with = "mic_omega")]
+    pub mic_omega: f64,
     /// Start each step's first PCG solve from the previous step's velocity
     /// change. Default false.
     #[serde(default)]
@@ -510,6 +524,7 @@ impl Default for SolverScene {
             max_cg: d_cg_max(),
             preconditioner: d_precond(),
             omega: 1.0,
+            mic_omega: d_mic_omega(),
             warm_start: false,
         }
     }
@@ -523,6 +538,9 @@ fn d_newton_max() -> usize {
 }
 fn d_cg_rtol() -> f64 {
     1e-8
+}
+fn d_mic_omega() -> f64 {
+    PrecondKind::MIC_OMEGA
 }
 fn d_cg_max() -> usize {
     500
@@ -859,6 +877,7 @@ impl Scene {
         solver.newton.warm_start = s.warm_start;
         solver.newton.preconditioner = match s.preconditioner {
             PrecondKind::Ssor { .. } => PrecondKind::Ssor { omega: s.omega },
+            PrecondKind::Mic0 { .. } => PrecondKind::Mic0 { omega: s.mic_omega },
             other => other,
         };
         SimulationOptions {

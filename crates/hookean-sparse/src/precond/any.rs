@@ -24,10 +24,20 @@ pub enum PrecondKind {
     },
     /// [`IncompleteCholesky`]: `ic0`.
     Ic0,
+    /// [`IncompleteCholesky::modified`] (block matrices only): `mic0`.
+    Mic0 {
+        /// Relaxation in [0, 1].
+        omega: f64,
+    },
 }
 
 impl PrecondKind {
-    /// Every kind, with SSOR at `omega`.
+    /// The default MIC(0) relaxation, chosen on the drape's systems
+    /// (docs/PERFORMANCE.md): 0.99.
+    pub const MIC_OMEGA: f64 = 0.99;
+
+    /// Every kind that works on both matrix types (all but MIC(0)), with
+    /// SSOR at `omega`.
     pub fn all(omega: f64) -> [PrecondKind; 5] {
         [
             PrecondKind::None,
@@ -46,6 +56,7 @@ impl PrecondKind {
             PrecondKind::BlockJacobi => "block-jacobi",
             PrecondKind::Ssor { .. } => "ssor",
             PrecondKind::Ic0 => "ic0",
+            PrecondKind::Mic0 { .. } => "mic0",
         }
     }
 }
@@ -59,7 +70,8 @@ impl fmt::Display for PrecondKind {
 impl FromStr for PrecondKind {
     type Err = SparseError;
 
-    /// Parses `none`, `jacobi`, `block-jacobi`, `ssor` (omega 1) or `ic0`.
+    /// Parses `none`, `jacobi`, `block-jacobi`, `ssor` (omega 1), `ic0` or
+    /// `mic0` (omega [`MIC_OMEGA`](Self::MIC_OMEGA)).
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         Ok(match s {
             "none" => PrecondKind::None,
@@ -67,11 +79,14 @@ impl FromStr for PrecondKind {
             "block-jacobi" => PrecondKind::BlockJacobi,
             "ssor" => PrecondKind::Ssor { omega: 1.0 },
             "ic0" => PrecondKind::Ic0,
+            "mic0" => PrecondKind::Mic0 {
+                omega: PrecondKind::MIC_OMEGA,
+            },
             other => {
                 return Err(SparseError::InvalidParameter {
                     name: "preconditioner",
                     message: format!(
-                        "unknown preconditioner '{other}' (expected none, jacobi, block-jacobi, ssor or ic0)"
+                        "unknown preconditioner '{other}' (expected none, jacobi, block-jacobi, ssor, ic0 or mic0)"
                     ),
                 });
             }
@@ -92,7 +107,7 @@ pub enum AnyPreconditioner {
     BlockJacobi(BlockJacobi),
     /// SSOR.
     Ssor(Ssor),
-    /// IC(0).
+    /// IC(0) or MIC(0).
     Ic0(IncompleteCholesky),
 }
 
@@ -100,7 +115,8 @@ impl AnyPreconditioner {
     /// An empty preconditioner of the given kind.
     ///
     /// # Errors
-    /// [`SparseError::InvalidParameter`] for an SSOR `omega` outside (0, 2).
+    /// [`SparseError::InvalidParameter`] for an SSOR `omega` outside (0, 2)
+    /// or a MIC(0) `omega` outside [0, 1].
     pub fn new(kind: PrecondKind) -> Result<Self, SparseError> {
         Ok(match kind {
             PrecondKind::None => AnyPreconditioner::None(Identity),
@@ -108,6 +124,9 @@ impl AnyPreconditioner {
             PrecondKind::BlockJacobi => AnyPreconditioner::BlockJacobi(BlockJacobi::new()),
             PrecondKind::Ssor { omega } => AnyPreconditioner::Ssor(Ssor::new(omega)?),
             PrecondKind::Ic0 => AnyPreconditioner::Ic0(IncompleteCholesky::new()),
+            PrecondKind::Mic0 { omega } => {
+                AnyPreconditioner::Ic0(IncompleteCholesky::modified(omega)?)
+            }
         })
     }
 
@@ -118,6 +137,9 @@ impl AnyPreconditioner {
             AnyPreconditioner::Jacobi(_) => PrecondKind::Jacobi,
             AnyPreconditioner::BlockJacobi(_) => PrecondKind::BlockJacobi,
             AnyPreconditioner::Ssor(p) => PrecondKind::Ssor { omega: p.omega() },
+            AnyPreconditioner::Ic0(p) if p.relaxation() != 0.0 => PrecondKind::Mic0 {
+                omega: p.relaxation(),
+            },
             AnyPreconditioner::Ic0(_) => PrecondKind::Ic0,
         }
     }
@@ -174,5 +196,11 @@ mod tests {
             assert_eq!(AnyPreconditioner::new(kind).unwrap().kind(), kind);
         }
         assert!("ilu".parse::<PrecondKind>().is_err());
+        let mic = PrecondKind::Mic0 {
+            omega: PrecondKind::MIC_OMEGA,
+        };
+        assert_eq!("mic0".parse::<PrecondKind>().unwrap(), mic);
+        assert_eq!(AnyPreconditioner::new(mic).unwrap().kind(), mic);
+        assert!(AnyPreconditioner::new(PrecondKind::Mic0 { omega: 2.0 }).is_err());
     }
 }

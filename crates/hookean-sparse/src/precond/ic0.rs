@@ -1,4 +1,5 @@
-//! Incomplete Cholesky with zero fill-in, IC(0) (the tutorial's "ICC").
+//! Incomplete Cholesky with zero fill-in, IC(0) (the tutorial's "ICC"),
+//! and its modified form MIC(0) on block matrices.
 
 use super::block_ic0::BlockFactor;
 use super::{Preconditioner, PreconditionerSetup, square_dim};
@@ -25,9 +26,41 @@ const NONE: usize = usize::MAX;
 /// the same preconditioner (the pattern's blocks are dense, so scalar IC(0)
 /// keeps exactly the fill between particles whose block is stored), with
 /// one application costing about one symmetric SpMV.
+///
+/// [`modified`](Self::modified) gives MIC(0) (Gustafsson 1978): the fill
+/// IC(0) drops is subtracted, times a relaxation `omega`, from the diagonal
+/// blocks it would have coupled, so that the preconditioner keeps the row
+/// sums of `A`. On the implicit cloth systems it needs about half the
+/// iterations of IC(0) (docs/PERFORMANCE.md). It is implemented for
+/// [`SymBlockMatrix`] only (the right-looking block factorisation); setting
+/// it up from a scalar `sprs` matrix is an error.
+///
+/// ```
+/// use std::sync::Arc;
+/// use hookean_sparse::{BlockPattern, IncompleteCholesky, Preconditioner, PreconditionerSetup, SymBlockMatrix};
+/// // Three particles in a triangle: the fill between the last two is kept,
+/// // so MIC(0) and IC(0) coincide here and M = A exactly.
+/// let pattern = Arc::new(BlockPattern::new(3, [(0, 1), (0, 2), (1, 2)])?);
+/// let mut a = SymBlockMatrix::new(pattern);
+/// for (i, j) in [(0, 1), (0, 2), (1, 2)] {
+///     a.add_to_block(i, j, &[[-1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])?;
+/// }
+/// a.add_to_diagonal(&[3.0; 9])?;
+/// let mut mic = IncompleteCholesky::modified(0.99)?;
+/// mic.setup(&a)?;
+/// let b = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+/// let mut z = [0.0; 9];
+/// mic.apply(&b, &mut z);
+/// let mut az = [0.0; 9];
+/// a.mul_vec(&z, &mut az)?;
+/// assert!(az.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-12));
+/// # Ok::<(), hookean_sparse::SparseError>(())
+/// ```
 #[derive(Debug, Clone)]
 pub struct IncompleteCholesky {
     initial_shift: f64,
+    /// MIC(0) relaxation (0: IC(0)).
+    omega: f64,
     shift: f64,
     source: Source,
     l_ptr: Vec<usize>,
@@ -58,10 +91,11 @@ impl Default for IncompleteCholesky {
 }
 
 impl IncompleteCholesky {
-    /// An empty preconditioner with Eigen's initial shift `1e-3`.
+    /// An empty IC(0) preconditioner with Eigen's initial shift `1e-3`.
     pub fn new() -> Self {
         Self {
             initial_shift: 1e-3,
+            omega: 0.0,
             shift: 0.0,
             source: Source::None,
             l_ptr: Vec::new(),
@@ -72,6 +106,30 @@ impl IncompleteCholesky {
             scale: Vec::new(),
             marker: Vec::new(),
         }
+    }
+
+    /// An empty MIC(0) preconditioner: the dropped fill is compensated on
+    /// the diagonal with weight `omega` in `[0, 1]` (0 is IC(0), 1 keeps the
+    /// row sums exactly; slightly below 1 is the usual choice).
+    ///
+    /// # Errors
+    /// [`SparseError::InvalidParameter`] if `omega` is not in `[0, 1]`.
+    pub fn modified(omega: f64) -> Result<Self, SparseError> {
+        if !(0.0..=1.0).contains(&omega) {
+            return Err(SparseError::InvalidParameter {
+                name: "omega",
+                message: format!("the MIC(0) relaxation must lie in [0, 1], got {omega}"),
+            });
+        }
+        Ok(Self {
+            omega,
+            ..Self::new()
+        })
+    }
+
+    /// The MIC(0) relaxation `omega` (0 for IC(0)).
+    pub fn relaxation(&self) -> f64 {
+        self.omega
     }
 
     /// The diagonal shift (relative to the unit-diagonal scaled matrix) that
@@ -290,14 +348,31 @@ impl PreconditionerSetup<SymBlockMatrix> for IncompleteCholesky {
             Source::Block(f) if f.is_for(a.pattern()) => f,
             _ => Box::new(BlockFactor::new(a.pattern())),
         };
-        check_finite(a.values().as_flattened().as_flattened())?;
         let min_diag = (0..a.n_blocks())
             .flat_map(|i| {
                 let d = a.diagonal_block(i);
                 [d[0][0], d[1][1], d[2][2]]
             })
             .fold(f64::INFINITY, |m, d| m.min(if d > 0.0 { 1.0 } else { d }));
-        let result = self.shift_loop(min_diag, |_, shift| factor.factor(a, shift));
+        // A non-finite entry always ends in a failed pivot (it reaches a
+        // diagonal block), so the matrix is only scanned after a failure.
+        let values = a.values().as_flattened().as_flattened();
+        let omega = self.omega;
+        let (mut checked, mut non_finite) = (false, None);
+        let result = self.shift_loop(min_diag, |_, shift| {
+            if non_finite.is_some() {
+                return Err(0);
+            }
+            let r = factor.factor(a, shift, omega);
+            if r.is_err() && !checked {
+                checked = true;
+                non_finite = check_finite(values).err();
+            }
+            r
+        });
+        if let Some(e) = non_finite {
+            return Err(e);
+        }
         if result.is_ok() {
             self.source = Source::Block(factor);
         }
@@ -307,6 +382,13 @@ impl PreconditionerSetup<SymBlockMatrix> for IncompleteCholesky {
 
 impl PreconditionerSetup<sprs::CsMat<f64>> for IncompleteCholesky {
     fn setup(&mut self, a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
+        if self.omega != 0.0 {
+            return Err(SparseError::InvalidParameter {
+                name: "preconditioner",
+                message: "MIC(0) is implemented for 3x3 block matrices (SymBlockMatrix) only"
+                    .into(),
+            });
+        }
         let n = square_dim(a)?;
         let owned;
         let a = if a.is_csr() {
@@ -438,6 +520,122 @@ mod tests {
         pb.apply(&r, &mut zb);
         pc.apply(&r, &mut zc);
         assert!(rel_diff(&zb, &zc) < 1e-12);
+    }
+
+    #[test]
+    fn non_finite_block_entries_are_an_error_wherever_they_sit() {
+        // The block factorisation scans the matrix only after a failed
+        // pivot: a NaN or infinity anywhere must still surface as NonFinite.
+        let a = spd_block_matrix(3, 3);
+        let slots = a.values().len();
+        for (slot, value) in [(slots - 1, f64::NAN), (0, f64::INFINITY), (1, f64::NAN)] {
+            let mut b = a.clone();
+            b.values_mut()[slot][0][1] = value;
+            let mut p = IncompleteCholesky::new();
+            assert!(
+                matches!(p.setup(&b), Err(SparseError::NonFinite { .. })),
+                "slot {slot}"
+            );
+        }
+    }
+
+    /// A grid Laplacian with isotropic blocks `-c I` (and mass on the
+    /// diagonal) on the pattern right / up / one diagonal: the other
+    /// diagonal is dropped fill, and every fill block is a multiple of `I`.
+    fn isotropic_grid(nx: usize, ny: usize) -> SymBlockMatrix {
+        let id = |x: usize, y: usize| y * nx + x;
+        let mut pairs = Vec::new();
+        for y in 0..ny {
+            for x in 0..nx {
+                if x + 1 < nx {
+                    pairs.push((id(x, y), id(x + 1, y)));
+                }
+                if y + 1 < ny {
+                    pairs.push((id(x, y), id(x, y + 1)));
+                }
+                if x + 1 < nx && y + 1 < ny {
+                    pairs.push((id(x, y), id(x + 1, y + 1)));
+                }
+            }
+        }
+        let n = nx * ny;
+        let pattern = std::sync::Arc::new(crate::BlockPattern::new(n, pairs.clone()).unwrap());
+        let mut a = SymBlockMatrix::new(pattern);
+        let mut diag = vec![0.01; 3 * n];
+        for (e, &(i, j)) in pairs.iter().enumerate() {
+            let c = 1.0 + (e % 3) as f64;
+            a.add_to_block(i, j, &crate::block::scale(&crate::block::IDENTITY, -c))
+                .unwrap();
+            for k in 0..3 {
+                diag[3 * i + k] += c;
+                diag[3 * j + k] += c;
+            }
+        }
+        a.add_to_diagonal(&diag).unwrap();
+        a
+    }
+
+    #[test]
+    fn mic0_with_omega_one_keeps_the_row_sums_and_ic0_does_not() {
+        // Gustafsson's property: M e = A e for the translations e, i.e.
+        // M^-1 (A e) = e. IC(0) drops the fill and misses it.
+        let a = isotropic_grid(5, 4);
+        let n = a.dim();
+        let mut mic = IncompleteCholesky::modified(1.0).unwrap();
+        mic.setup(&a).unwrap();
+        let mut ic = IncompleteCholesky::new();
+        ic.setup(&a).unwrap();
+        for c in 0..3 {
+            let e: Vec<f64> = (0..n).map(|k| if k % 3 == c { 1.0 } else { 0.0 }).collect();
+            let mut ae = vec![0.0; n];
+            a.mul_vec(&e, &mut ae).unwrap();
+            let mut z = vec![0.0; n];
+            mic.apply(&ae, &mut z);
+            assert!(rel_diff(&z, &e) < 1e-12, "MIC(0), direction {c}");
+            ic.apply(&ae, &mut z);
+            assert!(rel_diff(&z, &e) > 1e-3, "IC(0), direction {c}");
+        }
+    }
+
+    #[test]
+    fn mic0_needs_a_quarter_fewer_iterations_on_a_stiff_grid() {
+        // The reason it exists: on a stiff grid (small mass) PCG with
+        // MIC(0) converges in clearly fewer iterations than with IC(0)
+        // (the gap grows with the grid: O(h^-1/2) against O(h^-1)).
+        let a = isotropic_grid(32, 32);
+        let b: Vec<f64> = (0..a.dim()).map(|k| 1.0 + (k % 7) as f64).collect();
+        let its = |p: &mut IncompleteCholesky| {
+            p.setup(&a).unwrap();
+            let mut x = vec![0.0; a.dim()];
+            let mut ws = crate::CgWorkspace::new(a.dim());
+            let info = crate::pcg(
+                &a,
+                &*p,
+                &b,
+                &mut x,
+                &crate::CgParams::default(),
+                &mut ws,
+                None,
+            )
+            .unwrap();
+            assert!(info.converged);
+            info.iterations
+        };
+        let ic = its(&mut IncompleteCholesky::new());
+        let mic = its(&mut IncompleteCholesky::modified(0.99).unwrap());
+        assert!(4 * mic < 3 * ic, "MIC(0) {mic} vs IC(0) {ic} iterations");
+    }
+
+    #[test]
+    fn mic0_rejects_bad_relaxations_and_scalar_matrices() {
+        assert!(IncompleteCholesky::modified(1.5).is_err());
+        assert!(IncompleteCholesky::modified(-0.1).is_err());
+        assert!(IncompleteCholesky::modified(f64::NAN).is_err());
+        let mut p = IncompleteCholesky::modified(0.5).unwrap();
+        assert!(matches!(
+            p.setup(&tridiagonal(4)),
+            Err(SparseError::InvalidParameter { .. })
+        ));
     }
 
     #[test]
