@@ -193,18 +193,32 @@ impl BlockFactor {
         let n = self.n_blocks();
         let row_ptr = self.pattern.row_ptr();
         let cols = self.pattern.col_idx();
-        self.values.copy_from_slice(a.values());
-        if shift != 0.0 {
-            for i in 0..n {
-                let d = &mut self.values[row_ptr[i]];
-                for c in 0..3 {
-                    let s = if d[c][c] > 0.0 { d[c][c] } else { 1.0 };
-                    d[c][c] += shift * s;
-                }
-            }
-        }
+        let src = a.values();
+        // Rows are copied from `a` (and shifted) just ahead of the first
+        // row whose elimination touches them, inside this pass rather than
+        // in a separate copy of the whole matrix.
+        let mut copied = 0;
         for k in 0..n {
             let (start, end) = (row_ptr[k], row_ptr[k + 1]);
+            let reach = if end > start + 1 {
+                cols[end - 1] as usize + 1
+            } else {
+                k + 1
+            };
+            if reach > copied {
+                let (from, to) = (row_ptr[copied], row_ptr[reach]);
+                self.values[from..to].copy_from_slice(&src[from..to]);
+                if shift != 0.0 {
+                    for i in copied..reach {
+                        let d = &mut self.values[row_ptr[i]];
+                        for c in 0..3 {
+                            let s = if d[c][c] > 0.0 { d[c][c] } else { 1.0 };
+                            d[c][c] += shift * s;
+                        }
+                    }
+                }
+                copied = reach;
+            }
             let dinv = spd_inverse(&self.values[start]).ok_or(k)?;
             self.values[start] = dinv;
             let m = end - start - 1;
