@@ -31,7 +31,7 @@ fn bench_precond_prints_a_json_line_per_system_and_solver() {
     let out = hookean(&["bench-precond", "--n", "6,9", "--k", "1e2,1e5"]);
     assert_ok(&out);
     let lines = json_lines(&out);
-    let solvers = ["none", "jacobi", "block-jacobi", "ssor", "ic0", "direct"];
+    let solvers = ["none", "jacobi", "block-jacobi", "ssor", "ic0", "mic0", "direct"];
     assert_eq!(lines.len(), 2 * 2 * solvers.len());
     for (i, v) in lines.iter().enumerate() {
         let n = if i < 2 * solvers.len() { 6 } else { 9 };
@@ -153,7 +153,7 @@ fn export_system_round_trips_through_solve() {
     ]);
     assert_ok(&solved);
     let lines = json_lines(&solved);
-    assert_eq!(lines.len(), 6);
+    assert_eq!(lines.len(), 7); // five PCG preconditioners, MIC(0), direct
     for l in &lines {
         assert_eq!(l["rows"], 108);
         assert_eq!(l["converged"], true, "{l}");

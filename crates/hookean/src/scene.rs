@@ -481,8 +481,8 @@ pub struct SolverScene {
     /// `"inexact"` (default), `"exact"`, `"simplified"` or `"inexact-simplified"`.
     #[serde(default)]
     pub newton: NewtonScene,
-    /// Forcing term of the inexact variants: a number in (0, 1) (default 0.1,
-    /// the drape's; the tutorial uses 0.02), `"ew1"` or `"ew2"`
+    /// Forcing term of the inexact variants: a number in (0, 1) (default
+    /// 0.01, the drape's; the tutorial uses 0.02), `"ew1"` or `"ew2"`
     /// (Eisenstat-Walker).
     #[serde(default)]
     pub forcing: ForcingScene,
@@ -498,7 +498,7 @@ pub struct SolverScene {
     /// PCG iteration limit. Default 500.
     #[serde(default = "d_cg_max", deserialize_with = "at_least_one")]
     pub max_cg: usize,
-    /// `none`, `jacobi`, `block-jacobi` (default), `ssor`, `ic0` or `mic0`.
+    /// `none`, `jacobi`, `block-jacobi`, `ssor`, `ic0` or `mic0` (default).
     #[serde(default = "d_precond", deserialize_with = "precond")]
     pub preconditioner: PrecondKind,
     /// SSOR relaxation in (0, 2). Default 1.
@@ -508,8 +508,8 @@ pub struct SolverScene {
     #[serde(default = "d_mic_omega", deserialize_with = "mic_omega")]
     pub mic_omega: f64,
     /// Start each step's first PCG solve from the previous step's velocity
-    /// change. Default false.
-    #[serde(default)]
+    /// change. Default true.
+    #[serde(default = "yes")]
     pub warm_start: bool,
 }
 
@@ -525,7 +525,7 @@ impl Default for SolverScene {
             preconditioner: d_precond(),
             omega: 1.0,
             mic_omega: d_mic_omega(),
-            warm_start: false,
+            warm_start: true,
         }
     }
 }
@@ -546,7 +546,9 @@ fn d_cg_max() -> usize {
     500
 }
 fn d_precond() -> PrecondKind {
-    PrecondKind::BlockJacobi
+    PrecondKind::Mic0 {
+        omega: PrecondKind::MIC_OMEGA,
+    }
 }
 
 /// The Newton variant.
@@ -577,7 +579,7 @@ pub enum ForcingScene {
 
 impl Default for ForcingScene {
     fn default() -> Self {
-        ForcingScene::Constant(0.1)
+        ForcingScene::Constant(0.01)
     }
 }
 
