@@ -1,6 +1,6 @@
 //! Sparse linear algebra for mass-spring systems: 3x3 block-sparse
 //! matrices, preconditioned conjugate gradients (plain and filtered for
-//! constraints), four preconditioners, a power method, Matrix Market I/O and
+//! constraints), five preconditioners, a power method, Matrix Market I/O and
 //! a sparse Cholesky baseline.
 //!
 //! This is section 4 of Hauth's tutorial "Numerical Techniques for Soft
@@ -15,8 +15,9 @@
 //! - [`LinearOperator`]: `y = A x`, for the block matrix, `sprs::CsMat<f64>`
 //!   and closures ([`MatrixFree`]).
 //! - [`Preconditioner`] / [`PreconditionerSetup`]: [`Identity`], [`Jacobi`],
-//!   [`BlockJacobi`], [`Ssor`], [`IncompleteCholesky`]; [`AnyPreconditioner`]
-//!   picks one by name.
+//!   [`BlockJacobi`], [`Ssor`], [`IncompleteCholesky`] (IC(0), and MIC(0)
+//!   with [`IncompleteCholesky::modified`]); [`AnyPreconditioner`] picks one
+//!   by name.
 //! - [`pcg`] and [`filtered_pcg`] (Baraff-Witkin's filtered CG, the
 //!   tutorial's Algorithm 4) with [`CgParams`], a reusable [`CgWorkspace`]
 //!   and an optional per-iteration callback; they return [`CgInfo`].

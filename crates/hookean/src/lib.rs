@@ -5,7 +5,7 @@
 //!
 //! | module | crate | what |
 //! |---|---|---|
-//! | [`sparse`] | `hookean-sparse` | 3x3 block matrices, PCG and filtered PCG, Jacobi / block-Jacobi / SSOR / IC(0) |
+//! | [`sparse`] | `hookean-sparse` | 3x3 block matrices, PCG and filtered PCG, Jacobi / block-Jacobi / SSOR / IC(0) / MIC(0) |
 //! | [`nonlinear`] | `hookean-nonlinear` | Newton, inexact Newton (forcing terms), simplified Newton, step controllers |
 //! | [`ode`] | `hookean-ode` | explicit, symplectic, implicit and BDF integrators, stability regions |
 //! | [`massspring`] | `hookean-massspring` | particles, springs, damping, pins, colliders, builders, OBJ |
