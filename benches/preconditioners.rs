@@ -20,8 +20,8 @@ use std::time::{Duration, Instant};
 use criterion::{BenchmarkId, Criterion};
 use faer::{Accum, MatMut, MatRef, Par};
 use hookean_sparse::{
-    AnyPreconditioner, CgParams, CgWorkspace, LinearOperator, PrecondKind, PreconditionerSetup,
-    SymBlockMatrix, pcg,
+    AnyPreconditioner, CgParams, CgWorkspace, LinearOperator, PrecondKind, Preconditioner,
+    PreconditionerSetup, SymBlockMatrix, pcg,
 };
 use hookean_testkit::cloth::{ClothParams, cloth_system};
 
@@ -86,7 +86,7 @@ fn criterion_groups(c: &mut Criterion) {
     g.sample_size(10).measurement_time(Duration::from_secs(2));
     for n in [64, 128] {
         let (a, _) = system(n, 1e4);
-        for kind in PrecondKind::all(1.0) {
+        for kind in kinds() {
             g.bench_with_input(BenchmarkId::new(kind.name(), n), &n, |bench, _| {
                 let mut p = AnyPreconditioner::new(kind).unwrap();
                 bench.iter(|| p.setup(&a).unwrap())
@@ -101,7 +101,7 @@ fn criterion_groups(c: &mut Criterion) {
         let (a, b) = system(n, 1e4);
         let mut ws = CgWorkspace::new(b.len());
         let mut x = vec![0.0; b.len()];
-        for kind in PrecondKind::all(1.0) {
+        for kind in kinds() {
             let mut p = AnyPreconditioner::new(kind).unwrap();
             p.setup(&a).unwrap();
             g.bench_with_input(BenchmarkId::new(kind.name(), n), &n, |bench, _| {
@@ -110,6 +110,15 @@ fn criterion_groups(c: &mut Criterion) {
         }
     }
     g.finish();
+}
+
+/// Every preconditioner: the five of `PrecondKind::all` and MIC(0).
+fn kinds() -> Vec<PrecondKind> {
+    let mut kinds = PrecondKind::all(1.0).to_vec();
+    kinds.push(PrecondKind::Mic0 {
+        omega: PrecondKind::MIC_OMEGA,
+    });
+    kinds
 }
 
 fn table() {
@@ -123,7 +132,7 @@ fn table() {
             let (a, b) = system(n, k);
             let mut ws = CgWorkspace::new(b.len());
             let mut x = vec![0.0; b.len()];
-            for kind in PrecondKind::all(1.0) {
+            for kind in kinds() {
                 let reps = if n == 128 { 1 } else { 3 };
                 let mut p = AnyPreconditioner::new(kind).unwrap();
                 let setup = best_of(reps, || {
@@ -162,6 +171,12 @@ fn bars() {
     let mut y = vec![0.0; b.len()];
     let mut jacobi = AnyPreconditioner::new(PrecondKind::Jacobi).unwrap();
     jacobi.setup(&a).unwrap();
+    let mut mic = AnyPreconditioner::new(PrecondKind::Mic0 {
+        omega: PrecondKind::MIC_OMEGA,
+    })
+    .unwrap();
+    mic.setup(&a).unwrap();
+    let mut z = vec![0.0; b.len()];
     let mut ws = CgWorkspace::new(b.len());
     let mut x = vec![0.0; b.len()];
     let iters = 50;
@@ -176,7 +191,8 @@ fn bars() {
     // Interleave the kernels round by round and keep each one's best time,
     // so that a noisy neighbour on the machine affects all of them alike.
     let rounds = 40;
-    let (mut t_block, mut t_sprs, mut t_faer, mut t_long, mut t_short) = (
+    let (mut t_block, mut t_sprs, mut t_faer, mut t_long, mut t_short, mut t_mic) = (
+        f64::INFINITY,
         f64::INFINITY,
         f64::INFINITY,
         f64::INFINITY,
@@ -194,6 +210,7 @@ fn bars() {
         t_faer = t_faer.min(time(&mut || faer_spmv(&fa, black_box(&b), &mut y)));
         t_long = t_long.min(time(&mut || pcg_run(iters)));
         t_short = t_short.min(time(&mut || pcg_run(0)));
+        t_mic = t_mic.min(time(&mut || mic.apply(black_box(&b), &mut z)));
     }
     // One Jacobi-PCG iteration: (time of `iters` iterations - start-up) / iters.
     let t_iter = (t_long - t_short) / iters as f64;
@@ -215,6 +232,11 @@ fn bars() {
         "| one Jacobi-PCG iteration | {:.3} | {:.2} |",
         t_iter * 1e3,
         t_iter / t_block
+    );
+    println!(
+        "| one MIC(0) application (block factor) | {:.3} | {:.2} |",
+        t_mic * 1e3,
+        t_mic / t_block
     );
     let spmv_ok = t_sprs / t_block >= 2.0;
     let iter_ok = t_iter / t_block <= 1.5;

@@ -31,7 +31,15 @@ fn bench_precond_prints_a_json_line_per_system_and_solver() {
     let out = hookean(&["bench-precond", "--n", "6,9", "--k", "1e2,1e5"]);
     assert_ok(&out);
     let lines = json_lines(&out);
-    let solvers = ["none", "jacobi", "block-jacobi", "ssor", "ic0", "mic0", "direct"];
+    let solvers = [
+        "none",
+        "jacobi",
+        "block-jacobi",
+        "ssor",
+        "ic0",
+        "mic0",
+        "direct",
+    ];
     assert_eq!(lines.len(), 2 * 2 * solvers.len());
     for (i, v) in lines.iter().enumerate() {
         let n = if i < 2 * solvers.len() { 6 } else { 9 };
