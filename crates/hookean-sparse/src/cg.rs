@@ -275,10 +275,15 @@ where
     let CgWorkspace { r, z, p, q } = ws;
 
     filter.impose(x);
-    // r = P (b - A x); the reference norm is |P b|.
-    a.apply(x, q);
-    for i in 0..n {
-        r[i] = b[i] - q[i];
+    // r = P (b - A x); the reference norm is |P b|. A zero start (with
+    // homogeneous constraints, x is still zero) needs no product.
+    if params.initial_guess == InitialGuess::Zero && x.iter().all(|&v| v == 0.0) {
+        r.copy_from_slice(b);
+    } else {
+        a.apply(x, q);
+        for i in 0..n {
+            r[i] = b[i] - q[i];
+        }
     }
     filter.project(r);
     z.copy_from_slice(b);
