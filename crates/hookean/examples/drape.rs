@@ -1,14 +1,15 @@
 //! Drapes the reference cloth and prints what it cost:
 //!
 //! ```text
-//! [PREVIOUS=1] [SYM=1] cargo run --release -p hookean --example drape -- \
+//! [PREVIOUS=1] [COLD=1] [SYM=1] cargo run --release -p hookean --example drape -- \
 //!     [N] [SECONDS] [NEWTON_RTOL] [PRECOND] [ETA] [H] [ATOL]
 //! ```
 //!
 //! Defaults: the drape scene's settings ([`SimulationOptions::default`]),
 //! except the Newton start: `PREVIOUS=1` starts from the current velocity
 //! (as the scene does), without it from the extrapolated one
-//! (`Predictor::Extrapolate`); `SYM=1`
+//! (`Predictor::Extrapolate`); `COLD=1` starts every PCG solve from zero
+//! (no warm start); `SYM=1`
 //! keeps the symmetric part of the damping term in `df/dx`. The tables of
 //! docs/PERFORMANCE.md that chose the scene's settings come from this program.
 
@@ -45,6 +46,9 @@ fn main() -> Result<(), HookeanError> {
     }
     if let Some(a) = args.next().and_then(|s| s.parse().ok()) {
         options.solver.newton.atol = a;
+    }
+    if std::env::var("COLD").is_ok() {
+        options.solver.newton.warm_start = false;
     }
     options.solver.newton.predictor = if std::env::var("PREVIOUS").is_ok() {
         hookean::ode::Predictor::Previous
