@@ -42,6 +42,10 @@ fn bench(c: &mut Criterion) {
     let mut filter = VelocityFilter::from_model(&model, FilterOptions::default()).unwrap();
     let mut v: Vec<f64> = (0..state.v.len()).map(|k| (k as f64).sin()).collect();
     g.bench_function("filter_apply", |b| b.iter(|| filter.apply(&mut v).unwrap()));
+    let src = v.clone();
+    g.bench_function("filter_apply_to", |b| {
+        b.iter(|| filter.apply_to(&src, &mut v).unwrap())
+    });
 
     for coupling in [FilterCoupling::Increment, FilterCoupling::CorrectPositions] {
         let inner = SecondOrderIntegrator::new(
