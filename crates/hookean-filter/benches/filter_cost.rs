@@ -3,8 +3,8 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use hookean_filter::{
-    DrapeScene, ExplicitScheme, FilterCoupling, FilterOptions, FilteredIntegrator, VelocityFilter,
-    predict_dt_max,
+    DrapeScene, Edge, ExplicitScheme, FilterCoupling, FilterOptions, FilteredIntegrator,
+    VelocityFilter, predict_dt_max,
 };
 use hookean_ode::{Method, SecondOrderIntegrator, SolverOptions};
 
@@ -42,6 +42,37 @@ fn bench(c: &mut Criterion) {
     let mut filter = VelocityFilter::from_model(&model, FilterOptions::default()).unwrap();
     let mut v: Vec<f64> = (0..state.v.len()).map(|k| (k as f64).sin()).collect();
     g.bench_function("filter_apply", |b| b.iter(|| filter.apply(&mut v).unwrap()));
+    let src = v.clone();
+    g.bench_function("filter_apply_to", |b| {
+        b.iter(|| filter.apply_to(&src, &mut v).unwrap())
+    });
+
+    // The same drape with its particles renumbered by a fixed pseudo-random
+    // permutation: no two consecutive particles share neighbour offsets, so
+    // every particle is gathered (the path of irregular meshes).
+    let n = model.n_particles();
+    let mut perm: Vec<usize> = (0..n).collect();
+    let mut state_lcg = 12345u64;
+    for k in (1..n).rev() {
+        state_lcg = state_lcg
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        perm.swap(k, (state_lcg >> 33) as usize % (k + 1));
+    }
+    let edges: Vec<Edge> = model
+        .springs()
+        .iter()
+        .map(|s| Edge {
+            i: perm[s.i],
+            j: perm[s.j],
+            rest_length: s.rest_length,
+        })
+        .collect();
+    let shuffled = VelocityFilter::new(n, &edges, None, FilterOptions::default()).unwrap();
+    assert_eq!(shuffled.plan_stats().gathered_particles, n);
+    g.bench_function("filter_apply_to_shuffled", |b| {
+        b.iter(|| shuffled.apply_to(&src, &mut v).unwrap())
+    });
 
     for coupling in [FilterCoupling::Increment, FilterCoupling::CorrectPositions] {
         let inner = SecondOrderIntegrator::new(

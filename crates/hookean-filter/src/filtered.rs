@@ -68,7 +68,7 @@ pub struct FilteredIntegrator<P: SecondOrderProblem> {
     theta: f64,
     x: Vec<f64>,
     v: Vec<f64>,
-    raw: Vec<f64>,
+    dv: Vec<f64>,
     prev: Vec<f64>,
     stats: FilterStats,
 }
@@ -106,7 +106,7 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
             theta,
             x: vec![0.0; n],
             v: vec![0.0; n],
-            raw: vec![0.0; n],
+            dv: vec![0.0; n],
             prev: vec![0.0; n],
             stats: FilterStats::default(),
         })
@@ -122,35 +122,42 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
             self.prev.copy_from_slice(self.inner.v());
         }
         let report = self.inner.step()?;
-        self.x.copy_from_slice(self.inner.x());
-        self.raw.copy_from_slice(self.inner.v());
         let h = match self.coupling {
             FilterCoupling::VelocityOnly => 0.0,
             FilterCoupling::CorrectPositions => report.h,
             FilterCoupling::Increment => self.theta * report.h,
         };
         if self.coupling == FilterCoupling::Increment {
-            // Filter the increment dv = v_{n+1} - v_n, then v = v_n + F dv.
-            for ((v, r), p) in self.v.iter_mut().zip(&self.raw).zip(&self.prev) {
-                *v = r - p;
+            // Filter the increment dv = v_{n+1} - v_n: v = v_n + F dv and
+            // x = x_{n+1} + h (F dv - dv), since v - v_{n+1} = F dv - dv.
+            for ((d, r), p) in self.dv.iter_mut().zip(self.inner.v()).zip(&self.prev) {
+                *d = r - p;
             }
-            self.filter.apply(&mut self.v)?;
-            for (((v, x), r), p) in self
+            self.filter.apply_to(&self.dv, &mut self.v)?;
+            for ((((v, x), x1), d), p) in self
                 .v
                 .iter_mut()
                 .zip(self.x.iter_mut())
-                .zip(&self.raw)
+                .zip(self.inner.x())
+                .zip(&self.dv)
                 .zip(&self.prev)
             {
+                *x = x1 + h * (*v - d);
                 *v += p;
-                *x += h * (*v - r);
             }
         } else {
-            self.v.copy_from_slice(&self.raw);
-            self.filter.apply(&mut self.v)?;
-            if h != 0.0 {
-                for ((x, v), r) in self.x.iter_mut().zip(&self.v).zip(&self.raw) {
-                    *x += h * (v - r);
+            self.filter.apply_to(self.inner.v(), &mut self.v)?;
+            if h == 0.0 {
+                self.x.copy_from_slice(self.inner.x());
+            } else {
+                for (((x, x1), v), r) in self
+                    .x
+                    .iter_mut()
+                    .zip(self.inner.x())
+                    .zip(&self.v)
+                    .zip(self.inner.v())
+                {
+                    *x = x1 + h * (v - r);
                 }
             }
         }

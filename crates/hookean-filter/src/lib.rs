@@ -97,4 +97,6 @@ pub use experiments::{
 pub use filtered::{FilterCoupling, FilterStats, FilteredIntegrator, position_weight};
 pub use spectrum::{VelocityImage, fftshift, high_frequency_fraction, power_spectrum};
 pub use stability::{ExplicitScheme, dt_max, filtered_k0};
-pub use velocity::{Edge, FilterOptions, Form, Kernel, VelocityFilter};
+pub use velocity::{
+    Edge, FilterOptions, Form, Kernel, PlanStats, STENCIL_WEIGHT_RTOL, VelocityFilter,
+};
