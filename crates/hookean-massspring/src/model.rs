@@ -206,18 +206,34 @@ pub(crate) struct HotSpring {
     pub(crate) transposed: bool,
 }
 
-/// Per-particle diagonal accumulators of assembly (6 unique entries of the
-/// symmetric diagonal block of `df/dx`, then of `df/dv`), kept contiguous so
-/// that the scatter to the second endpoint of a spring hits a compact array.
-/// Behind a mutex because the `SecondOrderProblem` methods take `&self`; a
-/// concurrent second caller falls back to a temporary buffer.
+/// The springs of [`HotSpring`] order in structure-of-arrays form, for the
+/// fast assembly path: endpoints as `lo = min(i, j)` (the block row) and
+/// `hi = max(i, j)`, the stored upper block, and the material; followed by
+/// `CHUNK` padding entries so that whole chunks can be read.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct HotSoa {
+    pub(crate) lo: Vec<u32>,
+    pub(crate) hi: Vec<u32>,
+    pub(crate) upper: Vec<u32>,
+    pub(crate) rest_length: Vec<f64>,
+    pub(crate) stiffness: Vec<f64>,
+    pub(crate) damping: Vec<f64>,
+}
+
+/// Per-particle diagonal accumulators of assembly (the 9 entries of the
+/// diagonal block of `df/dx`, then of `df/dv`), kept contiguous so that the
+/// scatter to the second endpoint of a spring hits a compact array. All
+/// zeros between calls (each row zeroes its entry when it writes its
+/// diagonal blocks). Behind a mutex because the `SecondOrderProblem` methods
+/// take `&self`; a concurrent second caller (or any caller after a panic
+/// poisoned the mutex) falls back to a temporary zeroed buffer.
 #[derive(Debug, Default)]
-pub(crate) struct DiagScratch(pub(crate) std::sync::Mutex<Vec<[f64; 12]>>);
+pub(crate) struct DiagScratch(pub(crate) std::sync::Mutex<Vec<crate::assembly::Acc>>);
 
 impl Clone for DiagScratch {
     fn clone(&self) -> Self {
         let n = self.0.lock().map(|v| v.len()).unwrap_or(0);
-        DiagScratch(std::sync::Mutex::new(vec![[0.0; 12]; n]))
+        DiagScratch(std::sync::Mutex::new(vec![[0.0; 18]; n]))
     }
 }
 
@@ -261,8 +277,23 @@ pub struct MassSpringModel {
     /// `hot[hot_row_ptr[r]..hot_row_ptr[r + 1]]` are the springs whose
     /// upper block lies in block row `r = min(i, j)`.
     pub(crate) hot_row_ptr: Vec<usize>,
+    /// `hot` in structure-of-arrays form (the fast assembly path).
+    pub(crate) hot_soa: HotSoa,
     /// Value index of each diagonal block.
     pub(crate) diag_index: Vec<usize>,
+    /// Whether block row `r` holds at most one spring per block (static).
+    pub(crate) row_unique: Vec<bool>,
+    /// Whether block row `r` takes the fast assembly path: `row_unique[r]`
+    /// and no spring of the row, nor its diagonal, touches a constrained
+    /// particle. Kept up to date by [`activate`](Self::activate) and
+    /// [`refresh_permanent`](Self::refresh_permanent).
+    pub(crate) row_fast: Vec<bool>,
+    /// `touch_rows[touch_ptr[p]..touch_ptr[p + 1]]` are the block rows whose
+    /// springs or diagonal touch particle `p` (`p` itself and the rows
+    /// `min(i, j)` of its springs).
+    pub(crate) touch_ptr: Vec<usize>,
+    /// See `touch_ptr`.
+    pub(crate) touch_rows: Vec<u32>,
     pub(crate) diag_acc: DiagScratch,
     /// Permanent constraints (pins, sliding), per particle.
     pub(crate) fixes: Vec<Dirs>,
@@ -393,6 +424,59 @@ impl MassSpringModel {
         for r in 0..n {
             hot_row_ptr[r + 1] += hot_row_ptr[r];
         }
+        // The pattern's column indices are u32, so particle and block
+        // indices fit; storage positions are checked.
+        let to_u32 = |k: usize| {
+            u32::try_from(k).map_err(|_| MassSpringError::InvalidParameter {
+                name: "springs",
+                message: format!("index {k} does not fit the 32-bit assembly tables"),
+            })
+        };
+        let mut hot_soa = HotSoa::default();
+        for h in &hot {
+            hot_soa.lo.push(to_u32(h.i.min(h.j))?);
+            hot_soa.hi.push(to_u32(h.i.max(h.j))?);
+            hot_soa.upper.push(to_u32(h.upper)?);
+            hot_soa.rest_length.push(h.rest_length);
+            hot_soa.stiffness.push(h.stiffness);
+            hot_soa.damping.push(h.damping);
+        }
+        // Padding: whole chunks can always be read (a zero-length spring
+        // between particles 0 and 0, masked by the kernel, never stored).
+        for _ in 0..crate::assembly::CHUNK {
+            hot_soa.lo.push(0);
+            hot_soa.hi.push(0);
+            hot_soa.upper.push(0);
+            hot_soa.rest_length.push(1.0);
+            hot_soa.stiffness.push(0.0);
+            hot_soa.damping.push(0.0);
+        }
+        let row_unique: Vec<bool> = (0..n)
+            .map(|r| {
+                hot[hot_row_ptr[r]..hot_row_ptr[r + 1]]
+                    .iter()
+                    .all(|h| h.first)
+            })
+            .collect();
+        let mut touch_ptr = vec![1usize; n + 1];
+        touch_ptr[0] = 0;
+        for h in &hot {
+            touch_ptr[h.i.max(h.j) + 1] += 1;
+        }
+        for p in 0..n {
+            touch_ptr[p + 1] += touch_ptr[p];
+        }
+        let mut touch_rows = vec![0u32; touch_ptr[n]];
+        let mut fill = touch_ptr.clone();
+        for p in 0..n {
+            touch_rows[fill[p]] = to_u32(p)?;
+            fill[p] += 1;
+        }
+        for h in &hot {
+            let hi = h.i.max(h.j);
+            touch_rows[fill[hi]] = to_u32(h.i.min(h.j))?;
+            fill[hi] += 1;
+        }
         Ok(Self {
             particle_mass: masses,
             mass,
@@ -404,8 +488,13 @@ impl MassSpringModel {
             diag_slots,
             hot,
             hot_row_ptr,
+            hot_soa,
             diag_index,
-            diag_acc: DiagScratch(std::sync::Mutex::new(vec![[0.0; 12]; n])),
+            row_fast: row_unique.clone(),
+            row_unique,
+            touch_ptr,
+            touch_rows,
+            diag_acc: DiagScratch(std::sync::Mutex::new(vec![[0.0; 18]; n])),
             fixes: vec![Dirs::EMPTY; n],
             active: vec![Dirs::EMPTY; n],
             proj: vec![block::IDENTITY; n],
@@ -666,6 +755,9 @@ impl MassSpringModel {
             self.constrained[p] = false;
             self.active[p] = Dirs::EMPTY;
             self.proj[p] = block::IDENTITY;
+            for &r in &self.touch_rows[self.touch_ptr[p]..self.touch_ptr[p + 1]] {
+                self.row_fast[r as usize] = self.row_unique[r as usize];
+            }
         }
         self.constrained_list.clear();
         for p in 0..self.fixes.len() {
@@ -680,6 +772,9 @@ impl MassSpringModel {
         if !self.constrained[p] {
             self.constrained[p] = true;
             self.constrained_list.push(p);
+            for &r in &self.touch_rows[self.touch_ptr[p]..self.touch_ptr[p + 1]] {
+                self.row_fast[r as usize] = false;
+            }
         }
         self.active[p] = dirs;
         self.proj[p] = dirs.projector();
