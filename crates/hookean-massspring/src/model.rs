@@ -189,39 +189,24 @@ pub(crate) struct SpringSlots {
 
 /// A spring prepared for the hot loops: springs are kept in the storage
 /// order of their upper block, so that assembly writes the off-diagonal
-/// blocks sequentially.
+/// blocks sequentially. Oriented `i < j` (the force law and the symmetric
+/// Jacobian blocks do not depend on the orientation); 40 bytes.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct HotSpring {
-    pub(crate) i: usize,
-    pub(crate) j: usize,
+    pub(crate) i: u32,
+    pub(crate) j: u32,
+    /// Index of the stored upper block `(min, max)` in the value array.
+    pub(crate) upper: u32,
     pub(crate) rest_length: f64,
     pub(crate) stiffness: f64,
     pub(crate) damping: f64,
-    /// Index of the stored upper block `(min, max)` in the value array.
-    pub(crate) upper: usize,
     /// Whether this spring is the first (in storage order) of its block:
     /// it assigns the block, later springs of the same pair add to it.
     pub(crate) first: bool,
-    /// `i > j`: the stored block is `(df_i/dx_j)^T`.
-    pub(crate) transposed: bool,
 }
 
-/// The springs of [`HotSpring`] order in structure-of-arrays form, for the
-/// fast assembly path: endpoints as `lo = min(i, j)` (the block row) and
-/// `hi = max(i, j)`, the stored upper block, and the material; followed by
-/// `CHUNK` padding entries so that whole chunks can be read.
-#[derive(Debug, Clone, Default)]
-pub(crate) struct HotSoa {
-    pub(crate) lo: Vec<u32>,
-    pub(crate) hi: Vec<u32>,
-    pub(crate) upper: Vec<u32>,
-    pub(crate) rest_length: Vec<f64>,
-    pub(crate) stiffness: Vec<f64>,
-    pub(crate) damping: Vec<f64>,
-}
-
-/// Per-particle diagonal accumulators of assembly (the 9 entries of the
-/// diagonal block of `df/dx`, then of `df/dv`), kept contiguous so that the
+/// Per-particle diagonal accumulators of assembly (the 6 unique entries of
+/// the symmetric diagonal block of `df/dx`, then of `df/dv`), kept contiguous so that the
 /// scatter to the second endpoint of a spring hits a compact array. All
 /// zeros between calls (each row zeroes its entry when it writes its
 /// diagonal blocks). Behind a mutex because the `SecondOrderProblem` methods
@@ -233,7 +218,7 @@ pub(crate) struct DiagScratch(pub(crate) std::sync::Mutex<Vec<crate::assembly::A
 impl Clone for DiagScratch {
     fn clone(&self) -> Self {
         let n = self.0.lock().map(|v| v.len()).unwrap_or(0);
-        DiagScratch(std::sync::Mutex::new(vec![[0.0; 18]; n]))
+        DiagScratch(std::sync::Mutex::new(vec![[0.0; 12]; n]))
     }
 }
 
@@ -277,8 +262,6 @@ pub struct MassSpringModel {
     /// `hot[hot_row_ptr[r]..hot_row_ptr[r + 1]]` are the springs whose
     /// upper block lies in block row `r = min(i, j)`.
     pub(crate) hot_row_ptr: Vec<usize>,
-    /// `hot` in structure-of-arrays form (the fast assembly path).
-    pub(crate) hot_soa: HotSoa,
     /// Value index of each diagonal block.
     pub(crate) diag_index: Vec<usize>,
     /// Whether block row `r` holds at most one spring per block (static).
@@ -394,6 +377,14 @@ impl MassSpringModel {
         let mass = masses.iter().flat_map(|&m| [m, m, m]).collect();
         let row_ptr = pattern.row_ptr();
         let col_idx = pattern.col_idx();
+        // The pattern's column indices are u32, so particle indices fit;
+        // storage positions are checked.
+        let to_u32 = |k: usize| {
+            u32::try_from(k).map_err(|_| MassSpringError::InvalidParameter {
+                name: "springs",
+                message: format!("index {k} does not fit the 32-bit assembly tables"),
+            })
+        };
         let mut hot: Vec<HotSpring> = Vec::with_capacity(springs.len());
         for s in &springs {
             let (r, c) = (s.i.min(s.j), s.i.max(s.j));
@@ -402,14 +393,13 @@ impl MassSpringModel {
                 .binary_search(&(c as u32))
                 .map_err(|_| hookean_sparse::SparseError::NotInPattern { row: r, col: c })?;
             hot.push(HotSpring {
-                i: s.i,
-                j: s.j,
+                i: to_u32(r)?,
+                j: to_u32(c)?,
                 rest_length: s.rest_length,
                 stiffness: s.stiffness,
                 damping: s.damping,
-                upper: start + k,
+                upper: to_u32(start + k)?,
                 first: false,
-                transposed: s.i > s.j,
             });
         }
         hot.sort_by_key(|h| h.upper);
@@ -419,37 +409,10 @@ impl MassSpringModel {
         let diag_index = (0..n).map(|p| row_ptr[p]).collect();
         let mut hot_row_ptr = vec![0usize; n + 1];
         for h in &hot {
-            hot_row_ptr[h.i.min(h.j) + 1] += 1;
+            hot_row_ptr[h.i as usize + 1] += 1;
         }
         for r in 0..n {
             hot_row_ptr[r + 1] += hot_row_ptr[r];
-        }
-        // The pattern's column indices are u32, so particle and block
-        // indices fit; storage positions are checked.
-        let to_u32 = |k: usize| {
-            u32::try_from(k).map_err(|_| MassSpringError::InvalidParameter {
-                name: "springs",
-                message: format!("index {k} does not fit the 32-bit assembly tables"),
-            })
-        };
-        let mut hot_soa = HotSoa::default();
-        for h in &hot {
-            hot_soa.lo.push(to_u32(h.i.min(h.j))?);
-            hot_soa.hi.push(to_u32(h.i.max(h.j))?);
-            hot_soa.upper.push(to_u32(h.upper)?);
-            hot_soa.rest_length.push(h.rest_length);
-            hot_soa.stiffness.push(h.stiffness);
-            hot_soa.damping.push(h.damping);
-        }
-        // Padding: whole chunks can always be read (a zero-length spring
-        // between particles 0 and 0, masked by the kernel, never stored).
-        for _ in 0..crate::assembly::CHUNK {
-            hot_soa.lo.push(0);
-            hot_soa.hi.push(0);
-            hot_soa.upper.push(0);
-            hot_soa.rest_length.push(1.0);
-            hot_soa.stiffness.push(0.0);
-            hot_soa.damping.push(0.0);
         }
         let row_unique: Vec<bool> = (0..n)
             .map(|r| {
@@ -461,7 +424,7 @@ impl MassSpringModel {
         let mut touch_ptr = vec![1usize; n + 1];
         touch_ptr[0] = 0;
         for h in &hot {
-            touch_ptr[h.i.max(h.j) + 1] += 1;
+            touch_ptr[h.j as usize + 1] += 1;
         }
         for p in 0..n {
             touch_ptr[p + 1] += touch_ptr[p];
@@ -473,8 +436,8 @@ impl MassSpringModel {
             fill[p] += 1;
         }
         for h in &hot {
-            let hi = h.i.max(h.j);
-            touch_rows[fill[hi]] = to_u32(h.i.min(h.j))?;
+            let hi = h.j as usize;
+            touch_rows[fill[hi]] = h.i;
             fill[hi] += 1;
         }
         Ok(Self {
@@ -488,13 +451,12 @@ impl MassSpringModel {
             diag_slots,
             hot,
             hot_row_ptr,
-            hot_soa,
             diag_index,
             row_fast: row_unique.clone(),
             row_unique,
             touch_ptr,
             touch_rows,
-            diag_acc: DiagScratch(std::sync::Mutex::new(vec![[0.0; 18]; n])),
+            diag_acc: DiagScratch(std::sync::Mutex::new(vec![[0.0; 12]; n])),
             fixes: vec![Dirs::EMPTY; n],
             active: vec![Dirs::EMPTY; n],
             proj: vec![block::IDENTITY; n],
