@@ -156,10 +156,11 @@ impl ChunkGeometry {
 
     /// `e = x_j - x_i`, `l = |e|`, `1 / l` for every spring of `chunk`.
     #[inline(always)]
-    fn compute(&mut self, x: &[f64], chunk: &[crate::model::HotSpring]) {
+    fn compute(&mut self, x: &[[f64; 3]], chunk: &[crate::model::HotSpring]) {
         for (k, h) in chunk.iter().enumerate() {
+            let (xi, xj) = (&x[h.i as usize], &x[h.j as usize]);
             for r in 0..3 {
-                self.e[r][k] = x[3 * h.j as usize + r] - x[3 * h.i as usize + r];
+                self.e[r][k] = xj[r] - xi[r];
             }
         }
         for k in 0..CHUNK {
@@ -270,13 +271,14 @@ impl MassSpringModel {
         let damping = self.options.damping;
         let mut geo = ChunkGeometry::new();
         let f3 = f.as_chunks_mut::<3>().0;
+        let (x3, v3) = (x.as_chunks::<3>().0, v.as_chunks::<3>().0);
         // Row by row, the row particle's force summed locally: the same
         // order of operations as the fused sweep (same bits).
         for r in 0..n {
             let mut floc = [0.0; 3];
             let row = &self.hot[self.hot_row_ptr[r]..self.hot_row_ptr[r + 1]];
             for chunk in row.chunks(CHUNK) {
-                geo.compute(x, chunk);
+                geo.compute(x3, chunk);
                 for (k, s) in chunk.iter().enumerate() {
                     let (e, l, inv_l) = geo.get(k);
                     if l <= 0.0 || l.is_nan() {
@@ -287,11 +289,11 @@ impl MassSpringModel {
                     let mut fi = u * (s.stiffness * (l - s.rest_length));
                     match damping {
                         SpringDamping::Projected => {
-                            let dv = point(v, j) - point(v, i);
+                            let dv = Vector3::from(v3[j]) - Vector3::from(v3[i]);
                             fi += u * (s.damping * dv.dot(&u));
                         }
                         SpringDamping::Incorrect => {
-                            let dv = point(v, j) - point(v, i);
+                            let dv = Vector3::from(v3[j]) - Vector3::from(v3[i]);
                             fi += dv * s.damping;
                         }
                         SpringDamping::None => {}
@@ -441,6 +443,7 @@ impl MassSpringModel {
         let need_dv = DDX || (F && DAMP != DAMP_NONE);
         let Outputs { f, vx, vv, acc } = out;
         let f = f.as_chunks_mut::<3>().0;
+        let (x3, v3) = (x.as_chunks::<3>().0, v.as_chunks::<3>().0);
         let c_air = self.options.air_friction;
         let mut geo = ChunkGeometry::new();
         for r in 0..n {
@@ -450,7 +453,7 @@ impl MassSpringModel {
             let mut floc = [0.0; 3];
             let row = &self.hot[self.hot_row_ptr[r]..self.hot_row_ptr[r + 1]];
             for chunk in row.chunks(CHUNK) {
-                geo.compute(x, chunk);
+                geo.compute(x3, chunk);
                 for (k, h) in chunk.iter().enumerate() {
                     let (e, l, inv_l) = geo.get(k);
                     let (i, j) = (h.i as usize, h.j as usize);
@@ -466,7 +469,7 @@ impl MassSpringModel {
                     }
                     let u = e * inv_l;
                     let dv = if need_dv {
-                        point(v, j) - point(v, i)
+                        Vector3::from(v3[j]) - Vector3::from(v3[i])
                     } else {
                         Vector3::zeros()
                     };
