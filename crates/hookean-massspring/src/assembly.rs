@@ -240,7 +240,7 @@ fn run_sweep<W: pulp::WithSimd<Output = ()>>(op: W) {
 }
 
 /// Which parts a private assembly call computes.
-#[derive(Clone, Copy)]
+#[derive(Debug, Clone, Copy)]
 pub(crate) struct AssemblyMode {
     pub(crate) clamp: bool,
     pub(crate) damping_in_dfdx: DampingInDfdx,
@@ -886,8 +886,59 @@ mod tests {
         (model, x, v)
     }
 
+    /// Assembles `(f, df/dx, df/dv)` into garbage-filled outputs.
+    fn run(
+        model: &MassSpringModel,
+        x: &[f64],
+        v: &[f64],
+        mode: AssemblyMode,
+        fast: bool,
+    ) -> (Vec<f64>, SymBlockMatrix, SymBlockMatrix) {
+        let (mut dx, mut dv) = model.new_jacobians();
+        let mut f = vec![f64::NAN; x.len()];
+        // Start from garbage: every block must be overwritten.
+        dx.values_mut().fill([[7.0; 3]; 3]);
+        dv.values_mut().fill([[7.0; 3]; 3]);
+        model.assemble_paths(x, v, Some(&mut f), &mut dx, Some(&mut dv), mode, fast);
+        (f, dx, dv)
+    }
+
+    /// The row flags are consistent with the constraints: skipping the
+    /// constrained look-ups on fast rows changes nothing (against every row
+    /// checked, on a fresh copy of the model); a repeated call on the same
+    /// scratch gives the same bits (the scratch is left zeroed).
+    fn assert_paths_agree(model: &MassSpringModel, x: &[f64], v: &[f64], mode: AssemblyMode) {
+        let first = run(model, x, v, mode, true);
+        let (fa, xa, va) = run(model, x, v, mode, true);
+        assert_eq!(first.0, fa);
+        assert_eq!(first.1.values(), xa.values());
+        assert_eq!(first.2.values(), va.values());
+        let (fb, xb, vb) = run(&model.clone(), x, v, mode, false);
+        let scale = xb
+            .values()
+            .iter()
+            .flatten()
+            .flatten()
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(scale > 1e3);
+        for (a, b) in fa.iter().zip(&fb) {
+            assert!((a - b).abs() <= 1e-12 * (1.0 + b.abs()), "f {a} vs {b}");
+        }
+        for (ma, mb) in [(&xa, &xb), (&va, &vb)] {
+            for (a, b) in ma
+                .values()
+                .iter()
+                .flatten()
+                .flatten()
+                .zip(mb.values().iter().flatten().flatten())
+            {
+                assert!((a - b).abs() <= 1e-12 * scale, "{mode:?}: {a} vs {b}");
+            }
+        }
+    }
+
     #[test]
-    fn fast_path_equals_general_path_with_constraints_duplicates_and_compression() {
+    fn fast_rows_equal_checked_rows_with_constraints_duplicates_and_compression() {
         for damping in [
             SpringDamping::Projected,
             SpringDamping::Incorrect,
@@ -916,65 +967,43 @@ mod tests {
                         clamp,
                         damping_in_dfdx,
                     };
-                    let mut res = Vec::new();
-                    for fast in [true, false] {
-                        let (mut dx, mut dv) = model.new_jacobians();
-                        let mut f = vec![f64::NAN; x.len()];
-                        // Start from garbage: every block must be overwritten.
-                        dx.values_mut().fill([[7.0; 3]; 3]);
-                        dv.values_mut().fill([[7.0; 3]; 3]);
-                        model.assemble_paths(
-                            &x,
-                            &v,
-                            Some(&mut f),
-                            &mut dx,
-                            Some(&mut dv),
-                            mode,
-                            fast,
-                        );
-                        // A second call on the same scratch gives the same result.
-                        model.assemble_paths(
-                            &x,
-                            &v,
-                            Some(&mut f),
-                            &mut dx,
-                            Some(&mut dv),
-                            mode,
-                            fast,
-                        );
-                        res.push((f, dx, dv));
-                    }
-                    let (fa, xa, va) = &res[0];
-                    let (fb, xb, vb) = &res[1];
-                    let scale = xb
-                        .values()
-                        .iter()
-                        .flatten()
-                        .flatten()
-                        .fold(0.0f64, |m, v| m.max(v.abs()));
-                    assert!(scale > 1e3);
-                    for (a, b) in fa.iter().zip(fb) {
-                        assert!(
-                            (a - b).abs() <= 1e-12 * (1.0 + b.abs()),
-                            "{damping:?}: f {a} vs {b}"
-                        );
-                    }
-                    for (ma, mb) in [(xa, xb), (va, vb)] {
-                        for (a, b) in ma
-                            .values()
-                            .iter()
-                            .flatten()
-                            .flatten()
-                            .zip(mb.values().iter().flatten().flatten())
-                        {
-                            assert!(
-                                (a - b).abs() <= 1e-12 * scale,
-                                "{damping:?} {damping_in_dfdx:?} clamp {clamp}: {a} vs {b}"
-                            );
-                        }
-                    }
+                    assert_paths_agree(&model, &x, &v, mode);
                 }
             }
         }
+    }
+
+    #[test]
+    fn row_flags_follow_pins_releases_and_contacts() {
+        let (mut model, mut x, mut v) = scene(ModelOptions::default());
+        let mode = AssemblyMode {
+            clamp: true,
+            damping_in_dfdx: DampingInDfdx::Drop,
+        };
+        let slow = |m: &MassSpringModel| m.row_fast.iter().filter(|&&b| !b).count();
+        let before = slow(&model);
+        // Releasing the sliding particle 12 frees its rows.
+        model.release(12).unwrap();
+        assert!(model.row_fast[12] && model.row_fast[11]);
+        assert!(slow(&model) < before);
+        assert_paths_agree(&model, &x, &v, mode);
+        // Pinning an interior particle flags its row and the rows of its
+        // lower neighbours.
+        assert!(model.row_fast[20] && model.row_fast[19] && model.row_fast[13]);
+        model.pin(20, [x[60], x[61], x[62]]).unwrap();
+        assert!(!model.row_fast[20] && !model.row_fast[19] && !model.row_fast[13]);
+        assert_paths_agree(&model, &x, &v, mode);
+        // A collider: contacts of begin_step flag rows, the next step with
+        // no contact unflags them.
+        let z = (0..model.n_particles())
+            .map(|p| x[3 * p + 2])
+            .fold(f64::INFINITY, f64::min);
+        model.add_collider(
+            crate::Collider::plane([0.0, 0.0, z + 0.01], [0.0, 0.0, 1.0], 0.0).unwrap(),
+        );
+        let mut c = hookean_sparse::Constraints::new(model.n_particles());
+        model.begin_step(0.0, &mut x, &mut v, &mut c);
+        assert!(model.contact_count() > 0);
+        assert_paths_agree(&model, &x, &v, mode);
     }
 }

@@ -264,11 +264,8 @@ pub struct MassSpringModel {
     pub(crate) hot_row_ptr: Vec<usize>,
     /// Value index of each diagonal block.
     pub(crate) diag_index: Vec<usize>,
-    /// Whether block row `r` holds at most one spring per block (static).
-    pub(crate) row_unique: Vec<bool>,
-    /// Whether block row `r` takes the fast assembly path: `row_unique[r]`
-    /// and no spring of the row, nor its diagonal, touches a constrained
-    /// particle. Kept up to date by [`activate`](Self::activate) and
+    /// Whether block row `r` takes the fast assembly path: no spring of the
+    /// row, nor its diagonal, touches a constrained particle. Kept up to date by [`activate`](Self::activate) and
     /// [`refresh_permanent`](Self::refresh_permanent).
     pub(crate) row_fast: Vec<bool>,
     /// `touch_rows[touch_ptr[p]..touch_ptr[p + 1]]` are the block rows whose
@@ -414,13 +411,6 @@ impl MassSpringModel {
         for r in 0..n {
             hot_row_ptr[r + 1] += hot_row_ptr[r];
         }
-        let row_unique: Vec<bool> = (0..n)
-            .map(|r| {
-                hot[hot_row_ptr[r]..hot_row_ptr[r + 1]]
-                    .iter()
-                    .all(|h| h.first)
-            })
-            .collect();
         let mut touch_ptr = vec![1usize; n + 1];
         touch_ptr[0] = 0;
         for h in &hot {
@@ -452,8 +442,7 @@ impl MassSpringModel {
             hot,
             hot_row_ptr,
             diag_index,
-            row_fast: row_unique.clone(),
-            row_unique,
+            row_fast: vec![true; n],
             touch_ptr,
             touch_rows,
             diag_acc: DiagScratch(std::sync::Mutex::new(vec![[0.0; 12]; n])),
@@ -718,7 +707,7 @@ impl MassSpringModel {
             self.active[p] = Dirs::EMPTY;
             self.proj[p] = block::IDENTITY;
             for &r in &self.touch_rows[self.touch_ptr[p]..self.touch_ptr[p + 1]] {
-                self.row_fast[r as usize] = self.row_unique[r as usize];
+                self.row_fast[r as usize] = true;
             }
         }
         self.constrained_list.clear();
