@@ -189,30 +189,31 @@ pub(crate) struct SpringSlots {
 
 /// A spring prepared for the hot loops: springs are kept in the storage
 /// order of their upper block, so that assembly writes the off-diagonal
-/// blocks sequentially.
+/// blocks sequentially. Oriented `i < j` (the force law and the symmetric
+/// Jacobian blocks do not depend on the orientation); 40 bytes.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct HotSpring {
-    pub(crate) i: usize,
-    pub(crate) j: usize,
+    pub(crate) i: u32,
+    pub(crate) j: u32,
+    /// Index of the stored upper block `(min, max)` in the value array.
+    pub(crate) upper: u32,
     pub(crate) rest_length: f64,
     pub(crate) stiffness: f64,
     pub(crate) damping: f64,
-    /// Index of the stored upper block `(min, max)` in the value array.
-    pub(crate) upper: usize,
     /// Whether this spring is the first (in storage order) of its block:
     /// it assigns the block, later springs of the same pair add to it.
     pub(crate) first: bool,
-    /// `i > j`: the stored block is `(df_i/dx_j)^T`.
-    pub(crate) transposed: bool,
 }
 
-/// Per-particle diagonal accumulators of assembly (6 unique entries of the
-/// symmetric diagonal block of `df/dx`, then of `df/dv`), kept contiguous so
-/// that the scatter to the second endpoint of a spring hits a compact array.
-/// Behind a mutex because the `SecondOrderProblem` methods take `&self`; a
-/// concurrent second caller falls back to a temporary buffer.
+/// Per-particle diagonal accumulators of assembly (the 6 unique entries of
+/// the symmetric diagonal block of `df/dx`, then of `df/dv`), kept contiguous so that the
+/// scatter to the second endpoint of a spring hits a compact array. All
+/// zeros between calls (each row zeroes its entry when it writes its
+/// diagonal blocks). Behind a mutex because the `SecondOrderProblem` methods
+/// take `&self`; a concurrent second caller (or any caller after a panic
+/// poisoned the mutex) falls back to a temporary zeroed buffer.
 #[derive(Debug, Default)]
-pub(crate) struct DiagScratch(pub(crate) std::sync::Mutex<Vec<[f64; 12]>>);
+pub(crate) struct DiagScratch(pub(crate) std::sync::Mutex<Vec<crate::assembly::Acc>>);
 
 impl Clone for DiagScratch {
     fn clone(&self) -> Self {
@@ -263,6 +264,16 @@ pub struct MassSpringModel {
     pub(crate) hot_row_ptr: Vec<usize>,
     /// Value index of each diagonal block.
     pub(crate) diag_index: Vec<usize>,
+    /// Whether block row `r` takes the fast assembly path: no spring of the
+    /// row, nor its diagonal, touches a constrained particle. Kept up to date by [`activate`](Self::activate) and
+    /// [`refresh_permanent`](Self::refresh_permanent).
+    pub(crate) row_fast: Vec<bool>,
+    /// `touch_rows[touch_ptr[p]..touch_ptr[p + 1]]` are the block rows whose
+    /// springs or diagonal touch particle `p` (`p` itself and the rows
+    /// `min(i, j)` of its springs).
+    pub(crate) touch_ptr: Vec<usize>,
+    /// See `touch_ptr`.
+    pub(crate) touch_rows: Vec<u32>,
     pub(crate) diag_acc: DiagScratch,
     /// Permanent constraints (pins, sliding), per particle.
     pub(crate) fixes: Vec<Dirs>,
@@ -363,6 +374,14 @@ impl MassSpringModel {
         let mass = masses.iter().flat_map(|&m| [m, m, m]).collect();
         let row_ptr = pattern.row_ptr();
         let col_idx = pattern.col_idx();
+        // The pattern's column indices are u32, so particle indices fit;
+        // storage positions are checked.
+        let to_u32 = |k: usize| {
+            u32::try_from(k).map_err(|_| MassSpringError::InvalidParameter {
+                name: "springs",
+                message: format!("index {k} does not fit the 32-bit assembly tables"),
+            })
+        };
         let mut hot: Vec<HotSpring> = Vec::with_capacity(springs.len());
         for s in &springs {
             let (r, c) = (s.i.min(s.j), s.i.max(s.j));
@@ -371,14 +390,13 @@ impl MassSpringModel {
                 .binary_search(&(c as u32))
                 .map_err(|_| hookean_sparse::SparseError::NotInPattern { row: r, col: c })?;
             hot.push(HotSpring {
-                i: s.i,
-                j: s.j,
+                i: to_u32(r)?,
+                j: to_u32(c)?,
                 rest_length: s.rest_length,
                 stiffness: s.stiffness,
                 damping: s.damping,
-                upper: start + k,
+                upper: to_u32(start + k)?,
                 first: false,
-                transposed: s.i > s.j,
             });
         }
         hot.sort_by_key(|h| h.upper);
@@ -388,10 +406,29 @@ impl MassSpringModel {
         let diag_index = (0..n).map(|p| row_ptr[p]).collect();
         let mut hot_row_ptr = vec![0usize; n + 1];
         for h in &hot {
-            hot_row_ptr[h.i.min(h.j) + 1] += 1;
+            hot_row_ptr[h.i as usize + 1] += 1;
         }
         for r in 0..n {
             hot_row_ptr[r + 1] += hot_row_ptr[r];
+        }
+        let mut touch_ptr = vec![1usize; n + 1];
+        touch_ptr[0] = 0;
+        for h in &hot {
+            touch_ptr[h.j as usize + 1] += 1;
+        }
+        for p in 0..n {
+            touch_ptr[p + 1] += touch_ptr[p];
+        }
+        let mut touch_rows = vec![0u32; touch_ptr[n]];
+        let mut fill = touch_ptr.clone();
+        for p in 0..n {
+            touch_rows[fill[p]] = to_u32(p)?;
+            fill[p] += 1;
+        }
+        for h in &hot {
+            let hi = h.j as usize;
+            touch_rows[fill[hi]] = h.i;
+            fill[hi] += 1;
         }
         Ok(Self {
             particle_mass: masses,
@@ -405,6 +442,9 @@ impl MassSpringModel {
             hot,
             hot_row_ptr,
             diag_index,
+            row_fast: vec![true; n],
+            touch_ptr,
+            touch_rows,
             diag_acc: DiagScratch(std::sync::Mutex::new(vec![[0.0; 12]; n])),
             fixes: vec![Dirs::EMPTY; n],
             active: vec![Dirs::EMPTY; n],
@@ -666,6 +706,9 @@ impl MassSpringModel {
             self.constrained[p] = false;
             self.active[p] = Dirs::EMPTY;
             self.proj[p] = block::IDENTITY;
+            for &r in &self.touch_rows[self.touch_ptr[p]..self.touch_ptr[p + 1]] {
+                self.row_fast[r as usize] = true;
+            }
         }
         self.constrained_list.clear();
         for p in 0..self.fixes.len() {
@@ -680,6 +723,9 @@ impl MassSpringModel {
         if !self.constrained[p] {
             self.constrained[p] = true;
             self.constrained_list.push(p);
+            for &r in &self.touch_rows[self.touch_ptr[p]..self.touch_ptr[p + 1]] {
+                self.row_fast[r as usize] = false;
+            }
         }
         self.active[p] = dirs;
         self.proj[p] = dirs.projector();
