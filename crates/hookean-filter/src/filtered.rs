@@ -236,6 +236,12 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
         &self.filter
     }
 
+    /// The filter, mutably (e.g. to follow pins made after construction
+    /// with [`VelocityFilter::set_pinned`]).
+    pub fn filter_mut(&mut self) -> &mut VelocityFilter {
+        &mut self.filter
+    }
+
     /// The coupling.
     pub fn coupling(&self) -> FilterCoupling {
         self.coupling

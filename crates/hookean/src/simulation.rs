@@ -6,7 +6,7 @@ use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
 use hookean_filter::{FilterCoupling, FilterOptions, FilteredIntegrator, VelocityFilter};
-use hookean_massspring::{Energies, MassSpringModel, State};
+use hookean_massspring::{Energies, MassSpringModel, ParticleConstraint, State};
 use hookean_ode::{
     ForcingTerm, Method, NewtonMethod, NewtonOptions, Predictor, SecondOrderIntegrator,
     SolverOptions, Stats, StepReport,
@@ -144,6 +144,46 @@ pub struct Simulation {
 enum Integrator {
     Plain(Box<SecondOrderIntegrator<MassSpringModel>>),
     Filtered(Box<FilteredIntegrator<MassSpringModel>>),
+}
+
+/// The model of a [`Simulation`], borrowed mutably by
+/// [`Simulation::model_mut`]; dereferences to [`MassSpringModel`].
+pub struct ModelMut<'a> {
+    integrator: &'a mut Integrator,
+}
+
+impl std::ops::Deref for ModelMut<'_> {
+    type Target = MassSpringModel;
+    fn deref(&self) -> &MassSpringModel {
+        self.integrator.inner().problem()
+    }
+}
+
+impl std::ops::DerefMut for ModelMut<'_> {
+    fn deref_mut(&mut self) -> &mut MassSpringModel {
+        match self.integrator {
+            Integrator::Plain(i) => i.problem_mut(),
+            Integrator::Filtered(f) => f.inner_mut().problem_mut(),
+        }
+    }
+}
+
+impl Drop for ModelMut<'_> {
+    fn drop(&mut self) {
+        if let Integrator::Filtered(f) = self.integrator {
+            let n = f.filter().n_particles();
+            for p in 0..n {
+                let pinned = matches!(
+                    f.problem().constraint(p),
+                    Ok(ParticleConstraint::Pinned { .. })
+                );
+                if f.filter().is_pinned(p) != pinned {
+                    // In range by construction: the filter has the model's particles.
+                    let _ = f.filter_mut().set_pinned(p, pinned);
+                }
+            }
+        }
+    }
 }
 
 impl Integrator {
@@ -293,10 +333,12 @@ impl Simulation {
     }
 
     /// Mutable access to the model between steps (forces, pins, colliders).
-    pub fn model_mut(&mut self) -> &mut MassSpringModel {
-        match &mut self.integrator {
-            Integrator::Plain(i) => i.problem_mut(),
-            Integrator::Filtered(f) => f.inner_mut().problem_mut(),
+    /// When the guard is dropped, a velocity filter learns the model's
+    /// pinned particles again, so that a particle pinned (or released) here
+    /// is kept out of (or back in) the filter.
+    pub fn model_mut(&mut self) -> ModelMut<'_> {
+        ModelMut {
+            integrator: &mut self.integrator,
         }
     }
 

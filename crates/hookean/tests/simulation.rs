@@ -69,6 +69,34 @@ fn filtered_fb_euler_runs_and_a_filter_on_an_implicit_method_is_refused() {
 }
 
 #[test]
+fn a_particle_pinned_through_model_mut_stays_put_in_a_filtered_run() {
+    // The filter keeps pinned particles out; one pinned after the
+    // simulation was built must be kept out too, or the filter would give it
+    // its neighbours' velocity and it would drift.
+    let (model, state) = small_cloth(6);
+    let options = SimulationOptions {
+        method: Method::FbEuler,
+        solver: SolverOptions::with_h(1e-4),
+        filter: Some(FilterOptions::default()),
+    };
+    let mut sim = Simulation::new(model, state, options).unwrap();
+    sim.run_until(0.005, |_, _| ControlFlow::Continue(()))
+        .unwrap();
+    let p = 14; // an inner particle, moving by now
+    assert!(sim.v()[3 * p + 2].abs() > 1e-4);
+    let at: [f64; 3] = sim.x()[3 * p..3 * p + 3].try_into().unwrap();
+    sim.model_mut().pin(p, at).unwrap();
+    sim.run_until(0.01, |_, _| ControlFlow::Continue(()))
+        .unwrap();
+    assert_eq!(
+        &sim.x()[3 * p..3 * p + 3],
+        &at,
+        "the newly pinned particle moved"
+    );
+    assert_eq!(&sim.v()[3 * p..3 * p + 3], &[0.0; 3]);
+}
+
+#[test]
 fn sinks_see_every_step_and_the_end() {
     struct Count {
         steps: usize,
