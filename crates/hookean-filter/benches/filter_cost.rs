@@ -13,14 +13,17 @@ use hookean_filter::{
     DrapeScene, Edge, ExplicitScheme, FilterCoupling, FilterOptions, FilteredIntegrator,
     VelocityFilter, predict_dt_max,
 };
+use hookean_massspring::{MassSpringModel, State};
 use hookean_ode::{Method, SecondOrderIntegrator, SolverOptions};
 
-fn bench(c: &mut Criterion) {
-    let scene = DrapeScene {
+/// The N = 64 drape and an FB Euler step half its predicted dt_max.
+fn drape64() -> (MassSpringModel, State, f64) {
+    let (model, state) = DrapeScene {
         n: 64,
         ..Default::default()
-    };
-    let (model, state) = scene.build().unwrap();
+    }
+    .build()
+    .unwrap();
     let dt = predict_dt_max(
         &model,
         &state.x,
@@ -30,7 +33,11 @@ fn bench(c: &mut Criterion) {
     )
     .unwrap()
     .dt_max;
-    let h = 0.5 * dt;
+    (model, state, 0.5 * dt)
+}
+
+fn bench(c: &mut Criterion) {
+    let (model, state, h) = drape64();
     let mut g = c.benchmark_group("filter_cost_n64");
     g.sample_size(30);
     g.measurement_time(std::time::Duration::from_secs(4));
@@ -103,28 +110,14 @@ fn bench(c: &mut Criterion) {
 /// The bar in one run: best of interleaved rounds of one FB Euler step and
 /// one `apply_to` (what the filtered integrator calls).
 fn bar() {
-    let (model, state) = DrapeScene {
-        n: 64,
-        ..Default::default()
-    }
-    .build()
-    .unwrap();
-    let dt = predict_dt_max(
-        &model,
-        &state.x,
-        None,
-        ExplicitScheme::ForwardBackwardEuler,
-        &Default::default(),
-    )
-    .unwrap()
-    .dt_max;
+    let (model, state, h) = drape64();
     let mut plain = SecondOrderIntegrator::new(
         model.clone(),
         Method::FbEuler,
         0.0,
         &state.x,
         &state.v,
-        SolverOptions::with_h(0.5 * dt),
+        SolverOptions::with_h(h),
     )
     .unwrap();
     let filter = VelocityFilter::from_model(&model, FilterOptions::default()).unwrap();

@@ -543,21 +543,7 @@ mod tests {
     /// diagonal) on the pattern right / up / one diagonal: the other
     /// diagonal is dropped fill, and every fill block is a multiple of `I`.
     fn isotropic_grid(nx: usize, ny: usize) -> SymBlockMatrix {
-        let id = |x: usize, y: usize| y * nx + x;
-        let mut pairs = Vec::new();
-        for y in 0..ny {
-            for x in 0..nx {
-                if x + 1 < nx {
-                    pairs.push((id(x, y), id(x + 1, y)));
-                }
-                if y + 1 < ny {
-                    pairs.push((id(x, y), id(x, y + 1)));
-                }
-                if x + 1 < nx && y + 1 < ny {
-                    pairs.push((id(x, y), id(x + 1, y + 1)));
-                }
-            }
-        }
+        let pairs = grid_pairs(nx, ny);
         let n = nx * ny;
         let pattern = std::sync::Arc::new(crate::BlockPattern::new(n, pairs.clone()).unwrap());
         let mut a = SymBlockMatrix::new(pattern);

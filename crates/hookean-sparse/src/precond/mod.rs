@@ -167,10 +167,9 @@ pub(crate) mod testutil {
 
     use crate::{BlockPattern, SymBlockMatrix};
 
-    /// A small SPD block matrix with dense, non-symmetric-looking blocks:
-    /// a 2D grid of `nx x ny` particles with 4-neighbour and diagonal couplings.
-    pub fn spd_block_matrix(nx: usize, ny: usize) -> SymBlockMatrix {
-        let n = nx * ny;
+    /// The couplings of a 2D grid of `nx x ny` particles: right, up and one
+    /// diagonal (so the other diagonal is fill that IC(0) drops).
+    pub fn grid_pairs(nx: usize, ny: usize) -> Vec<(usize, usize)> {
         let id = |x: usize, y: usize| y * nx + x;
         let mut pairs = Vec::new();
         for y in 0..ny {
@@ -186,6 +185,14 @@ pub(crate) mod testutil {
                 }
             }
         }
+        pairs
+    }
+
+    /// A small SPD block matrix with dense, non-symmetric-looking blocks on
+    /// the [`grid_pairs`] of an `nx x ny` grid.
+    pub fn spd_block_matrix(nx: usize, ny: usize) -> SymBlockMatrix {
+        let n = nx * ny;
+        let pairs = grid_pairs(nx, ny);
         let pattern = Arc::new(BlockPattern::new(n, pairs.iter().copied()).unwrap());
         let mut a = SymBlockMatrix::new(pattern);
         // A graph Laplacian of spring blocks k u u^T + 0.3 k (I - u u^T), plus mass.
