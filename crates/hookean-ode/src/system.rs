@@ -491,11 +491,8 @@ impl LinearSolver<SymBlockMatrix> for StageLinearSolver {
                     self.rhs[i] += rhs[i];
                 }
             }
-            if initial_guess == InitialGuess::Given {
-                for i in 0..n {
-                    x[i] += self.z[i];
-                }
-            }
+            // A given start needs no shift by z: filtered PCG imposes the
+            // prescribed components on it.
             let info = filtered_pcg(
                 jac,
                 &self.precond,
