@@ -30,8 +30,8 @@ const NONE: usize = usize::MAX;
 /// [`modified`](Self::modified) gives MIC(0) (Gustafsson 1978): the fill
 /// IC(0) drops is subtracted, times a relaxation `omega`, from the diagonal
 /// blocks it would have coupled, so that the preconditioner keeps the row
-/// sums of `A`. On the implicit cloth systems it needs about half the
-/// iterations of IC(0) (docs/PERFORMANCE.md). It is implemented for
+/// sums of `A`. On the implicit cloth systems it needs a half to three
+/// quarters of the iterations of IC(0) (docs/PERFORMANCE.md). It is implemented for
 /// [`SymBlockMatrix`] only (the right-looking block factorisation); setting
 /// it up from a scalar `sprs` matrix is an error.
 ///
