@@ -16,11 +16,10 @@
 
 use clap::Args;
 use hookean_massspring::{ClothParams, SpringMaterial, State};
-use hookean_sparse::CgParams;
 use serde::Serialize;
 
 use crate::CliError;
-use crate::solve::{Matrix, SolveRecord, check_options, parse_solvers, run_solver};
+use crate::solve::{Matrix, SolveRecord, SolverArgs, run_solver};
 
 /// The implicit-Euler step size of the benchmark systems.
 pub const H: f64 = 0.01;
@@ -35,21 +34,8 @@ pub struct BenchPrecondArgs {
     /// Comma-separated structural/shear stiffnesses k (bend k / 10).
     #[arg(long, value_delimiter = ',', default_values_t = [1e2, 1e4, 1e6], allow_hyphen_values = true)]
     k: Vec<f64>,
-    /// none, jacobi, block-jacobi, ssor, ic0, mic0, direct or all.
-    #[arg(long, default_value = "all")]
-    precond: String,
-    /// SSOR relaxation, in (0, 2).
-    #[arg(long, default_value_t = 1.0)]
-    omega: f64,
-    /// Relative residual tolerance |r| / |b| of PCG.
-    #[arg(long, default_value_t = 1e-8)]
-    rtol: f64,
-    /// PCG iteration limit (default 2 n).
-    #[arg(long)]
-    max_iter: Option<usize>,
-    /// Run each solver this many times and report the best times.
-    #[arg(long, default_value_t = 1)]
-    repeat: usize,
+    #[command(flatten)]
+    solver: SolverArgs,
 }
 
 /// One JSON line: the `hookean solve` record plus the system's parameters.
@@ -114,7 +100,7 @@ pub fn cloth_system(
 }
 
 pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
-    check_options(args.repeat, args.omega, args.rtol)?;
+    let (solvers, params) = args.solver.resolve()?;
     if let Some(&n) = args.n.iter().find(|&&n| !(2..=1024).contains(&n)) {
         return Err(CliError::Input(format!(
             "--n: cloth size {n} must lie in 2..=1024"
@@ -130,12 +116,6 @@ pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
             "--n and --k need at least one value".into(),
         ));
     }
-    let solvers = parse_solvers(&args.precond, args.omega)?;
-    let params = CgParams {
-        rtol: args.rtol,
-        max_iter: args.max_iter,
-        ..Default::default()
-    };
     let mut table = vec![
         "| N | k | unknowns | precond | iterations | setup (ms) | solve (ms) | rel. residual |"
             .to_string(),
@@ -150,7 +130,7 @@ pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
             let nnz = csr.nnz();
             let matrix = Matrix::Block(a);
             for solver in &solvers {
-                let record = run_solver(solver, &matrix, &csr, &b, &params, args.repeat);
+                let record = run_solver(solver, &matrix, &csr, &b, &params, args.solver.repeat);
                 let record = SolveRecord {
                     matrix: format!("cloth{n}-k{k:e}"),
                     rows,

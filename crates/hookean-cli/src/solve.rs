@@ -20,25 +20,58 @@ pub struct SolveArgs {
     /// The right-hand side b (Matrix Market, one column); default b = A * ones.
     #[arg(long)]
     rhs: Option<PathBuf>,
-    /// none, jacobi, block-jacobi, ssor, ic0, mic0 (block storage only), direct (faer sparse Cholesky) or all.
-    #[arg(long, default_value = "all")]
-    precond: String,
-    /// SSOR relaxation, in (0, 2).
-    #[arg(long, default_value_t = 1.0)]
-    omega: f64,
-    /// Relative residual tolerance |r| / |b| of PCG.
-    #[arg(long, default_value_t = 1e-8)]
-    rtol: f64,
-    /// PCG iteration limit (default 2 n).
-    #[arg(long)]
-    max_iter: Option<usize>,
-    /// Run each solver this many times and report the best times.
-    #[arg(long, default_value_t = 1)]
-    repeat: usize,
+    #[command(flatten)]
+    solver: SolverArgs,
     /// Matrix storage for PCG: block (symmetric 3x3 blocks, needs n divisible by 3
     /// and a symmetric matrix), csr, or auto (block when possible).
     #[arg(long, default_value = "auto")]
     format: String,
+}
+
+/// The solver options `hookean solve` and `hookean bench-precond` share.
+#[derive(Debug, Args)]
+pub struct SolverArgs {
+    /// none, jacobi, block-jacobi, ssor, ic0, mic0 (block storage only), direct (faer sparse Cholesky) or all.
+    #[arg(long, default_value = "all")]
+    pub precond: String,
+    /// SSOR relaxation, in (0, 2).
+    #[arg(long, default_value_t = 1.0)]
+    pub omega: f64,
+    /// Relative residual tolerance |r| / |b| of PCG.
+    #[arg(long, default_value_t = 1e-8)]
+    pub rtol: f64,
+    /// PCG iteration limit (default 2 n).
+    #[arg(long)]
+    pub max_iter: Option<usize>,
+    /// Run each solver this many times and report the best times.
+    #[arg(long, default_value_t = 1)]
+    pub repeat: usize,
+}
+
+impl SolverArgs {
+    /// Checks the options; returns the solvers to run and PCG's parameters.
+    pub fn resolve(&self) -> Result<(Vec<Solver>, CgParams), CliError> {
+        let (repeat, omega, rtol) = (self.repeat, self.omega, self.rtol);
+        if repeat == 0 {
+            return Err(CliError::Input("--repeat must be at least 1".into()));
+        }
+        if !(omega > 0.0 && omega < 2.0) {
+            return Err(CliError::Input(format!(
+                "--omega must lie in (0, 2), got {omega}"
+            )));
+        }
+        if !(rtol >= 0.0 && rtol.is_finite()) {
+            return Err(CliError::Input(format!(
+                "--rtol must be a non-negative number, got {rtol}"
+            )));
+        }
+        let params = CgParams {
+            rtol,
+            max_iter: self.max_iter,
+            ..Default::default()
+        };
+        Ok((parse_solvers(&self.precond, omega)?, params))
+    }
 }
 
 /// One JSON line of output.
@@ -70,7 +103,7 @@ pub enum Solver {
 
 /// `all` (every preconditioner, then `direct`), `direct`, or one
 /// preconditioner name (SSOR with relaxation `omega`).
-pub fn parse_solvers(name: &str, omega: f64) -> Result<Vec<Solver>, CliError> {
+fn parse_solvers(name: &str, omega: f64) -> Result<Vec<Solver>, CliError> {
     let mut out = Vec::new();
     if name == "all" {
         out.extend(PrecondKind::all(omega).into_iter().map(Solver::Pcg));
@@ -120,27 +153,8 @@ pub fn run_solver(
     }
 }
 
-/// Checks the options `hookean solve` and `hookean bench-precond` share.
-pub fn check_options(repeat: usize, omega: f64, rtol: f64) -> Result<(), CliError> {
-    if repeat == 0 {
-        return Err(CliError::Input("--repeat must be at least 1".into()));
-    }
-    if !(omega > 0.0 && omega < 2.0) {
-        return Err(CliError::Input(format!(
-            "--omega must lie in (0, 2), got {omega}"
-        )));
-    }
-    if !(rtol >= 0.0 && rtol.is_finite()) {
-        return Err(CliError::Input(format!(
-            "--rtol must be a non-negative number, got {rtol}"
-        )));
-    }
-    Ok(())
-}
-
 pub fn run(args: &SolveArgs) -> Result<(), CliError> {
-    check_options(args.repeat, args.omega, args.rtol)?;
-    let solvers = parse_solvers(&args.precond, args.omega)?;
+    let (solvers, params) = args.solver.resolve()?;
     let a = read_matrix_market_file(&args.matrix)?.into_csr();
     let (rows, cols) = a.shape();
     if rows != cols {
@@ -191,20 +205,15 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let solvers: Vec<Solver> = solvers
         .into_iter()
         .filter(|s| {
-            !(args.precond == "all"
+            !(args.solver.precond == "all"
                 && matches!(matrix, Matrix::Csr(_))
                 && matches!(s, Solver::Pcg(PrecondKind::Mic0 { .. })))
         })
         .collect();
-    let params = CgParams {
-        rtol: args.rtol,
-        max_iter: args.max_iter,
-        ..Default::default()
-    };
     let name = args.matrix.display().to_string();
     let mut failed = false;
     for solver in &solvers {
-        let record = run_solver(solver, &matrix, &a, &b, &params, args.repeat);
+        let record = run_solver(solver, &matrix, &a, &b, &params, args.solver.repeat);
         let record = SolveRecord {
             matrix: name.clone(),
             rows,
