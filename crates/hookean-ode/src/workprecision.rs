@@ -283,26 +283,12 @@ where
             found: exact.len(),
         });
     }
-    let mut rows = Vec::new();
-    for (opts, tol) in settings(sweep, base, span) {
-        let start = Instant::now();
+    sweep_rows(method, sweep, base, span, |opts| {
         let mut ode =
             FirstOrderIntegrator::new(make_problem(), method.clone(), t0, y0, opts.clone())?;
         let res = ode.integrate(t_end);
-        let wall = start.elapsed().as_secs_f64();
-        let err = error_norm(ode.y(), exact);
-        rows.push(row(
-            method,
-            &opts,
-            tol,
-            span,
-            err,
-            ode.stats(),
-            wall,
-            res.err().map(|e| e.to_string()),
-        ));
-    }
-    Ok(rows)
+        Ok((error_norm(ode.y(), exact), ode.stats(), res.err()))
+    })
 }
 
 /// As [`first_order`] for a second-order problem from `(t0, x0, v0)`;
@@ -334,23 +320,38 @@ where
             found: exact.len(),
         });
     }
-    let mut rows = Vec::new();
-    for (opts, tol) in settings(sweep, base, span) {
-        let start = Instant::now();
+    sweep_rows(method, sweep, base, span, |opts| {
         let mut ode =
             SecondOrderIntegrator::new(make_problem(), method.clone(), t0, x0, v0, opts.clone())?;
         let res = ode.integrate(t_end);
+        Ok((error_norm(ode.state(), exact), ode.stats(), res.err()))
+    })
+}
+
+/// One row per setting of the sweep: `run` integrates with the options and
+/// returns the error at `t_end`, the counters and the failure (if any);
+/// the wall time covers `run`.
+fn sweep_rows(
+    method: &Method,
+    sweep: &Sweep,
+    base: &SolverOptions,
+    span: f64,
+    mut run: impl FnMut(&SolverOptions) -> Result<(f64, Stats, Option<OdeError>), OdeError>,
+) -> Result<Vec<WorkPrecisionRow>, OdeError> {
+    let mut rows = Vec::new();
+    for (opts, tol) in settings(sweep, base, span) {
+        let start = Instant::now();
+        let (err, stats, failure) = run(&opts)?;
         let wall = start.elapsed().as_secs_f64();
-        let err = error_norm(ode.state(), exact);
         rows.push(row(
             method,
             &opts,
             tol,
             span,
             err,
-            ode.stats(),
+            stats,
             wall,
-            res.err().map(|e| e.to_string()),
+            failure.map(|e| e.to_string()),
         ));
     }
     Ok(rows)
