@@ -10,7 +10,7 @@ use std::sync::Arc;
 
 use crate::block;
 use crate::error::{SparseError, check_len};
-use crate::matrix::{BlockPattern, SymBlockMatrix};
+use crate::matrix::{BlockPattern, SymBlockMatrix, check_same_pattern};
 use crate::operator::LinearOperator;
 use crate::precond::{BlockJacobi, Jacobi, PreconditionerSetup};
 
@@ -121,12 +121,7 @@ impl IsoBlockMatrix {
     /// # Errors
     /// [`SparseError::InvalidParameter`] if the patterns differ.
     pub fn add_scaled(&mut self, s: f64, other: &IsoBlockMatrix) -> Result<(), SparseError> {
-        if !Arc::ptr_eq(&self.pattern, &other.pattern) && self.pattern != other.pattern {
-            return Err(SparseError::InvalidParameter {
-                name: "other",
-                message: "matrices have different sparsity patterns".into(),
-            });
-        }
+        check_same_pattern(&self.pattern, &other.pattern)?;
         for (a, b) in self.values.iter_mut().zip(&other.values) {
             *a += s * b;
         }

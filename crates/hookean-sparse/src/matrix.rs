@@ -26,6 +26,22 @@ pub struct BlockPattern {
     col_idx: Vec<u32>,
 }
 
+/// `Ok` when two matrices share their pattern (the same `Arc`, or equal
+/// patterns), as element-wise operations on their value arrays need.
+pub(crate) fn check_same_pattern(
+    a: &Arc<BlockPattern>,
+    b: &Arc<BlockPattern>,
+) -> Result<(), SparseError> {
+    if Arc::ptr_eq(a, b) || a == b {
+        Ok(())
+    } else {
+        Err(SparseError::InvalidParameter {
+            name: "other",
+            message: "matrices have different sparsity patterns".into(),
+        })
+    }
+}
+
 /// Where a block lives in the value array, found once by
 /// [`SymBlockMatrix::slot`] and reused every refill to skip the search.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -300,12 +316,7 @@ impl SymBlockMatrix {
     /// # Errors
     /// [`SparseError::InvalidParameter`] if the patterns differ.
     pub fn add_scaled(&mut self, s: f64, other: &SymBlockMatrix) -> Result<(), SparseError> {
-        if !Arc::ptr_eq(&self.pattern, &other.pattern) && self.pattern != other.pattern {
-            return Err(SparseError::InvalidParameter {
-                name: "other",
-                message: "matrices have different sparsity patterns".into(),
-            });
-        }
+        check_same_pattern(&self.pattern, &other.pattern)?;
         for (a, b) in self.values.iter_mut().zip(&other.values) {
             for r in 0..3 {
                 for c in 0..3 {
