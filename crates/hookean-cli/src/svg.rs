@@ -48,6 +48,18 @@ fn c(v: f64) -> String {
     format!("{v:.2}")
 }
 
+/// The black frame around a plot area.
+fn frame(out: &mut String, left: f64, top: f64, pw: f64, ph: f64) {
+    let _ = writeln!(
+        out,
+        "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"black\"/>",
+        c(left),
+        c(top),
+        c(pw),
+        c(ph)
+    );
+}
+
 fn header(width: f64, height: f64) -> String {
     format!(
         "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\" font-family=\"sans-serif\" font-size=\"12\">\n<rect x=\"0\" y=\"0\" width=\"{w}\" height=\"{h}\" fill=\"white\"/>\n",
@@ -204,14 +216,7 @@ impl LogLogPlot {
             );
         }
         let _ = writeln!(out, "</g>");
-        let _ = writeln!(
-            out,
-            "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"black\"/>",
-            c(left),
-            c(top),
-            c(pw),
-            c(ph)
-        );
+        frame(&mut out, left, top, pw, ph);
         // Every decade gets a tick; labels thin out to at most about 10 per axis.
         let (lx, ly) = (label_every(x0, x1), label_every(y0, y1));
         for k in x0..=x1 {
@@ -465,14 +470,7 @@ impl RegionPanels {
                 );
             }
             let _ = writeln!(out, "</g>");
-            let _ = writeln!(
-                out,
-                "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"black\"/>",
-                c(left),
-                c(top),
-                c(pw),
-                c(ph)
-            );
+            frame(&mut out, left, top, pw, ph);
             for &t in &ticks_x {
                 let x = c(sx(t));
                 let _ = writeln!(
