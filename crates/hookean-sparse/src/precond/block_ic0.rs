@@ -136,8 +136,8 @@ impl BlockFactor {
             for a in row.clone() {
                 let i = cols[a] as usize;
                 for b in a + 1..row.end {
+                    // Columns are sorted within a row, so i < j.
                     let j = cols[b] as usize;
-                    let (a, b, i, j) = if i < j { (a, b, i, j) } else { (b, a, j, i) };
                     let (s, e) = (row_ptr[i] + 1, row_ptr[i + 1]);
                     match cols[s..e].binary_search(&(j as u32)) {
                         Ok(p) => updates.push(Update {
