@@ -126,7 +126,7 @@ impl BlockPattern {
         &self.row_ptr
     }
 
-    /// Block column of every slot.
+    /// Block column of every slot; within a row, sorted ascending after the diagonal.
     pub fn col_idx(&self) -> &[u32] {
         &self.col_idx
     }
