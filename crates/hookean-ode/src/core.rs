@@ -218,19 +218,10 @@ impl<S: System> Core<S> {
                 found: s.len(),
             });
         }
-        if !t.is_finite() {
-            return Err(OdeError::InvalidParameter {
-                name: "t",
-                value: t,
-                reason: "must be finite",
-            });
-        }
+        check_time(t)?;
         check_finite(s, "state", t)?;
-        self.t = t;
-        self.t_base = t;
-        self.n_fixed = 0;
         self.s.copy_from_slice(s);
-        self.reset_history();
+        self.restart_at(t);
         Ok(())
     }
 
@@ -246,22 +237,22 @@ impl<S: System> Core<S> {
                 found: if x.len() != n { x.len() } else { v.len() },
             });
         }
-        if !t.is_finite() {
-            return Err(OdeError::InvalidParameter {
-                name: "t",
-                value: t,
-                reason: "must be finite",
-            });
-        }
+        check_time(t)?;
         check_finite(x, "state", t)?;
         check_finite(v, "state", t)?;
+        self.s[..n].copy_from_slice(x);
+        self.s[n..].copy_from_slice(v);
+        self.restart_at(t);
+        Ok(())
+    }
+
+    /// After a new state was written: time `t`, a fresh fixed-step count and
+    /// multistep history.
+    fn restart_at(&mut self, t: f64) {
         self.t = t;
         self.t_base = t;
         self.n_fixed = 0;
-        self.s[..n].copy_from_slice(x);
-        self.s[n..].copy_from_slice(v);
         self.reset_history();
-        Ok(())
     }
 
     fn begin_step(&mut self) {
@@ -820,6 +811,19 @@ impl<S: System> Core<S> {
             t: self.t,
             stopped_by_callback: false,
             stats: self.stats,
+        })
+    }
+}
+
+/// A new state's time must be finite.
+fn check_time(t: f64) -> Result<(), OdeError> {
+    if t.is_finite() {
+        Ok(())
+    } else {
+        Err(OdeError::InvalidParameter {
+            name: "t",
+            value: t,
+            reason: "must be finite",
         })
     }
 }
