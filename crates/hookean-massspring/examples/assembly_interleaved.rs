@@ -2,11 +2,14 @@
 //! interleaved 1000 times, minimum of each and their ratio: both see the same
 //! machine state, for A/B comparisons of builds on a shared machine (see
 //! docs/perf/hookean-massspring.md):
-//! `cargo run --release -p hookean-massspring --example assembly_interleaved`.
+//! `cargo run --release -p hookean-massspring --example assembly_interleaved [N]`
+//! (an N x N cloth, default 128).
 use hookean_massspring::{ClothParams, SecondOrderProblem, cloth};
 use hookean_sparse::LinearOperator;
 fn main() {
-    let n = 128;
+    let n: usize = std::env::args()
+        .nth(1)
+        .map_or(128, |a| a.parse().expect("cloth size N"));
     let (model, mut s) = cloth(&ClothParams {
         nu: n,
         nv: n,
