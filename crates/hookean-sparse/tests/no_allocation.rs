@@ -2,46 +2,15 @@
 //! reused workspace) and every preconditioner apply, checked with a counting
 //! global allocator.
 
-// A counting global allocator needs unsafe; it only forwards to `System`.
-#![allow(unsafe_code)]
-
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
 use hookean_sparse::{
     AnyPreconditioner, CgParams, CgWorkspace, Constraints, InitialGuess, LinearOperator,
     PrecondKind, Preconditioner, PreconditionerSetup, filtered_pcg, pcg,
 };
+use hookean_testkit::alloc::{Counting, allocations};
 use hookean_testkit::cloth::{ClothParams, cloth_system};
-
-struct Counting;
-
-thread_local! {
-    static COUNT: Cell<usize> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        COUNT.with(|c| c.set(c.get() + 1));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        COUNT.with(|c| c.set(c.get() + 1));
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
 
 #[global_allocator]
 static GLOBAL: Counting = Counting;
-
-fn allocations<R>(f: impl FnOnce() -> R) -> (usize, R) {
-    let before = COUNT.with(|c| c.get());
-    let r = f();
-    (COUNT.with(|c| c.get()) - before, r)
-}
 
 #[test]
 fn pcg_solves_and_preconditioner_applies_do_not_allocate() {
