@@ -1,6 +1,6 @@
 //! The velocity filter of Ahmad et al. (section 4.1, eq. 10).
 
-use hookean_massspring::{MassSpringModel, ParticleConstraint};
+use hookean_massspring::{MassSpringModel, ParticleConstraint, Spring};
 
 use crate::error::FilterError;
 
@@ -80,6 +80,18 @@ pub struct Edge {
     pub j: usize,
     /// Rest length (m), positive.
     pub rest_length: f64,
+}
+
+impl From<&Spring> for Edge {
+    /// The spring's particles and rest length (its material does not enter
+    /// the filter).
+    fn from(s: &Spring) -> Self {
+        Self {
+            i: s.i,
+            j: s.j,
+            rest_length: s.rest_length,
+        }
+    }
 }
 
 /// The exponential (or Gaussian) velocity filter on the k-ring neighbourhoods
@@ -586,15 +598,7 @@ impl VelocityFilter {
         options: FilterOptions,
     ) -> Result<Self, FilterError> {
         let n = model.n_particles();
-        let edges: Vec<Edge> = model
-            .springs()
-            .iter()
-            .map(|s| Edge {
-                i: s.i,
-                j: s.j,
-                rest_length: s.rest_length,
-            })
-            .collect();
+        let edges: Vec<Edge> = model.springs().iter().map(Edge::from).collect();
         let pinned: Vec<bool> = (0..n)
             .map(|p| matches!(model.constraint(p), Ok(ParticleConstraint::Pinned { .. })))
             .collect();

@@ -133,15 +133,7 @@ fn check_against_dense(n: usize, edges: &[Edge], pinned: &[bool], o: FilterOptio
 }
 
 fn model_edges(model: &hookean_massspring::MassSpringModel) -> Vec<Edge> {
-    model
-        .springs()
-        .iter()
-        .map(|s| Edge {
-            i: s.i,
-            j: s.j,
-            rest_length: s.rest_length,
-        })
-        .collect()
+    model.springs().iter().map(Edge::from).collect()
 }
 
 #[test]
