@@ -8,22 +8,18 @@ use std::hint::black_box;
 use criterion::{Criterion, criterion_group, criterion_main};
 use hookean_massspring::{ClothParams, SecondOrderProblem, cloth};
 use hookean_sparse::LinearOperator;
+use rand::rngs::SmallRng;
+use rand::{Rng, SeedableRng};
 
 /// A deterministic deformed state: every coordinate moved by up to `amp`
 /// (a few percent of the grid spacing), velocities up to 0.1 m/s.
 fn deformed(x: &mut [f64], v: &mut [f64], amp: f64) {
-    let mut s: u64 = 0x9E37_79B9_7F4A_7C15;
-    let mut next = || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    };
+    let mut rng = SmallRng::seed_from_u64(0x9E37_79B9_7F4A_7C15);
     for xi in x.iter_mut() {
-        *xi += amp * next();
+        *xi += amp * rng.random_range(-0.5..0.5);
     }
     for vi in v.iter_mut() {
-        *vi = 0.2 * next();
+        *vi = rng.random_range(-0.1..0.1);
     }
 }
 

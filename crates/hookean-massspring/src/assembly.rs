@@ -848,6 +848,8 @@ impl SecondOrderProblem for MassSpringModel {
 mod tests {
     use super::*;
     use crate::{ClothParams, ModelOptions, Spring, cloth};
+    use rand::rngs::SmallRng;
+    use rand::{Rng, SeedableRng};
 
     /// A 7 x 6 cloth, its bottom-left corner pinned, its top-right corner
     /// sliding along a line, particle 12 in the plane `z = const`, one
@@ -866,15 +868,11 @@ mod tests {
         let mut model =
             MassSpringModel::new(base.particle_masses().to_vec(), springs, options).unwrap();
         let n = model.n_particles();
-        let mut seed: u64 = 0x2545_F491_4F6C_DD1D;
-        let mut next = || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
-        let x: Vec<f64> = state.x.iter().map(|&c| 0.9 * c + 0.02 * next()).collect();
-        let v: Vec<f64> = (0..3 * n).map(|_| next()).collect();
+        let mut rng = SmallRng::seed_from_u64(0x2545_F491_4F6C_DD1D);
+        let x: Vec<f64> = (state.x.iter())
+            .map(|&c| 0.9 * c + 0.02 * rng.random_range(-0.5..0.5))
+            .collect();
+        let v: Vec<f64> = (0..3 * n).map(|_| rng.random_range(-0.5..0.5)).collect();
         model.pin(0, [x[0], x[1], x[2]]).unwrap();
         let p = n - 1;
         let at = [x[3 * p], x[3 * p + 1], x[3 * p + 2]];
