@@ -1,23 +1,13 @@
 //! Breakdown of the 128 x 128 cloth assembly (force, Jacobians, fused sweep, a pure
 //! store floor, one SpMV), best of 100 runs each, for docs/perf/hookean-massspring.md:
 //! `cargo run --release -p hookean-massspring --example assembly_breakdown`.
-use hookean_massspring::{ClothParams, SecondOrderProblem, cloth};
+mod common;
+
+use hookean_massspring::SecondOrderProblem;
 use hookean_sparse::LinearOperator;
 use std::time::Instant;
 fn main() {
-    let n = 128;
-    let (model, mut s) = cloth(&ClothParams {
-        nu: n,
-        nv: n,
-        ..Default::default()
-    })
-    .unwrap();
-    for (k, x) in s.x.iter_mut().enumerate() {
-        *x += 1e-4 * ((k * 7919 % 101) as f64 / 101.0 - 0.5);
-    }
-    for (k, v) in s.v.iter_mut().enumerate() {
-        *v = 0.1 * ((k * 104729 % 97) as f64 / 97.0 - 0.5);
-    }
+    let (model, s) = common::deformed_cloth(128);
     let (mut a, mut b) = model.new_jacobians();
     let mut f = vec![0.0; model.dim()];
     let mut y = vec![0.0; model.dim()];

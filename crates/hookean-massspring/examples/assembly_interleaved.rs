@@ -4,24 +4,15 @@
 //! docs/perf/hookean-massspring.md):
 //! `cargo run --release -p hookean-massspring --example assembly_interleaved [N]`
 //! (an N x N cloth, default 128).
-use hookean_massspring::{ClothParams, SecondOrderProblem, cloth};
+mod common;
+
+use hookean_massspring::SecondOrderProblem;
 use hookean_sparse::LinearOperator;
 fn main() {
     let n: usize = std::env::args()
         .nth(1)
         .map_or(128, |a| a.parse().expect("cloth size N"));
-    let (model, mut s) = cloth(&ClothParams {
-        nu: n,
-        nv: n,
-        ..Default::default()
-    })
-    .unwrap();
-    for (k, x) in s.x.iter_mut().enumerate() {
-        *x += 1e-4 * ((k * 7919 % 101) as f64 / 101.0 - 0.5);
-    }
-    for (k, v) in s.v.iter_mut().enumerate() {
-        *v = 0.1 * ((k * 104729 % 97) as f64 / 97.0 - 0.5);
-    }
+    let (model, s) = common::deformed_cloth(n);
     let (mut a, mut b) = model.new_jacobians();
     let mut f = vec![0.0; model.dim()];
     let mut y = vec![0.0; model.dim()];
