@@ -63,7 +63,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 newton: NewtonOptions {
                     rtol: 1e-2,
                     linear_rtol: 1e-2,
-                    ..Default::default()
+                    ..SolverOptions::default_newton()
                 },
                 ..SolverOptions::with_h(0.01)
             };

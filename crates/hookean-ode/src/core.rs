@@ -387,7 +387,7 @@ impl<S: System> Core<S> {
     fn implicit_euler(&mut self, t: f64, h: f64) -> Result<StageInfo, StageFailure> {
         self.psi.copy_from_slice(&self.s);
         self.kbuf.copy_from_slice(&self.s);
-        if self.opts.newton.predictor == Predictor::Extrapolate && self.prev_h == h {
+        if self.opts.predictor == Predictor::Extrapolate && self.prev_h == h {
             for ((k, s), p) in self.kbuf.iter_mut().zip(&self.s).zip(&self.prev) {
                 *k += s - p;
             }
@@ -397,7 +397,7 @@ impl<S: System> Core<S> {
             h,
             &self.psi,
             &mut self.kbuf,
-            &self.opts.newton,
+            &self.opts,
             &mut self.stats,
         )?;
         self.prev.copy_from_slice(&self.s);
@@ -528,7 +528,7 @@ impl<S: System> Core<S> {
             0.5 * h,
             &self.psi,
             &mut self.kbuf,
-            &self.opts.newton,
+            &self.opts,
             &mut self.stats,
         )?;
         for (yi, ki) in y.iter_mut().zip(&self.kbuf) {
@@ -612,7 +612,7 @@ impl<S: System> Core<S> {
             gh,
             &self.psi,
             &mut self.kbuf,
-            &self.opts.newton,
+            &self.opts,
             &mut self.stats,
         )?;
         self.s.copy_from_slice(&self.kbuf);
@@ -658,7 +658,7 @@ impl<S: System> Core<S> {
                 gh,
                 &self.psi,
                 &mut self.kbuf,
-                &self.opts.newton,
+                &self.opts,
                 &mut self.stats,
             ) {
                 Ok(info) => info,

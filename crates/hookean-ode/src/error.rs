@@ -70,9 +70,10 @@ pub enum OdeError {
         t: f64,
         /// Number of retries made.
         retries: usize,
-        /// The solver's error.
+        /// The linear solver's error as Newton reported it (not converged
+        /// to the forcing term, or a `hookean-sparse` error).
         #[source]
-        source: SparseError,
+        source: NonlinearError,
     },
     /// The dense Jacobian of a first-order Newton step is singular.
     #[error("singular Newton matrix at t = {t} (pivot {pivot} is zero)")]

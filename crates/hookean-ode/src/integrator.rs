@@ -39,7 +39,7 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
         y0: &[f64],
         options: SolverOptions,
     ) -> Result<Self, OdeError> {
-        let sys = FirstSys::new(problem, &options.newton)?;
+        let sys = FirstSys::new(problem, &options)?;
         Ok(Self {
             core: Core::new(sys, method, t0, y0.to_vec(), options)?,
         })
@@ -208,7 +208,7 @@ impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
                 reason: "lumped masses must be positive and finite",
             });
         }
-        let sys = SecondSys::new(problem, &options.newton)?;
+        let sys = SecondSys::new(problem, &options)?;
         let mut s0 = x0.to_vec();
         s0.extend_from_slice(v0);
         Ok(Self {

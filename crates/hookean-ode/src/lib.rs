@@ -65,12 +65,10 @@ pub mod workprecision;
 
 pub use bdf::BdfCoefficients;
 pub use error::OdeError;
-pub use hookean_nonlinear::{ForcingTerm, NewtonMethod};
+pub use hookean_nonlinear::{ForcingTerm, NewtonMethod, NewtonOptions};
 pub use integrator::{FirstOrderIntegrator, SecondOrderIntegrator};
 pub use method::Method;
-pub use options::{
-    IntegrateInfo, NewtonOptions, Predictor, SolverOptions, Stats, StepControl, StepReport,
-};
+pub use options::{IntegrateInfo, Predictor, SolverOptions, Stats, StepControl, StepReport};
 pub use problem::{FirstOrderProblem, SecondOrderProblem};
 pub use system::FirstOrderForm;
 pub use tableau::ButcherTableau;

@@ -65,9 +65,10 @@ impl SimulationOptions {
                 preconditioner: PrecondKind::Mic0 {
                     omega: PrecondKind::MIC_OMEGA,
                 },
-                predictor: Predictor::Previous,
-                warm_start: true,
+                ..SolverOptions::default_newton()
             },
+            predictor: Predictor::Previous,
+            warm_start: true,
             ..SolverOptions::default()
         }
     }
