@@ -67,7 +67,7 @@ mod error;
 mod model;
 pub mod obj;
 
-pub use analysis::{Energies, ImplicitSystem, Momentum, PowerHook, StabilityInfo};
+pub use analysis::{Energies, ImplicitSystem, Momentum, StabilityInfo};
 pub use builders::{
     BlockParams, ClothParams, ClothPins, MeshParams, RopeParams, SpringMaterial, State, cloth,
     from_mesh, jelly_block, rope, tutorial_example3,

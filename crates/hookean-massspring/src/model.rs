@@ -10,7 +10,7 @@ use nalgebra::Vector3;
 use crate::collide::Collider;
 use crate::error::MassSpringError;
 
-/// A spring between particles `i` and `j` (DESIGN.md, "the reference scene"):
+/// A spring between particles `i` and `j` (docs/ARCHITECTURE.md, "the reference drape"):
 /// force on `i` is `f_i = k (l - l0) u + damping term`, `u = (x_j - x_i) / l`,
 /// and `f_j = -f_i`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -82,7 +82,7 @@ pub struct ModelOptions {
     pub gravity: [f64; 3],
     /// Replace `1 - l0/l` by `max(0, 1 - l0/l)` in the stiffness blocks so
     /// that `df/dx` is negative semidefinite and `M - h df/dv - h^2 df/dx`
-    /// is SPD (DESIGN.md). Default `true`.
+    /// is SPD (docs/ARCHITECTURE.md). Default `true`.
     pub clamp_stiffness: bool,
     /// See [`DampingInDfdx`]. Default [`DampingInDfdx::Drop`].
     pub damping_in_dfdx: DampingInDfdx,

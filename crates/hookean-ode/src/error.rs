@@ -104,6 +104,22 @@ pub enum OdeError {
         /// The name given.
         name: String,
     },
+    /// A step-size controller option or argument is out of range.
+    #[error("invalid step-size controller parameter {name}: {message}")]
+    InvalidController {
+        /// The parameter.
+        name: &'static str,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A step-size controller would have to go below its `h_min`.
+    #[error("step size {h:e} would fall below h_min = {h_min:e}")]
+    StepSizeTooSmall {
+        /// The step size that was requested.
+        h: f64,
+        /// The lower bound.
+        h_min: f64,
+    },
     /// An error of `hookean-sparse` outside a Newton solve (set-up, constraints).
     #[error(transparent)]
     Sparse(#[from] SparseError),

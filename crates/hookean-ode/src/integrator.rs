@@ -57,6 +57,18 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
         self.core.step(None)
     }
 
+    /// One step that does not pass `t_end`, or `None` once `t_end` is
+    /// reached: the landing rule of every driver (a nominal step that ends
+    /// within `max(1e-9 h, 8 eps |t_end|)` of `t_end` is taken and ends
+    /// exactly on it; a longer one is shortened to end on it).
+    ///
+    /// # Errors
+    /// As [`step`](Self::step); [`OdeError::InvalidParameter`] for a
+    /// non-finite `t_end` or one before the current time.
+    pub fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, OdeError> {
+        self.core.step_to(t_end)
+    }
+
     /// Integrates to `t_end` (the last step is shortened to land on it).
     ///
     /// # Errors
@@ -131,7 +143,7 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
 /// Integrates a second-order problem `M x'' = f(t, x, v)` (setting (5)/(6))
 /// with any [`Method`]. Explicit Runge-Kutta methods run on the first-order
 /// form (6); FB Euler and Verlet are the symplectic schemes; the implicit
-/// methods solve the reduced velocity form of DESIGN.md (unknown `V`, size
+/// methods solve the reduced velocity form of docs/ARCHITECTURE.md (unknown `V`, size
 /// `dim`, SPD matrix `M - c h df/dv - (c h)^2 df/dx`, PCG, filtered by the
 /// constraints that [`SecondOrderProblem::begin_step`] sets).
 ///
@@ -223,6 +235,15 @@ impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
     /// when PCG fails after the allowed retries.
     pub fn step(&mut self) -> Result<StepReport, OdeError> {
         self.core.step(None)
+    }
+
+    /// One step that does not pass `t_end`, or `None` once `t_end` is
+    /// reached; see [`FirstOrderIntegrator::step_to`].
+    ///
+    /// # Errors
+    /// As [`FirstOrderIntegrator::step_to`].
+    pub fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, OdeError> {
+        self.core.step_to(t_end)
     }
 
     /// Integrates to `t_end`.

@@ -28,9 +28,9 @@
 //! first-order problems, the reduced velocity form with (filtered) PCG for
 //! second-order ones. Fixed-step BDF(k) starts with the implicit midpoint
 //! rule extrapolated from 2, 4 and 6 substeps (local error `O(h^7)`);
-//! variable-step BDF2 starts with implicit Euler and is driven by
-//! `hookean-nonlinear`'s PI controller (or its Newton-iteration controller,
-//! [`StepControl`]).
+//! variable-step BDF2 starts with implicit Euler and is driven by the PI
+//! controller of [`control`] (or its Newton-iteration controller of the
+//! tutorial's section 3.4, [`StepControl`]).
 //!
 //! ```
 //! use hookean_ode::{FirstOrderIntegrator, FirstOrderProblem, Method, SolverOptions};
@@ -51,6 +51,7 @@
 //! ```
 
 pub mod bdf;
+pub mod control;
 mod core;
 pub mod error;
 pub mod integrator;
@@ -64,6 +65,10 @@ pub mod tutorial;
 pub mod workprecision;
 
 pub use bdf::BdfCoefficients;
+pub use control::{
+    IterationController, IterationControllerOptions, NewtonOutcome, PiController,
+    PiControllerOptions, StepDecision,
+};
 pub use error::OdeError;
 pub use hookean_nonlinear::{ForcingTerm, NewtonMethod, NewtonOptions};
 pub use integrator::{FirstOrderIntegrator, SecondOrderIntegrator};

@@ -1,6 +1,8 @@
 //! Options, statistics and step reports of the integrators.
 
-use hookean_nonlinear::{IterationControllerOptions, NewtonOptions, PiControllerOptions};
+use hookean_nonlinear::NewtonOptions;
+
+use crate::control::{IterationControllerOptions, PiControllerOptions};
 
 use crate::error::OdeError;
 
@@ -24,18 +26,18 @@ pub enum Predictor {
 }
 
 /// How the variable-step method chooses its step sizes: one of
-/// `hookean-nonlinear`'s controllers. Their `h_min`/`h_max` are replaced by
+/// the controllers of [`control`](crate::control). Their `h_min`/`h_max` are replaced by
 /// [`SolverOptions::h_min`] (at least `1e-300`) and [`SolverOptions::h_max`].
 #[derive(Debug, Clone, PartialEq)]
 pub enum StepControl {
     /// The error-based (PI) controller: accept when the weighted RMS norm
     /// of the local error estimate is `<= 1`, next step from the error
-    /// ([`PiController`](hookean_nonlinear::PiController)).
+    /// ([`PiController`](crate::PiController)).
     ErrorBased(PiControllerOptions),
     /// The Newton-iteration controller of the tutorial's section 3.4: the
     /// number of Newton iterations decides whether `h` grows or shrinks;
     /// every converged step is accepted, no error estimate is used
-    /// ([`IterationController`](hookean_nonlinear::IterationController)).
+    /// ([`IterationController`](crate::IterationController)).
     NewtonIterations(IterationControllerOptions),
 }
 
@@ -67,7 +69,7 @@ impl Default for StepControl {
 #[derive(Debug, Clone, PartialEq)]
 pub struct SolverOptions {
     /// The step size of the fixed-step methods and the initial step size
-    /// of the variable-step method. Default `1e-2` (DESIGN.md's drape scene).
+    /// of the variable-step method. Default `1e-2` (the reference drape, docs/ARCHITECTURE.md).
     pub h: f64,
     /// Relative tolerance of the variable-step method. Default `1e-6`.
     pub rtol: f64,

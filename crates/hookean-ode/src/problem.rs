@@ -1,7 +1,7 @@
 //! The problem contracts between models and integrators.
 //!
 //! Vectors are flat `f64` slices; for particle systems three entries per
-//! particle, xyz interleaved (DESIGN.md).
+//! particle, xyz interleaved (docs/ARCHITECTURE.md).
 
 use std::sync::Arc;
 

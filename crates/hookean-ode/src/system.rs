@@ -497,7 +497,7 @@ impl<P: SecondOrderProblem> NonlinearSystem for ReducedStage<'_, P> {
     }
 }
 
-/// Second-order problems in the reduced velocity form (DESIGN.md): the
+/// Second-order problems in the reduced velocity form (docs/ARCHITECTURE.md): the
 /// state is `[x; v]`; the stage `K = [X; V]` satisfies `X = psi_x + gh V`
 /// and `G(V) = M (V - psi_v) - gh f(tau, psi_x + gh V, V) = 0`, solved by
 /// `hookean-nonlinear`'s Newton with the SPD matrix

@@ -168,7 +168,7 @@ fn d_duration() -> f64 {
     5.0
 }
 
-/// `[cloth]`: the reference drape of DESIGN.md by default.
+/// `[cloth]`: the reference drape of docs/ARCHITECTURE.md by default.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ClothScene {
