@@ -17,7 +17,7 @@
 
 use std::sync::Arc;
 
-use hookean_ode::SecondOrderProblem;
+use hookean_problem::SecondOrderProblem;
 use hookean_sparse::block::{self, Block3};
 use hookean_sparse::{BlockPattern, Constraints, SymBlockMatrix};
 use nalgebra::Vector3;

@@ -56,7 +56,7 @@ pub enum SpringDamping {
     None,
 }
 
-/// What the symmetric `df/dx` of [`SecondOrderProblem::force_jacobians`](hookean_ode::SecondOrderProblem::force_jacobians)
+/// What the symmetric `df/dx` of [`SecondOrderProblem::force_jacobians`](hookean_problem::SecondOrderProblem::force_jacobians)
 /// does with the position derivative of projected damping,
 /// `G = d/l [ (u . dv)(I - u u^T) + u dv^T (I - u u^T) ]` (`dv = v_j - v_i`),
 /// which is not symmetric and cannot be stored in a symmetric block matrix.
@@ -226,7 +226,7 @@ impl Clone for DiagScratch {
 /// filtering paper's eq. 1) with lumped masses, springs, gravity, external
 /// forces, air friction, pinned / sliding particles and colliders.
 ///
-/// It implements [`hookean_ode::SecondOrderProblem`]: forces and both
+/// It implements [`hookean_problem::SecondOrderProblem`]: forces and both
 /// Jacobians are assembled into 3x3 block matrices whose pattern (one block
 /// per spring plus the diagonal) is built once in [`new`](Self::new); each
 /// spring's block slots are cached, so refills do no search and no
@@ -235,7 +235,7 @@ impl Clone for DiagScratch {
 /// **Constraints.** A particle with constrained directions (pinned: all
 /// three; sliding: one or two; in contact with a collider: the surface
 /// normal, for the current step) is held by a support whose reaction
-/// cancels the force along those directions: [`force`](hookean_ode::SecondOrderProblem::force)
+/// cancels the force along those directions: [`force`](hookean_problem::SecondOrderProblem::force)
 /// returns `P_p f_p` with `P_p = I - sum_k d_k d_k^T`, and the Jacobian blocks
 /// are `P_i (df_i/dx_j) P_j`, exact on admissible motions. Hence explicit
 /// integrators (which see only `force`) keep pinned particles fixed, and the
@@ -522,7 +522,7 @@ impl MassSpringModel {
     }
 
     /// Pins `particle` at `position`: from the next
-    /// [`begin_step`](hookean_ode::SecondOrderProblem::begin_step) on, it is
+    /// [`begin_step`](hookean_problem::SecondOrderProblem::begin_step) on, it is
     /// held there with zero velocity.
     ///
     /// # Errors
@@ -667,7 +667,7 @@ impl MassSpringModel {
     /// Checks a state: lengths `3 n`, finite entries, and no spring whose
     /// endpoints coincide (its direction would be undefined).
     ///
-    /// The [`SecondOrderProblem`](hookean_ode::SecondOrderProblem) methods
+    /// The [`SecondOrderProblem`](hookean_problem::SecondOrderProblem) methods
     /// are the unchecked hot path; call this once on states from outside.
     ///
     /// # Errors

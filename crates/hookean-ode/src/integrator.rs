@@ -12,8 +12,8 @@ use crate::core::Core;
 use crate::error::OdeError;
 use crate::method::Method;
 use crate::options::{IntegrateInfo, SolverOptions, Stats, StepReport};
-use crate::problem::{FirstOrderProblem, SecondOrderProblem};
 use crate::system::{FirstSys, SecondSys};
+use hookean_problem::{FirstOrderProblem, SecondOrderProblem};
 
 /// Integrates a first-order problem `y' = f(t, y)` (eq. 7) with any
 /// [`Method`] except the second-order-only ones (FB Euler, Verlet).

@@ -2,8 +2,10 @@
 //! tutorial ("Numerical Techniques for Soft Object Simulation") and the
 //! forward-backward Euler of the filtering paper (Ahmad et al.).
 //!
-//! - [`problem`]: the contracts, [`FirstOrderProblem`] `y' = f(t, y)` and
-//!   [`SecondOrderProblem`] `M x'' = f(t, x, v)` (lumped `M`, 3x3-block Jacobians).
+//! - The contracts, [`FirstOrderProblem`] `y' = f(t, y)` and
+//!   [`SecondOrderProblem`] `M x'' = f(t, x, v)` (lumped `M`, 3x3-block
+//!   Jacobians), live in the small `hookean-problem` crate (re-exported
+//!   here), so that models need not depend on the integrators.
 //! - [`Method`]: explicit Euler, explicit midpoint, RK4, any explicit
 //!   [`ButcherTableau`], FB Euler, Stoermer-Verlet, implicit Euler, implicit
 //!   midpoint, fixed-step BDF(1..6) and variable-step BDF2; by name through
@@ -57,7 +59,6 @@ pub mod error;
 pub mod integrator;
 pub mod method;
 pub mod options;
-pub mod problem;
 pub mod stability;
 mod system;
 pub mod tableau;
@@ -71,9 +72,9 @@ pub use control::{
 };
 pub use error::OdeError;
 pub use hookean_nonlinear::{ForcingTerm, NewtonMethod, NewtonOptions};
+pub use hookean_problem::{FirstOrderProblem, SecondOrderProblem};
 pub use integrator::{FirstOrderIntegrator, SecondOrderIntegrator};
 pub use method::Method;
 pub use options::{IntegrateInfo, Predictor, SolverOptions, Stats, StepControl, StepReport};
-pub use problem::{FirstOrderProblem, SecondOrderProblem};
 pub use system::FirstOrderForm;
 pub use tableau::ButcherTableau;

@@ -13,7 +13,7 @@ use hookean_sparse::{AnyPreconditioner, Constraints, SymBlockMatrix};
 
 use crate::error::OdeError;
 use crate::options::{SolverOptions, Stats};
-use crate::problem::{FirstOrderProblem, SecondOrderProblem};
+use hookean_problem::{FirstOrderProblem, SecondOrderProblem};
 
 /// Why one attempt at solving a stage equation failed.
 #[derive(Debug)]

@@ -10,7 +10,7 @@
 
 use std::sync::Arc;
 
-use hookean_ode::SecondOrderProblem;
+use hookean_problem::SecondOrderProblem;
 use hookean_sparse::{Block3, BlockPattern, Constraints, Slot, SymBlockMatrix, block};
 
 /// A chain of `n` particles along x joined by springs `(i, i+1)`; the
