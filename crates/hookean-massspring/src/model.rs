@@ -372,10 +372,8 @@ impl MassSpringModel {
             .map(|p| probe.slot(p, p))
             .collect::<Result<Vec<_>, _>>()?;
         let mass = masses.iter().flat_map(|&m| [m, m, m]).collect();
-        let row_ptr = pattern.row_ptr();
-        let col_idx = pattern.col_idx();
         // The pattern's column indices are u32, so particle indices fit;
-        // storage positions are checked.
+        // storage positions (from the pattern's slots) are checked.
         let to_u32 = |k: usize| {
             u32::try_from(k).map_err(|_| MassSpringError::InvalidParameter {
                 name: "springs",
@@ -385,17 +383,16 @@ impl MassSpringModel {
         let mut hot: Vec<HotSpring> = Vec::with_capacity(springs.len());
         for s in &springs {
             let (r, c) = (s.i.min(s.j), s.i.max(s.j));
-            let start = row_ptr[r] + 1;
-            let k = col_idx[start..row_ptr[r + 1]]
-                .binary_search(&(c as u32))
-                .map_err(|_| hookean_sparse::SparseError::NotInPattern { row: r, col: c })?;
+            let upper = pattern
+                .find(r, c)
+                .ok_or(hookean_sparse::SparseError::NotInPattern { row: r, col: c })?;
             hot.push(HotSpring {
                 i: to_u32(r)?,
                 j: to_u32(c)?,
                 rest_length: s.rest_length,
                 stiffness: s.stiffness,
                 damping: s.damping,
-                upper: to_u32(start + k)?,
+                upper: to_u32(upper.index())?,
                 first: false,
             });
         }
@@ -403,7 +400,7 @@ impl MassSpringModel {
         for k in 0..hot.len() {
             hot[k].first = k == 0 || hot[k - 1].upper != hot[k].upper;
         }
-        let diag_index = (0..n).map(|p| row_ptr[p]).collect();
+        let diag_index = diag_slots.iter().map(Slot::index).collect();
         let mut hot_row_ptr = vec![0usize; n + 1];
         for h in &hot {
             hot_row_ptr[h.i as usize + 1] += 1;

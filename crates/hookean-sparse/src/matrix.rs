@@ -50,6 +50,22 @@ pub struct Slot {
     transposed: bool,
 }
 
+impl Slot {
+    /// Position of the stored block in [`SymBlockMatrix::values`] (the
+    /// same position in every matrix on this pattern). Assembly code that
+    /// writes the value array directly takes its positions from here; the
+    /// storage order is this crate's business.
+    pub fn index(&self) -> usize {
+        self.index
+    }
+
+    /// Whether the requested block `(i, j)` is the transpose of the stored
+    /// one (`i > j`: the lower triangle is not stored).
+    pub fn is_transposed(&self) -> bool {
+        self.transposed
+    }
+}
+
 impl BlockPattern {
     /// Builds the pattern of an `n x n` block matrix from block pairs.
     ///
