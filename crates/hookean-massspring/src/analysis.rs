@@ -222,10 +222,8 @@ impl MassSpringModel {
         for ((b, f), kv) in sys.b.iter_mut().zip(&sys.f).zip(&sys.kv) {
             *b = h * (f + h * kv);
         }
-        sys.a.set_zero();
-        sys.a.add_to_diagonal(&self.mass)?;
-        sys.a.add_scaled(-h, &sys.dfdv)?;
-        sys.a.add_scaled(-h * h, &sys.dfdx)?;
+        sys.a
+            .assign_diagonal_plus_combination(&self.mass, -h * h, &sys.dfdx, -h, &sys.dfdv)?;
         Ok(())
     }
 
