@@ -731,7 +731,7 @@ mod tests {
         a.mul_vec(&x, &mut y).unwrap();
         for r in 0..15 {
             let expected: f64 = (0..15).map(|c| d[r][c] * x[c]).sum();
-            assert!((y[r] - expected).abs() < 1e-13);
+            approx::assert_abs_diff_eq!(y[r], expected, epsilon = 1e-13);
         }
     }
 
@@ -755,10 +755,10 @@ mod tests {
         a.mul_vec(&expected_p, &mut expected_q).unwrap();
         assert_eq!(p, expected_p);
         for (u, v) in q.iter().zip(&expected_q) {
-            assert!((u - v).abs() < 1e-14);
+            approx::assert_abs_diff_eq!(u, v, epsilon = 1e-14);
         }
         let expected_pq: f64 = expected_p.iter().zip(&expected_q).map(|(u, v)| u * v).sum();
-        assert!((pq - expected_pq).abs() < 1e-13 * expected_pq.abs());
+        approx::assert_relative_eq!(pq, expected_pq, max_relative = 1e-13);
     }
 
     #[test]
@@ -771,7 +771,8 @@ mod tests {
         let d: Vec<f64> = (0..12).map(|k| 0.5 + k as f64).collect();
         let (a, b) = (-1e-4, -1e-2);
         let mut m = SymBlockMatrix::new(x.pattern().clone());
-        m.assign_diagonal_plus_combination(&d, a, &x, b, &y).unwrap();
+        m.assign_diagonal_plus_combination(&d, a, &x, b, &y)
+            .unwrap();
         let (dm, dx, dy) = (dense(&m), dense(&x), dense(&y));
         for r in 0..12 {
             for c in 0..12 {
@@ -781,8 +782,14 @@ mod tests {
             }
         }
         let other = chain(3);
-        assert!(m.assign_diagonal_plus_combination(&d, a, &other, b, &y).is_err());
-        assert!(m.assign_diagonal_plus_combination(&d[..3], a, &x, b, &y).is_err());
+        assert!(
+            m.assign_diagonal_plus_combination(&d, a, &other, b, &y)
+                .is_err()
+        );
+        assert!(
+            m.assign_diagonal_plus_combination(&d[..3], a, &x, b, &y)
+                .is_err()
+        );
     }
 
     #[test]
