@@ -15,6 +15,7 @@ use serde::Serialize;
 
 use crate::CliError;
 use crate::render::render;
+use crate::view::{FrameEnergies, ViewCollider, ViewFrame, ViewRun};
 
 #[derive(Debug, Args)]
 pub struct RunArgs {
@@ -54,6 +55,10 @@ pub struct RunRecord {
     pub final_kinetic_energy: f64,
     pub final_total_energy: f64,
     pub frames: usize,
+    /// Simulated time of each `frame-NNNN.obj`.
+    pub frame_times: Vec<f64>,
+    /// The colliders, for viewers (`hookean view`).
+    pub colliders: Vec<ViewCollider>,
 }
 
 /// One row per accepted step.
@@ -98,12 +103,14 @@ impl Sink for StepsCsv {
     }
 }
 
-/// OBJ frames at a fixed rate of simulated time, coloured by speed.
+/// OBJ frames at a fixed rate of simulated time, coloured by speed, and the
+/// same frames kept for `view.html`.
 struct ObjFrames {
     dir: PathBuf,
     interval: f64,
     next: f64,
     count: usize,
+    view: Vec<ViewFrame>,
 }
 
 impl ObjFrames {
@@ -113,10 +120,30 @@ impl ObjFrames {
         let colours = hookean::massspring::speed_colours(sim.v(), 0.0);
         sim.model()
             .write_obj(BufWriter::new(file), sim.x(), Some(&colours))?;
+        self.view.push(view_frame(sim)?);
         self.count += 1;
         self.next += self.interval;
         Ok(())
     }
+}
+
+/// The current state as a frame of `view.html`.
+fn view_frame(sim: &Simulation) -> Result<ViewFrame, HookeanError> {
+    let e = sim.energies()?;
+    Ok(ViewFrame {
+        t: sim.t(),
+        x: sim.x().to_vec(),
+        speed: sim
+            .v()
+            .chunks_exact(3)
+            .map(|c| (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt())
+            .collect(),
+        energies: Some(FrameEnergies {
+            kinetic: e.kinetic,
+            gravitational: e.gravitational,
+            spring: e.spring,
+        }),
+    })
 }
 
 impl Sink for ObjFrames {
@@ -201,6 +228,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         },
         next: 0.0,
         count: 0,
+        view: Vec::new(),
     };
     if scene.output.frame_rate > 0.0 {
         frames.write(&sim).map_err(failed)?;
@@ -257,6 +285,13 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         final_kinetic_energy: energies.kinetic,
         final_total_energy: energies.total(),
         frames: frames.count,
+        frame_times: frames.view.iter().map(|f| f.t).collect(),
+        colliders: sim
+            .model()
+            .colliders()
+            .iter()
+            .map(ViewCollider::from)
+            .collect(),
     };
     let json = serde_json::to_string_pretty(&record).expect("records serialise");
     let summary_path = out.join("summary.json");
@@ -275,6 +310,23 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     canvas
         .write_png(&out.join("final.png"))
         .map_err(CliError::Failed)?;
+
+    // view.html: the recorded frames (the last state alone without frames).
+    let mut view_frames = std::mem::take(&mut frames.view);
+    if view_frames.is_empty() {
+        view_frames.push(view_frame(&sim).map_err(failed)?);
+    }
+    let faces = sim.model().faces().to_vec();
+    let colliders = record.colliders.clone();
+    ViewRun {
+        summary: serde_json::to_value(&record).expect("records serialise"),
+        faces,
+        segments,
+        colliders,
+        frames: view_frames,
+        speed_source: "particle velocities of the run".into(),
+    }
+    .write(&out.join("view.html"))?;
     eprintln!(
         "{}: {} steps, {} Newton and {} CG iterations, {:.2} s wall for {:.2} s simulated ({:.2}x real time); wrote {}",
         name,
