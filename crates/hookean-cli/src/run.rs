@@ -10,11 +10,12 @@ use clap::Args;
 use hookean::scene::Scene;
 use hookean::{HookeanError, RunSummary, Simulation, Sink};
 use hookean_ode::StepReport;
+use hookean_ode::tutorial::LinearOscillator;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
 
 use crate::CliError;
-use crate::render::render;
+use crate::render::{RenderScene, render};
 use crate::view::{FrameEnergies, ViewCollider, ViewFrame, ViewRun};
 
 #[derive(Debug, Args)]
@@ -155,6 +156,37 @@ impl Sink for ObjFrames {
     }
 }
 
+/// `(t, z, exact z)` of the moving particle of the tutorial's example 3.
+struct ParticleTrace {
+    points: Vec<(f64, f64, f64)>,
+    exact: Option<LinearOscillator>,
+}
+
+impl ParticleTrace {
+    fn push(&mut self, sim: &Simulation) {
+        let t = sim.t();
+        let exact = self.exact.map_or(f64::NAN, |o| o.exact(t)[0]);
+        self.points.push((t, sim.x()[5], exact));
+    }
+}
+
+impl Sink for ParticleTrace {
+    fn step(&mut self, sim: &Simulation, _: &StepReport) -> Result<(), HookeanError> {
+        self.push(sim);
+        Ok(())
+    }
+}
+
+/// The exact solution of example 3 when the scene keeps its model (the
+/// default damping, no air friction, g = -10 m/s^2); `None` otherwise.
+fn exact_example3(scene: &Scene) -> Option<LinearOscillator> {
+    let m = &scene.model;
+    (m.gravity == [0.0, 0.0, -10.0]
+        && m.air_friction == 0.0
+        && m.damping == hookean::scene::DampingScene::Projected)
+        .then(LinearOscillator::example3)
+}
+
 /// The progress bar: simulated time, steps per second, current step size.
 struct Progress {
     bar: ProgressBar,
@@ -248,8 +280,19 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         start: Instant::now(),
         steps: 0,
     };
+    // The tutorial's example 3 ([particle]) is pictured as z(t) against its exact solution.
+    let mut trace = scene.particle.as_ref().map(|_| ParticleTrace {
+        points: vec![],
+        exact: exact_example3(&scene),
+    });
+    if let Some(t) = &mut trace {
+        t.push(&sim);
+    }
     let summary = {
         let mut sinks: Vec<&mut dyn Sink> = vec![&mut csv, &mut progress];
+        if let Some(t) = &mut trace {
+            sinks.push(t);
+        }
         if scene.output.frame_rate > 0.0 {
             sinks.push(&mut frames);
         }
@@ -298,35 +341,58 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     std::fs::write(&summary_path, json + "\n")
         .map_err(|e| failed(format!("{}: {e}", summary_path.display())))?;
 
-    let segments: Vec<(usize, usize)> = sim.model().springs().iter().map(|s| (s.i, s.j)).collect();
-    let canvas = render(
-        sim.x(),
-        sim.v(),
-        sim.model().faces(),
-        &segments,
-        scene.output.width,
-        scene.output.height,
-    );
+    // view.html: the recorded frames (the last state alone without frames).
+    let mut view_frames = std::mem::take(&mut frames.view);
+    let last = view_frame(&sim).map_err(failed)?;
+    let last_is_a_frame = view_frames.last().is_some_and(|f| f.t == last.t);
+    if !last_is_a_frame {
+        view_frames.push(last);
+    }
+    let view = ViewRun {
+        summary: serde_json::to_value(&record).expect("records serialise"),
+        faces: sim.model().faces().to_vec(),
+        segments: sim.model().springs().iter().map(|s| (s.i, s.j)).collect(),
+        colliders: record.colliders.clone(),
+        frames: view_frames,
+        speed_source: "particle velocities of the run".into(),
+    };
+
+    // final.png: the last state on the run's scale (box and speeds of every frame).
+    let canvas = match &trace {
+        Some(ParticleTrace { points, .. }) => crate::plot::TimePlot {
+            title: "Tutorial example 3: particle on a damped spring",
+            y_label: "height z (m)",
+            numerical: &format!("{} (h = {} s)", sim.method(), scene.integrator.h),
+            points,
+        }
+        .draw(scene.output.width, scene.output.height),
+        None => render(
+            &RenderScene {
+                x: sim.x(),
+                v: sim.v(),
+                faces: &view.faces,
+                segments: &view.segments,
+                colliders: &view.colliders,
+                bounds: view.bounds(),
+                speed_max: view.speed_max(),
+                t: sim.t(),
+            },
+            scene.output.width,
+            scene.output.height,
+        ),
+    }
+    .map_err(CliError::Failed)?;
     canvas
         .write_png(&out.join("final.png"))
         .map_err(CliError::Failed)?;
-
-    // view.html: the recorded frames (the last state alone without frames).
-    let mut view_frames = std::mem::take(&mut frames.view);
-    if view_frames.is_empty() {
-        view_frames.push(view_frame(&sim).map_err(failed)?);
+    let mut view = view;
+    if !last_is_a_frame {
+        view.frames.pop();
     }
-    let faces = sim.model().faces().to_vec();
-    let colliders = record.colliders.clone();
-    ViewRun {
-        summary: serde_json::to_value(&record).expect("records serialise"),
-        faces,
-        segments,
-        colliders,
-        frames: view_frames,
-        speed_source: "particle velocities of the run".into(),
+    if view.frames.is_empty() {
+        view.frames.push(view_frame(&sim).map_err(failed)?);
     }
-    .write(&out.join("view.html"))?;
+    view.write(&out.join("view.html"))?;
     eprintln!(
         "{}: {} steps, {} Newton and {} CG iterations, {:.2} s wall for {:.2} s simulated ({:.2}x real time); wrote {}",
         name,

@@ -138,7 +138,7 @@ fn quantise(x: f64, lo: f64, hi: f64) -> u16 {
 
 impl ViewRun {
     /// The bounding box of every frame's finite positions.
-    fn bounds(&self) -> ([f64; 3], [f64; 3]) {
+    pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
         let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
         for f in &self.frames {
             for p in f.x.chunks_exact(3) {

@@ -189,3 +189,42 @@ fn tutorial_example_2_with_bdf2_is_second_order_accurate() {
     let ratio = errors[0] / errors[1];
     assert!((3.5..4.5).contains(&ratio), "{errors:?}");
 }
+
+/// Speeds are coloured on the run's fixed scale, not the frame's: the jelly
+/// block, at rest on its plane at the end (kinetic energy ~1e-13 J), is drawn
+/// in the colour of zero speed, with no red (the top of the scale) in the view.
+#[test]
+fn a_jelly_at_rest_is_drawn_blue_not_red() {
+    let out = scratch("jelly");
+    let o = hookean(&[
+        "run",
+        &repo("scenes/jelly.toml"),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert!(summary["final_kinetic_energy"].as_f64().unwrap() < 1e-6);
+    let (w, _, px) = decode(&out.join("final.png"));
+    let w = w as usize;
+    // The 3D view: everything left of the colour bar strip.
+    let view: Vec<&[u8]> = px
+        .chunks(3)
+        .enumerate()
+        .filter(|(k, _)| k % w < w - 130)
+        .map(|(_, p)| p)
+        .collect();
+    let red = view
+        .iter()
+        .filter(|p| p[0] > 160 && p[1] < 120 && p[2] < 100)
+        .count();
+    let blue = view
+        .iter()
+        .filter(|p| p[2] > 120 && p[0] < 90 && p[2] > p[1] + 40)
+        .count();
+    assert_eq!(red, 0, "red pixels in the view of a body at rest");
+    assert!(blue > 2000, "only {blue} blue pixels");
+    let _ = std::fs::remove_dir_all(&out);
+}
