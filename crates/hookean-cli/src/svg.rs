@@ -11,13 +11,21 @@ pub const PALETTE: [&str; 10] = [
     "#bcbd22", "#17becf",
 ];
 
-/// Marker shapes cycled through by the series of a line plot.
-const MARKERS: [Marker; 4] = [
+/// Marker shapes cycled through by the series of a line plot (7 shapes,
+/// coprime to the 10 colours and the 3 dash patterns, so that two series
+/// with the same colour differ in marker and dash).
+const MARKERS: [Marker; 7] = [
     Marker::Circle,
     Marker::Square,
     Marker::Triangle,
     Marker::Diamond,
+    Marker::TriangleDown,
+    Marker::Cross,
+    Marker::Plus,
 ];
+
+/// Dash patterns (`stroke-dasharray`) cycled through by the series.
+const DASHES: [&str; 3] = ["none", "7 3", "2 2"];
 
 #[derive(Debug, Clone, Copy)]
 enum Marker {
@@ -25,6 +33,20 @@ enum Marker {
     Square,
     Triangle,
     Diamond,
+    TriangleDown,
+    Cross,
+    Plus,
+}
+
+/// Colour, marker and dash of series `i`: no two of the first 30 series
+/// share all three, and series `i` and `i + 10` (same colour) differ in both
+/// marker and dash.
+fn series_style(i: usize) -> (&'static str, Marker, &'static str) {
+    (
+        PALETTE[i % PALETTE.len()],
+        MARKERS[i % MARKERS.len()],
+        DASHES[i % DASHES.len()],
+    )
 }
 
 /// Escapes text for SVG element content and attribute values.
@@ -99,6 +121,37 @@ fn marker(out: &mut String, m: Marker, x: f64, y: f64, colour: &str) {
                 c(y + r * 0.8),
                 c(x - r),
                 c(y + r * 0.8)
+            );
+        }
+        Marker::TriangleDown => {
+            let _ = writeln!(
+                out,
+                "<path d=\"M{} {} L{} {} L{} {} Z\" fill=\"{colour}\"/>",
+                c(x),
+                c(y + r * 1.2),
+                c(x + r),
+                c(y - r * 0.8),
+                c(x - r),
+                c(y - r * 0.8)
+            );
+        }
+        Marker::Cross | Marker::Plus => {
+            let (a, b) = if matches!(m, Marker::Cross) {
+                ([-r, -r, r, r], [-r, r, r, -r])
+            } else {
+                ([-r * 1.2, 0.0, r * 1.2, 0.0], [0.0, -r * 1.2, 0.0, r * 1.2])
+            };
+            let _ = writeln!(
+                out,
+                "<path d=\"M{} {} L{} {} M{} {} L{} {}\" stroke=\"{colour}\" stroke-width=\"2\" fill=\"none\"/>",
+                c(x + a[0]),
+                c(y + b[0]),
+                c(x + a[2]),
+                c(y + b[2]),
+                c(x + a[1]),
+                c(y + b[1]),
+                c(x + a[3]),
+                c(y + b[3])
             );
         }
         Marker::Diamond => {
@@ -258,6 +311,51 @@ impl LogLogPlot {
                 c(y + 4.0)
             );
         }
+        // Ticks at 2..9 times each decade; on axes of at most two decades
+        // those at 2 and 5 are labelled too (else all data may sit between
+        // two labels).
+        for k in x0..x1 {
+            for m in 2..10 {
+                let v = m as f64 * 10f64.powi(k);
+                let x = sx(v);
+                let _ = writeln!(
+                    out,
+                    "<line x1=\"{x}\" y1=\"{}\" x2=\"{x}\" y2=\"{}\" stroke=\"black\"/>",
+                    c(top + ph),
+                    c(top + ph + 3.0),
+                    x = c(x)
+                );
+                if x1 - x0 <= 2 && (m == 2 || m == 5) {
+                    let _ = writeln!(
+                        out,
+                        "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\" font-size=\"10\">{m}·10<tspan dy=\"-4\" font-size=\"8\">{k}</tspan></text>",
+                        c(x),
+                        c(top + ph + 18.0)
+                    );
+                }
+            }
+        }
+        for k in y0..y1 {
+            for m in 2..10 {
+                let v = m as f64 * 10f64.powi(k);
+                let y = sy(v);
+                let _ = writeln!(
+                    out,
+                    "<line x1=\"{}\" y1=\"{y}\" x2=\"{}\" y2=\"{y}\" stroke=\"black\"/>",
+                    c(left - 3.0),
+                    c(left),
+                    y = c(y)
+                );
+                if y1 - y0 <= 2 && (m == 2 || m == 5) {
+                    let _ = writeln!(
+                        out,
+                        "<text x=\"{}\" y=\"{}\" text-anchor=\"end\" font-size=\"10\">{m}·10<tspan dy=\"-4\" font-size=\"8\">{k}</tspan></text>",
+                        c(left - 8.0),
+                        c(y + 4.0)
+                    );
+                }
+            }
+        }
         let _ = writeln!(
             out,
             "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text>",
@@ -273,8 +371,7 @@ impl LogLogPlot {
         );
         // Curves.
         for (i, s) in self.series.iter().enumerate() {
-            let colour = PALETTE[i % PALETTE.len()];
-            let m = MARKERS[(i / PALETTE.len() + i) % MARKERS.len()];
+            let (colour, m, dash) = series_style(i);
             let p: Vec<(f64, f64)> = s
                 .points
                 .iter()
@@ -288,7 +385,7 @@ impl LogLogPlot {
                     .collect();
                 let _ = writeln!(
                     out,
-                    "<polyline fill=\"none\" stroke=\"{colour}\" stroke-width=\"1.5\" points=\"{}\"><title>{}</title></polyline>",
+                    "<polyline fill=\"none\" stroke=\"{colour}\" stroke-width=\"1.5\" stroke-dasharray=\"{dash}\" points=\"{}\"><title>{}</title></polyline>",
                     coords.join(" "),
                     escape(&s.name)
                 );
@@ -301,7 +398,7 @@ impl LogLogPlot {
             let lx = left + pw + 20.0;
             let _ = writeln!(
                 out,
-                "<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"{colour}\" stroke-width=\"1.5\"/>",
+                "<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"{colour}\" stroke-width=\"1.5\" stroke-dasharray=\"{dash}\"/>",
                 c(lx),
                 c(ly),
                 c(lx + 24.0),
@@ -388,7 +485,7 @@ impl RegionPanels {
         let pw = 200.0;
         let ph = (pw * aspect).clamp(80.0, 400.0);
         let (cell_w, cell_h) = (pw + 70.0, ph + 75.0);
-        let (width, height) = (cols as f64 * cell_w + 20.0, rows as f64 * cell_h + 90.0);
+        let (width, height) = (cols as f64 * cell_w + 20.0, rows as f64 * cell_h + 110.0);
         let mut out = header(width, height);
         let _ = writeln!(
             out,
@@ -508,8 +605,8 @@ impl RegionPanels {
                 y = c(top + ph / 2.0)
             );
         }
-        // Legend.
-        let ly = height - 30.0;
+        // Legend: one entry per line (the texts are long).
+        let ly = height - 44.0;
         let _ = writeln!(
             out,
             "<rect x=\"30\" y=\"{}\" width=\"24\" height=\"12\" fill=\"{}\" fill-opacity=\"0.45\"/><text x=\"60\" y=\"{}\">{}</text>",
@@ -520,11 +617,11 @@ impl RegionPanels {
         );
         let _ = writeln!(
             out,
-            "<line x1=\"330\" y1=\"{y}\" x2=\"354\" y2=\"{y}\" stroke=\"{}\" stroke-width=\"1.5\"/><text x=\"360\" y=\"{}\">{}</text>",
+            "<line x1=\"30\" y1=\"{y}\" x2=\"54\" y2=\"{y}\" stroke=\"{}\" stroke-width=\"1.5\"/><text x=\"60\" y=\"{}\">{}</text>",
             PALETTE[3],
-            c(ly),
+            c(ly + 22.0),
             escape(&self.curve_label),
-            y = c(ly - 4.0)
+            y = c(ly + 18.0)
         );
         out.push_str("</svg>\n");
         out
@@ -540,6 +637,20 @@ mod tests {
         assert_eq!(decades([3e-7, 0.5, 20.0].into_iter()), (-7, 2));
         assert_eq!(decades([1.0].into_iter()), (0, 1));
         assert_eq!(decades([f64::NAN, -1.0].into_iter()), (0, 1));
+    }
+
+    #[test]
+    fn series_styles_are_distinct_and_same_colours_differ_in_marker_and_dash() {
+        for i in 0..30 {
+            for j in i + 1..30 {
+                let (a, b) = (series_style(i), series_style(j));
+                let same_marker = std::mem::discriminant(&a.1) == std::mem::discriminant(&b.1);
+                assert!(
+                    a.0 != b.0 || (!same_marker && a.2 != b.2),
+                    "series {i} and {j} look alike"
+                );
+            }
+        }
     }
 
     #[test]
