@@ -299,7 +299,7 @@ fn figure4_picture(img: &VelocityImage, name: &str, h: f64) -> Result<Canvas, St
         }
         right
             .draw(&Text::new(
-                "velocity (m/s)",
+                "velocity (m/s), clamped",
                 (40, 490),
                 ("sans-serif", 13).into_font(),
             ))

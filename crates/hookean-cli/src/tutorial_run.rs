@@ -139,13 +139,16 @@ fn integrate<P: FirstOrderProblem>(
         "summary.json",
         serde_json::to_string_pretty(&record).expect("serialises") + "\n",
     )?;
-    let (title, y_label) = match example {
-        1 => ("Tutorial example 1: y' = lambda y, y(0) = 1", "y"),
-        _ => ("Tutorial example 2: y'' = -5/2 y - 5 y'", "y"),
+    let title = match example {
+        1 => format!(
+            "Tutorial example 1: y' = {} y, y(0) = 1",
+            scene.tutorial.as_ref().map_or(f64::NAN, |t| t.lambda)
+        ),
+        _ => "Tutorial example 2: y'' = -5/2 y - 5 y'".to_string(),
     };
     crate::plot::TimePlot {
-        title,
-        y_label,
+        title: &title,
+        y_label: "y",
         numerical: &format!("{} (h = {} s)", ode.method(), scene.integrator.h),
         points: &points,
     }
