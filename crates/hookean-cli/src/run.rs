@@ -187,15 +187,36 @@ fn exact_example3(scene: &Scene) -> Option<LinearOscillator> {
         .then(LinearOscillator::example3)
 }
 
-/// The progress bar: simulated time, steps per second, current step size.
-struct Progress {
+/// The progress bar of a simulation up to `t_end`: simulated time, steps
+/// per second, current step size. Drawn only on a terminal, never if `quiet`.
+pub struct Progress {
     bar: ProgressBar,
     start: Instant,
     steps: usize,
 }
 
-impl Sink for Progress {
-    fn step(&mut self, sim: &Simulation, r: &StepReport) -> Result<(), HookeanError> {
+impl Progress {
+    /// A bar over `[0, t_end]` simulated seconds.
+    pub fn new(t_end: f64, quiet: bool) -> Self {
+        let bar = ProgressBar::new((t_end * 1000.0) as u64);
+        bar.set_draw_target(if quiet {
+            ProgressDrawTarget::hidden()
+        } else {
+            ProgressDrawTarget::stderr()
+        });
+        bar.set_style(
+            ProgressStyle::with_template("{bar:40} {percent:>3}% {msg} [{elapsed_precise}]")
+                .expect("valid template"),
+        );
+        Self {
+            bar,
+            start: Instant::now(),
+            steps: 0,
+        }
+    }
+
+    /// Records an accepted step (redraws every 8 steps).
+    pub fn update(&mut self, sim: &Simulation, r: &StepReport) {
         self.steps += 1;
         if self.steps.is_multiple_of(8) {
             let rate = self.steps as f64 / self.start.elapsed().as_secs_f64().max(1e-9);
@@ -206,11 +227,22 @@ impl Sink for Progress {
                 r.h
             ));
         }
+    }
+
+    /// Removes the bar.
+    pub fn clear(&self) {
+        self.bar.finish_and_clear();
+    }
+}
+
+impl Sink for Progress {
+    fn step(&mut self, sim: &Simulation, r: &StepReport) -> Result<(), HookeanError> {
+        self.update(sim, r);
         Ok(())
     }
 
     fn finish(&mut self, _: &Simulation, _: &RunSummary) -> Result<(), HookeanError> {
-        self.bar.finish_and_clear();
+        self.clear();
         Ok(())
     }
 }
@@ -265,21 +297,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     if scene.output.frame_rate > 0.0 {
         frames.write(&sim).map_err(failed)?;
     }
-    let bar = ProgressBar::new((scene.duration * 1000.0) as u64);
-    bar.set_draw_target(if args.quiet {
-        ProgressDrawTarget::hidden()
-    } else {
-        ProgressDrawTarget::stderr()
-    });
-    bar.set_style(
-        ProgressStyle::with_template("{bar:40} {percent:>3}% {msg} [{elapsed_precise}]")
-            .expect("valid template"),
-    );
-    let mut progress = Progress {
-        bar,
-        start: Instant::now(),
-        steps: 0,
-    };
+    let mut progress = Progress::new(scene.duration, args.quiet);
     // The tutorial's example 3 ([particle]) is pictured as z(t) against its exact solution.
     let mut trace = scene.particle.as_ref().map(|_| ParticleTrace {
         points: vec![],
