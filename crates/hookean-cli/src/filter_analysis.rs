@@ -19,7 +19,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use plotters::prelude::*;
 
 use crate::CliError;
-use crate::plot::{colour_bar, draw_error, draw_on};
+use crate::plot::{colour_bar, draw_error, draw_on, labelled_chart};
 use crate::render::Canvas;
 use crate::svg::{LogLogPlot, Series};
 
@@ -262,25 +262,13 @@ fn figure4_picture(img: &VelocityImage, name: &str, h: f64) -> Result<Canvas, St
     let (xr, yr) = draw_on(&mut canvas, |root| {
         root.fill(&WHITE).map_err(draw_error)?;
         let (left, right) = root.split_horizontally(690);
-        let mut chart = ChartBuilder::on(&left)
-            .caption(
-                format!("Figure 4: velocities over time, {name}, h = {h:.3e} s"),
-                ("sans-serif", 17),
-            )
-            .margin(12)
-            .x_label_area_size(44)
-            .y_label_area_size(64)
-            .build_cartesian_2d(0.0..cols as f64, 0.0..t_end)
-            .map_err(draw_error)?;
-        chart
-            .configure_mesh()
-            .disable_mesh()
-            .x_desc("particle index (grid row by row)")
-            .y_desc("time t (s)")
-            .label_style(("sans-serif", 13))
-            .axis_desc_style(("sans-serif", 14))
-            .draw()
-            .map_err(draw_error)?;
+        let chart = labelled_chart(
+            &left,
+            &format!("Figure 4: velocities over time, {name}, h = {h:.3e} s"),
+            (0.0..cols as f64, "particle index (grid row by row)"),
+            (0.0..t_end, "time t (s)"),
+            false,
+        )?;
         for (c, label) in ["R = v_x", "G = v_y", "B = v_z"].iter().enumerate() {
             colour_bar(
                 &right,
@@ -345,25 +333,13 @@ fn figure5_picture(spec: &[f64], n: usize, name: &str) -> Result<Canvas, String>
     draw_on(&mut canvas, |root| {
         root.fill(&WHITE).map_err(draw_error)?;
         let (left, right) = root.split_horizontally(570);
-        let mut chart = ChartBuilder::on(&left)
-            .caption(
-                format!("Figure 5: spectrum of the final velocities, {name}"),
-                ("sans-serif", 16),
-            )
-            .margin(12)
-            .x_label_area_size(44)
-            .y_label_area_size(60)
-            .build_cartesian_2d(f_lo..f_hi, f_lo..f_hi)
-            .map_err(draw_error)?;
-        chart
-            .configure_mesh()
-            .disable_mesh()
-            .x_desc("frequency k_x (cycles per particle spacing)")
-            .y_desc("frequency k_y (cycles per spacing)")
-            .label_style(("sans-serif", 13))
-            .axis_desc_style(("sans-serif", 13))
-            .draw()
-            .map_err(draw_error)?;
+        let mut chart = labelled_chart(
+            &left,
+            &format!("Figure 5: spectrum of the final velocities, {name}"),
+            (f_lo..f_hi, "frequency k_x (cycles per particle spacing)"),
+            (f_lo..f_hi, "frequency k_y (cycles per spacing)"),
+            false,
+        )?;
         chart
             .draw_series((0..n * n).map(|k| {
                 let (i, j) = (k % n, k / n);

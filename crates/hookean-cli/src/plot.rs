@@ -9,6 +9,7 @@
 use std::sync::Once;
 
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 use crate::render::Canvas;
@@ -42,6 +43,44 @@ pub fn draw_on<T>(
     let out = f(&root)?;
     root.present().map_err(draw_error)?;
     Ok(out)
+}
+
+/// A 2D chart on `f64` axes drawn on a bitmap.
+pub type Chart<'a, 'b> =
+    ChartContext<'a, BitMapBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// A chart on `area` with a caption, over `x` and `y`, its axes drawn with
+/// ticks, tick labels and the axis descriptions (with units); `grid` adds
+/// light grid lines.
+pub fn labelled_chart<'a, 'b>(
+    area: &'a DrawingArea<BitMapBackend<'b>, Shift>,
+    caption: &str,
+    (x, x_desc): (std::ops::Range<f64>, &str),
+    (y, y_desc): (std::ops::Range<f64>, &str),
+    grid: bool,
+) -> Result<Chart<'a, 'b>, String> {
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", 17))
+        .margin(12)
+        .x_label_area_size(44)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x, y)
+        .map_err(draw_error)?;
+    let mut mesh = chart.configure_mesh();
+    if grid {
+        mesh.light_line_style(RGBColor(235, 235, 235));
+    } else {
+        mesh.disable_mesh();
+    }
+    mesh.x_desc(x_desc)
+        .y_desc(y_desc)
+        .x_label_formatter(&|v| tick_text(*v))
+        .y_label_formatter(&|v| tick_text(*v))
+        .label_style(("sans-serif", 13))
+        .axis_desc_style(("sans-serif", 14))
+        .draw()
+        .map_err(draw_error)?;
+    Ok(chart)
 }
 
 /// Tick values for a colour bar over `[lo, hi]` (the scale's "nice" ticks).
@@ -135,22 +174,13 @@ impl TimePlot<'_> {
         let (lo, hi) = (lo - pad, hi + pad);
         draw_on(&mut canvas, |root| {
             root.fill(&WHITE).map_err(draw_error)?;
-            let mut chart = ChartBuilder::on(root)
-                .caption(self.title, ("sans-serif", 18))
-                .margin(14)
-                .x_label_area_size(44)
-                .y_label_area_size(70)
-                .build_cartesian_2d(0.0..t_end, lo..hi)
-                .map_err(draw_error)?;
-            chart
-                .configure_mesh()
-                .x_desc("time t (s)")
-                .y_desc(self.y_label)
-                .label_style(("sans-serif", 13))
-                .axis_desc_style(("sans-serif", 14))
-                .light_line_style(RGBColor(235, 235, 235))
-                .draw()
-                .map_err(draw_error)?;
+            let mut chart = labelled_chart(
+                root,
+                self.title,
+                (0.0..t_end, "time t (s)"),
+                (lo..hi, self.y_label),
+                true,
+            )?;
             let grey = RGBColor(160, 160, 160);
             chart
                 .draw_series(LineSeries::new(

@@ -217,6 +217,20 @@ fn label_every(lo: i32, hi: i32) -> i32 {
     ((hi - lo) / 10 + 1).max(1)
 }
 
+/// The ticks at `m 10^k` (`m = 2..9`) inside the decades `[lo, hi]`, with
+/// an SVG label for `m = 2, 5` when the axis spans at most two decades.
+fn minor_ticks(lo: i32, hi: i32) -> Vec<(f64, Option<String>)> {
+    (lo..hi)
+        .flat_map(|k| {
+            (2..10).map(move |m| {
+                let label = (hi - lo <= 2 && (m == 2 || m == 5))
+                    .then(|| format!("{m}·10<tspan dy=\"-4\" font-size=\"8\">{k}</tspan>"));
+                (m as f64 * 10f64.powi(k), label)
+            })
+        })
+        .collect()
+}
+
 fn usable(p: &(f64, f64)) -> bool {
     p.0.is_finite() && p.0 > 0.0 && p.1.is_finite() && p.1 > 0.0
 }
@@ -314,46 +328,38 @@ impl LogLogPlot {
         // Ticks at 2..9 times each decade; on axes of at most two decades
         // those at 2 and 5 are labelled too (else all data may sit between
         // two labels).
-        for k in x0..x1 {
-            for m in 2..10 {
-                let v = m as f64 * 10f64.powi(k);
-                let x = sx(v);
+        for (v, label) in minor_ticks(x0, x1) {
+            let x = c(sx(v));
+            let _ = writeln!(
+                out,
+                "<line x1=\"{x}\" y1=\"{}\" x2=\"{x}\" y2=\"{}\" stroke=\"black\"/>",
+                c(top + ph),
+                c(top + ph + 3.0)
+            );
+            if let Some(l) = label {
                 let _ = writeln!(
                     out,
-                    "<line x1=\"{x}\" y1=\"{}\" x2=\"{x}\" y2=\"{}\" stroke=\"black\"/>",
-                    c(top + ph),
-                    c(top + ph + 3.0),
-                    x = c(x)
+                    "<text x=\"{x}\" y=\"{}\" text-anchor=\"middle\" font-size=\"10\">{l}</text>",
+                    c(top + ph + 18.0)
                 );
-                if x1 - x0 <= 2 && (m == 2 || m == 5) {
-                    let _ = writeln!(
-                        out,
-                        "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\" font-size=\"10\">{m}·10<tspan dy=\"-4\" font-size=\"8\">{k}</tspan></text>",
-                        c(x),
-                        c(top + ph + 18.0)
-                    );
-                }
             }
         }
-        for k in y0..y1 {
-            for m in 2..10 {
-                let v = m as f64 * 10f64.powi(k);
-                let y = sy(v);
+        for (v, label) in minor_ticks(y0, y1) {
+            let y = sy(v);
+            let _ = writeln!(
+                out,
+                "<line x1=\"{}\" y1=\"{yy}\" x2=\"{}\" y2=\"{yy}\" stroke=\"black\"/>",
+                c(left - 3.0),
+                c(left),
+                yy = c(y)
+            );
+            if let Some(l) = label {
                 let _ = writeln!(
                     out,
-                    "<line x1=\"{}\" y1=\"{y}\" x2=\"{}\" y2=\"{y}\" stroke=\"black\"/>",
-                    c(left - 3.0),
-                    c(left),
-                    y = c(y)
+                    "<text x=\"{}\" y=\"{}\" text-anchor=\"end\" font-size=\"10\">{l}</text>",
+                    c(left - 8.0),
+                    c(y + 4.0)
                 );
-                if y1 - y0 <= 2 && (m == 2 || m == 5) {
-                    let _ = writeln!(
-                        out,
-                        "<text x=\"{}\" y=\"{}\" text-anchor=\"end\" font-size=\"10\">{m}·10<tspan dy=\"-4\" font-size=\"8\">{k}</tspan></text>",
-                        c(left - 8.0),
-                        c(y + 4.0)
-                    );
-                }
             }
         }
         let _ = writeln!(
@@ -651,6 +657,16 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn minor_ticks_are_labelled_only_on_short_axes() {
+        let t = minor_ticks(-4, -3);
+        assert_eq!(t.len(), 8);
+        assert!((t[0].0 - 2e-4).abs() < 1e-18 && (t[7].0 - 9e-4).abs() < 1e-18);
+        let labelled: Vec<f64> = t.iter().filter(|x| x.1.is_some()).map(|x| x.0).collect();
+        assert_eq!(labelled.len(), 2);
+        assert!(minor_ticks(-4, 0).iter().all(|x| x.1.is_none()));
     }
 
     #[test]

@@ -3,7 +3,7 @@
 mod common;
 use common::*;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("hookean-run-{}-{name}", std::process::id()));
@@ -11,34 +11,11 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// Decodes an RGB PNG and returns (width, height, pixels).
-fn decode(path: &Path) -> (u32, u32, Vec<u8>) {
-    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
-    let mut reader = decoder.read_info().unwrap();
-    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
-    let info = reader.next_frame(&mut buf).unwrap();
-    buf.truncate(info.buffer_size());
-    (info.width, info.height, buf)
-}
-
 #[test]
 fn the_main_job_writes_every_promised_file_consistently() {
     // The README's main job on a small, short variant of the drape.
     let out = scratch("drape");
-    let o = hookean(&[
-        "run",
-        &repo("scenes/drape.toml"),
-        "--out",
-        out.to_str().unwrap(),
-        "--set",
-        "cloth.n=12",
-        "--set",
-        "duration=0.3",
-        "--quiet",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let summary = run_drape(&out, 12, 0.3, 10.0);
     let csv = std::fs::read_to_string(out.join("steps.csv")).unwrap();
     let rows: Vec<Vec<f64>> = csv
         .lines()
@@ -69,13 +46,10 @@ fn the_main_job_writes_every_promised_file_consistently() {
         assert!(obj.lines().any(|l| l.starts_with("f ")));
     }
     // The picture decodes, has the configured size and is not blank.
-    let (w, h, px) = decode(&out.join("final.png"));
+    let (w, h, px) = decode_rgba(&out.join("final.png"));
     assert_eq!((w, h), (800, 600));
-    let coloured = px.chunks(3).filter(|p| p != &[255, 255, 255]).count();
-    assert!(
-        coloured > (w * h / 20) as usize,
-        "only {coloured} coloured pixels"
-    );
+    let coloured = px.iter().filter(|p| p[..3] != [255, 255, 255]).count();
+    assert!(coloured > w * h / 20, "only {coloured} coloured pixels");
     let _ = std::fs::remove_dir_all(&out);
 }
 
@@ -207,11 +181,10 @@ fn a_jelly_at_rest_is_drawn_blue_not_red() {
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     assert!(summary["final_kinetic_energy"].as_f64().unwrap() < 1e-6);
-    let (w, _, px) = decode(&out.join("final.png"));
-    let w = w as usize;
+    let (w, _, px) = decode_rgba(&out.join("final.png"));
     // The 3D view: everything left of the colour bar strip.
-    let view: Vec<&[u8]> = px
-        .chunks(3)
+    let view: Vec<&[u8; 4]> = px
+        .iter()
         .enumerate()
         .filter(|(k, _)| k % w < w - 130)
         .map(|(_, p)| p)

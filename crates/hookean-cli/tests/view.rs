@@ -84,6 +84,24 @@ fn browse(browser: &Path, profile: &Path, url: &str, args: &[&str]) -> (String, 
     (String::from_utf8_lossy(&out.stdout).into_owned(), wall)
 }
 
+/// Opens `page` at `#fragment` with `--dump-dom` (a fresh profile under
+/// `dir`); returns the page's status, the DOM and the browser's wall time.
+fn dump_status(
+    browser: &Path,
+    dir: &Path,
+    page: &Path,
+    fragment: &str,
+) -> (serde_json::Value, String, f64) {
+    let profile = dir.join(format!("profile-{fragment}"));
+    let (dom, wall) = browse(
+        browser,
+        &profile,
+        &file_url(page, fragment),
+        &["--dump-dom"],
+    );
+    (page_status(&dom), dom, wall)
+}
+
 /// The JSON the page wrote into `<pre id="status">`.
 fn page_status(dom: &str) -> serde_json::Value {
     let start = dom.find("<pre id=\"status\">").expect("status element") + 17;
@@ -94,26 +112,6 @@ fn page_status(dom: &str) -> serde_json::Value {
         .replace("&quot;", "\"")
         .replace("&amp;", "&");
     serde_json::from_str(&text).unwrap_or_else(|e| panic!("status {text:?}: {e}"))
-}
-
-/// Decodes a PNG into (width, height, RGBA pixels).
-fn decode_rgba(path: &Path) -> (usize, usize, Vec<[u8; 4]>) {
-    let mut decoder =
-        png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
-    decoder.set_transformations(png::Transformations::EXPAND);
-    let mut reader = decoder.read_info().unwrap();
-    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
-    let info = reader.next_frame(&mut buf).unwrap();
-    let channels = info.color_type.samples();
-    let px = buf[..info.buffer_size()]
-        .chunks(channels)
-        .map(|c| match channels {
-            4 => [c[0], c[1], c[2], c[3]],
-            3 => [c[0], c[1], c[2], 255],
-            _ => [c[0], c[0], c[0], 255],
-        })
-        .collect();
-    (info.width as usize, info.height as usize, px)
 }
 
 /// Pixels of the speed colour map (clearly saturated: the cloth, not the
@@ -139,25 +137,6 @@ fn file_url(path: &Path, fragment: &str) -> String {
         "file://{}#{fragment}",
         path.canonicalize().unwrap().display()
     )
-}
-
-/// Runs the drape with `cloth.n = n` for `duration` s at `frame_rate` frames per second.
-fn run_drape(out: &Path, n: usize, duration: f64, frame_rate: f64) -> serde_json::Value {
-    let o = hookean(&[
-        "run",
-        &repo("scenes/drape.toml"),
-        "--out",
-        out.to_str().unwrap(),
-        "--set",
-        &format!("cloth.n={n}"),
-        "--set",
-        &format!("duration={duration}"),
-        "--set",
-        &format!("output.frame_rate={frame_rate}"),
-        "--quiet",
-    ]);
-    assert_ok(&o);
-    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
 }
 
 fn run_small_drape(out: &Path) -> serde_json::Value {
@@ -232,13 +211,7 @@ fn view_html_of_the_128_drape_with_51_frames_is_under_10_mb() {
     let bytes = std::fs::metadata(&page).unwrap().len();
     assert!(bytes < 10_000_000, "view.html has {bytes} bytes");
     let Some(browser) = chromium() else { return };
-    let (dom, wall) = browse(
-        &browser,
-        &out.join("profile"),
-        &file_url(&page, "frame=last"),
-        &["--dump-dom"],
-    );
-    let s = page_status(&dom);
+    let (s, _, wall) = dump_status(&browser, &out, &page, "frame=last");
     assert_eq!(s["state"], "ready", "{s}");
     assert_eq!(s["frames"], 51, "{s}");
     eprintln!(
@@ -263,13 +236,7 @@ fn hookean_view_rebuilds_the_page_from_a_run_folder() {
         assert!(!html.contains(needle), "view.html contains {needle}");
     }
     let Some(browser) = chromium() else { return };
-    let (dom, _) = browse(
-        &browser,
-        &out.join("profile"),
-        &file_url(&page, "frame=last"),
-        &["--dump-dom"],
-    );
-    let s = page_status(&dom);
+    let (s, _, _) = dump_status(&browser, &out, &page, "frame=last");
     assert_eq!(s["state"], "ready", "{s}");
     assert_eq!(s["frames"], summary["frames"], "{s}");
     let t_last = summary["simulated_s"].as_f64().unwrap();
