@@ -377,7 +377,13 @@ impl ViewRun {
                 .map_err(|e| input(format!("{}: colliders: {e}", summary_path.display())))?,
             None => Vec::new(),
         };
-        let steps = read_step_energies(&dir.join("steps.csv")).unwrap_or_default();
+        // Energies are optional (a folder without steps.csv still plays), a malformed file is not.
+        let steps_path = dir.join("steps.csv");
+        let steps = if steps_path.exists() {
+            read_step_energies(&steps_path)?
+        } else {
+            Vec::new()
+        };
         let mut frames = Vec::with_capacity(count);
         let (mut faces, mut segments) = (Vec::new(), Vec::new());
         for (k, &t) in times.iter().enumerate() {

@@ -245,6 +245,18 @@ fn hookean_view_rebuilds_the_page_from_a_run_folder() {
 }
 
 #[test]
+fn a_malformed_steps_csv_is_an_input_error_and_a_missing_one_is_not() {
+    let out = scratch("steps");
+    run_drape(&out, 8, 0.2, 10.0);
+    let dir = out.to_str().unwrap();
+    std::fs::write(out.join("steps.csv"), "t,h\n0.1,x\n").unwrap();
+    assert_input_error(&hookean(&["view", dir, "--force"]), "steps.csv:2");
+    std::fs::remove_file(out.join("steps.csv")).unwrap();
+    assert_ok(&hookean(&["view", dir, "--force"]));
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
 fn view_of_a_folder_without_a_run_is_an_input_error() {
     let out = scratch("empty");
     std::fs::create_dir_all(&out).unwrap();
