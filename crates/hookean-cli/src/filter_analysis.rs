@@ -19,9 +19,9 @@ use indicatif::{ProgressBar, ProgressStyle};
 use plotters::prelude::*;
 
 use crate::CliError;
+use crate::lineplot::{LogLogPlot, Series};
 use crate::plot::{colour_bar, draw_error, draw_on, labelled_chart};
 use crate::render::Canvas;
-use crate::svg::{LogLogPlot, Series};
 
 #[derive(Debug, Args)]
 pub struct FilterAnalysisArgs {
@@ -216,7 +216,7 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
         ],
     };
     let svg_path = args.plot.join("fig6.svg");
-    std::fs::write(&svg_path, plot.render())
+    std::fs::write(&svg_path, plot.render().map_err(CliError::Failed)?)
         .map_err(|e| failed(format!("{}: {e}", svg_path.display())))?;
 
     let analysis = Analysis {

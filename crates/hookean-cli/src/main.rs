@@ -23,6 +23,7 @@ use clap::{Parser, Subcommand};
 mod bench_precond;
 mod export_system;
 mod filter_analysis;
+mod lineplot;
 mod plot;
 mod render;
 mod run;

@@ -109,7 +109,8 @@ fn workprecision_on_the_wave_equation_writes_csv_and_svg_and_errors_fall_with_h(
     }
     let text = std::fs::read_to_string(&svg).unwrap();
     assert!(text.starts_with("<?xml") && text.trim_end().ends_with("</svg>"));
-    assert_eq!(text.matches("<polyline").count(), 3);
+    // The first series (rk4) is drawn with circles: one per level, one in the legend.
+    assert_eq!(text.matches("<circle").count(), 5 + 1);
     for name in ["rk4", "implicit-euler", "verlet", "f evaluations"] {
         assert!(text.contains(name), "{name} missing from the plot");
     }
