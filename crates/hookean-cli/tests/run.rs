@@ -201,3 +201,33 @@ fn a_jelly_at_rest_is_drawn_blue_not_red() {
     assert!(blue > 2000, "only {blue} blue pixels");
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// The sphere of cloth-sphere is drawn: a disc of warm grey shades (the
+/// cloth is blue to red, the ground a light grey above 230).
+#[test]
+fn the_sphere_collider_is_drawn_in_final_png() {
+    let out = scratch("sphere");
+    let o = hookean(&[
+        "run",
+        &repo("scenes/cloth-sphere.toml"),
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "cloth.n=8",
+        "--set",
+        "duration=0.05",
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (w, h, px) = decode_rgba(&out.join("final.png"));
+    let sphere = px
+        .iter()
+        .filter(|p| {
+            let (r, g, b) = (p[0] as i32, p[1] as i32, p[2] as i32);
+            r < 215 && r > 40 && r >= g && g >= b && (5..=40).contains(&(r - b))
+        })
+        .count();
+    // r = 0.3 m in a view fitted to about 1 m: a disc of a few percent of the picture.
+    assert!(sphere > w * h / 50, "only {sphere} sphere-coloured pixels");
+    let _ = std::fs::remove_dir_all(&out);
+}
