@@ -170,16 +170,7 @@ fn tutorial_example_2_with_bdf2_is_second_order_accurate() {
 #[test]
 fn a_jelly_at_rest_is_drawn_blue_not_red() {
     let out = scratch("jelly");
-    let o = hookean(&[
-        "run",
-        &repo("scenes/jelly.toml"),
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let summary = run_scene(&out, "scenes/jelly.toml", &[]);
     assert!(summary["final_kinetic_energy"].as_f64().unwrap() < 1e-6);
     let (w, _, px) = decode_rgba(&out.join("final.png"));
     // The 3D view: everything left of the colour bar strip.
@@ -207,18 +198,11 @@ fn a_jelly_at_rest_is_drawn_blue_not_red() {
 #[test]
 fn the_sphere_collider_is_drawn_in_final_png() {
     let out = scratch("sphere");
-    let o = hookean(&[
-        "run",
-        &repo("scenes/cloth-sphere.toml"),
-        "--out",
-        out.to_str().unwrap(),
-        "--set",
-        "cloth.n=8",
-        "--set",
-        "duration=0.05",
-        "--quiet",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    run_scene(
+        &out,
+        "scenes/cloth-sphere.toml",
+        &["cloth.n=8".into(), "duration=0.05".into()],
+    );
     let (w, h, px) = decode_rgba(&out.join("final.png"));
     let sphere = px
         .iter()

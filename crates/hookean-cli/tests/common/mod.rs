@@ -42,24 +42,36 @@ pub fn assert_input_error(out: &Output, needle: &str) {
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
 
+/// Runs `hookean run SCENE` (a path in the repository) into `out` with the
+/// `--set` overrides `sets`; returns its `summary.json`.
+pub fn run_scene(out: &Path, scene: &str, sets: &[String]) -> serde_json::Value {
+    let mut args = vec![
+        "run".to_string(),
+        repo(scene),
+        "--out".into(),
+        out.to_string_lossy().into_owned(),
+        "--quiet".into(),
+    ];
+    for s in sets {
+        args.extend(["--set".to_string(), s.clone()]);
+    }
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    assert_ok(&hookean(&args));
+    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+}
+
 /// Runs the drape with `cloth.n = n` for `duration` s at `frame_rate`
 /// frames per second into `out`; returns its `summary.json`.
 pub fn run_drape(out: &Path, n: usize, duration: f64, frame_rate: f64) -> serde_json::Value {
-    let o = hookean(&[
-        "run",
-        &repo("scenes/drape.toml"),
-        "--out",
-        out.to_str().unwrap(),
-        "--set",
-        &format!("cloth.n={n}"),
-        "--set",
-        &format!("duration={duration}"),
-        "--set",
-        &format!("output.frame_rate={frame_rate}"),
-        "--quiet",
-    ]);
-    assert_ok(&o);
-    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+    run_scene(
+        out,
+        "scenes/drape.toml",
+        &[
+            format!("cloth.n={n}"),
+            format!("duration={duration}"),
+            format!("output.frame_rate={frame_rate}"),
+        ],
+    )
 }
 
 /// Decodes a PNG into (width, height, RGBA pixels).
