@@ -289,7 +289,7 @@ fn figure4_picture(img: &VelocityImage, name: &str, h: f64) -> Result<Canvas, St
             .draw(&Text::new(
                 "velocity (m/s), clamped",
                 (40, 490),
-                ("sans-serif", 13).into_font(),
+                ("sans-serif", 14).into_font(),
             ))
             .map_err(draw_error)?;
         Ok(chart.plotting_area().get_pixel_range())

@@ -5,6 +5,10 @@
 //! DejaVu Sans (`assets/DejaVuSans.ttf`, Bitstream Vera licence in
 //! `assets/DejaVuSans-LICENSE.txt`) and registers it as plotters'
 //! `sans-serif` family (plotters' `ab_glyph` feature) before drawing.
+//! Font sizes are even: plotters 0.3.7 places each glyph at
+//! `(size / 2 + top) as i32`, which truncates half pixels in different
+//! directions above and below zero, so with odd sizes a period sits a pixel
+//! or two above the baseline.
 
 use std::sync::Once;
 
@@ -60,7 +64,7 @@ pub fn labelled_chart<'a, 'b>(
     grid: bool,
 ) -> Result<Chart<'a, 'b>, String> {
     let mut chart = ChartBuilder::on(area)
-        .caption(caption, ("sans-serif", 17))
+        .caption(caption, ("sans-serif", 18))
         .margin(12)
         .x_label_area_size(44)
         .y_label_area_size(70)
@@ -76,7 +80,7 @@ pub fn labelled_chart<'a, 'b>(
         .y_desc(y_desc)
         .x_label_formatter(&|v| tick_text(*v))
         .y_label_formatter(&|v| tick_text(*v))
-        .label_style(("sans-serif", 13))
+        .label_style(("sans-serif", 14))
         .axis_desc_style(("sans-serif", 14))
         .draw()
         .map_err(draw_error)?;
@@ -123,7 +127,7 @@ pub fn colour_bar(
     }
     area.draw(&Rectangle::new([(x, y), (x + w, y + h)], BLACK))
         .map_err(draw_error)?;
-    let font = ("sans-serif", 13).into_font().color(&BLACK);
+    let font = ("sans-serif", 14).into_font().color(&BLACK);
     for t in ticks.unwrap_or_else(|| bar_ticks(lo, hi)) {
         let py = y + ((hi - t) / (hi - lo) * (h - 1) as f64).round() as i32;
         area.draw(&PathElement::new(vec![(x + w, py), (x + w + 4, py)], BLACK))
@@ -134,7 +138,7 @@ pub fn colour_bar(
     area.draw(&Text::new(
         label.to_string(),
         (x - 6, y - 22),
-        ("sans-serif", 13).into_font().color(&BLACK),
+        ("sans-serif", 14).into_font().color(&BLACK),
     ))
     .map_err(draw_error)?;
     Ok(())
@@ -224,7 +228,7 @@ impl TimePlot<'_> {
                 .position(SeriesLabelPosition::UpperRight)
                 .background_style(WHITE.mix(0.9))
                 .border_style(BLACK)
-                .label_font(("sans-serif", 13))
+                .label_font(("sans-serif", 14))
                 .draw()
                 .map_err(draw_error)
         })?;

@@ -409,7 +409,7 @@ pub fn render(s: &RenderScene<'_>, width: usize, height: usize) -> Result<Canvas
         .collect();
     crate::plot::draw_on(&mut canvas, |root| {
         let big = ("sans-serif", 22).into_font().color(&BLACK);
-        let small = ("sans-serif", 13).into_font().color(&RGBColor(60, 60, 60));
+        let small = ("sans-serif", 14).into_font().color(&RGBColor(60, 60, 60));
         let err = crate::plot::draw_error;
         root.draw(&Text::new(format!("t = {:.3} s", s.t), (12, 10), big))
             .map_err(err)?;
