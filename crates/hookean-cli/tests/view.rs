@@ -52,8 +52,10 @@ fn chromium() -> Option<PathBuf> {
     found
 }
 
-/// Runs headless Chromium on `page` (a file, with a `#fragment`) with the
-/// extra `args`; returns stdout and the wall time of the whole process.
+/// Runs headless Chromium on `url` with the extra `args` (among them a
+/// `--virtual-time-budget`: how many milliseconds of page time pass before
+/// the DOM is dumped or the screenshot taken); returns stdout and the wall
+/// time of the whole process.
 fn browse(browser: &Path, profile: &Path, url: &str, args: &[&str]) -> (String, f64) {
     let start = Instant::now();
     let out = Command::new(browser)
@@ -68,7 +70,6 @@ fn browse(browser: &Path, profile: &Path, url: &str, args: &[&str]) -> (String, 
             "--no-first-run",
             "--hide-scrollbars",
             "--window-size=1000,640",
-            "--virtual-time-budget=10000",
         ])
         .arg(format!("--user-data-dir={}", profile.display()))
         .args(args)
@@ -97,7 +98,7 @@ fn dump_status(
         browser,
         &profile,
         &file_url(page, fragment),
-        &["--dump-dom"],
+        &["--dump-dom", "--virtual-time-budget=10000"],
     );
     (page_status(&dom), dom, wall)
 }
@@ -179,6 +180,18 @@ fn view_html_plays_the_run_in_headless_chromium() {
         std::fs::metadata(&page).unwrap().len(),
     );
 
+    // Without a fragment the page plays: within a second of page time the
+    // animation has moved on from frame 0 at least once.
+    let (dom, _) = browse(
+        &browser,
+        &out.join("profile-play"),
+        &file_url(&page, ""),
+        &["--dump-dom", "--virtual-time-budget=1000"],
+    );
+    let s = page_status(&dom);
+    assert_eq!(s["state"], "ready", "{s}");
+    assert!(s["played"].as_u64().unwrap_or(0) >= 1, "{s}");
+
     // Frame 0: a screenshot that shows the cloth.
     let shot = out.join("frame0.png");
     let profile = out.join("profile-0");
@@ -186,7 +199,10 @@ fn view_html_plays_the_run_in_headless_chromium() {
         &browser,
         &profile,
         &file_url(&page, "frame=0"),
-        &[&format!("--screenshot={}", shot.display())],
+        &[
+            &format!("--screenshot={}", shot.display()),
+            "--virtual-time-budget=10000",
+        ],
     );
     let (w, h, px) = decode_rgba(&shot);
     assert_eq!((w, h), (1000, 640));
