@@ -319,11 +319,43 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let summary = match summary {
         Ok(s) => s,
         Err(e) => {
-            return Err(CliError::Failed(format!(
+            let mut message = format!(
                 "{}: the run stopped at t = {:.4} s: {e}",
                 args.scene.display(),
                 sim.t()
-            )));
+            );
+            // The frames up to the failure show how it went wrong.
+            if !frames.view.is_empty() {
+                let stats = sim.stats();
+                let view = ViewRun {
+                    summary: serde_json::json!({
+                        "scene": args.scene.display().to_string(),
+                        "method": sim.method().to_string(),
+                        "error": message,
+                        "steps": stats.steps,
+                        "rejected_steps": stats.rejected_steps,
+                        "newton_iterations": stats.newton_iterations,
+                        "cg_iterations": stats.linear_iterations,
+                    }),
+                    faces: sim.model().faces().to_vec(),
+                    segments: sim.model().springs().iter().map(|s| (s.i, s.j)).collect(),
+                    colliders: sim
+                        .model()
+                        .colliders()
+                        .iter()
+                        .map(ViewCollider::from)
+                        .collect(),
+                    frames: std::mem::take(&mut frames.view),
+                    speed_source: "particle velocities of the run".into(),
+                };
+                if view.write(&out.join("view.html")).is_ok() {
+                    message += &format!(
+                        "; {} shows the frames before",
+                        out.join("view.html").display()
+                    );
+                }
+            }
+            return Err(CliError::Failed(message));
         }
     };
     let energies = sim.energies().map_err(failed)?;
