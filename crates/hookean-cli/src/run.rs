@@ -156,6 +156,28 @@ impl Sink for ObjFrames {
     }
 }
 
+/// The model's colliders as viewers draw them.
+fn colliders(sim: &Simulation) -> Vec<ViewCollider> {
+    sim.model()
+        .colliders()
+        .iter()
+        .map(ViewCollider::from)
+        .collect()
+}
+
+/// `view.html`'s content: the run's `summary` and recorded `frames` on the
+/// model's triangles (or springs) and colliders.
+fn view_of(sim: &Simulation, summary: serde_json::Value, frames: Vec<ViewFrame>) -> ViewRun {
+    ViewRun {
+        summary,
+        faces: sim.model().faces().to_vec(),
+        segments: sim.model().springs().iter().map(|s| (s.i, s.j)).collect(),
+        colliders: colliders(sim),
+        frames,
+        speed_source: "particle velocities of the run".into(),
+    }
+}
+
 /// `(t, z, exact z)` of the moving particle of the tutorial's example 3.
 struct ParticleTrace {
     points: Vec<(f64, f64, f64)>,
@@ -166,7 +188,8 @@ impl ParticleTrace {
     fn push(&mut self, sim: &Simulation) {
         let t = sim.t();
         let exact = self.exact.map_or(f64::NAN, |o| o.exact(t)[0]);
-        self.points.push((t, sim.x()[5], exact));
+        // Particle 0 is the pinned anchor; particle 1 moves along z.
+        self.points.push((t, sim.x()[3 + 2], exact));
     }
 }
 
@@ -327,27 +350,16 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
             // The frames up to the failure show how it went wrong.
             if !frames.view.is_empty() {
                 let stats = sim.stats();
-                let view = ViewRun {
-                    summary: serde_json::json!({
-                        "scene": args.scene.display().to_string(),
-                        "method": sim.method().to_string(),
-                        "error": message,
-                        "steps": stats.steps,
-                        "rejected_steps": stats.rejected_steps,
-                        "newton_iterations": stats.newton_iterations,
-                        "cg_iterations": stats.linear_iterations,
-                    }),
-                    faces: sim.model().faces().to_vec(),
-                    segments: sim.model().springs().iter().map(|s| (s.i, s.j)).collect(),
-                    colliders: sim
-                        .model()
-                        .colliders()
-                        .iter()
-                        .map(ViewCollider::from)
-                        .collect(),
-                    frames: std::mem::take(&mut frames.view),
-                    speed_source: "particle velocities of the run".into(),
-                };
+                let summary = serde_json::json!({
+                    "scene": args.scene.display().to_string(),
+                    "method": sim.method().to_string(),
+                    "error": message,
+                    "steps": stats.steps,
+                    "rejected_steps": stats.rejected_steps,
+                    "newton_iterations": stats.newton_iterations,
+                    "cg_iterations": stats.linear_iterations,
+                });
+                let view = view_of(&sim, summary, std::mem::take(&mut frames.view));
                 if view.write(&out.join("view.html")).is_ok() {
                     message += &format!(
                         "; {} shows the frames before",
@@ -379,12 +391,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         final_total_energy: energies.total(),
         frames: frames.count,
         frame_times: frames.view.iter().map(|f| f.t).collect(),
-        colliders: sim
-            .model()
-            .colliders()
-            .iter()
-            .map(ViewCollider::from)
-            .collect(),
+        colliders: colliders(&sim),
     };
     let json = serde_json::to_string_pretty(&record).expect("records serialise");
     let summary_path = out.join("summary.json");
@@ -398,14 +405,11 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     if !last_is_a_frame {
         view_frames.push(last);
     }
-    let view = ViewRun {
-        summary: serde_json::to_value(&record).expect("records serialise"),
-        faces: sim.model().faces().to_vec(),
-        segments: sim.model().springs().iter().map(|s| (s.i, s.j)).collect(),
-        colliders: record.colliders.clone(),
-        frames: view_frames,
-        speed_source: "particle velocities of the run".into(),
-    };
+    let view = view_of(
+        &sim,
+        serde_json::to_value(&record).expect("records serialise"),
+        view_frames,
+    );
 
     // final.png: the last state on the run's scale (box and speeds of every frame).
     let canvas = match &trace {
