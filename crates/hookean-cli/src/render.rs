@@ -186,58 +186,81 @@ enum Item {
     Sphere([f64; 3], f64),
 }
 
-/// Renders the scene: the ground (a plane collider, or a horizontal plane
-/// under the lowest point of the run) with a grid, spheres, and the model's
-/// triangles (or springs) sorted back to front, flat-shaded and coloured by
-/// speed on the fixed scale `[0, speed_max]`; then, with plotters, the time,
-/// the colour bar in m/s, a scale bar and a note on what is drawn.
-pub fn render(s: &RenderScene<'_>, width: usize, height: usize) -> Result<Canvas, String> {
-    let mut canvas = Canvas::new(width, height);
-    let view_w = width.saturating_sub(BAR_STRIP).max(width / 2);
-    // Camera: looking along -dir from an elevated front-left viewpoint, z up.
-    let dir = normalise([0.8, -1.6, 1.0]);
-    let right = normalise(cross([0.0, 0.0, 1.0], dir));
-    let up = cross(dir, right);
-    let project = |p: &[f64]| -> [f64; 3] { [dot3(p, &right), dot3(p, &up), dot3(p, &dir)] };
-    // Fit the run's box and the spheres.
-    let (lo3, hi3) = s.bounds;
-    let mut fit: Vec<([f64; 3], f64)> = (0..8)
-        .map(|c| {
+/// An orthographic camera looking along `-dir` from an elevated front-left
+/// viewpoint (z up), scaled so that the run's box (and the spheres) fill
+/// 80% of the view.
+struct Camera {
+    right: [f64; 3],
+    up: [f64; 3],
+    dir: [f64; 3],
+    /// Pixels per metre.
+    scale: f64,
+    /// Projected centre of the fitted box.
+    centre: [f64; 2],
+    /// Pixel position of `centre`.
+    origin: [f64; 2],
+}
+
+impl Camera {
+    fn fit(s: &RenderScene<'_>, view_w: usize, height: usize) -> Self {
+        let dir = normalise([0.8, -1.6, 1.0]);
+        let right = normalise(cross([0.0, 0.0, 1.0], dir));
+        let up = cross(dir, right);
+        let mut cam = Camera {
+            right,
+            up,
+            dir,
+            scale: 1.0,
+            centre: [0.0; 2],
+            origin: [view_w as f64 / 2.0, height as f64 * 0.53],
+        };
+        let (lo3, hi3) = s.bounds;
+        let corners = (0..8).map(|c| {
             let p = [
                 if c & 1 == 0 { lo3[0] } else { hi3[0] },
                 if c & 2 == 0 { lo3[1] } else { hi3[1] },
                 if c & 4 == 0 { lo3[2] } else { hi3[2] },
             ];
-            (project(&p), 0.0)
-        })
-        .collect();
-    for c in s.colliders {
-        if let ViewCollider::Sphere { center, radius } = c {
-            fit.push((project(center), *radius));
+            (cam.project(&p), 0.0)
+        });
+        let spheres = s.colliders.iter().filter_map(|c| match c {
+            ViewCollider::Sphere { center, radius } => Some((cam.project(center), *radius)),
+            _ => None,
+        });
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for (q, r) in corners.chain(spheres) {
+            for c in 0..2 {
+                lo[c] = lo[c].min(q[c] - r);
+                hi[c] = hi[c].max(q[c] + r);
+            }
         }
+        let span = ((hi[0] - lo[0]) / view_w as f64)
+            .max((hi[1] - lo[1]) / height as f64)
+            .max(1e-9);
+        cam.scale = 0.8 / span;
+        cam.centre = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
+        cam
     }
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for (q, r) in &fit {
-        for c in 0..2 {
-            lo[c] = lo[c].min(q[c] - r);
-            hi[c] = hi[c].max(q[c] + r);
-        }
-    }
-    let span = ((hi[0] - lo[0]) / view_w as f64)
-        .max((hi[1] - lo[1]) / height as f64)
-        .max(1e-9);
-    let scale = 0.8 / span;
-    let centre = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
-    let to_pixel = |q: &[f64; 3]| -> [f64; 2] {
-        [
-            view_w as f64 / 2.0 + (q[0] - centre[0]) * scale,
-            height as f64 * 0.53 - (q[1] - centre[1]) * scale,
-        ]
-    };
-    let light = normalise([0.3, -0.5, 1.0]);
 
-    // The ground: a filled square with grid lines, drawn first (everything stands on it).
-    let extent = (0..3).map(|c| hi3[c] - lo3[c]).fold(1e-3, f64::max);
+    /// Camera coordinates `(right, up, depth)`; larger depth is nearer.
+    fn project(&self, p: &[f64]) -> [f64; 3] {
+        [dot3(p, &self.right), dot3(p, &self.up), dot3(p, &self.dir)]
+    }
+
+    /// Pixel coordinates of camera coordinates `q`.
+    fn pixel(&self, q: &[f64; 3]) -> [f64; 2] {
+        [
+            self.origin[0] + (q[0] - self.centre[0]) * self.scale,
+            self.origin[1] - (q[1] - self.centre[1]) * self.scale,
+        ]
+    }
+}
+
+/// Draws the ground, a square of twice the run's extent with grid lines:
+/// the first plane collider, or the horizontal plane under the lowest point
+/// of the run. Returns the grid spacing (m) and whether the plane is implied.
+fn draw_ground(canvas: &mut Canvas, cam: &Camera, s: &RenderScene<'_>) -> (f64, bool) {
+    let (lo3, hi3) = s.bounds;
     let (point, normal, implied) = s
         .colliders
         .iter()
@@ -246,101 +269,114 @@ pub fn render(s: &RenderScene<'_>, width: usize, height: usize) -> Result<Canvas
             _ => None,
         })
         .unwrap_or(([0.0, 0.0, lo3[2]], [0.0, 0.0, 1.0], true));
-    let mid = [
-        (lo3[0] + hi3[0]) / 2.0,
-        (lo3[1] + hi3[1]) / 2.0,
-        (lo3[2] + hi3[2]) / 2.0,
-    ];
+    // Centred under the middle of the box, spanned by u and w.
+    let mid: [f64; 3] = std::array::from_fn(|c| (lo3[c] + hi3[c]) / 2.0);
     let off = dot3(&sub(&mid, &point), &normal);
-    let o = [
-        mid[0] - off * normal[0],
-        mid[1] - off * normal[1],
-        mid[2] - off * normal[2],
-    ];
-    let u = normalise(cross(
-        if normal[2].abs() < 0.9 {
-            [0.0, 0.0, 1.0]
-        } else {
-            [1.0, 0.0, 0.0]
-        },
-        normal,
-    ));
-    let w = cross(normal, u);
-    let half = extent;
-    let grid = crate::view::nice_ceiling(2.0 * half / 12.0);
-    let on_plane = |a: f64, b: f64| -> [f64; 2] {
-        to_pixel(&project(&[
-            o[0] + a * u[0] + b * w[0],
-            o[1] + a * u[1] + b * w[1],
-            o[2] + a * u[2] + b * w[2],
-        ]))
+    let o: [f64; 3] = std::array::from_fn(|c| mid[c] - off * normal[c]);
+    let axis = if normal[2].abs() < 0.9 {
+        [0.0, 0.0, 1.0]
+    } else {
+        [1.0, 0.0, 0.0]
     };
-    let ground = [236, 236, 232];
-    canvas.fill_triangle(
-        [
-            on_plane(-half, -half),
-            on_plane(half, -half),
-            on_plane(half, half),
-        ],
-        ground,
-    );
-    canvas.fill_triangle(
-        [
-            on_plane(-half, -half),
-            on_plane(half, half),
-            on_plane(-half, half),
-        ],
-        ground,
-    );
+    let u = normalise(cross(axis, normal));
+    let w = cross(normal, u);
+    let half = (0..3).map(|c| hi3[c] - lo3[c]).fold(1e-3, f64::max);
+    let grid = crate::view::nice_ceiling(2.0 * half / 12.0);
+    let at = |a: f64, b: f64| -> [f64; 2] {
+        let p: [f64; 3] = std::array::from_fn(|c| o[c] + a * u[c] + b * w[c]);
+        cam.pixel(&cam.project(&p))
+    };
+    let fill = [236, 236, 232];
+    canvas.fill_triangle([at(-half, -half), at(half, -half), at(half, half)], fill);
+    canvas.fill_triangle([at(-half, -half), at(half, half), at(-half, half)], fill);
     let k = (half / grid).floor() as i64;
     for i in -k..=k {
         let a = i as f64 * grid;
         let line = [200, 200, 196];
-        canvas.thick_line(on_plane(a, -half), on_plane(a, half), 0.6, line);
-        canvas.thick_line(on_plane(-half, a), on_plane(half, a), 0.6, line);
+        canvas.thick_line(at(a, -half), at(a, half), 0.6, line);
+        canvas.thick_line(at(-half, a), at(half, a), 0.6, line);
     }
+    (grid, implied)
+}
 
-    let n = s.x.len() / 3;
-    let proj: Vec<[f64; 3]> = s.x.chunks_exact(3).map(project).collect();
+/// Draws a ball as a disc shaded by Lambert's law with the light `light`,
+/// 2% smaller than its radius: flat triangles resting on it cut into the
+/// true sphere and would disappear behind it.
+fn draw_sphere(
+    canvas: &mut Canvas,
+    cam: &Camera,
+    center: &[f64; 3],
+    radius: f64,
+    light: &[f64; 3],
+) {
+    let (width, height) = canvas.size();
+    let light_cam = cam.project(light);
+    let c = cam.pixel(&cam.project(center));
+    let r = 0.98 * radius * cam.scale;
+    let (x0, x1) = ((c[0] - r).floor().max(0.0), (c[0] + r).ceil().max(0.0));
+    let (y0, y1) = ((c[1] - r).floor().max(0.0), (c[1] + r).ceil().max(0.0));
+    for y in y0 as usize..=(y1 as usize).min(height.saturating_sub(1)) {
+        for x in x0 as usize..=(x1 as usize).min(width.saturating_sub(1)) {
+            // The visible hemisphere's normal at this pixel, in camera coordinates.
+            let (dx, dy) = ((x as f64 + 0.5 - c[0]) / r, (c[1] - y as f64 - 0.5) / r);
+            let q = dx * dx + dy * dy;
+            if q <= 1.0 {
+                let nz = (1.0 - q).sqrt();
+                let lambert = (dx * light_cam[0] + dy * light_cam[1] + nz * light_cam[2]).max(0.0);
+                let shade = 0.35 + 0.65 * lambert;
+                canvas.set(x, y, to_u8([0.78 * shade, 0.74 * shade, 0.68 * shade]));
+            }
+        }
+    }
+}
+
+/// Renders the scene: the ground (a plane collider, or a horizontal plane
+/// under the lowest point of the run) with a grid, spheres, and the model's
+/// triangles (or springs) sorted back to front, flat-shaded and coloured by
+/// speed on the fixed scale `[0, speed_max]`; then, with plotters, the time,
+/// the colour bar in m/s, a scale bar and a note on what is drawn.
+pub fn render(s: &RenderScene<'_>, width: usize, height: usize) -> Result<Canvas, String> {
+    let mut canvas = Canvas::new(width, height);
+    let view_w = width.saturating_sub(BAR_STRIP).max(width / 2);
+    let cam = Camera::fit(s, view_w, height);
+    let light = normalise([0.3, -0.5, 1.0]);
+    let (grid, implied) = draw_ground(&mut canvas, &cam, s);
+
+    let proj: Vec<[f64; 3]> = s.x.chunks_exact(3).map(|p| cam.project(p)).collect();
+    let px = |i: usize| cam.pixel(&proj[i]);
     let speeds: Vec<f64> =
         s.v.chunks_exact(3)
             .map(|c| (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt())
             .collect();
     let top = s.speed_max.max(1e-12);
-    // Painter's algorithm: far items (small depth along dir) first; depths
-    // are sums over three points so that faces, segments and spheres compare.
-    let mut items: Vec<(f64, Item)> = Vec::new();
-    if n > 0 {
-        if s.faces.is_empty() {
-            items.extend(
-                s.segments
-                    .iter()
-                    .enumerate()
-                    .map(|(k, &(i, j))| (1.5 * (proj[i][2] + proj[j][2]), Item::Segment(k))),
-            );
-        } else {
-            items.extend(
-                s.faces
-                    .iter()
-                    .enumerate()
-                    .map(|(k, f)| (proj[f[0]][2] + proj[f[1]][2] + proj[f[2]][2], Item::Face(k))),
-            );
-        }
-    }
+    // Painter's algorithm: far items (small depth) first; depths are sums
+    // over three points so that faces, segments and spheres compare.
+    let mut items: Vec<(f64, Item)> = if s.faces.is_empty() {
+        s.segments
+            .iter()
+            .enumerate()
+            .map(|(k, &(i, j))| (1.5 * (proj[i][2] + proj[j][2]), Item::Segment(k)))
+            .collect()
+    } else {
+        s.faces
+            .iter()
+            .enumerate()
+            .map(|(k, f)| (proj[f[0]][2] + proj[f[1]][2] + proj[f[2]][2], Item::Face(k)))
+            .collect()
+    };
     for c in s.colliders {
         if let ViewCollider::Sphere { center, radius } = c {
-            items.push((3.0 * project(center)[2], Item::Sphere(*center, *radius)));
+            items.push((3.0 * cam.project(center)[2], Item::Sphere(*center, *radius)));
         }
     }
     items.sort_by(|a, b| a.0.total_cmp(&b.0));
     let half_width = (width.min(height) as f64 / 200.0).max(1.5);
-    let light_cam = [dot3(&light, &right), dot3(&light, &up), dot3(&light, &dir)];
     for (_, item) in items {
         match item {
             Item::Segment(k) => {
                 let (i, j) = s.segments[k];
                 let c = speed_colour(0.5 * (speeds[i] + speeds[j]) / top);
-                canvas.thick_line(to_pixel(&proj[i]), to_pixel(&proj[j]), half_width, to_u8(c));
+                canvas.thick_line(px(i), px(j), half_width, to_u8(c));
             }
             Item::Face(k) => {
                 let f = s.faces[k];
@@ -350,42 +386,31 @@ pub fn render(s: &RenderScene<'_>, width: usize, height: usize) -> Result<Canvas
                 let shade = 0.35 + 0.65 * dot3(&normal, &light).abs();
                 let c = speed_colour((speeds[f[0]] + speeds[f[1]] + speeds[f[2]]) / (3.0 * top));
                 canvas.fill_triangle(
-                    [
-                        to_pixel(&proj[f[0]]),
-                        to_pixel(&proj[f[1]]),
-                        to_pixel(&proj[f[2]]),
-                    ],
+                    [px(f[0]), px(f[1]), px(f[2])],
                     to_u8([c[0] * shade, c[1] * shade, c[2] * shade]),
                 );
             }
-            Item::Sphere(center, radius) => {
-                // Drawn 2% smaller: flat triangles resting on it cut into the true sphere.
-                let c = to_pixel(&project(&center));
-                let r = 0.98 * radius * scale;
-                let (x0, x1) = ((c[0] - r).floor().max(0.0), (c[0] + r).ceil());
-                let (y0, y1) = ((c[1] - r).floor().max(0.0), (c[1] + r).ceil());
-                for y in y0 as usize..=(y1.max(0.0) as usize).min(height.saturating_sub(1)) {
-                    for x in x0 as usize..=(x1.max(0.0) as usize).min(width.saturating_sub(1)) {
-                        let (dx, dy) = ((x as f64 + 0.5 - c[0]) / r, (c[1] - y as f64 - 0.5) / r);
-                        let q = dx * dx + dy * dy;
-                        if q <= 1.0 {
-                            let nz = (1.0 - q).sqrt();
-                            let lambert =
-                                (dx * light_cam[0] + dy * light_cam[1] + nz * light_cam[2])
-                                    .max(0.0);
-                            let shade = 0.35 + 0.65 * lambert;
-                            canvas.set(x, y, to_u8([0.78 * shade, 0.74 * shade, 0.68 * shade]));
-                        }
-                    }
-                }
-            }
+            Item::Sphere(center, radius) => draw_sphere(&mut canvas, &cam, &center, radius, &light),
         }
     }
+    draw_labels(&mut canvas, s, &cam, view_w, grid, implied)?;
+    Ok(canvas)
+}
 
-    // Labels.
+/// The time, what the ground and the spheres are, a scale bar in metres
+/// and the colour bar of speed in m/s.
+fn draw_labels(
+    canvas: &mut Canvas,
+    s: &RenderScene<'_>,
+    cam: &Camera,
+    view_w: usize,
+    grid: f64,
+    implied: bool,
+) -> Result<(), String> {
+    let (width, height) = canvas.size();
     let bar_h = (height as i32 - 150).max(40);
-    let scale_m = crate::view::nice_ceiling(0.2 * view_w as f64 / scale);
-    let scale_px = (scale_m * scale).round() as i32;
+    let scale_m = crate::view::nice_ceiling(0.2 * view_w as f64 / cam.scale);
+    let scale_px = (scale_m * cam.scale).round() as i32;
     let note = if implied {
         format!(
             "ground: grid of {} m squares under the run's lowest point",
@@ -407,7 +432,8 @@ pub fn render(s: &RenderScene<'_>, width: usize, height: usize) -> Result<Canvas
             _ => None,
         })
         .collect();
-    crate::plot::draw_on(&mut canvas, |root| {
+    let top = s.speed_max.max(1e-12);
+    crate::plot::draw_on(canvas, |root| {
         let big = ("sans-serif", 22).into_font().color(&BLACK);
         let small = ("sans-serif", 14).into_font().color(&RGBColor(60, 60, 60));
         let err = crate::plot::draw_error;
@@ -447,8 +473,7 @@ pub fn render(s: &RenderScene<'_>, width: usize, height: usize) -> Result<Canvas
             None,
             "speed |v| (m/s)",
         )
-    })?;
-    Ok(canvas)
+    })
 }
 
 fn to_u8(c: [f64; 3]) -> [u8; 3] {
