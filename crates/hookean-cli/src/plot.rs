@@ -87,9 +87,23 @@ pub fn labelled_chart<'a, 'b>(
     Ok(chart)
 }
 
-/// Tick values for a colour bar over `[lo, hi]` (the scale's "nice" ticks).
-fn bar_ticks(lo: f64, hi: f64) -> Vec<f64> {
-    crate::svg::linear_ticks(lo, hi)
+/// Tick positions: multiples of a "nice" step (1, 2 or 5 times a power of
+/// ten) giving about 3 to 7 ticks in `[lo, hi]`.
+pub fn linear_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    let span = hi - lo;
+    if !(span > 0.0 && span.is_finite()) {
+        return vec![];
+    }
+    let raw = span / 6.0;
+    let p = 10f64.powf(raw.log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .map(|m| m * p)
+        .find(|s| span / s <= 6.0)
+        .unwrap_or(10.0 * p);
+    let first = (lo / step).ceil() as i64;
+    let last = (hi / step).floor() as i64;
+    (first..=last).map(|i| i as f64 * step).collect()
 }
 
 /// Short tick text: no trailing zeros, exponent form for tiny or huge values.
@@ -128,7 +142,7 @@ pub fn colour_bar(
     area.draw(&Rectangle::new([(x, y), (x + w, y + h)], BLACK))
         .map_err(draw_error)?;
     let font = ("sans-serif", 14).into_font().color(&BLACK);
-    for t in ticks.unwrap_or_else(|| bar_ticks(lo, hi)) {
+    for t in ticks.unwrap_or_else(|| linear_ticks(lo, hi)) {
         let py = y + ((hi - t) / (hi - lo) * (h - 1) as f64).round() as i32;
         area.draw(&PathElement::new(vec![(x + w, py), (x + w + 4, py)], BLACK))
             .map_err(draw_error)?;
@@ -239,6 +253,14 @@ impl TimePlot<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ticks_are_nice_and_inside() {
+        assert_eq!(linear_ticks(-5.0, 3.0), vec![-4.0, -2.0, 0.0, 2.0]);
+        let t = linear_ticks(-4.0, 4.0);
+        assert_eq!(t, vec![-4.0, -2.0, 0.0, 2.0, 4.0]);
+        assert!(linear_ticks(1.0, 1.0).is_empty());
+    }
 
     #[test]
     fn tick_text_is_short() {

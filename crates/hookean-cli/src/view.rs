@@ -21,7 +21,7 @@ use hookean::massspring::{Collider, parse_obj};
 use serde::{Deserialize, Serialize};
 
 use crate::CliError;
-use crate::svg::linear_ticks;
+use crate::plot::linear_ticks;
 
 /// The player: HTML, CSS and JavaScript with `{{META}}` and `{{DATA}}` slots.
 const TEMPLATE: &str = include_str!("view.html");
