@@ -8,7 +8,7 @@ use plotters::coord::CoordTranslate;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use crate::plot::{draw_error, init_font, tick_text};
+use crate::plot::{draw_error, svg_document, tick_text};
 
 /// Distinguishable colours (Tableau 10).
 pub const PALETTE: [RGBColor; 10] = [
@@ -186,7 +186,6 @@ impl LogLogPlot {
     /// The SVG document. A series without usable points gets a legend
     /// entry but no line.
     pub fn render(&self) -> Result<String, String> {
-        init_font();
         let pts = || {
             self.series
                 .iter()
@@ -197,10 +196,7 @@ impl LogLogPlot {
         let (xt, yt) = (log_ticks(x0, x1), log_ticks(y0, y1));
         let legend_rows = self.series.len() as u32;
         let height = 540.max(60 + 22 * legend_rows);
-        let mut svg = String::new();
-        {
-            let root = SVGBackend::with_string(&mut svg, (900, height)).into_drawing_area();
-            root.fill(&WHITE).map_err(draw_error)?;
+        svg_document((900, height), |root| {
             let (plot, legend) = root.split_horizontally(680);
             let mut chart = ChartBuilder::on(&plot)
                 .caption(&self.title, ("sans-serif", 16))
@@ -304,12 +300,8 @@ impl LogLogPlot {
                     ))
                     .map_err(draw_error)?;
             }
-            root.present().map_err(draw_error)?;
-        }
-        Ok(format!(
-            "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n{}\n",
-            svg.trim_end()
-        ))
+            Ok(())
+        })
     }
 }
 

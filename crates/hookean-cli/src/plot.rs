@@ -87,6 +87,26 @@ pub fn labelled_chart<'a, 'b>(
     Ok(chart)
 }
 
+/// An SVG document of `size` pixels drawn by `f` on a white background
+/// (text is left to the viewer's fonts; the embedded one only measures it).
+pub fn svg_document(
+    size: (u32, u32),
+    f: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), String>,
+) -> Result<String, String> {
+    init_font();
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+        root.fill(&WHITE).map_err(draw_error)?;
+        f(&root)?;
+        root.present().map_err(draw_error)?;
+    }
+    Ok(format!(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n{}\n",
+        svg.trim_end()
+    ))
+}
+
 /// Tick positions: multiples of a "nice" step (1, 2 or 5 times a power of
 /// ten) giving about 3 to 7 ticks in `[lo, hi]`.
 pub fn linear_ticks(lo: f64, hi: f64) -> Vec<f64> {

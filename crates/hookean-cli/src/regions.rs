@@ -8,7 +8,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use crate::lineplot::PALETTE;
-use crate::plot::{draw_error, init_font, tick_text};
+use crate::plot::{draw_error, svg_document, tick_text};
 
 /// One panel of a [`RegionPanels`] figure.
 #[derive(Debug, Clone)]
@@ -95,7 +95,6 @@ fn clip_curve(curve: &[(f64, f64)], re: (f64, f64), im: (f64, f64)) -> Vec<Vec<(
 impl RegionPanels {
     /// The SVG document.
     pub fn render(&self) -> Result<String, String> {
-        init_font();
         let (re, im) = (self.re, self.im);
         let cols = self.panels.len().clamp(1, 4);
         let rows = self.panels.len().div_ceil(cols).max(1);
@@ -110,10 +109,7 @@ impl RegionPanels {
         );
         let fill = PALETTE[0].mix(0.45).filled();
         let outline = PALETTE[3].stroke_width(2);
-        let mut svg = String::new();
-        {
-            let root = SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area();
-            root.fill(&WHITE).map_err(draw_error)?;
+        svg_document((width, height), |root| {
             let (top, rest) = root.split_vertically(title_h);
             let (body, legend) = rest.split_vertically(rows as u32 * cell_h);
             top.draw(&Text::new(
@@ -199,12 +195,8 @@ impl RegionPanels {
             legend
                 .draw(&text(&self.curve_label, 60, 44))
                 .map_err(draw_error)?;
-            root.present().map_err(draw_error)?;
-        }
-        Ok(format!(
-            "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n{}\n",
-            svg.trim_end()
-        ))
+            Ok(())
+        })
     }
 }
 
