@@ -76,7 +76,7 @@ pub fn deformed_state(rest: &State, n: usize, pinned: &[usize]) -> State {
 }
 
 /// The benchmark system `(A, b)` for size `n` and stiffness `k`.
-pub fn cloth_system(
+fn deformed_cloth_system(
     n: usize,
     k: f64,
 ) -> Result<(hookean_sparse::SymBlockMatrix, Vec<f64>), CliError> {
@@ -132,7 +132,7 @@ pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
     for &n in &args.n {
         for &k in &args.k {
             bar.set_message(format!("N = {n}, k = {k:e}"));
-            let (a, b) = cloth_system(n, k)?;
+            let (a, b) = deformed_cloth_system(n, k)?;
             let csr = a.to_csr();
             let rows = b.len();
             let nnz = csr.nnz();

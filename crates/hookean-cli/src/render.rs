@@ -464,7 +464,7 @@ fn draw_labels(
         .map_err(err)?;
         crate::plot::colour_bar(
             root,
-            (width as i32 - 80, 75, 20, bar_h),
+            (width as i32 - 110, 75, 20, bar_h),
             (0.0, s.speed_max),
             |v| {
                 let c = to_u8(speed_colour(v / top));
