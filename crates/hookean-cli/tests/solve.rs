@@ -106,7 +106,7 @@ fn bad_input_is_one_line_and_exit_code_2() {
         "bad.mtx",
         "%%MatrixMarket matrix coordinate real general\n2 2 2\n1 1 1.0\n2 x 1.0\n",
     );
-    assert_input_error(&hookean(&["solve", &malformed]), "line 4");
+    assert_input_error(&hookean(&["solve", &malformed]), "bad.mtx:4: ");
 
     let rect = scratch(
         "rect.mtx",

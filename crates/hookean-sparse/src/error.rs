@@ -130,9 +130,12 @@ pub enum SparseError {
         /// The particle.
         particle: usize,
     },
-    /// A Matrix Market file is malformed.
-    #[error("line {line}: {message}")]
+    /// A Matrix Market file is malformed (`file:line: message`, as compilers
+    /// write it; the file is `<input>` when reading from a reader).
+    #[error("{path}:{line}: {message}")]
     Parse {
+        /// The file.
+        path: String,
         /// 1-based line number.
         line: usize,
         /// What is wrong there.

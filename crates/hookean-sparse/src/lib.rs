@@ -83,8 +83,8 @@ pub use error::SparseError;
 pub use iso::{IsoBlockMatrix, IsoSlot};
 pub use matrix::{BlockPattern, Slot, SymBlockMatrix};
 pub use mtx::{
-    MatrixMarket, read_matrix_market, read_matrix_market_file, write_matrix_market,
-    write_vector_market,
+    MatrixMarket, ReadOptions, read_matrix_market, read_matrix_market_file,
+    read_matrix_market_with, write_matrix_market, write_vector_market,
 };
 pub use operator::{LinearOperator, MatrixFree};
 pub use power::{PowerHook, PowerInfo, PowerParams, power_method};

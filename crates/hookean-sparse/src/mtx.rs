@@ -1,6 +1,13 @@
 //! Matrix Market I/O: `coordinate real general|symmetric` and `array real
 //! general|symmetric`, read and written. Malformed input is a
-//! [`SparseError::Parse`] that names the 1-based line.
+//! [`SparseError::Parse`] that names the file and the 1-based line.
+//!
+//! The reader trusts no number of the size line before checking it: an
+//! entry count cannot exceed what a matrix of that shape can list (`m n`
+//! entries, or `n (n + 1) / 2` for a symmetric file), sizes are multiplied
+//! with overflow checks, storage grows with the entries actually read, and
+//! a file whose matrix would need more memory than [`ReadOptions::max_bytes`]
+//! is refused before anything that large is allocated.
 
 use std::io::{BufRead, Write};
 
@@ -84,9 +91,57 @@ enum Format {
 
 fn parse_err(line: usize, message: impl Into<String>) -> SparseError {
     SparseError::Parse {
+        path: "<input>".into(),
         line,
         message: message.into(),
     }
+}
+
+/// What the Matrix Market reader may allocate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReadOptions {
+    /// Largest memory the matrix may need once read (CSR arrays with their
+    /// triplet staging, or the dense values), in bytes. Default 4 GiB.
+    pub max_bytes: u64,
+}
+
+impl Default for ReadOptions {
+    fn default() -> Self {
+        Self { max_bytes: 4 << 30 }
+    }
+}
+
+/// Bytes per stored entry of a coordinate file while reading: the triplet
+/// (two indices and a value) and the CSR copy (an index and a value).
+const BYTES_PER_ENTRY: u64 = 40;
+
+/// Refuses a matrix that would need more than `opts.max_bytes`.
+fn check_memory(line: usize, bytes: Option<u64>, opts: &ReadOptions) -> Result<(), SparseError> {
+    match bytes {
+        Some(b) if b <= opts.max_bytes => Ok(()),
+        Some(b) => Err(parse_err(
+            line,
+            format!(
+                "the matrix would need about {:.1} GiB, more than the {:.1} GiB allowed \
+                 (ReadOptions::max_bytes)",
+                b as f64 / (1u64 << 30) as f64,
+                opts.max_bytes as f64 / (1u64 << 30) as f64
+            ),
+        )),
+        None => Err(parse_err(
+            line,
+            "the sizes overflow 64-bit arithmetic: not a matrix this machine can hold",
+        )),
+    }
+}
+
+/// Reads a Matrix Market file from any buffered reader, with the default
+/// [`ReadOptions`].
+///
+/// # Errors
+/// As [`read_matrix_market_with`].
+pub fn read_matrix_market(reader: impl BufRead) -> Result<MatrixMarket, SparseError> {
+    read_matrix_market_with(reader, &ReadOptions::default())
 }
 
 /// Reads a Matrix Market file from any buffered reader.
@@ -94,9 +149,15 @@ fn parse_err(line: usize, message: impl Into<String>) -> SparseError {
 /// # Errors
 /// [`SparseError::Parse`] naming the line for a bad banner, an unsupported
 /// field or symmetry (`complex`, `pattern`, `skew-symmetric`, `hermitian`),
-/// a bad size line, an entry that is not a number or not finite, an index out
-/// of range, too few or too many entries; [`SparseError::Io`] if reading fails.
-pub fn read_matrix_market(reader: impl BufRead) -> Result<MatrixMarket, SparseError> {
+/// a bad size line, an entry count larger than the shape can hold, a matrix
+/// larger than `opts.max_bytes`, an entry that is not a number or not
+/// finite, an index out of range, an entry above the diagonal of a
+/// `symmetric` file (the format lists the lower triangle only), too few or
+/// too many entries; [`SparseError::Io`] if reading fails.
+pub fn read_matrix_market_with(
+    reader: impl BufRead,
+    opts: &ReadOptions,
+) -> Result<MatrixMarket, SparseError> {
     let mut lines = reader.lines().enumerate().map(|(i, l)| {
         l.map(|s| (i + 1, s)).map_err(|e| SparseError::Io {
             path: "<input>".into(),
@@ -192,8 +253,34 @@ pub fn read_matrix_market(reader: impl BufRead) -> Result<MatrixMarket, SparseEr
     match format {
         Format::Coordinate => {
             let nnz = nums[2];
-            let mut t =
-                sprs::TriMat::with_capacity((rows, cols), if symmetric { 2 * nnz } else { nnz });
+            let (r64, c64, nnz64) = (rows as u64, cols as u64, nnz as u64);
+            let listable = if symmetric {
+                r64.checked_mul(r64 + 1).map(|x| x / 2)
+            } else {
+                r64.checked_mul(c64)
+            };
+            if listable.is_some_and(|most| nnz64 > most) {
+                return Err(parse_err(
+                    size_line,
+                    format!(
+                        "{nnz} entries declared, but a {}{rows} x {cols} matrix has at most {} to list",
+                        if symmetric { "symmetric " } else { "" },
+                        listable.unwrap_or(0)
+                    ),
+                ));
+            }
+            let stored = if symmetric {
+                nnz64.checked_mul(2)
+            } else {
+                Some(nnz64)
+            };
+            let bytes = stored
+                .and_then(|e| e.checked_mul(BYTES_PER_ENTRY))
+                .and_then(|e| e.checked_add(r64.checked_add(1)?.checked_mul(8)?));
+            check_memory(size_line, bytes, opts)?;
+            // Storage grows with the entries actually read (a file may lie
+            // about its count until it ends).
+            let mut t = sprs::TriMat::with_capacity((rows, cols), nnz.min(1 << 16));
             let mut last_line = size_line;
             for k in 0..nnz {
                 let (line, s) = data.next().transpose()?.ok_or_else(|| {
@@ -225,6 +312,16 @@ pub fn read_matrix_market(reader: impl BufRead) -> Result<MatrixMarket, SparseEr
                 };
                 let r = idx(w[0], rows, "row")?;
                 let c = idx(w[1], cols, "column")?;
+                if symmetric && r < c {
+                    return Err(parse_err(
+                        line,
+                        format!(
+                            "entry ({}, {}) lies above the diagonal: a symmetric file lists the lower triangle only",
+                            r + 1,
+                            c + 1
+                        ),
+                    ));
+                }
                 let v = parse_value(line, w[2])?;
                 t.add_triplet(r, c, v);
                 if symmetric && r != c {
@@ -240,15 +337,18 @@ pub fn read_matrix_market(reader: impl BufRead) -> Result<MatrixMarket, SparseEr
             Ok(MatrixMarket::Sparse(t.to_csr()))
         }
         Format::Array => {
+            let (r64, c64) = (rows as u64, cols as u64);
+            let count = r64.checked_mul(c64);
+            check_memory(size_line, count.and_then(|c| c.checked_mul(8)), opts)?;
             let mut values = vec![0.0; rows * cols];
-            let mut expected = Vec::new();
-            for c in 0..cols {
-                let first = if symmetric { c } else { 0 };
-                for r in first..rows {
-                    expected.push((r, c));
-                }
-            }
-            let total = expected.len();
+            // The values in file order: column by column, from the diagonal
+            // down for a symmetric file.
+            let total = if symmetric {
+                rows * (rows + 1) / 2
+            } else {
+                rows * cols
+            };
+            let (mut r, mut c) = (0, 0);
             let mut k = 0;
             let mut last_line = size_line;
             while k < total {
@@ -267,12 +367,16 @@ pub fn read_matrix_market(reader: impl BufRead) -> Result<MatrixMarket, SparseEr
                         ));
                     }
                     let v = parse_value(line, w)?;
-                    let (r, c) = expected[k];
                     values[c * rows + r] = v;
                     if symmetric {
                         values[r * rows + c] = v;
                     }
                     k += 1;
+                    r += 1;
+                    if r == rows {
+                        c += 1;
+                        r = if symmetric { c } else { 0 };
+                    }
                 }
             }
             if let Some((line, _)) = data.next().transpose()? {
@@ -300,9 +404,10 @@ pub fn read_matrix_market_file(
         message: e.to_string(),
     })?;
     read_matrix_market(std::io::BufReader::new(file)).map_err(|e| match e {
-        SparseError::Parse { line, message } => SparseError::Parse {
+        SparseError::Parse { line, message, .. } => SparseError::Parse {
+            path: path.display().to_string(),
             line,
-            message: format!("{}: {message}", path.display()),
+            message,
         },
         SparseError::Io { message, .. } => SparseError::Io {
             path: path.display().to_string(),
@@ -489,11 +594,81 @@ mod tests {
             ),
             ("%%MatrixMarket matrix array real general\n2 1\n1\n", 4),
             ("%%MatrixMarket matrix array real general\n2 1\n1 2 3\n", 3),
+            // Sizes that no file could back: refused on the size line, before
+            // anything that large is allocated.
+            (
+                "%%MatrixMarket matrix coordinate real general\n1000000000000 1000000000000 3\n",
+                2,
+            ),
+            (
+                "%%MatrixMarket matrix coordinate real general\n10 10 10000000000000000000\n",
+                2,
+            ),
+            (
+                "%%MatrixMarket matrix coordinate real symmetric\n3 3 7\n",
+                2,
+            ),
+            (
+                "%%MatrixMarket matrix array real general\n4294967296 4294967296\n",
+                2,
+            ),
+            (
+                "%%MatrixMarket matrix array real general\n100000 100000\n",
+                2,
+            ),
+            // A symmetric file lists one triangle: an entry above the
+            // diagonal would be counted twice.
+            (
+                "%%MatrixMarket matrix coordinate real symmetric\n2 2 2\n1 1 4\n1 2 -1\n",
+                4,
+            ),
         ];
         for (text, line) in cases {
             let got = line_of(read(text).unwrap_err());
             assert_eq!(got, *line, "for {text:?}");
         }
+    }
+
+    #[test]
+    fn sizes_are_checked_against_the_entries_and_the_memory_cap() {
+        // 6 entries is the most a symmetric 3 x 3 file can list.
+        let ok = "%%MatrixMarket matrix coordinate real symmetric\n3 3 6\n1 1 1\n2 1 1\n2 2 1\n3 1 1\n3 2 1\n3 3 1\n";
+        assert_eq!(read(ok).unwrap().into_csr().nnz(), 9);
+        // A 100 x 100 array needs 80 000 bytes: refused under a 64 KiB cap,
+        // read under 128 KiB.
+        let mut text = String::from("%%MatrixMarket matrix array real general\n100 100\n");
+        for _ in 0..10_000 {
+            text.push_str("1\n");
+        }
+        let small = ReadOptions {
+            max_bytes: 64 << 10,
+        };
+        let err = read_matrix_market_with(text.as_bytes(), &small).unwrap_err();
+        assert!(err.to_string().contains("max_bytes"), "{err}");
+        let enough = ReadOptions {
+            max_bytes: 128 << 10,
+        };
+        assert_eq!(
+            read_matrix_market_with(text.as_bytes(), &enough)
+                .unwrap()
+                .shape(),
+            (100, 100)
+        );
+    }
+
+    #[test]
+    fn parse_errors_read_file_colon_line() {
+        let dir = std::env::temp_dir().join(format!("hookean-mtx-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("bad.mtx");
+        std::fs::write(
+            &path,
+            "%%MatrixMarket matrix coordinate real general\n2 2 1\n1 3 1.0\n",
+        )
+        .unwrap();
+        let err = read_matrix_market_file(&path).unwrap_err().to_string();
+        std::fs::remove_dir_all(&dir).unwrap();
+        assert!(err.starts_with(&format!("{}:3: ", path.display())), "{err}");
     }
 
     #[test]
