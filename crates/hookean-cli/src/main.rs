@@ -24,6 +24,7 @@ mod bench_precond;
 mod export_system;
 mod filter_analysis;
 mod lineplot;
+mod output;
 mod plot;
 mod regions;
 mod render;

@@ -294,15 +294,36 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         .unwrap_or_else(|| Path::new("out").join(&name));
     if out.exists() && !args.force {
         return Err(CliError::Input(format!(
-            "output folder {} exists; pass --force to write into it",
+            "output folder {} exists; pass --force to replace it",
             out.display()
         )));
     }
-    std::fs::create_dir_all(&out)
-        .map_err(|e| CliError::Input(format!("{}: {e}", out.display())))?;
-    if let Some(t) = &scene.tutorial {
-        return crate::tutorial_run::run(&scene, t, &args.scene, &out, args.quiet);
+    let staging = crate::output::Staging::new(&out)?;
+    let report = if let Some(t) = &scene.tutorial {
+        crate::tutorial_run::run(&scene, t, &args.scene, staging.dir(), args.quiet)
+    } else {
+        run_model(args, &scene, &name, staging.dir())
+    };
+    match report {
+        Ok(report) => {
+            staging.commit()?;
+            if let Some(line) = report {
+                eprintln!("{line}; wrote {}", out.display());
+            }
+            Ok(())
+        }
+        Err(e) => Err(staging.abandon(e)),
     }
+}
+
+/// Runs a mass-spring scene, writing into `out`; returns the one-line report.
+fn run_model(
+    args: &RunArgs,
+    scene: &Scene,
+    name: &str,
+    out: &Path,
+) -> Result<Option<String>, CliError> {
+    let out = out.to_path_buf();
     let mut sim = scene.build().map_err(|e| CliError::Input(e.to_string()))?;
 
     let mut csv = StepsCsv::create(out.join("steps.csv")).map_err(failed)?;
@@ -324,7 +345,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     // The tutorial's example 3 ([particle]) is pictured as z(t) against its exact solution.
     let mut trace = scene.particle.as_ref().map(|_| ParticleTrace {
         points: vec![],
-        exact: exact_example3(&scene),
+        exact: exact_example3(scene),
     });
     if let Some(t) = &mut trace {
         t.push(&sim);
@@ -447,8 +468,8 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         view.frames.push(view_frame(&sim).map_err(failed)?);
     }
     view.write(&out.join("view.html"))?;
-    eprintln!(
-        "{}: {} steps, {} Newton and {} CG iterations, {:.2} s wall for {:.2} s simulated ({:.2}x real time); wrote {}",
+    Ok(Some(format!(
+        "{}: {} steps, {} Newton and {} CG iterations, {:.2} s wall for {:.2} s simulated ({:.2}x real time)",
         name,
         s.steps,
         s.newton_iterations,
@@ -456,7 +477,5 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         record.wall_s,
         record.simulated_s,
         record.simulated_s_per_wall_s,
-        out.display()
-    );
-    Ok(())
+    )))
 }

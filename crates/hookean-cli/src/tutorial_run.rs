@@ -30,14 +30,15 @@ struct TutorialRecord {
     error_final: f64,
 }
 
-/// Runs a `[tutorial]` scene into `out`.
+/// Runs a `[tutorial]` scene into `out`; returns the one-line report
+/// (`None` when `quiet`).
 pub fn run(
     scene: &Scene,
     t: &TutorialScene,
     scene_path: &Path,
     out: &Path,
     quiet: bool,
-) -> Result<(), CliError> {
+) -> Result<Option<String>, CliError> {
     match t.example {
         1 => {
             let p = Dahlquist { lambda: t.lambda };
@@ -78,7 +79,7 @@ fn integrate<P: FirstOrderProblem>(
     scene_path: &Path,
     out: &Path,
     quiet: bool,
-) -> Result<(), CliError> {
+) -> Result<Option<String>, CliError> {
     let options = scene.simulation_options();
     let method = options.method.clone();
     let mut ode = FirstOrderIntegrator::new(problem, method, 0.0, y0, options.solver)
@@ -155,14 +156,12 @@ fn integrate<P: FirstOrderProblem>(
     .draw(scene.output.width, scene.output.height)
     .and_then(|c| c.write_png(&out.join("final.png")))
     .map_err(CliError::Failed)?;
-    if !quiet {
-        eprintln!(
-            "tutorial example {example}: {} steps, y({:.3}) = {y:.6e}, exact {e:.6e}, error {:.2e}; wrote {}",
+    Ok((!quiet).then(|| {
+        format!(
+            "tutorial example {example}: {} steps, y({:.3}) = {y:.6e}, exact {e:.6e}, error {:.2e}",
             s.steps,
             ode.t(),
             (y - e).abs(),
-            out.display()
-        );
-    }
-    Ok(())
+        )
+    }))
 }

@@ -71,14 +71,91 @@ fn an_existing_output_folder_is_not_overwritten_without_force() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--force"));
     assert!(!out.join("summary.json").exists());
+    // --force replaces only the output of an earlier run: a folder of the
+    // user's own files is refused, and left as it was.
     let mut forced = args.to_vec();
     forced.push("--force");
-    assert!(hookean(&forced).status.success());
-    assert!(out.join("summary.json").exists());
+    assert_input_error(&hookean(&forced), "does not hold a hookean run");
     assert_eq!(
         std::fs::read_to_string(out.join("keep.txt")).unwrap(),
         "mine"
     );
+    assert!(!out.join("summary.json").exists());
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// `--force` leaves exactly what this run wrote, and a run that fails
+/// leaves the earlier results as they were and names its partial output.
+#[test]
+fn force_replaces_a_run_whole_and_a_failed_run_changes_nothing() {
+    let out = scratch("replace");
+    let files = |dir: &std::path::Path| {
+        let mut names: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        names
+    };
+    let long = run_scene(
+        &out,
+        "scenes/drape.toml",
+        &["cloth.n=8".into(), "duration=0.5".into()],
+    );
+    assert_eq!(long["frames"], 6);
+    let before = files(&out);
+    let summary_before = std::fs::read_to_string(out.join("summary.json")).unwrap();
+
+    // FB Euler at h = 0.01 on this cloth blows up: exit 1, nothing changed.
+    let o = hookean(&[
+        "run",
+        &repo("scenes/drape.toml"),
+        "--out",
+        out.to_str().unwrap(),
+        "--force",
+        "--set",
+        "cloth.n=8",
+        "--set",
+        "duration=3",
+        "--set",
+        "integrator.method=fb-euler",
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("partial output is in"), "{stderr}");
+    assert_eq!(files(&out), before);
+    assert_eq!(
+        std::fs::read_to_string(out.join("summary.json")).unwrap(),
+        summary_before
+    );
+    let partial = stderr
+        .split("partial output is in ")
+        .nth(1)
+        .and_then(|r| r.split(" (").next())
+        .unwrap()
+        .to_string();
+    assert!(std::path::Path::new(&partial).is_dir(), "{partial}");
+    let _ = std::fs::remove_dir_all(&partial);
+
+    // A shorter run with --force: only its own 3 frames remain.
+    let o = hookean(&[
+        "run",
+        &repo("scenes/drape.toml"),
+        "--out",
+        out.to_str().unwrap(),
+        "--force",
+        "--quiet",
+        "--set",
+        "cloth.n=8",
+        "--set",
+        "duration=0.2",
+    ]);
+    assert_ok(&o);
+    let after = files(&out);
+    let objs = after.iter().filter(|f| f.ends_with(".obj")).count();
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!((objs, summary["frames"].as_u64()), (3, Some(3)));
     let _ = std::fs::remove_dir_all(&out);
 }
 

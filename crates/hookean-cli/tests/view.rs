@@ -281,17 +281,27 @@ fn a_run_that_blows_up_leaves_a_view_of_the_frames_before() {
     ]);
     assert_eq!(o.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        stderr.contains("view.html shows the frames before"),
-        "{stderr}"
-    );
-    let Some(browser) = chromium() else { return };
-    let (s, dom, _) = dump_status(&browser, &out, &out.join("view.html"), "frame=last");
+    // The failed run's output stays in its partial folder (the target is
+    // left as it was), whose view.html the message names.
+    let page = stderr
+        .split(" shows the frames before")
+        .next()
+        .and_then(|head| head.rsplit("; ").next())
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| panic!("{stderr}"));
+    assert!(page.ends_with("view.html") && page.is_file(), "{stderr}");
+    assert!(!out.exists(), "the target folder was not created");
+    let partial = page.parent().unwrap().to_path_buf();
+    let Some(browser) = chromium() else {
+        let _ = std::fs::remove_dir_all(&partial);
+        return;
+    };
+    let (s, dom, _) = dump_status(&browser, &partial, &page, "frame=last");
     assert_eq!(s["errors"], serde_json::json!([]), "{s}");
     assert_eq!(s["state"], "ready", "{s}");
     assert!(s["frames"].as_u64().unwrap() > 1, "{s}");
     assert!(dom.contains("run failed"));
-    let _ = std::fs::remove_dir_all(&out);
+    let _ = std::fs::remove_dir_all(&partial);
 }
 
 #[test]
