@@ -12,16 +12,19 @@
 //! | [`BlockJacobi`] | 3x3 diagonal blocks of `A` | 3x3 inverses | `9n` |
 //! | [`Ssor`] | `(D + wL) D^-1 (D + wL^T) / (w (2 - w))` (eq. 54) | copy of `A` | two triangular sweeps |
 //! | [`IncompleteCholesky`] | `L L^T`, `L` on the pattern of `A` | IC(0) factorisation | two triangular solves |
+//! | [`Amg`] | smoothed-aggregation V-cycle | aggregates, `P`, Galerkin `P^T A P` per level | one V-cycle |
 //!
 //! Every preconditioner is implemented for [`SymBlockMatrix`](crate::SymBlockMatrix)
 //! and for scalar `sprs::CsMat<f64>`; [`AnyPreconditioner`] picks one by name.
 
+mod amg;
 mod any;
 mod block_ic0;
 mod ic0;
 mod jacobi;
 mod ssor;
 
+pub use amg::{Amg, AmgLevelStats, AmgOptions, AmgSmoother, AmgStats};
 pub use any::{AnyPreconditioner, PrecondKind};
 pub use ic0::IncompleteCholesky;
 pub use jacobi::{BlockJacobi, Identity, Jacobi};

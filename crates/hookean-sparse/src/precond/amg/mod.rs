@@ -1,0 +1,504 @@
+//! Smoothed-aggregation algebraic multigrid (Vaněk, Mandel, Brezina 1996)
+//! on 3x3 blocks, and on scalar CSR matrices as 1x1 blocks.
+//!
+//! Set-up, per level `l` (`A_0 = A`):
+//! 1. strength of connection on blocks: `A_ij` is strong when
+//!    `|A_ij|_F^2 > theta_l^2 |A_ii|_F |A_jj|_F` (`theta_l` halves per level);
+//! 2. aggregation of the strong graph (three greedy passes);
+//! 3. the tentative prolongator `T` from the near-nullspace `N_l`, by a thin
+//!    QR on every aggregate (`N_l = T N_{l+1}`): the three translations per
+//!    particle by default (the constant for scalar matrices);
+//! 4. the smoothed prolongator `P = (I - omega D_F^-1 A_F) T`, `A_F` the
+//!    filtered matrix (weak blocks lumped onto the diagonal) and
+//!    `omega = 4/3 / rho(D_F^-1 A_F)`;
+//! 5. the Galerkin operator `A_{l+1} = P^T A_l P`, in block storage;
+//!
+//! until a level has at most `coarse_size` unknowns, which is solved by a
+//! dense Cholesky factorisation. [`Amg::apply`](crate::Preconditioner::apply)
+//! is one V-cycle from a zero guess with block damped-Jacobi (or symmetric
+//! block Gauss-Seidel) smoothing; the post-smoother is the adjoint of the
+//! pre-smoother, so the V-cycle is a symmetric positive definite operator and
+//! PCG and filtered PCG stay valid.
+//!
+//! # Re-use
+//! [`PreconditionerSetup::setup`] with a matrix of the same sparsity pattern
+//! as the last one (the same `Arc<BlockPattern>`, or equal CSR index arrays)
+//! is a *refill*: strength, aggregates, the tentative prolongator and every
+//! pattern are kept, and only the numbers (smoothers, `omega`, `P`, the
+//! Galerkin products, the coarsest factor) are recomputed, without allocating. A new pattern triggers a full
+//! set-up; [`Amg::rebuild`] forces one (e.g. when the values changed so much
+//! that the strong graph of the old aggregates no longer fits). Not calling
+//! `setup` at all keeps the whole hierarchy (a lagged preconditioner, still
+//! SPD, so CG stays valid).
+
+mod aggregate;
+mod bsr;
+mod hierarchy;
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use self::bsr::{Blk, Bsr, identity, transpose, zero};
+use self::hierarchy::Hierarchy;
+use super::{Preconditioner, PreconditionerSetup, square_dim};
+use crate::error::SparseError;
+use crate::matrix::{BlockPattern, SymBlockMatrix};
+
+/// The smoother of every level but the coarsest.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum AmgSmoother {
+    /// Block damped Jacobi `x += omega D^-1 (b - A x)` with
+    /// `omega = jacobi_weight / rho(D^-1 A)`; every row independent.
+    #[default]
+    BlockJacobi,
+    /// Forward block Gauss-Seidel before the coarse correction, backward after.
+    SymmetricGaussSeidel,
+}
+
+/// Options of [`Amg`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct AmgOptions {
+    /// Strength threshold `theta` on the finest level, halved on every
+    /// coarser one (as AMGCL). In [0, 1). Default `0.08`.
+    pub strength_threshold: f64,
+    /// Stop coarsening at this many unknowns (then a dense Cholesky solve). Default `500`.
+    pub coarse_size: usize,
+    /// At most this many levels. Default `10`.
+    pub max_levels: usize,
+    /// The smoother. Default block damped Jacobi.
+    pub smoother: AmgSmoother,
+    /// Pre- and post-smoothing steps per level. Default `1`.
+    pub sweeps: usize,
+    /// Block-Jacobi weight times `rho(D^-1 A)`, in (0, 2). Default `4/3`.
+    pub jacobi_weight: f64,
+    /// Prolongator-smoothing weight times `rho(D_F^-1 A_F)`, in (0, 2). Default `4/3`.
+    pub prolongation_weight: f64,
+    /// Power-method steps estimating the spectral radii `rho(D^-1 A)`
+    /// (allocation-free, on the V-cycle's vectors). Default `10`. `0` uses
+    /// Gershgorin's bound `max_i sum_j |D_i^-1 A_ij|_inf` instead: an upper
+    /// bound (the smoother then surely converges), but loose for 3x3 blocks
+    /// whose conditioning is poor (cloth: a tiny out-of-plane stiffness),
+    /// which damps far too much.
+    pub power_iterations: usize,
+    /// Near-nullspace vectors of length `dim`, as many as the block size
+    /// (3 for block matrices, 1 for scalar ones: the coarse operators keep
+    /// the block size). Empty (default): the translations (the constant).
+    pub near_nullspace: Vec<Vec<f64>>,
+}
+
+impl Default for AmgOptions {
+    fn default() -> Self {
+        Self {
+            strength_threshold: 0.08,
+            coarse_size: 500,
+            max_levels: 10,
+            smoother: AmgSmoother::BlockJacobi,
+            sweeps: 1,
+            jacobi_weight: 4.0 / 3.0,
+            prolongation_weight: 4.0 / 3.0,
+            power_iterations: 10,
+            near_nullspace: Vec::new(),
+        }
+    }
+}
+
+/// Statistics of one level.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AmgLevelStats {
+    /// Scalar unknowns.
+    pub rows: usize,
+    /// Scalar nonzeros of the operator (every stored block counted dense).
+    pub nonzeros: usize,
+    /// Damped-Jacobi weight `omega` (0 for Gauss-Seidel).
+    pub smoother_weight: f64,
+    /// Prolongator-smoothing weight (0 on the coarsest level).
+    pub prolongation_weight: f64,
+}
+
+/// Statistics of an [`Amg`] hierarchy.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct AmgStats {
+    /// Finest first.
+    pub levels: Vec<AmgLevelStats>,
+    /// `sum_l nnz(A_l) / nnz(A_0)`.
+    pub operator_complexity: f64,
+    /// `sum_l rows(A_l) / rows(A_0)`.
+    pub grid_complexity: f64,
+    /// Wall time of the last full set-up (s).
+    pub setup_seconds: f64,
+    /// Wall time of the last refill (s), 0 if there was none.
+    pub refill_seconds: f64,
+    /// Full set-ups so far.
+    pub setups: usize,
+    /// Refills so far.
+    pub refills: usize,
+}
+
+/// The finest level's storage and where its blocks come from.
+#[derive(Debug, Clone)]
+enum Inner {
+    Empty,
+    /// From a [`SymBlockMatrix`]: every full-storage slot copies a stored
+    /// block, transposed when it lies below the diagonal.
+    Block {
+        source: Arc<BlockPattern>,
+        map: Vec<(u32, bool)>,
+        h: Hierarchy<3>,
+    },
+    /// From a scalar CSR matrix (same slots).
+    Scalar {
+        h: Hierarchy<1>,
+    },
+}
+
+/// Smoothed-aggregation AMG preconditioner (see the [module docs](self)).
+///
+/// ```
+/// use hookean_sparse::{Amg, CgParams, CgWorkspace, PreconditionerSetup, pcg};
+/// use std::sync::Arc;
+/// use hookean_sparse::{BlockPattern, SymBlockMatrix, block};
+/// // A chain of 2000 particles joined by springs, plus a small mass.
+/// let n = 2000;
+/// let pattern = Arc::new(BlockPattern::new(n, (1..n).map(|i| (i - 1, i)))?);
+/// let mut a = SymBlockMatrix::new(pattern);
+/// for i in 1..n {
+///     a.add_to_block(i - 1, i - 1, &block::IDENTITY)?;
+///     a.add_to_block(i, i, &block::IDENTITY)?;
+///     a.add_to_block(i - 1, i, &block::scale(&block::IDENTITY, -1.0))?;
+/// }
+/// a.add_to_diagonal(&vec![1e-4; 3 * n])?;
+/// let mut amg = Amg::new();
+/// amg.setup(&a)?;
+/// assert!(amg.stats().levels.len() > 1);
+/// let b = vec![1.0; 3 * n];
+/// let mut x = vec![0.0; 3 * n];
+/// let info = pcg(&a, &amg, &b, &mut x, &CgParams::default(), &mut CgWorkspace::new(3 * n), None)?;
+/// assert!(info.converged && info.iterations < 30);
+/// # Ok::<(), hookean_sparse::SparseError>(())
+/// ```
+#[derive(Debug, Clone)]
+pub struct Amg {
+    options: AmgOptions,
+    inner: Inner,
+    stats: AmgStats,
+}
+
+impl Default for Amg {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Amg {
+    /// An empty preconditioner with default options; call
+    /// [`setup`](PreconditionerSetup::setup) before use.
+    pub fn new() -> Self {
+        Self {
+            options: AmgOptions::default(),
+            inner: Inner::Empty,
+            stats: AmgStats::default(),
+        }
+    }
+
+    /// An empty preconditioner with the given options.
+    ///
+    /// # Errors
+    /// [`SparseError::InvalidParameter`] for an option out of range.
+    pub fn with_options(options: AmgOptions) -> Result<Self, SparseError> {
+        let bad = |name: &'static str, message: String| {
+            Err(SparseError::InvalidParameter { name, message })
+        };
+        let o = &options;
+        if !(0.0..1.0).contains(&o.strength_threshold) {
+            return bad(
+                "strength_threshold",
+                format!("{} is outside [0, 1)", o.strength_threshold),
+            );
+        }
+        if o.coarse_size == 0 || o.max_levels == 0 || o.sweeps == 0 {
+            return bad(
+                "coarse_size, max_levels, sweeps",
+                "must all be at least 1".into(),
+            );
+        }
+        for (name, w) in [
+            ("jacobi_weight", o.jacobi_weight),
+            ("prolongation_weight", o.prolongation_weight),
+        ] {
+            if !(w > 0.0 && w < 2.0) {
+                return bad(name, format!("{w} is outside (0, 2)"));
+            }
+        }
+        Ok(Self {
+            options,
+            inner: Inner::Empty,
+            stats: AmgStats::default(),
+        })
+    }
+
+    /// The options.
+    pub fn options(&self) -> &AmgOptions {
+        &self.options
+    }
+
+    /// Statistics of the current hierarchy (empty before the first set-up).
+    pub fn stats(&self) -> &AmgStats {
+        &self.stats
+    }
+
+    /// A full set-up of `a`, even if its pattern is the one of the last
+    /// set-up (new strength graph and aggregates for the new values).
+    ///
+    /// # Errors
+    /// As [`setup`](PreconditionerSetup::setup).
+    pub fn rebuild<A: ?Sized>(&mut self, a: &A) -> Result<(), SparseError>
+    where
+        Self: PreconditionerSetup<A>,
+    {
+        self.inner = Inner::Empty;
+        self.setup(a)
+    }
+
+    /// The near-nullspace as one `B x B` block per node (column `c` is vector `c`).
+    fn nullspace<const B: usize>(&self, n: usize) -> Result<Vec<Blk<B>>, SparseError> {
+        let vs = &self.options.near_nullspace;
+        if vs.is_empty() {
+            return Ok(vec![identity::<B>(); n]);
+        }
+        if vs.len() != B {
+            return Err(SparseError::InvalidParameter {
+                name: "near_nullspace",
+                message: format!(
+                    "{} vectors given; the block size of this matrix is {B}, and the coarse levels keep it",
+                    vs.len()
+                ),
+            });
+        }
+        for (vector, v) in vs.iter().enumerate() {
+            if v.len() != B * n {
+                return Err(SparseError::NullspaceLength {
+                    vector,
+                    expected: B * n,
+                    found: v.len(),
+                });
+            }
+        }
+        Ok((0..n)
+            .map(|i| {
+                let mut blk = zero::<B>();
+                for (r, row) in blk.iter_mut().enumerate() {
+                    for (c, v) in vs.iter().enumerate() {
+                        row[c] = v[B * i + r];
+                    }
+                }
+                blk
+            })
+            .collect())
+    }
+
+    fn record<const B: usize>(&mut self, h: &Hierarchy<B>, seconds: f64, refill: bool) {
+        if refill {
+            self.stats.refill_seconds = seconds;
+            self.stats.refills += 1;
+            for (s, l) in self.stats.levels.iter_mut().zip(h.level_stats()) {
+                s.smoother_weight = l.smoother_weight;
+                s.prolongation_weight = l.prolongation_weight;
+            }
+            return;
+        }
+        let levels: Vec<AmgLevelStats> = h.level_stats().collect();
+        let (rows0, nnz0) = (levels[0].rows as f64, levels[0].nonzeros as f64);
+        self.stats.operator_complexity =
+            levels.iter().map(|l| l.nonzeros as f64).sum::<f64>() / nnz0;
+        self.stats.grid_complexity = levels.iter().map(|l| l.rows as f64).sum::<f64>() / rows0;
+        self.stats.levels = levels;
+        self.stats.setup_seconds = seconds;
+        self.stats.setups += 1;
+    }
+
+    /// Runs `f` on the hierarchy, dropping it when `f` fails (so the next
+    /// set-up starts afresh).
+    fn finish(&mut self, start: Instant, refill: bool) {
+        let seconds = start.elapsed().as_secs_f64();
+        match std::mem::replace(&mut self.inner, Inner::Empty) {
+            Inner::Block { source, map, h } => {
+                self.record(&h, seconds, refill);
+                self.inner = Inner::Block { source, map, h };
+            }
+            Inner::Scalar { h } => {
+                self.record(&h, seconds, refill);
+                self.inner = Inner::Scalar { h };
+            }
+            Inner::Empty => {}
+        }
+    }
+}
+
+/// The full-storage pattern of a symmetric block matrix and, for every slot,
+/// the stored block it copies (`true`: transposed, the slot is below the diagonal).
+fn full_pattern(p: &BlockPattern) -> (Bsr<3>, Vec<(u32, bool)>) {
+    let n = p.n_blocks();
+    let (row_ptr, cols) = (p.row_ptr(), p.col_idx());
+    let mut lower = vec![0usize; n];
+    for &j in cols {
+        lower[j as usize] += 1;
+    }
+    // `lower` counted the diagonal once per row too.
+    let mut full_ptr = vec![0usize; n + 1];
+    for i in 0..n {
+        full_ptr[i + 1] = full_ptr[i] + (lower[i] - 1) + (row_ptr[i + 1] - row_ptr[i]);
+    }
+    let nnz = full_ptr[n];
+    let mut col = vec![0u32; nnz];
+    let mut map = vec![(0u32, false); nnz];
+    let mut next_lower: Vec<usize> = full_ptr[..n].to_vec();
+    for i in 0..n {
+        // Diagonal and upper blocks go after the row's lower blocks.
+        let first = full_ptr[i] + lower[i] - 1;
+        for (p, s) in (first..).zip(row_ptr[i]..row_ptr[i + 1]) {
+            let j = cols[s] as usize;
+            col[p] = j as u32;
+            map[p] = (s as u32, false);
+            if j != i {
+                // Block (j, i) = stored (i, j)^T, in row j, where rows i
+                // arrive in increasing order: sorted.
+                let q = next_lower[j];
+                next_lower[j] += 1;
+                col[q] = i as u32;
+                map[q] = (s as u32, true);
+            }
+        }
+    }
+    let a = Bsr {
+        nrows: n,
+        ncols: n,
+        row_ptr: full_ptr,
+        col,
+        val: vec![zero::<3>(); nnz],
+    };
+    (a, map)
+}
+
+fn fill_from_blocks(
+    a: &mut Bsr<3>,
+    map: &[(u32, bool)],
+    src: &SymBlockMatrix,
+) -> Result<(), SparseError> {
+    let v = src.values();
+    for (k, (dst, &(s, t))) in a.val.iter_mut().zip(map).enumerate() {
+        let b = &v[s as usize];
+        if b.iter().flatten().any(|x| !x.is_finite()) {
+            return Err(SparseError::NonFinite {
+                what: "matrix",
+                index: Some(k),
+            });
+        }
+        *dst = if t { transpose(b) } else { *b };
+    }
+    Ok(())
+}
+
+impl PreconditionerSetup<SymBlockMatrix> for Amg {
+    fn setup(&mut self, a: &SymBlockMatrix) -> Result<(), SparseError> {
+        let start = Instant::now();
+        let refill = matches!(&self.inner, Inner::Block { source, .. }
+            if Arc::ptr_eq(source, a.pattern()) || **source == **a.pattern());
+        let result = match &mut self.inner {
+            Inner::Block { map, h, .. } if refill => {
+                fill_from_blocks(h.finest_mut(), map, a).and_then(|()| h.compute())
+            }
+            _ => {
+                let (mut fine, map) = full_pattern(a.pattern());
+                let built = fill_from_blocks(&mut fine, &map, a)
+                    .and_then(|()| self.nullspace::<3>(a.n_blocks()))
+                    .and_then(|ns| Hierarchy::new(fine, ns, &self.options));
+                built.map(|h| {
+                    self.inner = Inner::Block {
+                        source: a.pattern().clone(),
+                        map,
+                        h,
+                    };
+                })
+            }
+        };
+        if let Err(e) = result {
+            self.inner = Inner::Empty;
+            return Err(e);
+        }
+        self.finish(start, refill);
+        Ok(())
+    }
+}
+
+impl PreconditionerSetup<sprs::CsMat<f64>> for Amg {
+    /// Scalar AMG (1x1 blocks) on a symmetric positive definite CSR or CSC
+    /// matrix (CSC is converted, which allocates).
+    fn setup(&mut self, a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
+        let start = Instant::now();
+        let n = square_dim(a)?;
+        let owned;
+        let a = if a.is_csr() {
+            a
+        } else {
+            owned = a.to_csr();
+            &owned
+        };
+        let indptr = a.proper_indptr();
+        if let Some(k) = a.data().iter().position(|v| !v.is_finite()) {
+            return Err(SparseError::NonFinite {
+                what: "matrix",
+                index: Some(k),
+            });
+        }
+        let refill = matches!(&self.inner, Inner::Scalar { h }
+            if h.finest().row_ptr.as_slice() == &*indptr
+                && h.finest().col.iter().zip(a.indices()).all(|(&c, &i)| c as usize == i));
+        let result = match &mut self.inner {
+            Inner::Scalar { h } if refill => {
+                for (dst, &v) in h.finest_mut().val.iter_mut().zip(a.data()) {
+                    *dst = [[v]];
+                }
+                h.compute()
+            }
+            _ => {
+                let fine = Bsr::<1> {
+                    nrows: n,
+                    ncols: n,
+                    row_ptr: indptr.into_owned(),
+                    col: a.indices().iter().map(|&c| c as u32).collect(),
+                    val: a.data().iter().map(|&v| [[v]]).collect(),
+                };
+                self.nullspace::<1>(n)
+                    .and_then(|ns| Hierarchy::new(fine, ns, &self.options))
+                    .map(|h| self.inner = Inner::Scalar { h })
+            }
+        };
+        if let Err(e) = result {
+            self.inner = Inner::Empty;
+            return Err(e);
+        }
+        self.finish(start, refill);
+        Ok(())
+    }
+}
+
+impl Preconditioner for Amg {
+    fn dim(&self) -> Option<usize> {
+        Some(match &self.inner {
+            Inner::Empty => 0,
+            Inner::Block { h, .. } => h.dim(),
+            Inner::Scalar { h } => h.dim(),
+        })
+    }
+
+    fn apply(&self, r: &[f64], z: &mut [f64]) {
+        match &self.inner {
+            Inner::Empty => z.copy_from_slice(r),
+            Inner::Block { h, .. } => h.apply(r, z),
+            Inner::Scalar { h } => h.apply(r, z),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

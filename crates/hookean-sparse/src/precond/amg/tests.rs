@@ -1,0 +1,359 @@
+//! The multigrid checked against its mathematics.
+
+use super::super::testutil::{dense, rhs, spd_block_matrix};
+use super::*;
+use crate::LinearOperator;
+use crate::vecops::{dot, norm2};
+
+/// Options that force several levels on small test matrices.
+fn small_coarse(smoother: AmgSmoother) -> AmgOptions {
+    AmgOptions {
+        coarse_size: 40,
+        smoother,
+        ..Default::default()
+    }
+}
+
+fn hierarchy3(amg: &Amg) -> &Hierarchy<3> {
+    match &amg.inner {
+        Inner::Block { h, .. } => h,
+        _ => panic!("not a block hierarchy"),
+    }
+}
+
+/// Row-major dense copy of a block matrix.
+fn dense_bsr<const B: usize>(m: &Bsr<B>) -> Vec<Vec<f64>> {
+    let mut d = vec![vec![0.0; B * m.ncols]; B * m.nrows];
+    for i in 0..m.nrows {
+        for k in m.row(i) {
+            let j = m.col[k] as usize;
+            for r in 0..B {
+                for c in 0..B {
+                    d[B * i + r][B * j + c] = m.val[k][r][c];
+                }
+            }
+        }
+    }
+    d
+}
+
+fn transpose_dense(m: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    (0..m[0].len())
+        .map(|c| m.iter().map(|row| row[c]).collect())
+        .collect()
+}
+
+fn matmul(a: &[Vec<f64>], b: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    super::super::testutil::matmul(a, b)
+}
+
+/// 1D (`dim = 1`) or 2D (`dim = 2`) Poisson matrix with Dirichlet boundary,
+/// `n` points per side, as scalar CSR.
+fn poisson(n: usize, dim: usize) -> sprs::CsMat<f64> {
+    let size = n.pow(dim as u32);
+    let mut t = sprs::TriMat::new((size, size));
+    for p in 0..size {
+        let (x, y) = (p % n, p / n);
+        t.add_triplet(p, p, 2.0 * dim as f64);
+        if x > 0 {
+            t.add_triplet(p, p - 1, -1.0);
+        }
+        if x + 1 < n {
+            t.add_triplet(p, p + 1, -1.0);
+        }
+        if dim == 2 {
+            if y > 0 {
+                t.add_triplet(p, p - n, -1.0);
+            }
+            if y + 1 < n {
+                t.add_triplet(p, p + n, -1.0);
+            }
+        }
+    }
+    t.to_csr()
+}
+
+#[test]
+fn v_cycle_is_symmetric_and_positive() {
+    let a = spd_block_matrix(24, 20);
+    let n = a.dim();
+    let csr = a.to_csr();
+    for smoother in [AmgSmoother::BlockJacobi, AmgSmoother::SymmetricGaussSeidel] {
+        for scalar in [false, true] {
+            let mut amg = Amg::with_options(small_coarse(smoother)).unwrap();
+            if scalar {
+                amg.setup(&csr).unwrap();
+            } else {
+                amg.setup(&a).unwrap();
+            }
+            assert!(amg.stats().levels.len() >= 3, "{:?}", amg.stats());
+            let mut bx = vec![0.0; n];
+            let mut by = vec![0.0; n];
+            for s in 0..4 {
+                let x: Vec<f64> = (0..n)
+                    .map(|i| ((i * (s + 3)) as f64 * 0.71).sin())
+                    .collect();
+                let y: Vec<f64> = (0..n)
+                    .map(|i| ((i * (s + 5)) as f64 * 0.37).cos())
+                    .collect();
+                amg.apply(&x, &mut bx);
+                amg.apply(&y, &mut by);
+                let (bxy, xby) = (dot(&bx, &y), dot(&x, &by));
+                let scale = norm2(&bx) * norm2(&y) + norm2(&x) * norm2(&by);
+                assert!(
+                    (bxy - xby).abs() <= 1e-13 * scale,
+                    "{smoother:?} scalar {scalar}: <Bx,y> = {bxy}, <x,By> = {xby}"
+                );
+                assert!(dot(&bx, &x) > 0.0);
+            }
+        }
+    }
+}
+
+#[test]
+fn near_nullspace_lies_in_the_range_of_the_tentative_prolongator() {
+    let a = spd_block_matrix(10, 9);
+    let nb = a.n_blocks();
+    // Translations and, as user vectors, three other smooth fields.
+    let user: Vec<Vec<f64>> = (0..3)
+        .map(|c| {
+            (0..3 * nb)
+                .map(|i| {
+                    1.0 + ((i / 3) as f64 * 0.1 + c as f64).sin()
+                        * if i % 3 == c { 1.0 } else { 0.3 }
+                })
+                .collect()
+        })
+        .collect();
+    for vectors in [Vec::new(), user] {
+        let mut amg = Amg::with_options(AmgOptions {
+            near_nullspace: vectors.clone(),
+            ..small_coarse(AmgSmoother::BlockJacobi)
+        })
+        .unwrap();
+        amg.setup(&a).unwrap();
+        let h = hierarchy3(&amg);
+        let (_, Some((_, t))) = h.level_matrices(0) else {
+            panic!("one level only")
+        };
+        let t = dense_bsr(t);
+        let tt = transpose_dense(&t);
+        // T^T T = I on the aggregated columns.
+        let ttt = matmul(&tt, &t);
+        for (r, row) in ttt.iter().enumerate() {
+            for (c, v) in row.iter().enumerate() {
+                let e = if r == c { 1.0 } else { 0.0 };
+                assert!((v - e).abs() < 1e-13, "T^T T ({r},{c}) = {v}");
+            }
+        }
+        // N = T (T^T N): the nullspace is reproduced exactly.
+        let nvec: Vec<Vec<f64>> = if vectors.is_empty() {
+            (0..3)
+                .map(|c| {
+                    (0..3 * nb)
+                        .map(|i| if i % 3 == c { 1.0 } else { 0.0 })
+                        .collect()
+                })
+                .collect()
+        } else {
+            vectors
+        };
+        for v in &nvec {
+            let coarse: Vec<f64> = tt.iter().map(|row| dot(row, v)).collect();
+            let back: Vec<f64> = t.iter().map(|row| dot(row, &coarse)).collect();
+            for (x, y) in back.iter().zip(v) {
+                assert!((x - y).abs() < 1e-13 * norm2(v));
+            }
+        }
+    }
+}
+
+#[test]
+fn coarse_operator_is_the_galerkin_product() {
+    let a = spd_block_matrix(9, 8);
+    let mut amg = Amg::with_options(small_coarse(AmgSmoother::BlockJacobi)).unwrap();
+    amg.setup(&a).unwrap();
+    let h = hierarchy3(&amg);
+    assert!(h.n_levels() >= 2);
+    for l in 0..h.n_levels() - 1 {
+        let (al, Some((p, _))) = h.level_matrices(l) else {
+            unreachable!()
+        };
+        let (ac, _) = h.level_matrices(l + 1);
+        let (al, p, ac) = (dense_bsr(al), dense_bsr(p), dense_bsr(ac));
+        if l == 0 {
+            assert_eq!(al, dense(&a));
+        }
+        let expected = matmul(&transpose_dense(&p), &matmul(&al, &p));
+        let scale = expected
+            .iter()
+            .flatten()
+            .fold(0.0_f64, |m, v| m.max(v.abs()));
+        for (r, row) in expected.iter().enumerate() {
+            for (c, v) in row.iter().enumerate() {
+                assert!((ac[r][c] - v).abs() <= 1e-13 * scale, "level {l} ({r},{c})");
+            }
+        }
+    }
+}
+
+/// The asymptotic convergence factor of the stationary iteration
+/// `x += B (b - A x)` on `A x = 0` from a rough start.
+fn stationary_rate(a: &sprs::CsMat<f64>, amg: &Amg) -> f64 {
+    let n = a.rows();
+    let mut x: Vec<f64> = (0..n)
+        .map(|i| ((i * 7919) % 1000) as f64 / 1000.0 - 0.5)
+        .collect();
+    let mut r = vec![0.0; n];
+    let mut z = vec![0.0; n];
+    let mut norms = Vec::new();
+    for _ in 0..12 {
+        a.apply(&x, &mut r);
+        r.iter_mut().for_each(|v| *v = -*v);
+        norms.push(norm2(&r));
+        amg.apply(&r, &mut z);
+        x.iter_mut().zip(&z).for_each(|(x, z)| *x += z);
+    }
+    (norms[11] / norms[6]).powf(1.0 / 5.0)
+}
+
+#[test]
+fn two_grid_and_v_cycle_rates_do_not_grow_with_the_size() {
+    for (dim, sizes) in [(1, [64, 256, 1024]), (2, [16, 32, 64])] {
+        for max_levels in [2, 10] {
+            let rates: Vec<f64> = sizes
+                .iter()
+                .map(|&n| {
+                    let a = poisson(n, dim);
+                    let mut amg = Amg::with_options(AmgOptions {
+                        max_levels,
+                        coarse_size: 20,
+                        ..Default::default()
+                    })
+                    .unwrap();
+                    amg.setup(&a).unwrap();
+                    assert_eq!(
+                        amg.stats().levels.len(),
+                        max_levels.min(amg.stats().levels.len())
+                    );
+                    stationary_rate(&a, &amg)
+                })
+                .collect();
+            for &rate in &rates {
+                assert!(rate < 0.6, "{dim}D, {max_levels} levels: rates {rates:?}");
+            }
+            assert!(
+                rates[2] < rates[0] + 0.1,
+                "{dim}D, {max_levels} levels: rate grows with the size: {rates:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn small_matrix_is_solved_directly() {
+    let a = spd_block_matrix(3, 3);
+    let mut amg = Amg::new();
+    amg.setup(&a).unwrap();
+    assert_eq!(amg.stats().levels.len(), 1);
+    let r = rhs(a.dim());
+    let mut z = vec![0.0; r.len()];
+    amg.apply(&r, &mut z);
+    let mut az = vec![0.0; r.len()];
+    a.apply(&z, &mut az);
+    assert!(super::super::testutil::rel_diff(&az, &r) < 1e-12);
+}
+
+#[test]
+fn refill_reuses_the_hierarchy() {
+    let a = spd_block_matrix(12, 12);
+    let mut amg = Amg::with_options(small_coarse(AmgSmoother::BlockJacobi)).unwrap();
+    amg.setup(&a).unwrap();
+    let r = rhs(a.dim());
+    let mut z1 = vec![0.0; r.len()];
+    amg.apply(&r, &mut z1);
+    // 2 A: D^-1 A, omega and P are unchanged, every A_l doubles, so the
+    // V-cycle halves.
+    let mut a2 = a.clone();
+    a2.scale(2.0);
+    amg.setup(&a2).unwrap();
+    assert_eq!((amg.stats().setups, amg.stats().refills), (1, 1));
+    let mut z2 = vec![0.0; r.len()];
+    amg.apply(&r, &mut z2);
+    for (u, v) in z1.iter().zip(&z2) {
+        assert!((u - 2.0 * v).abs() < 1e-12 * norm2(&z1));
+    }
+    // A rebuild on the same values gives the same operator.
+    amg.rebuild(&a2).unwrap();
+    assert_eq!(amg.stats().setups, 2);
+    let mut z3 = vec![0.0; r.len()];
+    amg.apply(&r, &mut z3);
+    for (u, v) in z3.iter().zip(&z2) {
+        assert!((u - v).abs() < 1e-13 * norm2(&z2));
+    }
+}
+
+#[test]
+fn bad_input_gets_typed_errors() {
+    let a = spd_block_matrix(4, 4);
+    let dim = a.dim();
+    let mut amg = Amg::with_options(AmgOptions {
+        near_nullspace: vec![vec![1.0; dim]; 3]
+            .into_iter()
+            .enumerate()
+            .map(|(i, v)| if i == 1 { v[..dim - 1].to_vec() } else { v })
+            .collect(),
+        ..Default::default()
+    })
+    .unwrap();
+    assert_eq!(
+        amg.setup(&a),
+        Err(SparseError::NullspaceLength {
+            vector: 1,
+            expected: dim,
+            found: dim - 1
+        })
+    );
+    let mut amg = Amg::with_options(AmgOptions {
+        near_nullspace: vec![vec![1.0; dim]; 2],
+        ..Default::default()
+    })
+    .unwrap();
+    assert!(matches!(
+        amg.setup(&a),
+        Err(SparseError::InvalidParameter {
+            name: "near_nullspace",
+            ..
+        })
+    ));
+    assert!(
+        Amg::with_options(AmgOptions {
+            jacobi_weight: 2.5,
+            ..Default::default()
+        })
+        .is_err()
+    );
+    // A singular diagonal block.
+    let mut b = a.clone();
+    let d = *b.diagonal_block(5);
+    b.add_to_block(5, 5, &crate::block::scale(&d, -1.0))
+        .unwrap();
+    assert!(matches!(
+        Amg::new().setup(&b),
+        Err(SparseError::SingularBlock { block: 5, .. })
+    ));
+    // SPD diagonal blocks, indefinite matrix: [[1, 2], [2, 1]] per coordinate.
+    let pattern = Arc::new(BlockPattern::new(2, [(0, 1)]).unwrap());
+    let mut c = SymBlockMatrix::new(pattern);
+    c.add_to_diagonal(&[1.0; 6]).unwrap();
+    c.add_to_block(0, 1, &crate::block::scale(&crate::block::IDENTITY, 2.0))
+        .unwrap();
+    assert!(matches!(
+        Amg::new().setup(&c),
+        Err(SparseError::AmgNotPositiveDefinite {
+            level: 0,
+            what: "coarsest operator",
+            ..
+        })
+    ));
+}
