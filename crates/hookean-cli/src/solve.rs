@@ -6,8 +6,8 @@ use std::time::Instant;
 
 use clap::Args;
 use hookean_sparse::{
-    AnyPreconditioner, CgParams, CgWorkspace, DirectCholesky, LinearOperator, PrecondKind,
-    PreconditionerSetup, SymBlockMatrix, pcg, read_matrix_market_file, vecops::norm2,
+    AmgStats, AnyPreconditioner, CgParams, CgWorkspace, DirectCholesky, LinearOperator,
+    PrecondKind, PreconditionerSetup, SymBlockMatrix, pcg, read_matrix_market_file, vecops::norm2,
 };
 use serde::Serialize;
 
@@ -31,7 +31,9 @@ pub struct SolveArgs {
 /// The solver options `hookean solve` and `hookean bench-precond` share.
 #[derive(Debug, Args)]
 pub struct SolverArgs {
-    /// none, jacobi, block-jacobi, ssor, ic0, mic0 (block storage only), direct (faer sparse Cholesky) or all.
+    /// none, jacobi, block-jacobi, ssor, ic0, mic0 (block storage only), amg (smoothed-aggregation
+    /// multigrid: 3x3 blocks on block storage, scalar on csr), direct (faer sparse Cholesky), all,
+    /// or a comma-separated list of these (run in that order, in one process).
     #[arg(long, default_value = "all")]
     pub precond: String,
     /// SSOR relaxation, in (0, 2).
@@ -88,8 +90,35 @@ pub struct SolveRecord {
     pub iterations: usize,
     pub rel_residual: f64,
     pub converged: bool,
+    /// The multigrid hierarchy, for `amg`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub amg: Option<AmgRecord>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
+}
+
+/// The statistics of an AMG hierarchy in `hookean solve`'s JSON.
+#[derive(Debug, Serialize)]
+pub struct AmgRecord {
+    pub levels: usize,
+    /// Scalar unknowns per level, finest first.
+    pub rows: Vec<usize>,
+    /// Scalar nonzeros per level.
+    pub nonzeros: Vec<usize>,
+    pub operator_complexity: f64,
+    pub grid_complexity: f64,
+}
+
+impl From<&AmgStats> for AmgRecord {
+    fn from(s: &AmgStats) -> Self {
+        Self {
+            levels: s.levels.len(),
+            rows: s.levels.iter().map(|l| l.rows).collect(),
+            nonzeros: s.levels.iter().map(|l| l.nonzeros).collect(),
+            operator_complexity: s.operator_complexity,
+            grid_complexity: s.grid_complexity,
+        }
+    }
 }
 
 /// One solver of the comparison: PCG with a preconditioner, or the direct
@@ -101,10 +130,17 @@ pub enum Solver {
     Direct,
 }
 
-/// `all` (every preconditioner, then `direct`), `direct`, or one
-/// preconditioner name (SSOR with relaxation `omega`).
-fn parse_solvers(name: &str, omega: f64) -> Result<Vec<Solver>, CliError> {
+/// A comma-separated list of `all` (every preconditioner, then `direct`),
+/// `direct`, or preconditioner names (SSOR with relaxation `omega`).
+fn parse_solvers(names: &str, omega: f64) -> Result<Vec<Solver>, CliError> {
     let mut out = Vec::new();
+    for name in names.split(',') {
+        parse_solver(name.trim(), omega, &mut out)?;
+    }
+    Ok(out)
+}
+
+fn parse_solver(name: &str, omega: f64, out: &mut Vec<Solver>) -> Result<(), CliError> {
     if name == "all" {
         out.extend(PrecondKind::all(omega).into_iter().map(Solver::Pcg));
         out.push(Solver::Pcg(PrecondKind::Mic0 {
@@ -120,7 +156,7 @@ fn parse_solvers(name: &str, omega: f64) -> Result<Vec<Solver>, CliError> {
             other => other,
         }));
     }
-    Ok(out)
+    Ok(())
 }
 
 /// The matrix in the storage PCG runs on.
@@ -253,6 +289,7 @@ fn empty_record(solver: &'static str, precond: String, format: &'static str) -> 
         iterations: 0,
         rel_residual: f64::NAN,
         converged: false,
+        amg: None,
         error: None,
     }
 }
@@ -302,6 +339,9 @@ where
         }
         best_setup = best_setup.min(setup_s);
         best_solve = best_solve.min(solve_s);
+        if let AnyPreconditioner::Amg(amg) = &p {
+            record.amg = Some(amg.stats().into());
+        }
     }
     record.setup_s = best_setup;
     record.solve_s = best_solve;

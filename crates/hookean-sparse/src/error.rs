@@ -107,16 +107,15 @@ pub enum SparseError {
         determinant: f64,
     },
     /// Multigrid met an operator that is not positive definite on some level
-    /// (a diagonal block of a coarse operator, the filtered diagonal used to
-    /// smooth the prolongator, or the coarsest operator's factorisation).
+    /// (a diagonal block of a coarse operator, or the coarsest operator's
+    /// factorisation).
     #[error("AMG level {level}: {what} is not positive definite (scalar row {row})")]
     AmgNotPositiveDefinite {
         /// Level (0 is the finest).
         level: usize,
         /// Scalar row of that level where it was found.
         row: usize,
-        /// Which operator: `"diagonal block"`, `"filtered diagonal block"`
-        /// or `"coarsest operator"`.
+        /// Which operator: `"diagonal block"` or `"coarsest operator"`.
         what: &'static str,
     },
     /// A near-nullspace vector does not have the matrix's dimension.

@@ -5,8 +5,8 @@ use std::sync::Mutex;
 
 use super::aggregate::{NO_AGGREGATE, aggregate, strong_connections, tentative_prolongator};
 use super::bsr::{
-    Blk, Bsr, determinant, mul_add, mul_mat_add, mul_vec, product_pattern, product_values,
-    spd_inverse, zero,
+    Blk, Bsr, determinant, frobenius2, mul_add, mul_mat_add, mul_vec, product_pattern,
+    product_values, spd_inverse, zero,
 };
 use super::{AmgLevelStats, AmgOptions, AmgSmoother};
 use crate::error::SparseError;
@@ -34,7 +34,8 @@ struct Transfer<const B: usize> {
     af_diag: Vec<usize>,
     /// Strong off-diagonal slots of `a`.
     strong: Vec<bool>,
-    /// `D_F^-1`, the inverted diagonal blocks of `af`.
+    /// `D_F^-1`, the inverted diagonal blocks of `af` (of `a` where those
+    /// are not positive definite).
     df_inv: Vec<Blk<B>>,
     /// Tentative prolongator (at most one block per row) and where each
     /// of its blocks sits in the pattern of `p`.
@@ -243,27 +244,30 @@ fn spectral_radius<const B: usize>(
     Ok(power_iterate(&op, &params, None, v, w)?.0.abs())
 }
 
-/// Inverts the (symmetrised) diagonal blocks of `a`; the error names the
-/// first block that is not positive definite.
+/// Inverts the (symmetrised) diagonal blocks of `a`. The error names the
+/// first block that is not positive definite: [`SparseError::SingularBlock`]
+/// when it is (numerically) singular on the finest level, else
+/// [`SparseError::AmgNotPositiveDefinite`].
 fn invert_diagonal<const B: usize>(
     a: &Bsr<B>,
     diag: &[usize],
     dinv: &mut [Blk<B>],
     level: usize,
-    what: &'static str,
 ) -> Result<(), SparseError> {
     for (i, (&d, inv)) in diag.iter().zip(dinv.iter_mut()).enumerate() {
         *inv = spd_inverse(&a.val[d]).ok_or_else(|| {
-            if level == 0 && what == "diagonal block" {
+            let determinant = determinant(&a.val[d]);
+            let scale = frobenius2(&a.val[d]).sqrt().powi(B as i32);
+            if level == 0 && determinant.abs() <= 1e-14 * scale {
                 SparseError::SingularBlock {
                     block: i,
-                    determinant: determinant(&a.val[d]),
+                    determinant,
                 }
             } else {
                 SparseError::AmgNotPositiveDefinite {
                     level,
                     row: B * i,
-                    what,
+                    what: "diagonal block",
                 }
             }
         })?;
@@ -559,7 +563,7 @@ fn compute_level<const B: usize>(
     num: &Numeric,
     work: &mut Work,
 ) -> Result<(), SparseError> {
-    invert_diagonal(&level.a, &level.diag, &mut level.dinv, l, "diagonal block")?;
+    invert_diagonal(&level.a, &level.diag, &mut level.dinv, l)?;
     if num.smoother == AmgSmoother::BlockJacobi {
         let rho = spectral_radius(
             &level.a,
@@ -593,13 +597,12 @@ fn compute_level<const B: usize>(
             *v = a.val[s as usize];
         }
     }
-    invert_diagonal(
-        &tr.af,
-        &tr.af_diag,
-        &mut tr.df_inv,
-        l,
-        "filtered diagonal block",
-    )?;
+    // D_F^-1; where lumping made a diagonal block indefinite (a matrix that
+    // is not an M-matrix, e.g. a scalar elasticity operator with positive
+    // off-diagonal entries), D^-1 of A instead: any SPD scaling smooths T.
+    for ((inv, &d), dinv) in tr.df_inv.iter_mut().zip(&tr.af_diag).zip(&level.dinv) {
+        *inv = spd_inverse(&tr.af.val[d]).unwrap_or(*dinv);
+    }
     let rho = spectral_radius(
         &tr.af,
         &tr.df_inv,

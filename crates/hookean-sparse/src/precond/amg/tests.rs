@@ -342,6 +342,18 @@ fn bad_input_gets_typed_errors() {
         Amg::new().setup(&b),
         Err(SparseError::SingularBlock { block: 5, .. })
     ));
+    // A negative definite diagonal block.
+    let mut e = a.clone();
+    e.add_to_block(2, 2, &crate::block::scale(&d, -2.0))
+        .unwrap();
+    assert!(matches!(
+        Amg::new().setup(&e),
+        Err(SparseError::AmgNotPositiveDefinite {
+            level: 0,
+            row: 6,
+            what: "diagonal block"
+        })
+    ));
     // SPD diagonal blocks, indefinite matrix: [[1, 2], [2, 1]] per coordinate.
     let pattern = Arc::new(BlockPattern::new(2, [(0, 1)]).unwrap());
     let mut c = SymBlockMatrix::new(pattern);
