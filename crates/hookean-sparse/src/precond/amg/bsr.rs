@@ -209,16 +209,23 @@ impl<const B: usize> Bsr<B> {
             .collect()
     }
 
+    /// `sum_j A_ij x_j` for row `i` (`x` as blocks).
+    #[inline(always)]
+    pub fn row_times(&self, i: usize, x: &[[f64; B]]) -> [f64; B] {
+        let r = self.row(i);
+        let mut acc = [0.0; B];
+        for (&c, v) in self.col[r.clone()].iter().zip(&self.val[r]) {
+            mul_add(v, &x[c as usize], &mut acc);
+        }
+        acc
+    }
+
     /// `y = A x`.
     pub fn spmv(&self, x: &[f64], y: &mut [f64]) {
         let (x3, _) = x.as_chunks::<B>();
         let (y3, _) = y.as_chunks_mut::<B>();
         for (i, yi) in y3[..self.nrows].iter_mut().enumerate() {
-            let mut acc = [0.0; B];
-            for k in self.row(i) {
-                mul_add(&self.val[k], &x3[self.col[k] as usize], &mut acc);
-            }
-            *yi = acc;
+            *yi = self.row_times(i, x3);
         }
     }
 
@@ -227,13 +234,10 @@ impl<const B: usize> Bsr<B> {
         let (x3, _) = x.as_chunks::<B>();
         let (b3, _) = b.as_chunks::<B>();
         let (r3, _) = r.as_chunks_mut::<B>();
-        for (i, ri) in r3[..self.nrows].iter_mut().enumerate() {
-            let mut acc = [0.0; B];
-            for k in self.row(i) {
-                mul_add(&self.val[k], &x3[self.col[k] as usize], &mut acc);
-            }
+        for (i, (ri, bi)) in r3[..self.nrows].iter_mut().zip(b3).enumerate() {
+            let acc = self.row_times(i, x3);
             for c in 0..B {
-                ri[c] = b3[i][c] - acc[c];
+                ri[c] = bi[c] - acc[c];
             }
         }
     }
@@ -243,8 +247,9 @@ impl<const B: usize> Bsr<B> {
         let (x3, _) = x.as_chunks::<B>();
         let (y3, _) = y.as_chunks_mut::<B>();
         for (i, yi) in y3[..self.nrows].iter_mut().enumerate() {
-            for k in self.row(i) {
-                mul_add(&self.val[k], &x3[self.col[k] as usize], yi);
+            let acc = self.row_times(i, x3);
+            for c in 0..B {
+                yi[c] += acc[c];
             }
         }
     }

@@ -228,12 +228,8 @@ fn spectral_radius<const B: usize>(
     let op = MatrixFree::new(B * a.nrows, |x: &[f64], y: &mut [f64]| {
         let (x3, _) = x.as_chunks::<B>();
         let (y3, _) = y.as_chunks_mut::<B>();
-        for (i, yi) in y3.iter_mut().enumerate() {
-            let mut acc = [0.0; B];
-            for k in a.row(i) {
-                mul_add(&a.val[k], &x3[a.col[k] as usize], &mut acc);
-            }
-            *yi = mul_vec(&dinv[i], &acc);
+        for (i, (yi, d)) in y3.iter_mut().zip(dinv).enumerate() {
+            *yi = mul_vec(d, &a.row_times(i, x3));
         }
     });
     let params = PowerParams {
@@ -660,12 +656,10 @@ fn gauss_seidel<const B: usize>(level: &Level<B>, b: &[f64], x: &mut [f64], back
     let (b3, _) = b.as_chunks::<B>();
     let (x3, _) = x.as_chunks_mut::<B>();
     let mut row = |i: usize| {
+        let ax = a.row_times(i, x3);
         let mut s = b3[i];
-        for k in a.row(i) {
-            let y = mul_vec(&a.val[k], &x3[a.col[k] as usize]);
-            for c in 0..B {
-                s[c] -= y[c];
-            }
+        for c in 0..B {
+            s[c] -= ax[c];
         }
         mul_add(&level.dinv[i], &s, &mut x3[i]);
     };
