@@ -82,7 +82,8 @@ pub fn power_method<A: LinearOperator + ?Sized>(
     }
     let mut v = vec![0.0; n];
     let mut w = vec![0.0; n];
-    let (eigenvalue, iterations, converged) = power_iterate(a, params, hook, &mut v, &mut w)?;
+    let (eigenvalue, iterations, converged) =
+        power_iterate(a, params, hook, false, &mut v, &mut w)?;
     Ok(PowerInfo {
         eigenvalue,
         eigenvector: v,
@@ -93,17 +94,20 @@ pub fn power_method<A: LinearOperator + ?Sized>(
 
 /// [`power_method`] on caller-owned vectors (`v`, `w` of length `a.nrows()`,
 /// at least 1): returns `(eigenvalue, iterations, converged)` and leaves the
-/// eigenvector estimate in `v`. Allocates nothing (multigrid set-ups call it
-/// at every refill).
+/// eigenvector estimate in `v`. With `warm`, `v` is the start vector (e.g.
+/// the eigenvector of a previous, similar operator) instead of the seeded
+/// pseudo-random one. Allocates nothing (multigrid set-ups call it at every
+/// refill).
 pub(crate) fn power_iterate<A: LinearOperator + ?Sized>(
     a: &A,
     params: &PowerParams,
     mut hook: Option<PowerHook<'_>>,
+    warm: bool,
     v: &mut [f64],
     w: &mut [f64],
 ) -> Result<(f64, usize, bool), SparseError> {
     let mut state = params.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-    for vi in v.iter_mut() {
+    for vi in v.iter_mut().take(if warm { 0 } else { usize::MAX }) {
         // xorshift64*: deterministic, no dependency.
         state ^= state >> 12;
         state ^= state << 25;

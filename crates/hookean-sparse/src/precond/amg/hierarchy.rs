@@ -49,6 +49,8 @@ struct Transfer<const B: usize> {
     ap: Bsr<B>,
     /// `omega = prolongation_weight / rho(D_F^-1 A_F)`.
     omega: f64,
+    /// The power method's eigenvector estimate of `D_F^-1 A_F`.
+    eigenvector: Vec<f64>,
     /// Scratch of the sparse products (one entry per coarse node).
     marker: Vec<usize>,
 }
@@ -63,6 +65,8 @@ struct Level<const B: usize> {
     dinv: Vec<Blk<B>>,
     /// Damped-Jacobi weight `jacobi_weight / rho(D^-1 A)`.
     omega: f64,
+    /// The power method's eigenvector estimate of `D^-1 A` (warm start of refills).
+    eigenvector: Vec<f64>,
     transfer: Option<Transfer<B>>,
 }
 
@@ -145,12 +149,11 @@ impl DenseCholesky {
 }
 
 /// Per-level scratch of the V-cycle: `t` (this level's residual), and the
-/// next level's right-hand side `bc` and correction `xc`; `u` and `t` are
-/// also the power method's vectors during set-up.
+/// next level's right-hand side `bc` and correction `xc`; `t` is also the
+/// power method's scratch during set-up.
 #[derive(Debug, Clone)]
 struct Work {
     t: Vec<f64>,
-    u: Vec<f64>,
     bc: Vec<f64>,
     xc: Vec<f64>,
 }
@@ -159,7 +162,6 @@ impl Work {
     fn new(rows: usize, coarse_rows: usize) -> Self {
         Self {
             t: vec![0.0; rows],
-            u: vec![0.0; rows],
             bc: vec![0.0; coarse_rows],
             xc: vec![0.0; coarse_rows],
         }
@@ -174,6 +176,7 @@ struct Numeric {
     jacobi_weight: f64,
     prolongation_weight: f64,
     power_iterations: usize,
+    refill_power_iterations: usize,
 }
 
 /// A smoothed-aggregation hierarchy with `B x B` blocks on every level.
@@ -201,12 +204,13 @@ impl<const B: usize> Clone for Hierarchy<B> {
 }
 
 /// Gershgorin's bound `max_i sum_j |D_i^-1 A_ij|_inf >= rho(D^-1 A)`, or
-/// the power method's estimate after `power_iterations` steps (on the
-/// scratch vectors `v`, `w`).
+/// the power method's estimate after `power_iterations` steps, started from
+/// the eigenvector estimate in `v` if `warm` (`w` is scratch).
 fn spectral_radius<const B: usize>(
     a: &Bsr<B>,
     dinv: &[Blk<B>],
     power_iterations: usize,
+    warm: bool,
     v: &mut [f64],
     w: &mut [f64],
 ) -> Result<f64, SparseError> {
@@ -237,7 +241,7 @@ fn spectral_radius<const B: usize>(
         max_iter: power_iterations,
         seed: 1,
     };
-    Ok(power_iterate(&op, &params, None, v, w)?.0.abs())
+    Ok(power_iterate(&op, &params, None, warm, v, w)?.0.abs())
 }
 
 /// Inverts the (symmetrised) diagonal blocks of `a`. The error names the
@@ -287,6 +291,7 @@ impl<const B: usize> Hierarchy<B> {
             jacobi_weight: options.jacobi_weight,
             prolongation_weight: options.prolongation_weight,
             power_iterations: options.power_iterations,
+            refill_power_iterations: options.refill_power_iterations,
         };
         let mut levels: Vec<Level<B>> = Vec::new();
         let mut work: Vec<Work> = Vec::new();
@@ -328,9 +333,10 @@ impl<const B: usize> Hierarchy<B> {
                 diag,
                 dinv: vec![zero::<B>(); n],
                 omega: 0.0,
+                eigenvector: vec![0.0; B * n],
                 transfer,
             };
-            compute_level(&mut level, next.as_mut(), l, &numeric, &mut w)?;
+            compute_level(&mut level, next.as_mut(), l, &numeric, false, &mut w)?;
             levels.push(level);
             work.push(w);
             match (next, coarse_nullspace) {
@@ -423,6 +429,7 @@ impl<const B: usize> Hierarchy<B> {
                 r_map,
                 ap,
                 omega: 0.0,
+                eigenvector: vec![0.0; B * n],
                 marker: vec![usize::MAX; n_agg],
             },
             coarse_nullspace,
@@ -447,7 +454,7 @@ impl<const B: usize> Hierarchy<B> {
         for l in 0..self.levels.len() {
             let (head, tail) = self.levels.split_at_mut(l + 1);
             let next = tail.first_mut().map(|n| &mut n.a);
-            compute_level(&mut head[l], next, l, &self.numeric, &mut work[l])?;
+            compute_level(&mut head[l], next, l, &self.numeric, true, &mut work[l])?;
         }
         self.factor_coarsest()
     }
@@ -552,21 +559,31 @@ impl<const B: usize> Hierarchy<B> {
 /// The numbers of level `l`: the smoother's inverted diagonal and weight
 /// and, with a transfer, `A_F`, `omega`, `P = (I - omega D_F^-1 A_F) T`,
 /// `R = P^T`, `A P` and the next level's operator `R (A P)` into `next`.
+///
+/// A refill starts the power method from the previous eigenvector
+/// estimates and runs `refill_power_iterations` steps only.
 fn compute_level<const B: usize>(
     level: &mut Level<B>,
     next: Option<&mut Bsr<B>>,
     l: usize,
     num: &Numeric,
+    refill: bool,
     work: &mut Work,
 ) -> Result<(), SparseError> {
+    let iterations = if refill && num.power_iterations > 0 {
+        num.refill_power_iterations
+    } else {
+        num.power_iterations
+    };
     invert_diagonal(&level.a, &level.diag, &mut level.dinv, l)?;
     if num.smoother == AmgSmoother::BlockJacobi {
         let rho = spectral_radius(
             &level.a,
             &level.dinv,
-            num.power_iterations,
+            iterations,
+            refill,
+            &mut level.eigenvector,
             &mut work.t,
-            &mut work.u,
         )?;
         level.omega = num.jacobi_weight / rho;
     }
@@ -602,9 +619,10 @@ fn compute_level<const B: usize>(
     let rho = spectral_radius(
         &tr.af,
         &tr.df_inv,
-        num.power_iterations,
+        iterations,
+        refill,
+        &mut tr.eigenvector,
         &mut work.t,
-        &mut work.u,
     )?;
     tr.omega = num.prolongation_weight / rho;
     // P = T - omega D_F^-1 (A_F T).

@@ -25,7 +25,11 @@
 //! as the last one (the same `Arc<BlockPattern>`, or equal CSR index arrays)
 //! is a *refill*: strength, aggregates, the tentative prolongator and every
 //! pattern are kept, and only the numbers (smoothers, `omega`, `P`, the
-//! Galerkin products, the coarsest factor) are recomputed, without allocating. A new pattern triggers a full
+//! Galerkin products, the coarsest factor) are recomputed, without allocating;
+//! the spectral radius estimates continue the power method from the last
+//! eigenvectors for `refill_power_iterations` steps. On the 128^2 cloth a
+//! refill costs about a third of a full set-up, or 8-10 V-cycles
+//! (docs/PERFORMANCE.md, `cargo bench -p hookean-sparse --bench amg`). A new pattern triggers a full
 //! set-up; [`Amg::rebuild`] forces one (e.g. when the values changed so much
 //! that the strong graph of the old aggregates no longer fits). Not calling
 //! `setup` at all keeps the whole hierarchy (a lagged preconditioner, still
@@ -80,6 +84,10 @@ pub struct AmgOptions {
     /// whose conditioning is poor (cloth: a tiny out-of-plane stiffness),
     /// which damps far too much.
     pub power_iterations: usize,
+    /// Power-method steps at a refill, started from the previous set-up's
+    /// eigenvector estimates (which fit the new values if they changed
+    /// little). Default `3`. (Ignored when `power_iterations = 0`.)
+    pub refill_power_iterations: usize,
     /// Near-nullspace vectors of length `dim`, as many as the block size
     /// (3 for block matrices, 1 for scalar ones: the coarse operators keep
     /// the block size). Empty (default): the translations (the constant).
@@ -97,6 +105,7 @@ impl Default for AmgOptions {
             jacobi_weight: 4.0 / 3.0,
             prolongation_weight: 4.0 / 3.0,
             power_iterations: 10,
+            refill_power_iterations: 3,
             near_nullspace: Vec::new(),
         }
     }
@@ -215,9 +224,13 @@ impl Amg {
                 format!("{} is outside [0, 1)", o.strength_threshold),
             );
         }
-        if o.coarse_size == 0 || o.max_levels == 0 || o.sweeps == 0 {
+        if o.coarse_size == 0
+            || o.max_levels == 0
+            || o.sweeps == 0
+            || o.refill_power_iterations == 0
+        {
             return bad(
-                "coarse_size, max_levels, sweeps",
+                "coarse_size, max_levels, sweeps, refill_power_iterations",
                 "must all be at least 1".into(),
             );
         }
