@@ -66,3 +66,48 @@ fn amg_pcg_iterations_on_cloth_are_bounded() {
         }
     }
 }
+
+/// The 7-point Laplacian on an `n^3` grid with Dirichlet boundary, scalar CSR.
+fn poisson3d(n: usize) -> sprs::CsMat<f64> {
+    let size = n * n * n;
+    let mut t = sprs::TriMat::new((size, size));
+    for p in 0..size {
+        let (x, y, z) = (p % n, (p / n) % n, p / (n * n));
+        t.add_triplet(p, p, 6.0);
+        for (d, stride) in [(x, 1), (y, n), (z, n * n)] {
+            if d > 0 {
+                t.add_triplet(p, p - stride, -1.0);
+            }
+            if d + 1 < n {
+                t.add_triplet(p, p + stride, -1.0);
+            }
+        }
+    }
+    t.to_csr()
+}
+
+#[test]
+fn scalar_amg_pcg_on_3d_poisson_needs_at_most_40_iterations() {
+    let a = poisson3d(40);
+    let n = a.rows();
+    let b: Vec<f64> = (0..n).map(|i| ((i * 13 + 5) as f64 * 0.17).sin()).collect();
+    let mut amg = Amg::new();
+    amg.setup(&a).unwrap();
+    assert!(amg.stats().levels.len() >= 3, "{:?}", amg.stats());
+    let mut x = vec![0.0; n];
+    let info = pcg(
+        &a,
+        &amg,
+        &b,
+        &mut x,
+        &CgParams::default(),
+        &mut CgWorkspace::new(n),
+        None,
+    )
+    .unwrap();
+    let mut ax = vec![0.0; n];
+    a.apply(&x, &mut ax);
+    let res: Vec<f64> = ax.iter().zip(&b).map(|(p, q)| p - q).collect();
+    assert!(norm2(&res) <= 1.01e-8 * norm2(&b));
+    assert!(info.iterations <= 40, "{} iterations", info.iterations);
+}
