@@ -44,7 +44,7 @@ use std::time::Instant;
 
 use self::bsr::{Blk, Bsr, identity, transpose, zero};
 use self::hierarchy::Hierarchy;
-use super::{Preconditioner, PreconditionerSetup, square_dim};
+use super::{Preconditioner, PreconditionerSetup, as_csr, square_dim};
 use crate::error::SparseError;
 use crate::matrix::{BlockPattern, SymBlockMatrix};
 
@@ -449,13 +449,7 @@ impl PreconditionerSetup<sprs::CsMat<f64>> for Amg {
     fn setup(&mut self, a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
         let start = Instant::now();
         let n = square_dim(a)?;
-        let owned;
-        let a = if a.is_csr() {
-            a
-        } else {
-            owned = a.to_csr();
-            &owned
-        };
+        let a = &*as_csr(a);
         let indptr = a.proper_indptr();
         if let Some(k) = a.data().iter().position(|v| !v.is_finite()) {
             return Err(SparseError::NonFinite {
