@@ -17,7 +17,7 @@
 use std::time::Instant;
 
 use hookean_filter::{
-    DrapeScene, ExplicitScheme, FilterCoupling, FilterOptions, RunOptions, Simulation,
+    DrapeScene, ExplicitScheme, FilterCoupling, FilterOptions, ModelIntegrator, RunOptions,
     predict_dt_max, run_bounded,
 };
 use hookean_ode::{Method, NewtonOptions, SolverOptions};
@@ -63,12 +63,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 newton: NewtonOptions {
                     rtol: 1e-2,
                     linear_rtol: 1e-2,
-                    ..Default::default()
+                    ..SolverOptions::default_newton()
                 },
                 ..SolverOptions::with_h(0.01)
             };
             let mut sim =
-                Simulation::with_options(model, &state, Method::ImplicitEuler, options, None)?;
+                ModelIntegrator::new(model, &state, Method::ImplicitEuler, options, None)?;
             let mut k0_run = k0;
             let mut secs = 0.0;
             let mut bounded = true;
@@ -106,7 +106,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let (model, state) = scene.build()?;
                 let filter =
                     filtered.then(|| (FilterOptions::default(), FilterCoupling::default()));
-                let mut sim = Simulation::new(model, &state, method, h, filter)?;
+                let mut sim =
+                    ModelIntegrator::new(model, &state, method, SolverOptions::with_h(h), filter)?;
                 let start = Instant::now();
                 let out = run_bounded(
                     &mut sim,

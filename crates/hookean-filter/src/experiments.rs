@@ -4,16 +4,17 @@
 //! image (figure 4) and the spectrum of the velocity field (figure 5).
 
 use hookean_massspring::{ClothParams, ClothPins, MassSpringModel, SpringMaterial, State, cloth};
-use hookean_ode::{Method, OdeError, SecondOrderIntegrator, SolverOptions, StepReport};
+use hookean_ode::{Method, OdeError, SolverOptions};
 use hookean_sparse::PowerParams;
 
 use crate::error::FilterError;
-use crate::filtered::{FilterCoupling, FilteredIntegrator};
+use crate::filtered::FilterCoupling;
+use crate::model_integrator::ModelIntegrator;
 use crate::spectrum::{VelocityImage, power_spectrum};
 use crate::stability::ExplicitScheme;
 use crate::velocity::{FilterOptions, Kernel, VelocityFilter};
 
-/// The reference drape of DESIGN.md: an `n x n` cloth of side 1 m in the
+/// The reference drape of docs/ARCHITECTURE.md: an `n x n` cloth of side 1 m in the
 /// horizontal plane, two corners of one edge pinned, structural and shear
 /// springs of stiffness `k`, bend springs of `bend_ratio k`, projected
 /// damping `d`, gravity 9.81 m/s^2.
@@ -63,118 +64,6 @@ impl DrapeScene {
     }
 }
 
-/// A mass-spring simulation with an explicit or implicit method, filtered
-/// or not: the common driver of the experiments.
-pub enum Simulation {
-    /// A plain integrator (explicit or implicit), boxed (it is large).
-    Plain(Box<SecondOrderIntegrator<MassSpringModel>>),
-    /// A filtered explicit integrator, boxed.
-    Filtered(Box<FilteredIntegrator<MassSpringModel>>),
-}
-
-impl Simulation {
-    /// A simulation of `model` from `state` with fixed step `h`; `filter`
-    /// (for explicit methods) wraps the integrator in a [`FilteredIntegrator`]
-    /// with the given coupling.
-    ///
-    /// # Errors
-    /// The integrator's and the filter's construction errors.
-    pub fn new(
-        model: MassSpringModel,
-        state: &State,
-        method: Method,
-        h: f64,
-        filter: Option<(FilterOptions, FilterCoupling)>,
-    ) -> Result<Self, FilterError> {
-        Self::with_options(model, state, method, SolverOptions::with_h(h), filter)
-    }
-
-    /// As [`new`](Self::new) with full solver options (e.g. the Newton and
-    /// PCG tolerances of implicit Euler).
-    ///
-    /// # Errors
-    /// The integrator's and the filter's construction errors.
-    pub fn with_options(
-        model: MassSpringModel,
-        state: &State,
-        method: Method,
-        options: SolverOptions,
-        filter: Option<(FilterOptions, FilterCoupling)>,
-    ) -> Result<Self, FilterError> {
-        let vf = match &filter {
-            Some((o, _)) => Some(VelocityFilter::from_model(&model, o.clone())?),
-            None => None,
-        };
-        let inner = SecondOrderIntegrator::new(model, method, 0.0, &state.x, &state.v, options)?;
-        Ok(match (vf, filter) {
-            (Some(f), Some((_, c))) => {
-                Simulation::Filtered(Box::new(FilteredIntegrator::new(inner, f, c)?))
-            }
-            _ => Simulation::Plain(Box::new(inner)),
-        })
-    }
-
-    /// One step (filtered if the simulation is).
-    ///
-    /// # Errors
-    /// The integrator's errors.
-    pub fn step(&mut self) -> Result<StepReport, FilterError> {
-        match self {
-            Simulation::Plain(s) => Ok(s.step()?),
-            Simulation::Filtered(s) => s.step(),
-        }
-    }
-
-    /// Current time.
-    pub fn t(&self) -> f64 {
-        match self {
-            Simulation::Plain(s) => s.t(),
-            Simulation::Filtered(s) => s.t(),
-        }
-    }
-
-    /// Current positions.
-    pub fn x(&self) -> &[f64] {
-        match self {
-            Simulation::Plain(s) => s.x(),
-            Simulation::Filtered(s) => s.x(),
-        }
-    }
-
-    /// Current velocities.
-    pub fn v(&self) -> &[f64] {
-        match self {
-            Simulation::Plain(s) => s.v(),
-            Simulation::Filtered(s) => s.v(),
-        }
-    }
-
-    /// The model.
-    pub fn model(&self) -> &MassSpringModel {
-        match self {
-            Simulation::Plain(s) => s.problem(),
-            Simulation::Filtered(s) => s.problem(),
-        }
-    }
-
-    /// The integrator's counters.
-    pub fn stats(&self) -> hookean_ode::Stats {
-        match self {
-            Simulation::Plain(s) => s.stats(),
-            Simulation::Filtered(s) => s.stats(),
-        }
-    }
-
-    /// Total energy (kinetic + gravitational + spring) of the current state;
-    /// infinite for a non-finite state.
-    pub fn energy(&self) -> f64 {
-        match self.model().energies(self.x(), self.v()) {
-            Ok(e) if e.total().is_finite() => e.total(),
-            _ => f64::INFINITY,
-        }
-    }
-}
-
 /// Options of [`run_bounded`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct RunOptions {
@@ -220,14 +109,17 @@ pub struct RunOutcome {
 /// # Errors
 /// [`FilterError::InvalidParameter`] for a non-positive `t_end` or a
 /// negative/NaN bound; integrator errors other than a non-finite state.
-pub fn run_bounded(sim: &mut Simulation, opts: &RunOptions) -> Result<RunOutcome, FilterError> {
+pub fn run_bounded(
+    sim: &mut ModelIntegrator,
+    opts: &RunOptions,
+) -> Result<RunOutcome, FilterError> {
     run_observed(sim, opts, |_| {})
 }
 
 fn run_observed(
-    sim: &mut Simulation,
+    sim: &mut ModelIntegrator,
     opts: &RunOptions,
-    mut observe: impl FnMut(&Simulation),
+    mut observe: impl FnMut(&ModelIntegrator),
 ) -> Result<RunOutcome, FilterError> {
     if !(opts.t_end > 0.0 && opts.t_end.is_finite()) {
         return Err(FilterError::InvalidParameter {
@@ -261,11 +153,9 @@ fn run_observed(
     };
     loop {
         let t = sim.t();
-        if t >= t_end * (1.0 - 1e-12) {
-            break;
-        }
-        match sim.step() {
-            Ok(_) => {}
+        match sim.step_to(t_end) {
+            Ok(Some(_)) => {}
+            Ok(None) => break,
             Err(FilterError::Ode(OdeError::NonFinite { .. })) => {
                 blown(&mut out, t);
                 return Ok(out);
@@ -279,7 +169,7 @@ fn run_observed(
         out.steps += 1;
         out.t_reached = sim.t();
         observe(sim);
-        if out.steps.is_multiple_of(every) || sim.t() >= t_end * (1.0 - 1e-12) {
+        if out.steps.is_multiple_of(every) || sim.t() >= t_end {
             let e = sim.energy();
             if !(e <= limit) {
                 out.bounded = false;
@@ -357,7 +247,13 @@ pub fn measure_stable_step(
     let mut runs = 0;
     let trial = |h: f64| -> Result<bool, FilterError> {
         let (model, state) = build()?;
-        let mut sim = Simulation::new(model, &state, method.clone(), h, filter.clone())?;
+        let mut sim = ModelIntegrator::new(
+            model,
+            &state,
+            method.clone(),
+            SolverOptions::with_h(h),
+            filter.clone(),
+        )?;
         Ok(run_bounded(&mut sim, &opts.run)?.bounded)
     };
     let (mut lo, mut hi) = (f64::NAN, f64::NAN);
@@ -557,7 +453,7 @@ pub fn drape_velocity_run(
             Some((o.clone(), FilterCoupling::default())),
         ),
     };
-    let mut sim = Simulation::new(model, &state, m, h, filter)?;
+    let mut sim = ModelIntegrator::new(model, &state, m, SolverOptions::with_h(h), filter)?;
     let mut image = VelocityImage::new(n * n);
     let (mut high, mut total) = (0.0, 0.0);
     let mut err = None;

@@ -118,10 +118,38 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
     /// The integrator's errors as [`FilterError::Ode`] (a blown-up state is
     /// [`hookean_ode::OdeError::NonFinite`]).
     pub fn step(&mut self) -> Result<StepReport, FilterError> {
+        self.remember_velocity();
+        let report = self.inner.step()?;
+        self.filter_step(report)
+    }
+
+    /// One filtered step that does not pass `t_end`, or `None` once `t_end`
+    /// is reached: the integrator's landing rule
+    /// ([`SecondOrderIntegrator::step_to`]).
+    ///
+    /// # Errors
+    /// As [`step`](Self::step).
+    pub fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, FilterError> {
+        self.remember_velocity();
+        match self.inner.step_to(t_end)? {
+            Some(report) => Ok(Some(self.filter_step(report)?)),
+            None => Ok(None),
+        }
+    }
+
+    /// Keeps `v_n` for the increment coupling.
+    fn remember_velocity(&mut self) {
         if self.coupling == FilterCoupling::Increment {
             self.prev.copy_from_slice(self.inner.v());
         }
-        let report = self.inner.step()?;
+    }
+
+    /// Filters the state the integrator's step `report` reached (section 4.1).
+    fn filter_step(&mut self, report: StepReport) -> Result<StepReport, FilterError> {
+        // Particles the step held in all directions (the model's pins) keep
+        // their velocity.
+        self.filter
+            .pin_fully_constrained(self.inner.constraints())?;
         let h = match self.coupling {
             FilterCoupling::VelocityOnly => 0.0,
             FilterCoupling::CorrectPositions => report.h,
@@ -166,8 +194,8 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
         Ok(report)
     }
 
-    /// Steps until `t_end` (the last step may overshoot by less than one
-    /// step), calling `callback(report, x, v)` after every filtered step;
+    /// Steps until `t_end` ([`step_to`](Self::step_to): the last step ends
+    /// on it), calling `callback(report, x, v)` after every filtered step;
     /// `ControlFlow::Break(())` stops the run. Returns the steps taken.
     ///
     /// # Errors
@@ -177,9 +205,7 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
         F: FnMut(&StepReport, &[f64], &[f64]) -> ControlFlow<()>,
     {
         let mut steps = 0;
-        let tol = 1e-9 * self.inner.h_next().abs();
-        while self.inner.t() < t_end - tol {
-            let r = self.step()?;
+        while let Some(r) = self.step_to(t_end)? {
             steps += 1;
             if callback(&r, self.inner.x(), self.inner.v()).is_break() {
                 break;

@@ -84,17 +84,19 @@
 mod error;
 pub mod experiments;
 mod filtered;
+mod model_integrator;
 mod spectrum;
 mod stability;
 mod velocity;
 
 pub use error::FilterError;
 pub use experiments::{
-    BisectionOptions, DrapeMethod, DrapeScene, Prediction, RunOptions, RunOutcome, Simulation,
-    StableStep, StableStepRow, VelocityRun, drape_velocity_run, measure_stable_step,
-    predict_dt_max, run_bounded, stable_step_against_lambda,
+    BisectionOptions, DrapeMethod, DrapeScene, Prediction, RunOptions, RunOutcome, StableStep,
+    StableStepRow, VelocityRun, drape_velocity_run, measure_stable_step, predict_dt_max,
+    run_bounded, stable_step_against_lambda,
 };
 pub use filtered::{FilterCoupling, FilterStats, FilteredIntegrator, position_weight};
+pub use model_integrator::ModelIntegrator;
 pub use spectrum::{VelocityImage, fftshift, high_frequency_fraction, power_spectrum};
 pub use stability::{ExplicitScheme, dt_max, filtered_k0};
 pub use velocity::{

@@ -2,6 +2,8 @@
 
 use hookean_massspring::{MassSpringModel, ParticleConstraint, Spring};
 
+use hookean_sparse::Constraints;
+
 use crate::error::FilterError;
 
 /// The filter kernel `beta(d)` as a function of the distance `d`.
@@ -640,6 +642,44 @@ impl VelocityFilter {
     pub fn neighbourhood(&self, i: usize) -> (&[usize], &[f64]) {
         let r = self.offsets[i]..self.offsets[i + 1];
         (&self.neighbours[r.clone()], &self.weights[r])
+    }
+
+    /// Makes exactly the particles whose velocity `constraints` prescribe in
+    /// all three directions pinned (kept unfiltered): the step's pins, read
+    /// from the model through the integrator. Allocates nothing unless the
+    /// set changed.
+    ///
+    /// # Errors
+    /// [`FilterError::DimensionMismatch`] if `constraints` are for another
+    /// number of particles.
+    pub fn pin_fully_constrained(&mut self, constraints: &Constraints) -> Result<(), FilterError> {
+        let n = self.n_particles();
+        if constraints.n_particles() != n {
+            return Err(FilterError::DimensionMismatch {
+                what: "constraints (particles)",
+                expected: n,
+                found: constraints.n_particles(),
+            });
+        }
+        let full = || {
+            constraints
+                .counts()
+                .filter(|&(_, c)| c == 3)
+                .map(|(p, _)| p)
+        };
+        if full().count() == self.pinned_list.len() && full().all(|p| self.pinned[p]) {
+            return Ok(());
+        }
+        for &p in &self.pinned_list {
+            self.pinned[p] = false;
+        }
+        self.pinned_list.clear();
+        self.pinned_list.extend(full());
+        self.pinned_list.sort_unstable();
+        for &p in &self.pinned_list {
+            self.pinned[p] = true;
+        }
+        Ok(())
     }
 
     /// Marks particle `i` as pinned (its velocity is left alone) or free.

@@ -2,11 +2,11 @@
 
 use hookean_filter::{
     BisectionOptions, DrapeMethod, DrapeScene, ExplicitScheme, FilterCoupling, FilterError,
-    FilterOptions, Kernel, RunOptions, Simulation, drape_velocity_run, measure_stable_step,
+    FilterOptions, Kernel, ModelIntegrator, RunOptions, drape_velocity_run, measure_stable_step,
     predict_dt_max, run_bounded, stable_step_against_lambda,
 };
 use hookean_massspring::{RopeParams, rope};
-use hookean_ode::Method;
+use hookean_ode::{Method, SolverOptions};
 
 fn small() -> Result<
     (
@@ -25,7 +25,14 @@ fn small() -> Result<
 #[test]
 fn experiment_parameters_are_checked() {
     let (model, state) = small().unwrap();
-    let mut sim = Simulation::new(model, &state, Method::FbEuler, 1e-4, None).unwrap();
+    let mut sim = ModelIntegrator::new(
+        model,
+        &state,
+        Method::FbEuler,
+        SolverOptions::with_h(1e-4),
+        None,
+    )
+    .unwrap();
     for t_end in [0.0, -1.0, f64::NAN] {
         assert!(matches!(
             run_bounded(
@@ -69,11 +76,11 @@ fn experiment_parameters_are_checked() {
         ..Default::default()
     };
     assert!(matches!(
-        Simulation::new(
+        ModelIntegrator::new(
             model.clone(),
             &state,
             Method::FbEuler,
-            1e-4,
+            SolverOptions::with_h(1e-4),
             Some((bad, FilterCoupling::default()))
         ),
         Err(FilterError::InvalidLambda { .. })
@@ -83,11 +90,11 @@ fn experiment_parameters_are_checked() {
         ..Default::default()
     };
     assert!(matches!(
-        Simulation::new(
+        ModelIntegrator::new(
             model,
             &state,
             Method::FbEuler,
-            1e-4,
+            SolverOptions::with_h(1e-4),
             Some((bad, FilterCoupling::default()))
         ),
         Err(FilterError::InvalidRadius { rings: 0 })
@@ -107,7 +114,14 @@ fn a_step_that_blows_up_is_reported_as_unbounded_not_as_an_error() {
     )
     .unwrap()
     .dt_max;
-    let mut sim = Simulation::new(model, &state, Method::FbEuler, 10.0 * dt, None).unwrap();
+    let mut sim = ModelIntegrator::new(
+        model,
+        &state,
+        Method::FbEuler,
+        SolverOptions::with_h(10.0 * dt),
+        None,
+    )
+    .unwrap();
     let out = run_bounded(&mut sim, &RunOptions::default()).unwrap();
     assert!(!out.bounded && out.t_reached < 1.0);
 }

@@ -6,11 +6,12 @@
 //! coupling is the default [`FilterCoupling::Increment`].
 
 use hookean_filter::{
-    BisectionOptions, DrapeMethod, DrapeScene, FilterCoupling, FilterOptions, Kernel, RunOptions,
-    Simulation, drape_velocity_run, measure_stable_step, run_bounded, stable_step_against_lambda,
+    BisectionOptions, DrapeMethod, DrapeScene, FilterCoupling, FilterOptions, Kernel,
+    ModelIntegrator, RunOptions, drape_velocity_run, measure_stable_step, run_bounded,
+    stable_step_against_lambda,
 };
 use hookean_massspring::{BlockParams, MassSpringModel, RopeParams, State, jelly_block, rope};
-use hookean_ode::Method;
+use hookean_ode::{Method, SolverOptions};
 
 fn bisection() -> BisectionOptions {
     BisectionOptions {
@@ -111,12 +112,26 @@ fn blow_up_vs_bounded(
         t_end: 5.0,
         ..Default::default()
     };
-    let mut plain = Simulation::new(model, &state, Method::FbEuler, h, None).unwrap();
+    let mut plain = ModelIntegrator::new(
+        model,
+        &state,
+        Method::FbEuler,
+        SolverOptions::with_h(h),
+        None,
+    )
+    .unwrap();
     let out = run_bounded(&mut plain, &five).unwrap();
     eprintln!("{name} unfiltered at h = {h:.3e}: {out:?}");
     assert!(!out.bounded && out.t_reached < 5.0, "{name}: {out:?}");
     let (model, state) = build().unwrap();
-    let mut filtered = Simulation::new(model, &state, Method::FbEuler, h, lambda1()).unwrap();
+    let mut filtered = ModelIntegrator::new(
+        model,
+        &state,
+        Method::FbEuler,
+        SolverOptions::with_h(h),
+        lambda1(),
+    )
+    .unwrap();
     let out = run_bounded(&mut filtered, &five).unwrap();
     eprintln!("{name} filtered at h = {h:.3e}: {out:?}");
     assert!(out.bounded && out.t_reached >= 5.0 - h, "{name}: {out:?}");

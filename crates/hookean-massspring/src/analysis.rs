@@ -12,9 +12,7 @@ use crate::assembly::AssemblyMode;
 use crate::error::{MassSpringError, io_err};
 use crate::model::{DampingInDfdx, MassSpringModel, SpringDamping, point};
 
-/// A transformation of the power-method iterate between iterations (the
-/// filtering paper's Algorithm 1 applies its velocity filter here).
-pub type PowerHook<'a> = &'a mut dyn FnMut(&mut [f64]);
+use hookean_sparse::PowerHook;
 
 /// The explicit stability limit of a state.
 #[derive(Debug, Clone, PartialEq)]

@@ -2,7 +2,7 @@
 //! [`SecondOrderProblem`] implementation.
 //!
 //! Spring `(i, j, l0, k, d)`, `u = (x_j - x_i) / l`, `l = |x_j - x_i|`,
-//! `dv = v_j - v_i` (DESIGN.md):
+//! `dv = v_j - v_i` (docs/ARCHITECTURE.md):
 //!
 //! - force on `i`: `f_i = k (l - l0) u + d (dv . u) u` (projected damping)
 //!   or `+ d dv` (incorrect damping); `f_j = -f_i`;
@@ -17,7 +17,7 @@
 
 use std::sync::Arc;
 
-use hookean_ode::SecondOrderProblem;
+use hookean_problem::SecondOrderProblem;
 use hookean_sparse::block::{self, Block3};
 use hookean_sparse::{BlockPattern, Constraints, SymBlockMatrix};
 use nalgebra::Vector3;

@@ -204,7 +204,7 @@ pub enum ClothPins {
 }
 
 /// Parameters of [`cloth`] (the filtering paper's figures 4 and 7, and the
-/// reference drape of DESIGN.md, which is the default with `nu = nv = 32`).
+/// reference drape of docs/ARCHITECTURE.md, which is the default with `nu = nv = 32`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ClothParams {
     /// Particles along the first axis (at least 2). Default 32.

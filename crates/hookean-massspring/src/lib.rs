@@ -8,7 +8,7 @@
 //!   stiffness and damping ([`SpringDamping`]: projected, the "incorrect"
 //!   `d (v_j - v_i)`, or none), air friction, gravity, external forces,
 //!   pinned and sliding particles. It implements
-//!   [`hookean_ode::SecondOrderProblem`]: `f(x, v)`, `df/dx` (exact or
+//!   [`hookean_problem::SecondOrderProblem`]: `f(x, v)`, `df/dx` (exact or
 //!   definiteness-clamped) and `df/dv` assembled into the 3x3 block
 //!   matrices of `hookean-sparse` on a pattern built once, refilled in place
 //!   without allocation; the tutorial's constant linearised Jacobian (eq. 50);
@@ -67,14 +67,14 @@ mod error;
 mod model;
 pub mod obj;
 
-pub use analysis::{Energies, ImplicitSystem, Momentum, PowerHook, StabilityInfo};
+pub use analysis::{Energies, ImplicitSystem, Momentum, StabilityInfo};
 pub use builders::{
     BlockParams, ClothParams, ClothPins, MeshParams, RopeParams, SpringMaterial, State, cloth,
     from_mesh, jelly_block, rope, tutorial_example3,
 };
 pub use collide::Collider;
 pub use error::MassSpringError;
-pub use hookean_ode::SecondOrderProblem;
+pub use hookean_problem::SecondOrderProblem;
 pub use model::{
     DampingInDfdx, MassSpringModel, ModelOptions, ParticleConstraint, Spring, SpringDamping,
 };

@@ -10,7 +10,7 @@ use nalgebra::Vector3;
 use crate::collide::Collider;
 use crate::error::MassSpringError;
 
-/// A spring between particles `i` and `j` (DESIGN.md, "the reference scene"):
+/// A spring between particles `i` and `j` (docs/ARCHITECTURE.md, "the reference drape"):
 /// force on `i` is `f_i = k (l - l0) u + damping term`, `u = (x_j - x_i) / l`,
 /// and `f_j = -f_i`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -56,7 +56,7 @@ pub enum SpringDamping {
     None,
 }
 
-/// What the symmetric `df/dx` of [`SecondOrderProblem::force_jacobians`](hookean_ode::SecondOrderProblem::force_jacobians)
+/// What the symmetric `df/dx` of [`SecondOrderProblem::force_jacobians`](hookean_problem::SecondOrderProblem::force_jacobians)
 /// does with the position derivative of projected damping,
 /// `G = d/l [ (u . dv)(I - u u^T) + u dv^T (I - u u^T) ]` (`dv = v_j - v_i`),
 /// which is not symmetric and cannot be stored in a symmetric block matrix.
@@ -82,7 +82,7 @@ pub struct ModelOptions {
     pub gravity: [f64; 3],
     /// Replace `1 - l0/l` by `max(0, 1 - l0/l)` in the stiffness blocks so
     /// that `df/dx` is negative semidefinite and `M - h df/dv - h^2 df/dx`
-    /// is SPD (DESIGN.md). Default `true`.
+    /// is SPD (docs/ARCHITECTURE.md). Default `true`.
     pub clamp_stiffness: bool,
     /// See [`DampingInDfdx`]. Default [`DampingInDfdx::Drop`].
     pub damping_in_dfdx: DampingInDfdx,
@@ -226,7 +226,7 @@ impl Clone for DiagScratch {
 /// filtering paper's eq. 1) with lumped masses, springs, gravity, external
 /// forces, air friction, pinned / sliding particles and colliders.
 ///
-/// It implements [`hookean_ode::SecondOrderProblem`]: forces and both
+/// It implements [`hookean_problem::SecondOrderProblem`]: forces and both
 /// Jacobians are assembled into 3x3 block matrices whose pattern (one block
 /// per spring plus the diagonal) is built once in [`new`](Self::new); each
 /// spring's block slots are cached, so refills do no search and no
@@ -235,7 +235,7 @@ impl Clone for DiagScratch {
 /// **Constraints.** A particle with constrained directions (pinned: all
 /// three; sliding: one or two; in contact with a collider: the surface
 /// normal, for the current step) is held by a support whose reaction
-/// cancels the force along those directions: [`force`](hookean_ode::SecondOrderProblem::force)
+/// cancels the force along those directions: [`force`](hookean_problem::SecondOrderProblem::force)
 /// returns `P_p f_p` with `P_p = I - sum_k d_k d_k^T`, and the Jacobian blocks
 /// are `P_i (df_i/dx_j) P_j`, exact on admissible motions. Hence explicit
 /// integrators (which see only `force`) keep pinned particles fixed, and the
@@ -372,10 +372,8 @@ impl MassSpringModel {
             .map(|p| probe.slot(p, p))
             .collect::<Result<Vec<_>, _>>()?;
         let mass = masses.iter().flat_map(|&m| [m, m, m]).collect();
-        let row_ptr = pattern.row_ptr();
-        let col_idx = pattern.col_idx();
         // The pattern's column indices are u32, so particle indices fit;
-        // storage positions are checked.
+        // storage positions (from the pattern's slots) are checked.
         let to_u32 = |k: usize| {
             u32::try_from(k).map_err(|_| MassSpringError::InvalidParameter {
                 name: "springs",
@@ -385,17 +383,16 @@ impl MassSpringModel {
         let mut hot: Vec<HotSpring> = Vec::with_capacity(springs.len());
         for s in &springs {
             let (r, c) = (s.i.min(s.j), s.i.max(s.j));
-            let start = row_ptr[r] + 1;
-            let k = col_idx[start..row_ptr[r + 1]]
-                .binary_search(&(c as u32))
-                .map_err(|_| hookean_sparse::SparseError::NotInPattern { row: r, col: c })?;
+            let upper = pattern
+                .find(r, c)
+                .ok_or(hookean_sparse::SparseError::NotInPattern { row: r, col: c })?;
             hot.push(HotSpring {
                 i: to_u32(r)?,
                 j: to_u32(c)?,
                 rest_length: s.rest_length,
                 stiffness: s.stiffness,
                 damping: s.damping,
-                upper: to_u32(start + k)?,
+                upper: to_u32(upper.index())?,
                 first: false,
             });
         }
@@ -403,7 +400,7 @@ impl MassSpringModel {
         for k in 0..hot.len() {
             hot[k].first = k == 0 || hot[k - 1].upper != hot[k].upper;
         }
-        let diag_index = (0..n).map(|p| row_ptr[p]).collect();
+        let diag_index = diag_slots.iter().map(Slot::index).collect();
         let mut hot_row_ptr = vec![0usize; n + 1];
         for h in &hot {
             hot_row_ptr[h.i as usize + 1] += 1;
@@ -522,7 +519,7 @@ impl MassSpringModel {
     }
 
     /// Pins `particle` at `position`: from the next
-    /// [`begin_step`](hookean_ode::SecondOrderProblem::begin_step) on, it is
+    /// [`begin_step`](hookean_problem::SecondOrderProblem::begin_step) on, it is
     /// held there with zero velocity.
     ///
     /// # Errors
@@ -667,7 +664,7 @@ impl MassSpringModel {
     /// Checks a state: lengths `3 n`, finite entries, and no spring whose
     /// endpoints coincide (its direction would be undefined).
     ///
-    /// The [`SecondOrderProblem`](hookean_ode::SecondOrderProblem) methods
+    /// The [`SecondOrderProblem`](hookean_problem::SecondOrderProblem) methods
     /// are the unchecked hot path; call this once on states from outside.
     ///
     /// # Errors

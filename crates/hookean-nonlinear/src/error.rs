@@ -95,14 +95,6 @@ pub enum NonlinearError {
         /// What is wrong with it.
         message: String,
     },
-    /// A step-size controller would have to go below its `h_min`.
-    #[error("step size {h:e} would fall below h_min = {h_min:e}")]
-    StepSizeTooSmall {
-        /// The step size that was requested.
-        h: f64,
-        /// The lower bound.
-        h_min: f64,
-    },
     /// The nonlinear system itself reported a failure.
     #[error("nonlinear system: {message}")]
     System {

@@ -3,8 +3,9 @@
 //! Soft Object Simulation" (Eurographics 2004): Newton (Algorithm 1),
 //! inexact Newton with residual control (Algorithm 2, section 3.2),
 //! simplified and inexact simplified Newton with a cheap approximate
-//! Jacobian (Algorithm 3, section 3.3), and step-size control driven by
-//! Newton's convergence (section 3.4). It knows nothing of time or springs.
+//! Jacobian (Algorithm 3, section 3.3). It knows nothing of time or
+//! springs: the step-size controllers of section 3.4, which turn Newton's
+//! iteration counts into step sizes, live in `hookean-ode` (`control`).
 //!
 //! # The pieces
 //!
@@ -22,10 +23,6 @@
 //!   the Jacobian storage, the linear solver and the work vectors;
 //!   [`Newton::solve`] returns [`NewtonStats`] or a [`NonlinearError`] that
 //!   carries the statistics so far.
-//! - Step controllers: [`IterationController`] (few Newton iterations grow
-//!   `h`, many shrink it, failures retry smaller) and [`PiController`]
-//!   (error-based PI control whose safety factor can account for Newton's
-//!   iteration count); both answer a [`StepDecision`].
 //!
 //! # Convergence and failure
 //!
@@ -104,28 +101,17 @@
 //! let exact = (1.0 + d).cbrt() + (1.0 - d).cbrt();
 //! assert!((y[0] - exact).abs() < 1e-12);
 //! assert!(stats.iterations <= 5 && stats.converged());
-//!
-//! // The step controller of the tutorial's section 3.4 turns the iteration
-//! // count into the next step size.
-//! let mut control = IterationController::new(IterationControllerOptions::default())?;
-//! let next = control.decide(0.5, NewtonOutcome::from_result(&Ok(stats)).unwrap())?;
-//! assert!(next.is_accept());
 //! # Ok::<(), NonlinearError>(())
 //! ```
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN parameters.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-mod control;
 mod error;
 mod linear;
 mod newton;
 mod system;
 
-pub use control::{
-    IterationController, IterationControllerOptions, NewtonOutcome, PiController,
-    PiControllerOptions, StepDecision,
-};
 pub use error::{DivergenceReason, NonlinearError};
 pub use linear::{DenseLu, LinearSolveStats, LinearSolver, PcgSolver, SparseLu};
 pub use newton::{ConvergedBy, ForcingTerm, Newton, NewtonMethod, NewtonOptions, NewtonStats};

@@ -6,11 +6,14 @@ use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::LuError;
 use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use std::any::Any;
+
 use hookean_sparse::{
-    CgParams, CgWorkspace, Constraints, InitialGuess, LinearOperator, PreconditionerSetup,
-    SparseError, filtered_pcg, pcg,
+    AnyPreconditioner, CgParams, CgWorkspace, Constraints, InitialGuess, LinearOperator,
+    PreconditionerSetup, SparseError, filtered_pcg, pcg,
 };
 
+use crate::NewtonOptions;
 use crate::error::{NonlinearError, check_len, invalid};
 
 /// What one linear solve did; summed into [`NewtonStats`](crate::NewtonStats).
@@ -56,6 +59,16 @@ pub trait LinearSolver<J: ?Sized> {
         rtol: f64,
     ) -> Result<LinearSolveStats, NonlinearError>;
 
+    /// Takes the linear-solver settings of the Newton options (called by
+    /// [`Newton::new`](crate::Newton::new) and
+    /// [`Newton::set_options`](crate::Newton::set_options)). Default: nothing.
+    ///
+    /// # Errors
+    /// Invalid settings for this solver.
+    fn configure(&mut self, _options: &NewtonOptions) -> Result<(), NonlinearError> {
+        Ok(())
+    }
+
     /// Whether [`solve`](Self::solve) is exact up to rounding (direct
     /// solvers). Newton then does not spend forcing terms on it.
     fn is_direct(&self) -> bool {
@@ -65,28 +78,45 @@ pub trait LinearSolver<J: ?Sized> {
 
 /// Preconditioned conjugate gradients ([`hookean_sparse::pcg`]) for
 /// symmetric positive definite Jacobians, e.g. the cloth matrix
-/// `M - h df/dv - h^2 df/dx` (the tutorial's section 4).
+/// `M - h df/dv - h^2 df/dx` (the tutorial's section 4): the one Krylov
+/// adapter of the workspace (the integrators of `hookean-ode` use it too).
 ///
 /// Works for every Jacobian type `A` that is a [`LinearOperator`] and that
 /// the preconditioner `P` can be set up from
 /// ([`SymBlockMatrix`](hookean_sparse::SymBlockMatrix) and `sprs::CsMat<f64>`
 /// with every hookean-sparse preconditioner; any operator with
-/// [`Identity`](hookean_sparse::Identity)).
+/// [`Identity`](hookean_sparse::Identity)). With `P =`
+/// [`AnyPreconditioner`] the preconditioner follows
+/// [`NewtonOptions::preconditioner`]; the iteration limit always follows
+/// [`NewtonOptions::linear_max_iter`].
 ///
-/// With [`constraints`](Self::with_constraints), the filtered PCG of
-/// Baraff-Witkin (the tutorial's Algorithm 4) is used: the values the
-/// constraints prescribe are imposed on every Newton *correction*, so they
-/// should normally be zero (the initial iterate already satisfies the
-/// constraints, and corrections must not move it off them). The residual
-/// `G` of such a system should then be filtered too (`G <- P G`), so that
+/// **Constraints.** With [`constraints`](Self::with_constraints), the
+/// filtered PCG of Baraff-Witkin (the tutorial's Algorithm 4) solves for
+/// Newton *corrections* that keep the constrained components unchanged:
+/// with `z` the prescribed values, `A s' = rhs + A z` is solved with `s'`
+/// taking the values `z`, and `s = s' - z` has zero constrained components
+/// (for homogeneous constraints such as pins `z = 0` and no product is
+/// needed). The initial iterate should satisfy the constraints, and the
+/// residual `G` of such a system should be filtered (`G <- P G`) so that
 /// Newton's convergence test sees only the free directions.
+///
+/// **Warm start.** Every solve starts from zero unless a guess was armed
+/// with [`arm_guess`](Self::arm_guess) (used by the next solve only), e.g.
+/// the previous time step's correction.
 #[derive(Debug, Clone)]
 pub struct PcgSolver<P> {
     precond: P,
-    /// Iteration limit per solve; `None` means `2 n`. Default `None`.
-    pub max_iter: Option<usize>,
+    /// Iteration limit per solve; `None` means `2 n`. Set from
+    /// [`NewtonOptions::linear_max_iter`] by [`Newton`](crate::Newton).
+    max_iter: Option<usize>,
     constraints: Option<Constraints>,
     workspace: CgWorkspace,
+    /// The prescribed values `z` and the shifted right-hand side `rhs + A z`.
+    z: Vec<f64>,
+    shifted_rhs: Vec<f64>,
+    /// The starting guess of the next solve, if armed.
+    guess: Vec<f64>,
+    use_guess: bool,
 }
 
 impl<P> PcgSolver<P> {
@@ -97,6 +127,10 @@ impl<P> PcgSolver<P> {
             max_iter: None,
             constraints: None,
             workspace: CgWorkspace::default(),
+            z: Vec::new(),
+            shifted_rhs: Vec::new(),
+            guess: Vec::new(),
+            use_guess: false,
         }
     }
 
@@ -111,6 +145,15 @@ impl<P> PcgSolver<P> {
         self.constraints = constraints;
     }
 
+    /// Copies `constraints` into the solver's own (reusing its storage),
+    /// e.g. the constraints of a new time step.
+    pub fn copy_constraints(&mut self, constraints: &Constraints) {
+        match &mut self.constraints {
+            Some(c) => c.clone_from(constraints),
+            None => self.constraints = Some(constraints.clone()),
+        }
+    }
+
     /// The constraints, for refilling them in place between steps.
     pub fn constraints_mut(&mut self) -> Option<&mut Constraints> {
         self.constraints.as_mut()
@@ -120,13 +163,49 @@ impl<P> PcgSolver<P> {
     pub fn preconditioner(&self) -> &P {
         &self.precond
     }
+
+    /// Arms a starting guess for the next solve only and returns its
+    /// storage (length `n`, to be filled by the caller).
+    pub fn arm_guess(&mut self, n: usize) -> &mut [f64] {
+        self.guess.resize(n, 0.0);
+        self.use_guess = true;
+        &mut self.guess
+    }
+
+    /// Drops an armed guess that the next solve has not used.
+    pub fn disarm_guess(&mut self) {
+        self.use_guess = false;
+    }
+}
+
+impl PcgSolver<AnyPreconditioner> {
+    /// A PCG solver with the preconditioner and iteration limit of `options`.
+    ///
+    /// # Errors
+    /// [`NonlinearError::Linear`] for an invalid preconditioner parameter.
+    pub fn from_options(options: &NewtonOptions) -> Result<Self, NonlinearError> {
+        let mut solver = Self::new(AnyPreconditioner::new(options.preconditioner)?);
+        solver.max_iter = options.linear_max_iter;
+        Ok(solver)
+    }
 }
 
 impl<A, P> LinearSolver<A> for PcgSolver<P>
 where
     A: LinearOperator + ?Sized,
-    P: PreconditionerSetup<A>,
+    P: PreconditionerSetup<A> + 'static,
 {
+    fn configure(&mut self, options: &NewtonOptions) -> Result<(), NonlinearError> {
+        self.max_iter = options.linear_max_iter;
+        let precond: &mut dyn Any = &mut self.precond;
+        if let Some(any) = precond.downcast_mut::<AnyPreconditioner>()
+            && any.kind() != options.preconditioner
+        {
+            *any = AnyPreconditioner::new(options.preconditioner)?;
+        }
+        Ok(())
+    }
+
     fn setup(&mut self, jac: &A) -> Result<(), NonlinearError> {
         self.precond.setup(jac)?;
         Ok(())
@@ -145,25 +224,53 @@ where
         if !(rtol >= 0.0) {
             return Err(invalid("rtol", format!("must be >= 0, got {rtol}")));
         }
+        let initial_guess = if std::mem::take(&mut self.use_guess) {
+            check_len("armed guess", &self.guess, n)?;
+            x.copy_from_slice(&self.guess);
+            InitialGuess::Given
+        } else {
+            InitialGuess::Zero
+        };
         let params = CgParams {
             rtol,
             atol: 0.0,
             max_iter: self.max_iter,
-            initial_guess: InitialGuess::Zero,
+            initial_guess,
             record_history: false,
         };
         let info = match &self.constraints {
-            Some(c) => filtered_pcg(
-                jac,
-                &self.precond,
-                rhs,
-                x,
-                c,
-                &params,
-                &mut self.workspace,
-                None,
-            )?,
-            None => pcg(
+            Some(c) if !c.is_empty() => {
+                self.z.resize(n, 0.0);
+                self.shifted_rhs.resize(n, 0.0);
+                self.z.fill(0.0);
+                c.impose(&mut self.z);
+                if self.z.iter().all(|&v| v == 0.0) {
+                    // Homogeneous constraints (pins): A z = 0, no product needed.
+                    self.shifted_rhs.copy_from_slice(rhs);
+                } else {
+                    jac.apply(&self.z, &mut self.shifted_rhs);
+                    for i in 0..n {
+                        self.shifted_rhs[i] += rhs[i];
+                    }
+                }
+                // A given start needs no shift by z: filtered PCG imposes the
+                // prescribed components on it.
+                let info = filtered_pcg(
+                    jac,
+                    &self.precond,
+                    &self.shifted_rhs,
+                    x,
+                    c,
+                    &params,
+                    &mut self.workspace,
+                    None,
+                )?;
+                for i in 0..n {
+                    x[i] -= self.z[i];
+                }
+                info
+            }
+            _ => pcg(
                 jac,
                 &self.precond,
                 rhs,

@@ -2,6 +2,7 @@
 //! Algorithm 2 (inexact Newton with residual control, section 3.2) and
 //! Algorithm 3 (inexact simplified Newton, section 3.3).
 
+use hookean_sparse::PrecondKind;
 use hookean_sparse::vecops::norm2;
 
 use crate::error::{DivergenceReason, NonlinearError, check_len, invalid};
@@ -145,6 +146,13 @@ pub struct NewtonOptions {
     pub keep_jacobian_theta: f64,
     /// Diverged when `|G(Y_k)| > max_residual_growth |G(Y_0)|`. Default `1e6`.
     pub max_residual_growth: f64,
+    /// Iteration limit of each iterative linear solve ([`PcgSolver`](crate::PcgSolver));
+    /// `None` means `2 n`. Default `None`.
+    pub linear_max_iter: Option<usize>,
+    /// The preconditioner of a [`PcgSolver`](crate::PcgSolver) over
+    /// [`AnyPreconditioner`](hookean_sparse::AnyPreconditioner) (the integrators of `hookean-ode` use one);
+    /// solvers with a fixed preconditioner type ignore it. Default block-Jacobi.
+    pub preconditioner: PrecondKind,
 }
 
 impl Default for NewtonOptions {
@@ -161,6 +169,8 @@ impl Default for NewtonOptions {
             refresh_theta: 0.5,
             keep_jacobian_theta: 1e-3,
             max_residual_growth: 1e6,
+            linear_max_iter: None,
+            preconditioner: PrecondKind::BlockJacobi,
         }
     }
 }
@@ -392,8 +402,9 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
     ///
     /// # Errors
     /// [`NonlinearError::InvalidParameter`] for out-of-range options.
-    pub fn new(options: NewtonOptions, jacobian: J, linear: L) -> Result<Self, NonlinearError> {
+    pub fn new(options: NewtonOptions, jacobian: J, mut linear: L) -> Result<Self, NonlinearError> {
         options.validate()?;
+        linear.configure(&options)?;
         Ok(Self {
             options,
             jacobian,
@@ -421,6 +432,7 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
         if options.method != self.options.method {
             self.jacobian_valid = false;
         }
+        self.linear.configure(&options)?;
         self.options = options;
         Ok(())
     }

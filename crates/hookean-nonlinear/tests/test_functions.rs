@@ -507,8 +507,11 @@ const N: usize = 2000;
 
 fn pcg_newton(options: NewtonOptions) -> (Bratu, Newton<sprs::CsMat<f64>, PcgSolver<Ssor>>) {
     let (sys, j) = Bratu::new(N, 1.0);
-    let mut pcg = PcgSolver::new(Ssor::new(1.9).unwrap());
-    pcg.max_iter = Some(20 * N);
+    let pcg = PcgSolver::new(Ssor::new(1.9).unwrap());
+    let options = NewtonOptions {
+        linear_max_iter: Some(20 * N),
+        ..options
+    };
     (sys, Newton::new(options, j, pcg).unwrap())
 }
 
@@ -644,9 +647,9 @@ fn bratu_simplified_newton_is_linear_with_one_jacobian() {
 #[test]
 fn bratu_inexact_simplified_with_approximate_jacobian_reuses_it() {
     let (mut sys, j) = Bratu::new(N, 1.0);
-    let mut pcg = PcgSolver::new(Ssor::new(1.9).unwrap());
-    pcg.max_iter = Some(20 * N);
+    let pcg = PcgSolver::new(Ssor::new(1.9).unwrap());
     let options = NewtonOptions {
+        linear_max_iter: Some(20 * N),
         method: NewtonMethod::InexactSimplified(ForcingTerm::Constant(0.05)),
         rtol: 1e-10,
         atol: 0.0,
@@ -677,9 +680,12 @@ fn bratu_inexact_simplified_with_approximate_jacobian_reuses_it() {
 fn linear_solver_failures_are_reported() {
     // PCG limited to 3 iterations cannot reach 1e-10 on Bratu.
     let (mut sys, j) = Bratu::new(200, 1.0);
-    let mut pcg = PcgSolver::new(Identity);
-    pcg.max_iter = Some(3);
-    let mut newton = Newton::new(NewtonOptions::default(), j, pcg).unwrap();
+    let pcg = PcgSolver::new(Identity);
+    let options = NewtonOptions {
+        linear_max_iter: Some(3),
+        ..NewtonOptions::default()
+    };
+    let mut newton = Newton::new(options, j, pcg).unwrap();
     let err = newton.solve(&mut sys, &mut vec![0.0; 200]).unwrap_err();
     match &err {
         NonlinearError::LinearNotConverged {
@@ -749,9 +755,9 @@ fn matrix_free_jacobian_with_unpreconditioned_cg() {
     let n = 300;
     let (sys, _) = Bratu::new(n, 1.0);
     let mut sys = BratuMatrixFree(sys);
-    let mut pcg = PcgSolver::new(Identity);
-    pcg.max_iter = Some(10 * n);
+    let pcg = PcgSolver::new(Identity);
     let options = NewtonOptions {
+        linear_max_iter: Some(10 * n),
         method: NewtonMethod::Inexact(ForcingTerm::EW2_DEFAULT),
         ..tight()
     };

@@ -35,7 +35,7 @@ fn bench_steps(c: &mut Criterion) {
                 atol: 1e-10,
                 max_iter: 20,
                 linear_rtol: 1e-8,
-                ..NewtonOptions::default()
+                ..SolverOptions::default_newton()
             },
             ..SolverOptions::default()
         };

@@ -28,7 +28,7 @@ fn options() -> SolverOptions {
             rtol: 1e-13,
             atol: 1e-14,
             linear_rtol: 1e-13,
-            ..NewtonOptions::default()
+            ..SolverOptions::default_newton()
         },
         ..SolverOptions::default()
     }

@@ -4,13 +4,13 @@
 use std::ops::ControlFlow;
 
 use crate::bdf::{BdfCoefficients, variable_bdf2, variable_bdf2_error_constant};
+use crate::control::{
+    IterationController, IterationControllerOptions, NewtonOutcome, PiController,
+    PiControllerOptions, StepDecision,
+};
 use crate::error::OdeError;
 use crate::method::Method;
 use crate::options::{IntegrateInfo, Predictor, SolverOptions, Stats, StepControl, StepReport};
-use hookean_nonlinear::{
-    IterationController, IterationControllerOptions, NewtonOutcome, NonlinearError, PiController,
-    PiControllerOptions, StepDecision,
-};
 
 /// The step-size controller of the variable-step method.
 enum Controller {
@@ -387,7 +387,7 @@ impl<S: System> Core<S> {
     fn implicit_euler(&mut self, t: f64, h: f64) -> Result<StageInfo, StageFailure> {
         self.psi.copy_from_slice(&self.s);
         self.kbuf.copy_from_slice(&self.s);
-        if self.opts.newton.predictor == Predictor::Extrapolate && self.prev_h == h {
+        if self.opts.predictor == Predictor::Extrapolate && self.prev_h == h {
             for ((k, s), p) in self.kbuf.iter_mut().zip(&self.s).zip(&self.prev) {
                 *k += s - p;
             }
@@ -397,7 +397,7 @@ impl<S: System> Core<S> {
             h,
             &self.psi,
             &mut self.kbuf,
-            &self.opts.newton,
+            &self.opts,
             &mut self.stats,
         )?;
         self.prev.copy_from_slice(&self.s);
@@ -528,7 +528,7 @@ impl<S: System> Core<S> {
             0.5 * h,
             &self.psi,
             &mut self.kbuf,
-            &self.opts.newton,
+            &self.opts,
             &mut self.stats,
         )?;
         for (yi, ki) in y.iter_mut().zip(&self.kbuf) {
@@ -612,7 +612,7 @@ impl<S: System> Core<S> {
             gh,
             &self.psi,
             &mut self.kbuf,
-            &self.opts.newton,
+            &self.opts,
             &mut self.stats,
         )?;
         self.s.copy_from_slice(&self.kbuf);
@@ -658,7 +658,7 @@ impl<S: System> Core<S> {
                 gh,
                 &self.psi,
                 &mut self.kbuf,
-                &self.opts.newton,
+                &self.opts,
                 &mut self.stats,
             ) {
                 Ok(info) => info,
@@ -751,27 +751,36 @@ impl<S: System> Core<S> {
     /// The step size a controller's decision asks for; its errors as ours.
     fn controller_step(
         &self,
-        decision: Result<StepDecision, NonlinearError>,
+        decision: Result<StepDecision, OdeError>,
         h: f64,
     ) -> Result<f64, OdeError> {
         match decision {
             Ok(d) => Ok(d.step_size()),
-            Err(NonlinearError::StepSizeTooSmall { h: h_new, .. }) => {
-                Err(OdeError::StepSizeUnderflow {
-                    t: self.t,
-                    h: h_new.min(h),
-                })
-            }
-            Err(source) => Err(OdeError::NewtonSolver { t: self.t, source }),
+            Err(OdeError::StepSizeTooSmall { h: h_new, .. }) => Err(OdeError::StepSizeUnderflow {
+                t: self.t,
+                h: h_new.min(h),
+            }),
+            Err(e) => Err(e),
         }
     }
 
-    /// The driver: steps until `t_end` (the last step shortened to land on
-    /// it), calling `callback` after every step.
-    pub fn integrate<F>(&mut self, t_end: f64, mut callback: F) -> Result<IntegrateInfo, OdeError>
-    where
-        F: FnMut(&StepReport, &[f64]) -> ControlFlow<()>,
-    {
+    /// How close to `t_end` counts as on it: `max(1e-9 h, 8 eps |t_end|)`
+    /// with `h` the next nominal step.
+    fn landing_slack(&self, t_end: f64) -> f64 {
+        (1e-9 * self.h_next()).max(8.0 * f64::EPSILON * t_end.abs())
+    }
+
+    /// The one rule for landing on an end time, used by every driver: one
+    /// step that does not pass `t_end`, or `None` when `t_end` is reached.
+    ///
+    /// - Within the slack ([`landing_slack`](Self::landing_slack)) below
+    ///   `t_end`, the time is set to `t_end` and no step is taken.
+    /// - A nominal step that lands within the slack of `t_end` is taken as
+    ///   it is (no sliver of a step is left, and no step is shortened by
+    ///   round-off alone); a nominal step that would pass `t_end` by more is
+    ///   shortened to end on it.
+    /// - A step that ends within the slack of `t_end` ends exactly on it.
+    pub fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, OdeError> {
         if !t_end.is_finite() || t_end < self.t {
             return Err(OdeError::InvalidParameter {
                 name: "t_end",
@@ -779,26 +788,30 @@ impl<S: System> Core<S> {
                 reason: "must be finite and not before the current time",
             });
         }
-        loop {
-            let remaining = t_end - self.t;
-            let h_nom = self.h_next();
-            let slack = (1e-9 * h_nom).max(8.0 * f64::EPSILON * t_end.abs());
-            if remaining <= slack {
-                self.t = self.t.max(t_end);
-                break;
-            }
-            let limit = if remaining < h_nom * (1.0 + 1e-9) {
-                Some(remaining)
-            } else {
-                None
-            };
-            let mut report = self.step(limit)?;
-            if limit.is_some() && (self.t - t_end).abs() <= slack {
-                self.t = t_end;
-                self.t_base = t_end;
-                self.n_fixed = 0;
-                report.t = t_end;
-            }
+        let remaining = t_end - self.t;
+        let slack = self.landing_slack(t_end);
+        if remaining <= slack {
+            self.t = t_end;
+            return Ok(None);
+        }
+        let limit = (remaining < self.h_next() - slack).then_some(remaining);
+        let mut report = self.step(limit)?;
+        if (self.t - t_end).abs() <= slack {
+            self.t = t_end;
+            self.t_base = t_end;
+            self.n_fixed = 0;
+            report.t = t_end;
+        }
+        Ok(Some(report))
+    }
+
+    /// The driver: [`step_to`](Self::step_to) until `t_end`, calling
+    /// `callback` after every step.
+    pub fn integrate<F>(&mut self, t_end: f64, mut callback: F) -> Result<IntegrateInfo, OdeError>
+    where
+        F: FnMut(&StepReport, &[f64]) -> ControlFlow<()>,
+    {
+        while let Some(report) = self.step_to(t_end)? {
             if callback(&report, &self.s).is_break() {
                 return Ok(IntegrateInfo {
                     t: self.t,

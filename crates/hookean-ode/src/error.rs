@@ -70,9 +70,10 @@ pub enum OdeError {
         t: f64,
         /// Number of retries made.
         retries: usize,
-        /// The solver's error.
+        /// The linear solver's error as Newton reported it (not converged
+        /// to the forcing term, or a `hookean-sparse` error).
         #[source]
-        source: SparseError,
+        source: NonlinearError,
     },
     /// The dense Jacobian of a first-order Newton step is singular.
     #[error("singular Newton matrix at t = {t} (pivot {pivot} is zero)")]
@@ -102,6 +103,22 @@ pub enum OdeError {
     UnknownMethod {
         /// The name given.
         name: String,
+    },
+    /// A step-size controller option or argument is out of range.
+    #[error("invalid step-size controller parameter {name}: {message}")]
+    InvalidController {
+        /// The parameter.
+        name: &'static str,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A step-size controller would have to go below its `h_min`.
+    #[error("step size {h:e} would fall below h_min = {h_min:e}")]
+    StepSizeTooSmall {
+        /// The step size that was requested.
+        h: f64,
+        /// The lower bound.
+        h_min: f64,
     },
     /// An error of `hookean-sparse` outside a Newton solve (set-up, constraints).
     #[error(transparent)]

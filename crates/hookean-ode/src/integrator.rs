@@ -12,8 +12,8 @@ use crate::core::Core;
 use crate::error::OdeError;
 use crate::method::Method;
 use crate::options::{IntegrateInfo, SolverOptions, Stats, StepReport};
-use crate::problem::{FirstOrderProblem, SecondOrderProblem};
 use crate::system::{FirstSys, SecondSys};
+use hookean_problem::{FirstOrderProblem, SecondOrderProblem};
 
 /// Integrates a first-order problem `y' = f(t, y)` (eq. 7) with any
 /// [`Method`] except the second-order-only ones (FB Euler, Verlet).
@@ -39,7 +39,7 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
         y0: &[f64],
         options: SolverOptions,
     ) -> Result<Self, OdeError> {
-        let sys = FirstSys::new(problem, &options.newton)?;
+        let sys = FirstSys::new(problem, &options)?;
         Ok(Self {
             core: Core::new(sys, method, t0, y0.to_vec(), options)?,
         })
@@ -55,6 +55,18 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
     /// allowed retries; each carries the time reached.
     pub fn step(&mut self) -> Result<StepReport, OdeError> {
         self.core.step(None)
+    }
+
+    /// One step that does not pass `t_end`, or `None` once `t_end` is
+    /// reached: the landing rule of every driver (a nominal step that ends
+    /// within `max(1e-9 h, 8 eps |t_end|)` of `t_end` is taken and ends
+    /// exactly on it; a longer one is shortened to end on it).
+    ///
+    /// # Errors
+    /// As [`step`](Self::step); [`OdeError::InvalidParameter`] for a
+    /// non-finite `t_end` or one before the current time.
+    pub fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, OdeError> {
+        self.core.step_to(t_end)
     }
 
     /// Integrates to `t_end` (the last step is shortened to land on it).
@@ -131,7 +143,7 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
 /// Integrates a second-order problem `M x'' = f(t, x, v)` (setting (5)/(6))
 /// with any [`Method`]. Explicit Runge-Kutta methods run on the first-order
 /// form (6); FB Euler and Verlet are the symplectic schemes; the implicit
-/// methods solve the reduced velocity form of DESIGN.md (unknown `V`, size
+/// methods solve the reduced velocity form of docs/ARCHITECTURE.md (unknown `V`, size
 /// `dim`, SPD matrix `M - c h df/dv - (c h)^2 df/dx`, PCG, filtered by the
 /// constraints that [`SecondOrderProblem::begin_step`] sets).
 ///
@@ -208,7 +220,7 @@ impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
                 reason: "lumped masses must be positive and finite",
             });
         }
-        let sys = SecondSys::new(problem, &options.newton)?;
+        let sys = SecondSys::new(problem, &options)?;
         let mut s0 = x0.to_vec();
         s0.extend_from_slice(v0);
         Ok(Self {
@@ -223,6 +235,15 @@ impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
     /// when PCG fails after the allowed retries.
     pub fn step(&mut self) -> Result<StepReport, OdeError> {
         self.core.step(None)
+    }
+
+    /// One step that does not pass `t_end`, or `None` once `t_end` is
+    /// reached; see [`FirstOrderIntegrator::step_to`].
+    ///
+    /// # Errors
+    /// As [`FirstOrderIntegrator::step_to`].
+    pub fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, OdeError> {
+        self.core.step_to(t_end)
     }
 
     /// Integrates to `t_end`.

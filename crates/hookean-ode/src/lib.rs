@@ -2,8 +2,10 @@
 //! tutorial ("Numerical Techniques for Soft Object Simulation") and the
 //! forward-backward Euler of the filtering paper (Ahmad et al.).
 //!
-//! - [`problem`]: the contracts, [`FirstOrderProblem`] `y' = f(t, y)` and
-//!   [`SecondOrderProblem`] `M x'' = f(t, x, v)` (lumped `M`, 3x3-block Jacobians).
+//! - The contracts, [`FirstOrderProblem`] `y' = f(t, y)` and
+//!   [`SecondOrderProblem`] `M x'' = f(t, x, v)` (lumped `M`, 3x3-block
+//!   Jacobians), live in the small `hookean-problem` crate (re-exported
+//!   here), so that models need not depend on the integrators.
 //! - [`Method`]: explicit Euler, explicit midpoint, RK4, any explicit
 //!   [`ButcherTableau`], FB Euler, Stoermer-Verlet, implicit Euler, implicit
 //!   midpoint, fixed-step BDF(1..6) and variable-step BDF2; by name through
@@ -28,9 +30,9 @@
 //! first-order problems, the reduced velocity form with (filtered) PCG for
 //! second-order ones. Fixed-step BDF(k) starts with the implicit midpoint
 //! rule extrapolated from 2, 4 and 6 substeps (local error `O(h^7)`);
-//! variable-step BDF2 starts with implicit Euler and is driven by
-//! `hookean-nonlinear`'s PI controller (or its Newton-iteration controller,
-//! [`StepControl`]).
+//! variable-step BDF2 starts with implicit Euler and is driven by the PI
+//! controller of [`control`] (or its Newton-iteration controller of the
+//! tutorial's section 3.4, [`StepControl`]).
 //!
 //! ```
 //! use hookean_ode::{FirstOrderIntegrator, FirstOrderProblem, Method, SolverOptions};
@@ -51,12 +53,12 @@
 //! ```
 
 pub mod bdf;
+pub mod control;
 mod core;
 pub mod error;
 pub mod integrator;
 pub mod method;
 pub mod options;
-pub mod problem;
 pub mod stability;
 mod system;
 pub mod tableau;
@@ -64,13 +66,15 @@ pub mod tutorial;
 pub mod workprecision;
 
 pub use bdf::BdfCoefficients;
+pub use control::{
+    IterationController, IterationControllerOptions, NewtonOutcome, PiController,
+    PiControllerOptions, StepDecision,
+};
 pub use error::OdeError;
-pub use hookean_nonlinear::{ForcingTerm, NewtonMethod};
+pub use hookean_nonlinear::{ForcingTerm, NewtonMethod, NewtonOptions};
+pub use hookean_problem::{FirstOrderProblem, SecondOrderProblem};
 pub use integrator::{FirstOrderIntegrator, SecondOrderIntegrator};
 pub use method::Method;
-pub use options::{
-    IntegrateInfo, NewtonOptions, Predictor, SolverOptions, Stats, StepControl, StepReport,
-};
-pub use problem::{FirstOrderProblem, SecondOrderProblem};
+pub use options::{IntegrateInfo, Predictor, SolverOptions, Stats, StepControl, StepReport};
 pub use system::FirstOrderForm;
 pub use tableau::ButcherTableau;

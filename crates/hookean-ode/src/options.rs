@@ -1,44 +1,10 @@
 //! Options, statistics and step reports of the integrators.
 
-use hookean_nonlinear::{IterationControllerOptions, NewtonMethod, PiControllerOptions};
-use hookean_sparse::PrecondKind;
+use hookean_nonlinear::NewtonOptions;
+
+use crate::control::{IterationControllerOptions, PiControllerOptions};
 
 use crate::error::OdeError;
-
-/// Options of the Newton iteration that solves each implicit step (the
-/// tutorial's section 3), run by `hookean-nonlinear`'s [`Newton`](hookean_nonlinear::Newton).
-#[derive(Debug, Clone, PartialEq)]
-pub struct NewtonOptions {
-    /// The Newton variant: exact (Algorithm 1), inexact with a forcing term
-    /// (Algorithm 2), simplified, or inexact simplified with the problem's
-    /// linearised Jacobians (Algorithm 3,
-    /// [`SecondOrderProblem::linearized_jacobians`](crate::SecondOrderProblem::linearized_jacobians)).
-    /// Default [`NewtonMethod::Exact`].
-    pub method: NewtonMethod,
-    /// Maximum Newton iterations per step attempt. Default 10.
-    pub max_iter: usize,
-    /// Converged when `|G(Y_k)| <= atol + rtol |G(Y_0)|` (Euclidean norms of
-    /// the stage residual; `Y_0` is the predictor). Default `1e-10`.
-    pub rtol: f64,
-    /// Absolute residual tolerance. Default `1e-12`.
-    pub atol: f64,
-    /// Relative tolerance of PCG for the exact variants (second-order
-    /// problems). Default `1e-10`.
-    pub linear_rtol: f64,
-    /// Iteration limit of PCG; `None` means `2 n`. Default `None`.
-    pub linear_max_iter: Option<usize>,
-    /// Preconditioner of PCG (second-order problems). Default block-Jacobi.
-    pub preconditioner: PrecondKind,
-    /// Starting guess of implicit Euler's Newton iteration. Default
-    /// [`Predictor::Previous`].
-    pub predictor: Predictor,
-    /// Starts the first linear solve of each step (second-order problems)
-    /// from the previous step's velocity change instead of from zero. The
-    /// Newton start and its stop `|G| <= rtol |G(Y_0)|` stay as they are;
-    /// only PCG begins closer to the answer. Ignored after a change of step
-    /// size. Default `false`.
-    pub warm_start: bool,
-}
 
 /// The starting guess `Y_0` of the Newton iteration of an implicit Euler step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -59,35 +25,19 @@ pub enum Predictor {
     Extrapolate,
 }
 
-impl Default for NewtonOptions {
-    fn default() -> Self {
-        Self {
-            method: NewtonMethod::Exact,
-            max_iter: 10,
-            rtol: 1e-10,
-            atol: 1e-12,
-            linear_rtol: 1e-10,
-            linear_max_iter: None,
-            preconditioner: PrecondKind::BlockJacobi,
-            predictor: Predictor::Previous,
-            warm_start: false,
-        }
-    }
-}
-
 /// How the variable-step method chooses its step sizes: one of
-/// `hookean-nonlinear`'s controllers. Their `h_min`/`h_max` are replaced by
+/// the controllers of [`control`](crate::control). Their `h_min`/`h_max` are replaced by
 /// [`SolverOptions::h_min`] (at least `1e-300`) and [`SolverOptions::h_max`].
 #[derive(Debug, Clone, PartialEq)]
 pub enum StepControl {
     /// The error-based (PI) controller: accept when the weighted RMS norm
     /// of the local error estimate is `<= 1`, next step from the error
-    /// ([`PiController`](hookean_nonlinear::PiController)).
+    /// ([`PiController`](crate::PiController)).
     ErrorBased(PiControllerOptions),
     /// The Newton-iteration controller of the tutorial's section 3.4: the
     /// number of Newton iterations decides whether `h` grows or shrinks;
     /// every converged step is accepted, no error estimate is used
-    /// ([`IterationController`](hookean_nonlinear::IterationController)).
+    /// ([`IterationController`](crate::IterationController)).
     NewtonIterations(IterationControllerOptions),
 }
 
@@ -119,7 +69,7 @@ impl Default for StepControl {
 #[derive(Debug, Clone, PartialEq)]
 pub struct SolverOptions {
     /// The step size of the fixed-step methods and the initial step size
-    /// of the variable-step method. Default `1e-2` (DESIGN.md's drape scene).
+    /// of the variable-step method. Default `1e-2` (the reference drape, docs/ARCHITECTURE.md).
     pub h: f64,
     /// Relative tolerance of the variable-step method. Default `1e-6`.
     pub rtol: f64,
@@ -136,8 +86,20 @@ pub struct SolverOptions {
     /// for the fixed-step methods; implicit Euler substeps for BDF(k)) before
     /// the run fails. Default 6.
     pub max_retries: usize,
-    /// The Newton iteration of the implicit methods.
+    /// The Newton iteration of the implicit methods (the tutorial's
+    /// section 3) and its linear solver: `hookean-nonlinear`'s options, with
+    /// the integrators' defaults (see [`SolverOptions::default_newton`]).
     pub newton: NewtonOptions,
+    /// Starting guess of implicit Euler's Newton iteration. Default
+    /// [`Predictor::Previous`].
+    pub predictor: Predictor,
+    /// Starts the first linear solve of each step (second-order problems)
+    /// from the previous step's velocity change instead of from zero
+    /// ([`PcgSolver::arm_guess`](hookean_nonlinear::PcgSolver::arm_guess)).
+    /// The Newton start and its stop `|G| <= rtol |G(Y_0)|` stay as they
+    /// are; only PCG begins closer to the answer. Ignored after a change of
+    /// step size. Default `false`.
+    pub warm_start: bool,
 }
 
 impl Default for SolverOptions {
@@ -150,7 +112,9 @@ impl Default for SolverOptions {
             h_max: f64::INFINITY,
             control: StepControl::default(),
             max_retries: 6,
-            newton: NewtonOptions::default(),
+            newton: Self::default_newton(),
+            predictor: Predictor::Previous,
+            warm_start: false,
         }
     }
 }
@@ -164,13 +128,20 @@ impl SolverOptions {
         }
     }
 
+    /// The Newton options of the integrators: `hookean-nonlinear`'s
+    /// defaults (exact Newton, block-Jacobi PCG to `linear_rtol = 1e-10`)
+    /// with at most 10 iterations per step attempt and `rtol = 1e-10` (a
+    /// failed attempt is retried with a smaller step).
+    pub fn default_newton() -> NewtonOptions {
+        NewtonOptions {
+            max_iter: 10,
+            rtol: 1e-10,
+            ..NewtonOptions::default()
+        }
+    }
+
     pub(crate) fn check(&self) -> Result<(), OdeError> {
-        let positive = [
-            ("h", self.h),
-            ("rtol", self.rtol),
-            ("h_max", self.h_max),
-            ("newton.rtol", self.newton.rtol),
-        ];
+        let positive = [("h", self.h), ("rtol", self.rtol), ("h_max", self.h_max)];
         for (name, value) in positive {
             if value.is_nan() || value <= 0.0 {
                 return Err(OdeError::InvalidParameter {
@@ -180,11 +151,7 @@ impl SolverOptions {
                 });
             }
         }
-        for (name, value) in [
-            ("atol", self.atol),
-            ("h_min", self.h_min),
-            ("newton.atol", self.newton.atol),
-        ] {
+        for (name, value) in [("atol", self.atol), ("h_min", self.h_min)] {
             if !(value >= 0.0 && value.is_finite()) {
                 return Err(OdeError::InvalidParameter {
                     name,
@@ -200,20 +167,7 @@ impl SolverOptions {
                 reason: "must be finite",
             });
         }
-        if !(self.newton.linear_rtol > 0.0 && self.newton.linear_rtol < 1.0) {
-            return Err(OdeError::InvalidParameter {
-                name: "newton.linear_rtol",
-                value: self.newton.linear_rtol,
-                reason: "must lie in (0, 1)",
-            });
-        }
-        if self.newton.max_iter == 0 {
-            return Err(OdeError::InvalidParameter {
-                name: "newton.max_iter",
-                value: 0.0,
-                reason: "must be at least 1",
-            });
-        }
+        self.newton.validate()?;
         Ok(())
     }
 }

@@ -7,25 +7,21 @@
 use std::cell::RefCell;
 
 use hookean_nonlinear::{
-    DenseLu, LinearSolveStats, LinearSolver, Newton, NewtonStats, NonlinearError, NonlinearSystem,
-    SparseLu,
+    DenseLu, Newton, NewtonStats, NonlinearError, NonlinearSystem, PcgSolver, SparseLu,
 };
-use hookean_sparse::{
-    AnyPreconditioner, CgParams, CgWorkspace, Constraints, InitialGuess, PrecondKind,
-    PreconditionerSetup, SparseError, SymBlockMatrix, filtered_pcg, pcg,
-};
+use hookean_sparse::{AnyPreconditioner, Constraints, SymBlockMatrix};
 
 use crate::error::OdeError;
-use crate::options::{NewtonOptions, Stats};
-use crate::problem::{FirstOrderProblem, SecondOrderProblem};
+use crate::options::{SolverOptions, Stats};
+use hookean_problem::{FirstOrderProblem, SecondOrderProblem};
 
 /// Why one attempt at solving a stage equation failed.
 #[derive(Debug)]
 pub(crate) enum StageFailure {
     /// No convergence within the iteration limit, or divergence.
     NoConvergence { iterations: usize, update_norm: f64 },
-    /// The linear solver failed.
-    Linear(SparseError),
+    /// The linear solver failed (did not converge, or a `hookean-sparse` error).
+    Linear(NonlinearError),
     /// The dense Newton matrix is singular.
     Singular { pivot: usize },
     /// Any other error of the Newton solver (not worth a retry).
@@ -59,7 +55,7 @@ pub(crate) trait System {
         gh: f64,
         psi: &[f64],
         k: &mut [f64],
-        opts: &NewtonOptions,
+        opts: &SolverOptions,
         stats: &mut Stats,
     ) -> Result<StageInfo, StageFailure>;
     /// For second-order systems: writes `M^{-1} f(t, x, v)` into `acc` and
@@ -72,18 +68,6 @@ pub(crate) trait System {
         acc: &mut [f64],
         stats: &mut Stats,
     ) -> bool;
-}
-
-/// The options of `hookean-nonlinear`'s Newton from ours.
-fn newton_options(opts: &NewtonOptions) -> hookean_nonlinear::NewtonOptions {
-    hookean_nonlinear::NewtonOptions {
-        method: opts.method,
-        atol: opts.atol,
-        rtol: opts.rtol,
-        max_iter: opts.max_iter,
-        linear_rtol: opts.linear_rtol,
-        ..hookean_nonlinear::NewtonOptions::default()
-    }
 }
 
 /// Books a Newton run (successful or not) into the counters and maps the result.
@@ -108,16 +92,9 @@ fn account(
         Ok(ns) => Ok(StageInfo {
             iterations: ns.iterations,
         }),
-        Err(NonlinearError::LinearNotConverged {
-            iterations,
-            relative_residual,
-            ..
-        }) => Err(StageFailure::Linear(SparseError::NotConverged {
-            method: "PCG",
-            iterations,
-            relative_residual,
-        })),
-        Err(NonlinearError::Linear(e)) => Err(StageFailure::Linear(e)),
+        Err(e @ (NonlinearError::LinearNotConverged { .. } | NonlinearError::Linear(_))) => {
+            Err(StageFailure::Linear(e))
+        }
         Err(NonlinearError::SingularJacobian { pivot, .. }) => {
             Err(StageFailure::Singular { pivot })
         }
@@ -281,7 +258,7 @@ pub(crate) struct FirstSys<P> {
 }
 
 impl<P: FirstOrderProblem> FirstSys<P> {
-    pub fn new(problem: P, opts: &NewtonOptions) -> Result<Self, OdeError> {
+    pub fn new(problem: P, opts: &SolverOptions) -> Result<Self, OdeError> {
         let n = problem.dim();
         let newton = match problem.sparse_jacobian_pattern() {
             None => FirstNewton::Dense(None),
@@ -311,7 +288,7 @@ impl<P: FirstOrderProblem> FirstSys<P> {
                     });
                 }
                 FirstNewton::Sparse(Box::new(SparseNewton {
-                    newton: Newton::new(newton_options(opts), pattern.clone(), SparseLu::new())?,
+                    newton: Newton::new(opts.newton.clone(), pattern.clone(), SparseLu::new())?,
                     jsp: pattern,
                     diag,
                 }))
@@ -365,24 +342,28 @@ impl<P: FirstOrderProblem> System for FirstSys<P> {
         gh: f64,
         psi: &[f64],
         k: &mut [f64],
-        opts: &NewtonOptions,
+        opts: &SolverOptions,
         stats: &mut Stats,
     ) -> Result<StageInfo, StageFailure> {
-        let nopts = newton_options(opts);
+        let nopts = &opts.newton;
         let gh_changed = gh != self.last_gh;
         self.last_gh = gh;
         match &mut self.newton {
             FirstNewton::Dense(slot) => {
                 let newton = match slot {
                     Some(nw) => {
-                        if nw.options() != &nopts {
-                            nw.set_options(nopts).map_err(StageFailure::Other)?;
+                        if nw.options() != nopts {
+                            nw.set_options(nopts.clone()).map_err(StageFailure::Other)?;
                         }
                         nw
                     }
                     None => slot.insert(Box::new(
-                        Newton::new(nopts, faer::Mat::zeros(self.n, self.n), DenseLu::new())
-                            .map_err(StageFailure::Other)?,
+                        Newton::new(
+                            nopts.clone(),
+                            faer::Mat::zeros(self.n, self.n),
+                            DenseLu::new(),
+                        )
+                        .map_err(StageFailure::Other)?,
                     )),
                 };
                 // The Newton matrix depends on gh: a kept Jacobian (simplified
@@ -407,8 +388,10 @@ impl<P: FirstOrderProblem> System for FirstSys<P> {
             }
             FirstNewton::Sparse(sp) => {
                 let SparseNewton { newton, jsp, diag } = &mut **sp;
-                if newton.options() != &nopts {
-                    newton.set_options(nopts).map_err(StageFailure::Other)?;
+                if newton.options() != nopts {
+                    newton
+                        .set_options(nopts.clone())
+                        .map_err(StageFailure::Other)?;
                 }
                 if gh_changed {
                     newton.invalidate_jacobian();
@@ -425,95 +408,6 @@ impl<P: FirstOrderProblem> System for FirstSys<P> {
                 account(newton.solve(&mut stage, k), 0, stats)
             }
         }
-    }
-}
-
-/// PCG for the Newton corrections of the reduced form, filtered by the
-/// step's velocity constraints: the corrections must keep the prescribed
-/// components, so the constrained part `z` (the prescribed values) is
-/// moved to the right-hand side, `A s' = rhs + A z` is solved by filtered PCG
-/// with `s'` taking the prescribed values, and `s = s' - z` has zero
-/// constrained components.
-pub(crate) struct StageLinearSolver {
-    precond: AnyPreconditioner,
-    ws: CgWorkspace,
-    constraints: Constraints,
-    max_iter: Option<usize>,
-    z: Vec<f64>,
-    rhs: Vec<f64>,
-    /// The starting guess of the next solve (armed by `solve_stage` for the
-    /// first Newton correction of a step; every other solve starts at zero).
-    guess: Vec<f64>,
-    use_guess: bool,
-}
-
-impl LinearSolver<SymBlockMatrix> for StageLinearSolver {
-    fn setup(&mut self, jac: &SymBlockMatrix) -> Result<(), NonlinearError> {
-        self.precond.setup(jac)?;
-        Ok(())
-    }
-
-    fn solve(
-        &mut self,
-        jac: &SymBlockMatrix,
-        rhs: &[f64],
-        x: &mut [f64],
-        rtol: f64,
-    ) -> Result<LinearSolveStats, NonlinearError> {
-        let initial_guess = if self.use_guess {
-            self.use_guess = false;
-            x.copy_from_slice(&self.guess);
-            InitialGuess::Given
-        } else {
-            InitialGuess::Zero
-        };
-        let params = CgParams {
-            rtol,
-            atol: 0.0,
-            max_iter: self.max_iter,
-            initial_guess,
-            record_history: false,
-        };
-        let info = if self.constraints.is_empty() {
-            pcg(jac, &self.precond, rhs, x, &params, &mut self.ws, None)?
-        } else {
-            let n = rhs.len();
-            self.z.resize(n, 0.0);
-            self.rhs.resize(n, 0.0);
-            self.z.fill(0.0);
-            self.constraints.impose(&mut self.z);
-            if self.z.iter().all(|&v| v == 0.0) {
-                // Homogeneous constraints (pins): A z = 0, no product needed.
-                self.rhs.copy_from_slice(rhs);
-            } else {
-                jac.mul_vec(&self.z, &mut self.rhs)?;
-                for i in 0..n {
-                    self.rhs[i] += rhs[i];
-                }
-            }
-            // A given start needs no shift by z: filtered PCG imposes the
-            // prescribed components on it.
-            let info = filtered_pcg(
-                jac,
-                &self.precond,
-                &self.rhs,
-                x,
-                &self.constraints,
-                &params,
-                &mut self.ws,
-                None,
-            )?;
-            for i in 0..n {
-                x[i] -= self.z[i];
-            }
-            info
-        };
-        Ok(LinearSolveStats {
-            iterations: info.iterations,
-            residual_norm: info.residual_norm,
-            relative_residual: info.relative_residual,
-            converged: info.converged,
-        })
     }
 }
 
@@ -603,7 +497,7 @@ impl<P: SecondOrderProblem> NonlinearSystem for ReducedStage<'_, P> {
     }
 }
 
-/// Second-order problems in the reduced velocity form (DESIGN.md): the
+/// Second-order problems in the reduced velocity form (docs/ARCHITECTURE.md): the
 /// state is `[x; v]`; the stage `K = [X; V]` satisfies `X = psi_x + gh V`
 /// and `G(V) = M (V - psi_v) - gh f(tau, psi_x + gh V, V) = 0`, solved by
 /// `hookean-nonlinear`'s Newton with the SPD matrix
@@ -614,8 +508,7 @@ pub(crate) struct SecondSys<P> {
     pub constraints: Constraints,
     dfdx: SymBlockMatrix,
     dfdv: SymBlockMatrix,
-    newton: Newton<SymBlockMatrix, StageLinearSolver>,
-    precond_kind: PrecondKind,
+    newton: Newton<SymBlockMatrix, PcgSolver<AnyPreconditioner>>,
     last_gh: f64,
     force: Vec<f64>,
     xs: Vec<f64>,
@@ -626,7 +519,7 @@ pub(crate) struct SecondSys<P> {
 }
 
 impl<P: SecondOrderProblem> SecondSys<P> {
-    pub fn new(problem: P, opts: &NewtonOptions) -> Result<Self, OdeError> {
+    pub fn new(problem: P, opts: &SolverOptions) -> Result<Self, OdeError> {
         let n = problem.dim();
         let pattern = problem.jacobian_pattern();
         if pattern.dim() != n {
@@ -636,18 +529,9 @@ impl<P: SecondOrderProblem> SecondSys<P> {
                 found: pattern.dim(),
             });
         }
-        let linear = StageLinearSolver {
-            precond: AnyPreconditioner::new(opts.preconditioner)?,
-            ws: CgWorkspace::new(n),
-            constraints: Constraints::new(n / 3),
-            max_iter: opts.linear_max_iter,
-            z: vec![0.0; n],
-            rhs: vec![0.0; n],
-            guess: vec![0.0; n],
-            use_guess: false,
-        };
+        let linear = PcgSolver::from_options(&opts.newton)?;
         let newton = Newton::new(
-            newton_options(opts),
+            opts.newton.clone(),
             SymBlockMatrix::new(pattern.clone()),
             linear,
         )?;
@@ -657,7 +541,6 @@ impl<P: SecondOrderProblem> SecondSys<P> {
             dfdx: SymBlockMatrix::new(pattern.clone()),
             dfdv: SymBlockMatrix::new(pattern),
             newton,
-            precond_kind: opts.preconditioner,
             last_gh: f64::NAN,
             force: vec![0.0; n],
             xs: vec![0.0; n],
@@ -731,27 +614,21 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
         gh: f64,
         psi: &[f64],
         k: &mut [f64],
-        opts: &NewtonOptions,
+        opts: &SolverOptions,
         stats: &mut Stats,
     ) -> Result<StageInfo, StageFailure> {
         let n = self.n;
-        let nopts = newton_options(opts);
-        if self.newton.options() != &nopts {
+        if self.newton.options() != &opts.newton {
             self.newton
-                .set_options(nopts)
+                .set_options(opts.newton.clone())
                 .map_err(StageFailure::Other)?;
         }
-        let linear = self.newton.linear_solver_mut();
-        if opts.preconditioner != self.precond_kind {
-            linear.precond =
-                AnyPreconditioner::new(opts.preconditioner).map_err(StageFailure::Linear)?;
-            self.precond_kind = opts.preconditioner;
-        }
-        linear.max_iter = opts.linear_max_iter;
         // One copy of the step's constraints per stage solve (they change
         // between steps; none is made while the set is empty).
-        if !(self.constraints.is_empty() && linear.constraints.is_empty()) {
-            linear.constraints.clone_from(&self.constraints);
+        let linear = self.newton.linear_solver_mut();
+        let solver_has_some = linear.constraints_mut().is_some_and(|c| !c.is_empty());
+        if !self.constraints.is_empty() || solver_has_some {
+            linear.copy_constraints(&self.constraints);
         }
         // A kept Jacobian (simplified variants) is only valid for this gh.
         if gh != self.last_gh {
@@ -765,11 +642,10 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
         }
         // Warm start: the first correction V_1 - V_0 is guessed so that
         // V_1 - psi_v repeats the last stage's V - psi_v (same gh only).
-        let linear = self.newton.linear_solver_mut();
-        linear.use_guess = opts.warm_start && self.last_delta_gh == gh;
-        if linear.use_guess {
+        if opts.warm_start && self.last_delta_gh == gh {
+            let guess = self.newton.linear_solver_mut().arm_guess(n);
             for i in 0..n {
-                linear.guess[i] = self.last_delta[i] - (kv[i] - psi_v[i]);
+                guess[i] = self.last_delta[i] - (kv[i] - psi_v[i]);
             }
         }
         let mut stage = ReducedStage {
@@ -785,7 +661,7 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
             constraints: &self.constraints,
         };
         let result = self.newton.solve(&mut stage, kv);
-        self.newton.linear_solver_mut().use_guess = false;
+        self.newton.linear_solver_mut().disarm_guess();
         let info = account(result, 0, stats)?;
         for i in 0..n {
             kx[i] = psi_x[i] + gh * kv[i];

@@ -28,7 +28,7 @@
 
 use std::sync::Arc;
 
-use crate::problem::{FirstOrderProblem, SecondOrderProblem};
+use hookean_problem::{FirstOrderProblem, SecondOrderProblem};
 use hookean_sparse::{BlockPattern, SymBlockMatrix, block};
 
 /// Example 1: Dahlquist's test equation `y' = lambda y` (eq. 20).

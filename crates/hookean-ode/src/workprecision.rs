@@ -10,7 +10,7 @@ use crate::error::OdeError;
 use crate::integrator::{FirstOrderIntegrator, SecondOrderIntegrator};
 use crate::method::Method;
 use crate::options::{SolverOptions, Stats};
-use crate::problem::{FirstOrderProblem, SecondOrderProblem};
+use hookean_problem::{FirstOrderProblem, SecondOrderProblem};
 
 /// What a work-precision run varies.
 #[derive(Debug, Clone, PartialEq)]

@@ -18,7 +18,7 @@ fn tight(h: f64) -> SolverOptions {
             rtol: 1e-13,
             atol: 1e-14,
             linear_rtol: 1e-13,
-            ..NewtonOptions::default()
+            ..SolverOptions::default_newton()
         },
         ..SolverOptions::default()
     }
@@ -143,9 +143,9 @@ fn warm_started_linear_solves_reach_the_same_steps_in_fewer_iterations() {
                 rtol: 1e-10,
                 atol: 1e-14,
                 max_iter: 30,
-                warm_start,
-                ..NewtonOptions::default()
+                ..SolverOptions::default_newton()
             };
+            opts.warm_start = warm_start;
             let mut ode =
                 SecondOrderIntegrator::new(chain.clone(), method.clone(), 0.0, &x0, &v0, opts)
                     .unwrap();

@@ -11,7 +11,7 @@ fn tight() -> SolverOptions {
             rtol: 1e-14,
             atol: 1e-15,
             linear_rtol: 1e-14,
-            ..NewtonOptions::default()
+            ..SolverOptions::default_newton()
         },
         ..SolverOptions::default()
     }

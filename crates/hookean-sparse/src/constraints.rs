@@ -72,6 +72,12 @@ impl Constraints {
         self.entries.clear();
     }
 
+    /// The constrained particles and their numbers of constrained
+    /// directions (1 to 3), in the order they were constrained.
+    pub fn counts(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        self.entries.iter().map(|e| (e.particle, e.count))
+    }
+
     /// Number of constrained directions of `particle` (0 to 3).
     pub fn count(&self, particle: usize) -> usize {
         match self.slot.get(particle) {

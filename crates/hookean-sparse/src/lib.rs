@@ -24,8 +24,9 @@
 //!   and an optional per-iteration callback; they return [`CgInfo`].
 //! - [`power_method`] with a hook between iterations (the filtering paper's
 //!   modified power method).
-//! - [`read_matrix_market`] / [`write_matrix_market`], and [`DirectCholesky`]
-//!   (faer's sparse Cholesky) as the exact baseline.
+//! - [`read_matrix_market`] / [`write_matrix_market`], and `DirectCholesky`
+//!   (faer's sparse Cholesky, behind the default feature `faer`) as the
+//!   exact baseline. Without that feature the crate does not depend on faer.
 //!
 //! # Example: one implicit step of a tiny spring chain
 //!
@@ -61,6 +62,7 @@
 pub mod block;
 mod cg;
 mod constraints;
+#[cfg(feature = "faer")]
 mod direct;
 mod error;
 mod iso;
@@ -76,6 +78,7 @@ pub use cg::{
     CgCallback, CgInfo, CgParams, CgProgress, CgWorkspace, InitialGuess, filtered_pcg, pcg,
 };
 pub use constraints::Constraints;
+#[cfg(feature = "faer")]
 pub use direct::DirectCholesky;
 pub use error::SparseError;
 pub use iso::{IsoBlockMatrix, IsoSlot};

@@ -50,6 +50,22 @@ pub struct Slot {
     transposed: bool,
 }
 
+impl Slot {
+    /// Position of the stored block in [`SymBlockMatrix::values`] (the
+    /// same position in every matrix on this pattern). Assembly code that
+    /// writes the value array directly takes its positions from here; the
+    /// storage order is this crate's business.
+    pub fn index(&self) -> usize {
+        self.index
+    }
+
+    /// Whether the requested block `(i, j)` is the transpose of the stored
+    /// one (`i > j`: the lower triangle is not stored).
+    pub fn is_transposed(&self) -> bool {
+        self.transposed
+    }
+}
+
 impl BlockPattern {
     /// Builds the pattern of an `n x n` block matrix from block pairs.
     ///
@@ -504,6 +520,7 @@ impl SymBlockMatrix {
     /// The upper triangle (diagonal included) as scalar CSR arrays
     /// `(indptr, indices, data)`; read as CSC, the same arrays are the lower
     /// triangle, which is what faer's sparse Cholesky takes.
+    #[cfg(feature = "faer")]
     pub(crate) fn upper_csr_arrays(&self) -> (Vec<usize>, Vec<usize>, Vec<f64>) {
         let n = self.pattern.n;
         let nnz = 6 * n + 9 * (self.pattern.stored_blocks() - n);
@@ -532,7 +549,8 @@ impl SymBlockMatrix {
     }
 
     /// The full matrix as faer's sparse column matrix (for faer's own
-    /// kernels and direct solvers).
+    /// kernels and direct solvers; feature `faer`).
+    #[cfg(feature = "faer")]
     pub fn to_faer(&self) -> faer::sparse::SparseColMat<usize, f64> {
         // The matrix is symmetric: its CSR arrays are also its CSC arrays.
         let csr = self.to_csr();
@@ -723,8 +741,8 @@ mod tests {
         }
         let back = SymBlockMatrix::from_csr(&csr).unwrap();
         assert_eq!(dense(&back), d);
-        let f = a.to_faer();
-        assert_eq!(f.compute_nnz(), csr.nnz());
+        #[cfg(feature = "faer")]
+        assert_eq!(a.to_faer().compute_nnz(), csr.nnz());
     }
 
     #[test]

@@ -1,4 +1,4 @@
-//! The implicit-Euler system of the reference drape scene of DESIGN.md.
+//! The implicit-Euler system of the reference drape scene of docs/ARCHITECTURE.md.
 //!
 //! A square cloth of side 1 m, `n x n` particles, total mass 1 kg lumped
 //! uniformly, structural, shear and bend springs; spring force
@@ -196,7 +196,7 @@ pub fn spring_pattern(n_particles: usize, springs: &[GridSpring]) -> Arc<BlockPa
     )
 }
 
-/// Adds the spring forces of DESIGN.md's force law to `f` (does not zero it):
+/// Adds the spring forces of the spring law of docs/ARCHITECTURE.md to `f` (does not zero it):
 /// `f_i += k (l - l0) u + d ((v_j - v_i) . u) u`, `f_j -= ` the same.
 pub fn add_spring_forces(springs: &[GridSpring], d: f64, x: &[f64], v: &[f64], f: &mut [f64]) {
     for s in springs {
@@ -214,7 +214,7 @@ pub fn add_spring_forces(springs: &[GridSpring], d: f64, x: &[f64], v: &[f64], f
     }
 }
 
-/// Adds the spring Jacobians `df/dx` and `df/dv` (DESIGN.md's blocks) to
+/// Adds the spring Jacobians `df/dx` and `df/dv` (the blocks of docs/ARCHITECTURE.md) to
 /// `dfdx` and `dfdv` (on [`spring_pattern`]; not zeroed here):
 /// `K_ij = k [t (I - u u^T) + u u^T]` with `t = max(0, 1 - l0/l)` when
 /// `clamp` (SPD system) or `t = 1 - l0/l` (exact), `D_ij = d u u^T`,

@@ -1,7 +1,8 @@
 //! Test support for the Hookean crates (not published): generators of the
-//! reference cloth systems, random SPD matrices, small dense helpers and
-//! the tutorial's ODE examples 1-3 with exact solutions, and a counting
-//! global allocator for "allocates nothing" tests.
+//! reference cloth systems, random SPD matrices, small dense helpers, a
+//! spring chain as a second-order problem, and a counting global allocator
+//! for "allocates nothing" tests. (The tutorial's ODE examples with exact
+//! solutions live in `hookean_ode::tutorial`.)
 //!
 //! Everything here is deterministic: the same arguments give the same bits.
 
@@ -10,4 +11,3 @@ pub mod cloth;
 pub mod dense;
 pub mod random;
 pub mod springs;
-pub mod tutorial;

@@ -1,16 +1,16 @@
 //! A small mass-spring model implementing [`SecondOrderProblem`]: a chain
-//! of particles (a rope) with the spring law of DESIGN.md, for integrator
+//! of particles (a rope) with the spring law of docs/ARCHITECTURE.md, for integrator
 //! tests and benches until `hookean-massspring` provides the real models.
 //!
 //! Spring `(i, j)`: `f_i = k (l - l0) u + d ((v_j - v_i) . u) u`,
 //! `u = (x_j - x_i) / l`, `f_j = -f_i`; `K_ij = df_i/dx_j = k [max(0, 1 -
 //! l0/l) (I - u u^T) + u u^T]` (definiteness-clamped), `df_i/dx_i = -sum_j
 //! K_ij`; `D_ij = d u u^T` likewise (the damping force's dependence on `x`
-//! is left out of `df/dx`, as in DESIGN.md). Gravity pulls along `-z`.
+//! is left out of `df/dx`, as in docs/ARCHITECTURE.md). Gravity pulls along `-z`.
 
 use std::sync::Arc;
 
-use hookean_ode::SecondOrderProblem;
+use hookean_problem::SecondOrderProblem;
 use hookean_sparse::{Block3, BlockPattern, Constraints, Slot, SymBlockMatrix, block};
 
 /// A chain of `n` particles along x joined by springs `(i, i+1)`; the

@@ -48,9 +48,9 @@ fn main() -> Result<(), HookeanError> {
         options.solver.newton.atol = a;
     }
     if std::env::var("COLD").is_ok() {
-        options.solver.newton.warm_start = false;
+        options.solver.warm_start = false;
     }
-    options.solver.newton.predictor = if std::env::var("PREVIOUS").is_ok() {
+    options.solver.predictor = if std::env::var("PREVIOUS").is_ok() {
         hookean::ode::Predictor::Previous
     } else {
         hookean::ode::Predictor::Extrapolate

@@ -50,7 +50,7 @@ mod simulation;
 #[cfg(feature = "filter")]
 pub use error::HookeanError;
 #[cfg(feature = "filter")]
-pub use simulation::{ModelMut, RunSummary, Simulation, SimulationOptions, Sink};
+pub use simulation::{RunSummary, Simulation, SimulationOptions, Sink};
 
 /// The names most programs need.
 pub mod prelude {

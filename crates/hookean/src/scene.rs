@@ -168,7 +168,7 @@ fn d_duration() -> f64 {
     5.0
 }
 
-/// `[cloth]`: the reference drape of DESIGN.md by default.
+/// `[cloth]`: the reference drape of docs/ARCHITECTURE.md by default.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ClothScene {
@@ -876,7 +876,7 @@ impl Scene {
             _ => solver.newton.linear_rtol,
         };
         solver.newton.linear_max_iter = Some(s.max_cg);
-        solver.newton.warm_start = s.warm_start;
+        solver.warm_start = s.warm_start;
         solver.newton.preconditioner = match s.preconditioner {
             PrecondKind::Ssor { .. } => PrecondKind::Ssor { omega: s.omega },
             PrecondKind::Mic0 { .. } => PrecondKind::Mic0 { omega: s.mic_omega },

@@ -5,11 +5,10 @@
 use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
-use hookean_filter::{FilterCoupling, FilterOptions, FilteredIntegrator, VelocityFilter};
-use hookean_massspring::{Energies, MassSpringModel, ParticleConstraint, State};
+use hookean_filter::{FilterCoupling, FilterOptions, ModelIntegrator};
+use hookean_massspring::{Energies, MassSpringModel, State};
 use hookean_ode::{
-    ForcingTerm, Method, NewtonMethod, NewtonOptions, Predictor, SecondOrderIntegrator,
-    SolverOptions, Stats, StepReport,
+    ForcingTerm, Method, NewtonMethod, NewtonOptions, Predictor, SolverOptions, Stats, StepReport,
 };
 use hookean_sparse::PrecondKind;
 
@@ -65,9 +64,10 @@ impl SimulationOptions {
                 preconditioner: PrecondKind::Mic0 {
                     omega: PrecondKind::MIC_OMEGA,
                 },
-                predictor: Predictor::Previous,
-                warm_start: true,
+                ..SolverOptions::default_newton()
             },
+            predictor: Predictor::Previous,
+            warm_start: true,
             ..SolverOptions::default()
         }
     }
@@ -136,63 +136,8 @@ pub trait Sink {
 /// # Ok::<(), hookean::HookeanError>(())
 /// ```
 pub struct Simulation {
-    integrator: Integrator,
+    integrator: ModelIntegrator,
     wall: Duration,
-}
-
-/// Static dispatch over the two integrator kinds, one `match` per call.
-enum Integrator {
-    Plain(Box<SecondOrderIntegrator<MassSpringModel>>),
-    Filtered(Box<FilteredIntegrator<MassSpringModel>>),
-}
-
-/// The model of a [`Simulation`], borrowed mutably by
-/// [`Simulation::model_mut`]; dereferences to [`MassSpringModel`].
-pub struct ModelMut<'a> {
-    integrator: &'a mut Integrator,
-}
-
-impl std::ops::Deref for ModelMut<'_> {
-    type Target = MassSpringModel;
-    fn deref(&self) -> &MassSpringModel {
-        self.integrator.inner().problem()
-    }
-}
-
-impl std::ops::DerefMut for ModelMut<'_> {
-    fn deref_mut(&mut self) -> &mut MassSpringModel {
-        match self.integrator {
-            Integrator::Plain(i) => i.problem_mut(),
-            Integrator::Filtered(f) => f.inner_mut().problem_mut(),
-        }
-    }
-}
-
-impl Drop for ModelMut<'_> {
-    fn drop(&mut self) {
-        if let Integrator::Filtered(f) = self.integrator {
-            let n = f.filter().n_particles();
-            for p in 0..n {
-                let pinned = matches!(
-                    f.problem().constraint(p),
-                    Ok(ParticleConstraint::Pinned { .. })
-                );
-                if f.filter().is_pinned(p) != pinned {
-                    // In range by construction: the filter has the model's particles.
-                    let _ = f.filter_mut().set_pinned(p, pinned);
-                }
-            }
-        }
-    }
-}
-
-impl Integrator {
-    fn inner(&self) -> &SecondOrderIntegrator<MassSpringModel> {
-        match self {
-            Integrator::Plain(i) => i,
-            Integrator::Filtered(f) => f.inner(),
-        }
-    }
 }
 
 impl Simulation {
@@ -206,7 +151,6 @@ impl Simulation {
         state: State,
         options: SimulationOptions,
     ) -> Result<Self, HookeanError> {
-        model.check_state(&state.x, &state.v)?;
         if options.filter.is_some() && options.method.is_implicit() {
             return Err(HookeanError::InvalidOption {
                 name: "filter".into(),
@@ -216,26 +160,9 @@ impl Simulation {
                 ),
             });
         }
-        let filter = match &options.filter {
-            Some(f) => Some(VelocityFilter::from_model(&model, f.clone())?),
-            None => None,
-        };
-        let inner = SecondOrderIntegrator::new(
-            model,
-            options.method,
-            0.0,
-            &state.x,
-            &state.v,
-            options.solver,
-        )?;
-        let integrator = match filter {
-            None => Integrator::Plain(Box::new(inner)),
-            Some(f) => Integrator::Filtered(Box::new(FilteredIntegrator::new(
-                inner,
-                f,
-                FilterCoupling::default(),
-            )?)),
-        };
+        let filter = options.filter.map(|f| (f, FilterCoupling::default()));
+        let integrator =
+            ModelIntegrator::new(model, &state, options.method, options.solver, filter)?;
         Ok(Self {
             integrator,
             wall: Duration::ZERO,
@@ -248,15 +175,14 @@ impl Simulation {
     /// The integrator's typed errors (they carry the time reached).
     pub fn step(&mut self) -> Result<StepReport, HookeanError> {
         let t0 = Instant::now();
-        let report = match &mut self.integrator {
-            Integrator::Plain(i) => i.step()?,
-            Integrator::Filtered(f) => f.step()?,
-        };
+        let report = self.integrator.step()?;
         self.wall += t0.elapsed();
         Ok(report)
     }
 
-    /// Steps until `t_end` (the last step may be shortened to land on it),
+    /// Steps until `t_end` with the integrators' landing rule (the last step
+    /// is shortened to end exactly on `t_end`, see
+    /// [`SecondOrderIntegrator::step_to`](hookean_ode::SecondOrderIntegrator::step_to)),
     /// calling `on_step` after each; `ControlFlow::Break` stops early.
     ///
     /// # Errors
@@ -268,8 +194,11 @@ impl Simulation {
     ) -> Result<RunSummary, HookeanError> {
         let (t_start, wall_start) = (self.t(), self.wall);
         let mut stopped = false;
-        while self.t() < t_end - 1e-12 * t_end.abs().max(1.0) {
-            let report = self.step()?;
+        loop {
+            let t0 = Instant::now();
+            let report = self.integrator.step_to(t_end)?;
+            self.wall += t0.elapsed();
+            let Some(report) = report else { break };
             if on_step(self, &report).is_break() {
                 stopped = true;
                 break;
@@ -314,37 +243,40 @@ impl Simulation {
 
     /// Simulated time.
     pub fn t(&self) -> f64 {
-        self.integrator.inner().t()
+        self.integrator.t()
     }
 
     /// Positions.
     pub fn x(&self) -> &[f64] {
-        self.integrator.inner().x()
+        self.integrator.x()
     }
 
     /// Velocities.
     pub fn v(&self) -> &[f64] {
-        self.integrator.inner().v()
+        self.integrator.v()
     }
 
     /// The model.
     pub fn model(&self) -> &MassSpringModel {
-        self.integrator.inner().problem()
+        self.integrator.model()
     }
 
     /// Mutable access to the model between steps (forces, pins, colliders).
-    /// When the guard is dropped, a velocity filter learns the model's
-    /// pinned particles again, so that a particle pinned (or released) here
-    /// is kept out of (or back in) the filter.
-    pub fn model_mut(&mut self) -> ModelMut<'_> {
-        ModelMut {
-            integrator: &mut self.integrator,
-        }
+    /// A velocity filter reads the pins from the model at every step, so a
+    /// particle pinned (or released) here is kept out of (or back in) the
+    /// filter from the next step on.
+    pub fn model_mut(&mut self) -> &mut MassSpringModel {
+        self.integrator.model_mut()
+    }
+
+    /// The integrator (plain, or filtered), e.g. for its velocity filter.
+    pub fn integrator(&self) -> &ModelIntegrator {
+        &self.integrator
     }
 
     /// Counters of everything done so far.
     pub fn stats(&self) -> Stats {
-        self.integrator.inner().stats()
+        self.integrator.stats()
     }
 
     /// The step size the next step will try.

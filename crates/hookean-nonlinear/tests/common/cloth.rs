@@ -1,4 +1,4 @@
-//! One implicit Euler step of the reference drape scene (DESIGN.md) as a
+//! One implicit Euler step of the reference drape scene (docs/ARCHITECTURE.md) as a
 //! nonlinear system in the reduced velocity form, shared by the cloth
 //! tests, the `cloth_bars` example and the `newton_cloth` bench:
 //!

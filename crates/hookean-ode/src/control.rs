@@ -7,8 +7,17 @@
 //! outcome of a step, they answer [`StepDecision::Accept`] with the next step
 //! size or [`StepDecision::Retry`] with a smaller one.
 
-use crate::error::{NonlinearError, invalid};
-use crate::newton::NewtonStats;
+use hookean_nonlinear::{NewtonStats, NonlinearError};
+
+use crate::error::OdeError;
+
+/// Error for an out-of-range controller option or argument.
+fn invalid(name: &'static str, message: impl Into<String>) -> OdeError {
+    OdeError::InvalidController {
+        name,
+        message: message.into(),
+    }
+}
 
 /// What a controller tells the integrator.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -69,7 +78,7 @@ impl NewtonOutcome {
     }
 }
 
-fn check_h(h: f64) -> Result<(), NonlinearError> {
+fn check_h(h: f64) -> Result<(), OdeError> {
     if h > 0.0 && h.is_finite() {
         Ok(())
     } else {
@@ -80,7 +89,7 @@ fn check_h(h: f64) -> Result<(), NonlinearError> {
     }
 }
 
-fn check_bounds(h_min: f64, h_max: f64) -> Result<(), NonlinearError> {
+fn check_bounds(h_min: f64, h_max: f64) -> Result<(), OdeError> {
     if !(h_min > 0.0 && h_min <= h_max && !h_max.is_nan()) {
         return Err(invalid(
             "h_min/h_max",
@@ -92,9 +101,9 @@ fn check_bounds(h_min: f64, h_max: f64) -> Result<(), NonlinearError> {
 
 /// Retry size after a failure: `max(h factor, h_min)`, or an error if `h`
 /// already is at `h_min`.
-fn shrink_for_retry(h: f64, factor: f64, h_min: f64) -> Result<f64, NonlinearError> {
+fn shrink_for_retry(h: f64, factor: f64, h_min: f64) -> Result<f64, OdeError> {
     if h <= h_min {
-        return Err(NonlinearError::StepSizeTooSmall {
+        return Err(OdeError::StepSizeTooSmall {
             h: h * factor,
             h_min,
         });
@@ -149,15 +158,15 @@ impl Default for IterationControllerOptions {
 ///   Hairer-Wanner's rule after a rejection);
 /// - `h_next` is clamped to `[h_min, h_max]`;
 /// - failed: retry with `max(h failure_factor, h_min)`; if `h <= h_min`
-///   already, [`NonlinearError::StepSizeTooSmall`].
+///   already, [`OdeError::StepSizeTooSmall`].
 ///
 /// ```
-/// use hookean_nonlinear::*;
+/// use hookean_ode::control::*;
 /// let mut c = IterationController::new(IterationControllerOptions::default())?;
 /// assert_eq!(c.decide(0.01, NewtonOutcome::Converged { iterations: 1 })?,
 ///            StepDecision::Accept { h_next: 0.015 });
 /// assert_eq!(c.decide(0.015, NewtonOutcome::Failed)?, StepDecision::Retry { h: 0.0075 });
-/// # Ok::<(), NonlinearError>(())
+/// # Ok::<(), hookean_ode::OdeError>(())
 /// ```
 #[derive(Debug, Clone)]
 pub struct IterationController {
@@ -169,10 +178,10 @@ impl IterationController {
     /// A controller with validated options.
     ///
     /// # Errors
-    /// [`NonlinearError::InvalidParameter`] unless `grow_factor >= 1`,
+    /// [`OdeError::InvalidController`] unless `grow_factor >= 1`,
     /// `0 < shrink_factor <= 1`, `0 < failure_factor < 1`,
     /// `few_iterations < many_iterations` and `0 < h_min <= h_max`.
-    pub fn new(options: IterationControllerOptions) -> Result<Self, NonlinearError> {
+    pub fn new(options: IterationControllerOptions) -> Result<Self, OdeError> {
         let o = &options;
         if !(o.grow_factor >= 1.0 && o.grow_factor.is_finite()) {
             return Err(invalid(
@@ -221,13 +230,9 @@ impl IterationController {
     /// Applies the rule (see the type's docs) to a step of size `h`.
     ///
     /// # Errors
-    /// [`NonlinearError::StepSizeTooSmall`] when a failure happens at `h_min`;
-    /// [`NonlinearError::InvalidParameter`] for a non-positive or non-finite `h`.
-    pub fn decide(
-        &mut self,
-        h: f64,
-        outcome: NewtonOutcome,
-    ) -> Result<StepDecision, NonlinearError> {
+    /// [`OdeError::StepSizeTooSmall`] when a failure happens at `h_min`;
+    /// [`OdeError::InvalidController`] for a non-positive or non-finite `h`.
+    pub fn decide(&mut self, h: f64, outcome: NewtonOutcome) -> Result<StepDecision, OdeError> {
         check_h(h)?;
         let o = &self.options;
         match outcome {
@@ -322,7 +327,7 @@ impl Default for PiControllerOptions {
 ///   at least `h_min`;
 /// - Newton failure: retry with `h failure_factor`, at least `h_min`.
 ///
-/// A retry requested at `h <= h_min` is [`NonlinearError::StepSizeTooSmall`].
+/// A retry requested at `h <= h_min` is [`OdeError::StepSizeTooSmall`].
 #[derive(Debug, Clone)]
 pub struct PiController {
     options: PiControllerOptions,
@@ -334,11 +339,11 @@ impl PiController {
     /// A controller with validated options.
     ///
     /// # Errors
-    /// [`NonlinearError::InvalidParameter`] unless `order >= 1`,
+    /// [`OdeError::InvalidController`] unless `order >= 1`,
     /// `0 < safety <= 1`, `beta1 > 0`, `beta2 >= 0`,
     /// `0 < min_factor < 1 <= max_factor`, `0 < failure_factor < 1`,
     /// `newton_max_iter != Some(0)` and `0 < h_min <= h_max`.
-    pub fn new(options: PiControllerOptions) -> Result<Self, NonlinearError> {
+    pub fn new(options: PiControllerOptions) -> Result<Self, OdeError> {
         let o = &options;
         if o.order == 0 {
             return Err(invalid("order", "must be at least 1"));
@@ -412,14 +417,14 @@ impl PiController {
     /// and whose Newton iteration converged in `newton_iterations`.
     ///
     /// # Errors
-    /// [`NonlinearError::StepSizeTooSmall`] for a rejection at `h_min`;
-    /// [`NonlinearError::InvalidParameter`] for a bad `h` or a negative `err`.
+    /// [`OdeError::StepSizeTooSmall`] for a rejection at `h_min`;
+    /// [`OdeError::InvalidController`] for a bad `h` or a negative `err`.
     pub fn decide(
         &mut self,
         h: f64,
         err: f64,
         newton_iterations: usize,
-    ) -> Result<StepDecision, NonlinearError> {
+    ) -> Result<StepDecision, OdeError> {
         check_h(h)?;
         if err < 0.0 {
             return Err(invalid(
@@ -466,8 +471,8 @@ impl PiController {
     /// A step whose Newton iteration failed: retry with `h failure_factor`.
     ///
     /// # Errors
-    /// [`NonlinearError::StepSizeTooSmall`] at `h_min`.
-    pub fn newton_failed(&mut self, h: f64) -> Result<StepDecision, NonlinearError> {
+    /// [`OdeError::StepSizeTooSmall`] at `h_min`.
+    pub fn newton_failed(&mut self, h: f64) -> Result<StepDecision, OdeError> {
         check_h(h)?;
         let h = shrink_for_retry(h, self.options.failure_factor, self.options.h_min)?;
         self.last_rejected = true;
@@ -529,7 +534,7 @@ mod tests {
         // A failure at h_min is an error.
         assert!(matches!(
             c.decide(1e-3, NewtonOutcome::Failed),
-            Err(NonlinearError::StepSizeTooSmall { .. })
+            Err(OdeError::StepSizeTooSmall { .. })
         ));
         assert!(c.decide(0.0, conv(1)).is_err());
         assert!(c.decide(f64::NAN, conv(1)).is_err());
@@ -558,7 +563,7 @@ mod tests {
         ] {
             assert!(matches!(
                 IterationController::new(o),
-                Err(NonlinearError::InvalidParameter { .. })
+                Err(OdeError::InvalidController { .. })
             ));
         }
     }
@@ -625,7 +630,7 @@ mod tests {
         );
         assert!(matches!(
             c.decide(0.1, 2.0, 1),
-            Err(NonlinearError::StepSizeTooSmall { .. })
+            Err(OdeError::StepSizeTooSmall { .. })
         ));
     }
 }

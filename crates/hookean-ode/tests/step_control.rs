@@ -3,6 +3,7 @@
 //! y(t) = 10 / sqrt(1 + 200 t).
 
 use hookean_nonlinear::*;
+use hookean_ode::control::*;
 
 struct EulerStep {
     h: f64,

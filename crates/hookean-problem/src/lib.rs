@@ -1,7 +1,30 @@
-//! The problem contracts between models and integrators.
+//! The problem contracts between models and time integrators, in a crate of
+//! their own so that a model (`hookean-massspring`) and the integrators
+//! (`hookean-ode`) can each be used without the other.
+//!
+//! - [`FirstOrderProblem`]: `y' = f(t, y)` (the tutorial's eq. 7), with an
+//!   optional dense or sparse Jacobian.
+//! - [`SecondOrderProblem`]: `M x'' = f(t, x, v)` with a lumped mass, 3x3
+//!   block Jacobians `df/dx`, `df/dv` on a pattern built once, and the
+//!   per-step velocity constraints (pins, contacts).
 //!
 //! Vectors are flat `f64` slices; for particle systems three entries per
-//! particle, xyz interleaved (DESIGN.md).
+//! particle, xyz interleaved (docs/ARCHITECTURE.md).
+//!
+//! ```
+//! use hookean_problem::FirstOrderProblem;
+//!
+//! /// Dahlquist's equation y' = lambda y (the tutorial's eq. 20).
+//! struct Dahlquist(f64);
+//! impl FirstOrderProblem for Dahlquist {
+//!     fn dim(&self) -> usize { 1 }
+//!     fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) { dy[0] = self.0 * y[0]; }
+//! }
+//!
+//! let mut dy = [0.0];
+//! Dahlquist(-15.0).rhs(0.0, &[2.0], &mut dy);
+//! assert_eq!(dy[0], -30.0);
+//! ```
 
 use std::sync::Arc;
 

@@ -1,0 +1,50 @@
+//! Snapshots of the counters users read (insta): a change in Newton or CG
+//! iteration counts shows up as a reviewed diff of `tests/snapshots/`, not
+//! as a surprise. Run `cargo insta review` (or set `INSTA_UPDATE=always`)
+//! to accept an intended change; CI refuses unreviewed ones.
+//!
+//! The counts are exact for a given CPU family: the assembly and the filter
+//! dispatch to AVX2 where the CPU has it, so another instruction set may
+//! change a count by the last bits' influence on PCG.
+
+use std::ops::ControlFlow;
+
+use hookean::prelude::*;
+
+fn drape(n: usize) -> (MassSpringModel, State) {
+    cloth(&ClothParams {
+        nu: n,
+        nv: n,
+        ..Default::default()
+    })
+    .unwrap()
+}
+
+#[test]
+fn implicit_drape_statistics() {
+    let (model, state) = drape(16);
+    let mut sim = Simulation::new(model, state, SimulationOptions::default()).unwrap();
+    let summary = sim
+        .run_until(0.5, |_, _| ControlFlow::Continue(()))
+        .unwrap();
+    insta::assert_snapshot!(format!("t = {}\n{:#?}", summary.t, summary.stats));
+}
+
+#[test]
+fn cloth_on_a_sphere_statistics() {
+    // The shipped contact scene at 12 x 12 particles, through the first
+    // 0.4 s of contact: its rejected steps and Newton counts are what the
+    // contact work must bring down.
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cloth-sphere.toml");
+    let scene = hookean::scene::Scene::from_file(
+        &path,
+        &["cloth.n=12".to_string(), "duration=0.4".to_string()],
+    )
+    .unwrap();
+    let mut sim = scene.build().unwrap();
+    let summary = sim
+        .run_until(0.4, |_, _| ControlFlow::Continue(()))
+        .unwrap();
+    insta::assert_snapshot!(format!("t = {}\n{:#?}", summary.t, summary.stats));
+}
