@@ -189,3 +189,39 @@ fn tutorial_example_2_with_bdf2_is_second_order_accurate() {
     let ratio = errors[0] / errors[1];
     assert!((3.5..4.5).contains(&ratio), "{errors:?}");
 }
+
+#[test]
+fn the_drape_runs_with_the_multigrid_preconditioner() {
+    // 24 x 24 particles: 1 728 unknowns, so the hierarchy has two levels
+    // and every Newton iteration refills it.
+    let runs: Vec<serde_json::Value> = ["amg", "mic0"]
+        .iter()
+        .map(|p| {
+            let out = scratch(&format!("drape-{p}"));
+            let o = hookean(&[
+                "run",
+                &repo("scenes/drape.toml"),
+                "--out",
+                out.to_str().unwrap(),
+                "--set",
+                "cloth.n=24",
+                "--set",
+                "duration=0.1",
+                "--set",
+                &format!("solver.preconditioner={p}"),
+                "--quiet",
+            ]);
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            let text = std::fs::read_to_string(out.join("summary.json")).unwrap();
+            let _ = std::fs::remove_dir_all(&out);
+            serde_json::from_str(&text).unwrap()
+        })
+        .collect();
+    let (amg, mic0) = (&runs[0], &runs[1]);
+    assert_eq!(amg["steps"], 10);
+    assert_eq!(amg["rejected_steps"], 0);
+    // Multigrid needs fewer CG iterations than MIC(0) for the same
+    // Newton tolerances.
+    let cg = |v: &serde_json::Value| v["cg_iterations"].as_u64().unwrap();
+    assert!(cg(amg) < cg(mic0), "{amg} {mic0}");
+}
