@@ -441,11 +441,6 @@ impl<const B: usize> Hierarchy<B> {
         &mut self.levels[0].a
     }
 
-    /// The finest operator.
-    pub fn finest(&self) -> &Bsr<B> {
-        &self.levels[0].a
-    }
-
     /// Recomputes every number of the hierarchy from the finest operator's
     /// values: smoothers, `A_F`, `omega`, `P`, `R`, the Galerkin operators
     /// and the coarsest factor. Allocates nothing.

@@ -89,9 +89,14 @@ pub struct AmgOptions {
     /// little). Default `3`. (Ignored when `power_iterations = 0`.)
     pub refill_power_iterations: usize,
     /// Near-nullspace vectors of length `dim`, as many as the block size
-    /// (3 for block matrices, 1 for scalar ones: the coarse operators keep
-    /// the block size). Empty (default): the translations (the constant).
+    /// (3 for block matrices, [`block_size`](Self::block_size) for CSR ones:
+    /// the coarse operators keep the block size). Empty (default): the
+    /// translations (for a scalar matrix, the constant).
     pub near_nullspace: Vec<Vec<f64>>,
+    /// Unknowns per node of a CSR matrix (node `i` owns rows
+    /// `block_size * i ..`, e.g. 2 for 2D elasticity): 1 (default), 2 or 3.
+    /// [`SymBlockMatrix`] input always has 3.
+    pub block_size: usize,
 }
 
 impl Default for AmgOptions {
@@ -107,6 +112,7 @@ impl Default for AmgOptions {
             power_iterations: 10,
             refill_power_iterations: 3,
             near_nullspace: Vec::new(),
+            block_size: 1,
         }
     }
 }
@@ -154,10 +160,104 @@ enum Inner {
         map: Vec<(u32, bool)>,
         h: Hierarchy<3>,
     },
-    /// From a scalar CSR matrix (same slots).
-    Scalar {
-        h: Hierarchy<1>,
-    },
+    /// From a CSR matrix, with 1, 2 or 3 unknowns per node.
+    Csr1(CsrLevels<1>),
+    Csr2(CsrLevels<2>),
+    Csr3(CsrLevels<3>),
+}
+
+/// Where a CSR entry goes in block storage: `(block slot, row, column)`.
+type EntrySlot = (u32, u8, u8);
+
+/// A hierarchy set up from a scalar CSR matrix grouped into `B x B` blocks
+/// (node `i` owns rows `B i .. B i + B`), with the CSR pattern it came from
+/// and where every CSR entry goes: `(block slot, row, column)`.
+#[derive(Debug, Clone)]
+struct CsrLevels<const B: usize> {
+    indptr: Vec<usize>,
+    indices: Vec<usize>,
+    map: Vec<EntrySlot>,
+    h: Hierarchy<B>,
+}
+
+impl<const B: usize> CsrLevels<B> {
+    fn same_pattern(&self, a: &sprs::CsMat<f64>) -> bool {
+        self.indptr.as_slice() == &*a.proper_indptr() && self.indices.as_slice() == a.indices()
+    }
+
+    /// The block pattern of a CSR matrix (CSR storage order) and the map of
+    /// its entries.
+    fn blocks(a: &sprs::CsMat<f64>) -> Result<(Bsr<B>, Vec<EntrySlot>), SparseError> {
+        let dim = a.rows();
+        if !dim.is_multiple_of(B) {
+            return Err(SparseError::InvalidParameter {
+                name: "block_size",
+                message: format!("the dimension {dim} is not a multiple of the block size {B}"),
+            });
+        }
+        let n = dim / B;
+        let indptr = a.proper_indptr();
+        let mut marker = vec![usize::MAX; n];
+        let mut row_ptr = Vec::with_capacity(n + 1);
+        let mut col: Vec<u32> = Vec::new();
+        row_ptr.push(0);
+        for i in 0..n {
+            let start = col.len();
+            for &j in &a.indices()[indptr[B * i]..indptr[B * i + B]] {
+                if marker[j / B] != i {
+                    marker[j / B] = i;
+                    col.push((j / B) as u32);
+                }
+            }
+            col[start..].sort_unstable();
+            row_ptr.push(col.len());
+        }
+        let mut map = Vec::with_capacity(a.nnz());
+        for row in 0..dim {
+            let i = row / B;
+            let cols = &col[row_ptr[i]..row_ptr[i + 1]];
+            for &j in &a.indices()[indptr[row]..indptr[row + 1]] {
+                let k = cols
+                    .binary_search(&((j / B) as u32))
+                    .expect("every entry's block is in the pattern");
+                map.push(((row_ptr[i] + k) as u32, (row % B) as u8, (j % B) as u8));
+            }
+        }
+        let nnz = col.len();
+        let bsr = Bsr {
+            nrows: n,
+            ncols: n,
+            row_ptr,
+            col,
+            val: vec![zero::<B>(); nnz],
+        };
+        Ok((bsr, map))
+    }
+
+    /// Writes the CSR values into the block storage.
+    fn fill(bsr: &mut Bsr<B>, map: &[EntrySlot], data: &[f64]) {
+        bsr.val.fill(zero::<B>());
+        for (&(slot, r, c), &v) in map.iter().zip(data) {
+            bsr.val[slot as usize][r as usize][c as usize] = v;
+        }
+    }
+
+    fn new(a: &sprs::CsMat<f64>, amg: &Amg) -> Result<Self, SparseError> {
+        let (mut fine, map) = Self::blocks(a)?;
+        Self::fill(&mut fine, &map, a.data());
+        let nullspace = amg.nullspace::<B>(fine.nrows)?;
+        Ok(Self {
+            indptr: a.proper_indptr().into_owned(),
+            indices: a.indices().to_vec(),
+            h: Hierarchy::new(fine, nullspace, &amg.options)?,
+            map,
+        })
+    }
+
+    fn refill(&mut self, a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
+        Self::fill(self.h.finest_mut(), &self.map, a.data());
+        self.h.compute()
+    }
 }
 
 /// Smoothed-aggregation AMG preconditioner (see the [module docs](self)).
@@ -233,6 +333,9 @@ impl Amg {
                 "coarse_size, max_levels, sweeps, refill_power_iterations",
                 "must all be at least 1".into(),
             );
+        }
+        if !(1..=3).contains(&o.block_size) {
+            return bad("block_size", format!("{} is not 1, 2 or 3", o.block_size));
         }
         for (name, w) in [
             ("jacobi_weight", o.jacobi_weight),
@@ -338,9 +441,17 @@ impl Amg {
                 self.record(&h, seconds, refill);
                 self.inner = Inner::Block { source, map, h };
             }
-            Inner::Scalar { h } => {
-                self.record(&h, seconds, refill);
-                self.inner = Inner::Scalar { h };
+            Inner::Csr1(c) => {
+                self.record(&c.h, seconds, refill);
+                self.inner = Inner::Csr1(c);
+            }
+            Inner::Csr2(c) => {
+                self.record(&c.h, seconds, refill);
+                self.inner = Inner::Csr2(c);
+            }
+            Inner::Csr3(c) => {
+                self.record(&c.h, seconds, refill);
+                self.inner = Inner::Csr3(c);
             }
             Inner::Empty => {}
         }
@@ -444,47 +555,39 @@ impl PreconditionerSetup<SymBlockMatrix> for Amg {
 }
 
 impl PreconditionerSetup<sprs::CsMat<f64>> for Amg {
-    /// Scalar AMG (1x1 blocks) on a symmetric positive definite CSR or CSC
-    /// matrix (CSC is converted, which allocates).
+    /// AMG on a symmetric positive definite CSR or CSC matrix (CSC is
+    /// converted, which allocates), with [`AmgOptions::block_size`]
+    /// unknowns per node.
     fn setup(&mut self, a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
         let start = Instant::now();
-        let n = square_dim(a)?;
+        square_dim(a)?;
         let a = &*as_csr(a);
-        let indptr = a.proper_indptr();
         if let Some(k) = a.data().iter().position(|v| !v.is_finite()) {
             return Err(SparseError::NonFinite {
                 what: "matrix",
                 index: Some(k),
             });
         }
-        let refill = matches!(&self.inner, Inner::Scalar { h }
-            if h.finest().row_ptr.as_slice() == &*indptr
-                && h.finest().col.iter().zip(a.indices()).all(|(&c, &i)| c as usize == i));
-        let result = match &mut self.inner {
-            Inner::Scalar { h } if refill => {
-                for (dst, &v) in h.finest_mut().val.iter_mut().zip(a.data()) {
-                    *dst = [[v]];
-                }
-                h.compute()
-            }
-            _ => {
-                let fine = Bsr::<1> {
-                    nrows: n,
-                    ncols: n,
-                    row_ptr: indptr.into_owned(),
-                    col: a.indices().iter().map(|&c| c as u32).collect(),
-                    val: a.data().iter().map(|&v| [[v]]).collect(),
-                };
-                self.nullspace::<1>(n)
-                    .and_then(|ns| Hierarchy::new(fine, ns, &self.options))
-                    .map(|h| self.inner = Inner::Scalar { h })
-            }
+        let refill = match (&mut self.inner, self.options.block_size) {
+            (Inner::Csr1(c), 1) if c.same_pattern(a) => Some(c.refill(a)),
+            (Inner::Csr2(c), 2) if c.same_pattern(a) => Some(c.refill(a)),
+            (Inner::Csr3(c), 3) if c.same_pattern(a) => Some(c.refill(a)),
+            _ => None,
+        };
+        let refilled = refill.is_some();
+        let result = match refill {
+            Some(r) => r,
+            None => match self.options.block_size {
+                1 => CsrLevels::new(a, self).map(|c| self.inner = Inner::Csr1(c)),
+                2 => CsrLevels::new(a, self).map(|c| self.inner = Inner::Csr2(c)),
+                _ => CsrLevels::new(a, self).map(|c| self.inner = Inner::Csr3(c)),
+            },
         };
         if let Err(e) = result {
             self.inner = Inner::Empty;
             return Err(e);
         }
-        self.finish(start, refill);
+        self.finish(start, refilled);
         Ok(())
     }
 }
@@ -494,7 +597,9 @@ impl Preconditioner for Amg {
         Some(match &self.inner {
             Inner::Empty => 0,
             Inner::Block { h, .. } => h.dim(),
-            Inner::Scalar { h } => h.dim(),
+            Inner::Csr1(c) => c.h.dim(),
+            Inner::Csr2(c) => c.h.dim(),
+            Inner::Csr3(c) => c.h.dim(),
         })
     }
 
@@ -502,7 +607,9 @@ impl Preconditioner for Amg {
         match &self.inner {
             Inner::Empty => z.copy_from_slice(r),
             Inner::Block { h, .. } => h.apply(r, z),
-            Inner::Scalar { h } => h.apply(r, z),
+            Inner::Csr1(c) => c.h.apply(r, z),
+            Inner::Csr2(c) => c.h.apply(r, z),
+            Inner::Csr3(c) => c.h.apply(r, z),
         }
     }
 }

@@ -413,3 +413,230 @@ fn scalar_amg_pcg_on_3d_poisson_needs_at_most_40_iterations() {
     assert!(norm2(&res) <= 1.01e-8 * norm2(&b));
     assert!(info.iterations <= 40, "{} iterations", info.iterations);
 }
+
+/// 2D linear elasticity (plane stress, E = 1, nu = 0.3) with bilinear (Q1)
+/// elements on an `m x m` grid of the unit square, the left edge clamped
+/// (its rows and columns replaced by the identity); unknowns interleaved
+/// `(u_x, u_y)` per node.
+fn elasticity_q1(m: usize) -> sprs::CsMat<f64> {
+    let (e, nu) = (1.0, 0.3);
+    let h = 1.0 / m as f64;
+    let d = [
+        [e / (1.0 - nu * nu), e * nu / (1.0 - nu * nu), 0.0],
+        [e * nu / (1.0 - nu * nu), e / (1.0 - nu * nu), 0.0],
+        [0.0, 0.0, e / (2.0 * (1.0 + nu))],
+    ];
+    let corners = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
+    // Element stiffness by 2 x 2 Gauss quadrature: sum B^T D B det J.
+    let mut ke = [[0.0; 8]; 8];
+    let g = 1.0 / 3.0_f64.sqrt();
+    for (xi, eta) in [(-g, -g), (g, -g), (g, g), (-g, g)] {
+        let mut bm = [[0.0; 8]; 3];
+        for (a, &(xa, ya)) in corners.iter().enumerate() {
+            let dx = xa * (1.0 + eta * ya) / 4.0 * 2.0 / h;
+            let dy = ya * (1.0 + xi * xa) / 4.0 * 2.0 / h;
+            bm[0][2 * a] = dx;
+            bm[1][2 * a + 1] = dy;
+            bm[2][2 * a] = dy;
+            bm[2][2 * a + 1] = dx;
+        }
+        for r in 0..8 {
+            for c in 0..8 {
+                let mut v = 0.0;
+                for p in 0..3 {
+                    for q in 0..3 {
+                        v += bm[p][r] * d[p][q] * bm[q][c];
+                    }
+                }
+                ke[r][c] += v * h * h / 4.0;
+            }
+        }
+    }
+    let nodes = m + 1;
+    let dim = 2 * nodes * nodes;
+    let clamped = |dof: usize| (dof / 2).is_multiple_of(nodes);
+    let mut t = sprs::TriMat::new((dim, dim));
+    for ey in 0..m {
+        for ex in 0..m {
+            let ids = [
+                ey * nodes + ex,
+                ey * nodes + ex + 1,
+                (ey + 1) * nodes + ex + 1,
+                (ey + 1) * nodes + ex,
+            ];
+            for r in 0..8 {
+                for c in 0..8 {
+                    let (i, j) = (2 * ids[r / 2] + r % 2, 2 * ids[c / 2] + c % 2);
+                    if !clamped(i) && !clamped(j) {
+                        t.add_triplet(i, j, ke[r][c]);
+                    }
+                }
+            }
+        }
+    }
+    for i in (0..dim).filter(|&i| clamped(i)) {
+        t.add_triplet(i, i, 1.0);
+    }
+    t.to_csr()
+}
+
+#[test]
+fn two_dof_amg_pcg_on_2d_elasticity_needs_at_most_40_iterations() {
+    let a = elasticity_q1(100);
+    let n = a.rows();
+    let b = rhs(n);
+    let mut amg = Amg::with_options(AmgOptions {
+        block_size: 2,
+        ..Default::default()
+    })
+    .unwrap();
+    amg.setup(&a).unwrap();
+    assert!(amg.stats().levels.len() >= 3, "{:?}", amg.stats());
+    let mut x = vec![0.0; n];
+    let info = pcg(
+        &a,
+        &amg,
+        &b,
+        &mut x,
+        &CgParams::default(),
+        &mut CgWorkspace::new(n),
+        None,
+    )
+    .unwrap();
+    let mut ax = vec![0.0; n];
+    a.apply(&x, &mut ax);
+    let res: Vec<f64> = ax.iter().zip(&b).map(|(p, q)| p - q).collect();
+    assert!(norm2(&res) <= 1.01e-8 * norm2(&b));
+    assert!(
+        info.iterations <= 40,
+        "{} iterations, {:?}",
+        info.iterations,
+        amg.stats()
+    );
+    // A refill on the same pattern keeps the hierarchy.
+    amg.setup(&a).unwrap();
+    assert_eq!((amg.stats().setups, amg.stats().refills), (1, 1));
+}
+
+/// 3D linear elasticity (E = 1, nu = 0.3) with trilinear (Q1) hexahedra on
+/// an `m^3` grid of the unit cube, the face x = 0 clamped (identity rows
+/// and columns); unknowns interleaved `(u_x, u_y, u_z)` per node.
+fn elasticity_hex(m: usize) -> sprs::CsMat<f64> {
+    let (e, nu) = (1.0, 0.3);
+    let lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+    let mu = e / (2.0 * (1.0 + nu));
+    let mut d = [[0.0; 6]; 6];
+    for r in 0..3 {
+        for c in 0..3 {
+            d[r][c] = lambda + if r == c { 2.0 * mu } else { 0.0 };
+        }
+        d[3 + r][3 + r] = mu;
+    }
+    let h = 1.0 / m as f64;
+    let corners: Vec<[f64; 3]> = (0..8)
+        .map(|a| {
+            let bit = |k: usize| if a >> k & 1 == 1 { 1.0 } else { -1.0 };
+            [bit(0), bit(1), bit(2)]
+        })
+        .collect();
+    let g = 1.0 / 3.0_f64.sqrt();
+    let mut ke = [[0.0; 24]; 24];
+    for q in &corners {
+        let p = [g * q[0], g * q[1], g * q[2]];
+        let mut bm = [[0.0; 24]; 6];
+        for (a, c) in corners.iter().enumerate() {
+            let f = |k: usize| 1.0 + p[k] * c[k];
+            let dx = c[0] * f(1) * f(2) / 8.0 * 2.0 / h;
+            let dy = c[1] * f(0) * f(2) / 8.0 * 2.0 / h;
+            let dz = c[2] * f(0) * f(1) / 8.0 * 2.0 / h;
+            let col = 3 * a;
+            bm[0][col] = dx;
+            bm[1][col + 1] = dy;
+            bm[2][col + 2] = dz;
+            bm[3][col] = dy;
+            bm[3][col + 1] = dx;
+            bm[4][col + 1] = dz;
+            bm[4][col + 2] = dy;
+            bm[5][col] = dz;
+            bm[5][col + 2] = dx;
+        }
+        for r in 0..24 {
+            for c in 0..24 {
+                let mut v = 0.0;
+                for s in 0..6 {
+                    for t in 0..6 {
+                        v += bm[s][r] * d[s][t] * bm[t][c];
+                    }
+                }
+                ke[r][c] += v * h * h * h / 8.0;
+            }
+        }
+    }
+    let nodes = m + 1;
+    let dim = 3 * nodes * nodes * nodes;
+    let clamped = |dof: usize| (dof / 3).is_multiple_of(nodes);
+    let mut t = sprs::TriMat::new((dim, dim));
+    for ez in 0..m {
+        for ey in 0..m {
+            for ex in 0..m {
+                let id = |a: usize| {
+                    let (x, y, z) = (ex + (a & 1), ey + (a >> 1 & 1), ez + (a >> 2 & 1));
+                    (z * nodes + y) * nodes + x
+                };
+                for r in 0..24 {
+                    for c in 0..24 {
+                        let (i, j) = (3 * id(r / 3) + r % 3, 3 * id(c / 3) + c % 3);
+                        if !clamped(i) && !clamped(j) {
+                            t.add_triplet(i, j, ke[r][c]);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    for i in (0..dim).filter(|&i| clamped(i)) {
+        t.add_triplet(i, i, 1.0);
+    }
+    t.to_csr()
+}
+
+#[test]
+fn three_dof_amg_pcg_on_3d_elasticity_needs_at_most_40_iterations() {
+    let a = elasticity_hex(14);
+    let n = a.rows();
+    let b = rhs(n);
+    // The same matrix as 3x3 blocks from CSR and as a SymBlockMatrix: the
+    // same hierarchy, the same iterations.
+    let mut counts = Vec::new();
+    for csr in [true, false] {
+        let mut amg = Amg::with_options(AmgOptions {
+            block_size: 3,
+            ..Default::default()
+        })
+        .unwrap();
+        if csr {
+            amg.setup(&a).unwrap();
+        } else {
+            amg.setup(&SymBlockMatrix::from_csr(&a).unwrap()).unwrap();
+        }
+        assert!(amg.stats().levels.len() >= 2, "{:?}", amg.stats());
+        let mut x = vec![0.0; n];
+        let info = pcg(
+            &a,
+            &amg,
+            &b,
+            &mut x,
+            &CgParams::default(),
+            &mut CgWorkspace::new(n),
+            None,
+        )
+        .unwrap();
+        let mut ax = vec![0.0; n];
+        a.apply(&x, &mut ax);
+        let res: Vec<f64> = ax.iter().zip(&b).map(|(p, q)| p - q).collect();
+        assert!(norm2(&res) <= 1.01e-8 * norm2(&b));
+        counts.push(info.iterations);
+    }
+    assert!(counts[0] <= 40, "{counts:?}");
+    assert_eq!(counts[0], counts[1]);
+}
