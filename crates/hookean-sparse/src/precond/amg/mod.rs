@@ -1,39 +1,5 @@
-//! Smoothed-aggregation algebraic multigrid (Vaněk, Mandel, Brezina 1996)
-//! on 3x3 blocks, and on scalar CSR matrices as 1x1 blocks.
-//!
-//! Set-up, per level `l` (`A_0 = A`):
-//! 1. strength of connection on blocks: `A_ij` is strong when
-//!    `|A_ij|_F^2 > theta_l^2 |A_ii|_F |A_jj|_F` (`theta_l` halves per level);
-//! 2. aggregation of the strong graph (three greedy passes);
-//! 3. the tentative prolongator `T` from the near-nullspace `N_l`, by a thin
-//!    QR on every aggregate (`N_l = T N_{l+1}`): the three translations per
-//!    particle by default (the constant for scalar matrices);
-//! 4. the smoothed prolongator `P = (I - omega D_F^-1 A_F) T`, `A_F` the
-//!    filtered matrix (weak blocks lumped onto the diagonal) and
-//!    `omega = 4/3 / rho(D_F^-1 A_F)`;
-//! 5. the Galerkin operator `A_{l+1} = P^T A_l P`, in block storage;
-//!
-//! until a level has at most `coarse_size` unknowns, which is solved by a
-//! dense Cholesky factorisation. [`Amg::apply`](crate::Preconditioner::apply)
-//! is one V-cycle from a zero guess with block damped-Jacobi (or symmetric
-//! block Gauss-Seidel) smoothing; the post-smoother is the adjoint of the
-//! pre-smoother, so the V-cycle is a symmetric positive definite operator and
-//! PCG and filtered PCG stay valid.
-//!
-//! # Re-use
-//! [`PreconditionerSetup::setup`] with a matrix of the same sparsity pattern
-//! as the last one (the same `Arc<BlockPattern>`, or equal CSR index arrays)
-//! is a *refill*: strength, aggregates, the tentative prolongator and every
-//! pattern are kept, and only the numbers (smoothers, `omega`, `P`, the
-//! Galerkin products, the coarsest factor) are recomputed, without allocating;
-//! the spectral radius estimates continue the power method from the last
-//! eigenvectors for `refill_power_iterations` steps. On the 128^2 cloth a
-//! refill costs about a third of a full set-up, or 8-10 V-cycles
-//! (docs/PERFORMANCE.md, `cargo bench -p hookean-sparse --bench amg`). A new pattern triggers a full
-//! set-up; [`Amg::rebuild`] forces one (e.g. when the values changed so much
-//! that the strong graph of the old aggregates no longer fits). Not calling
-//! `setup` at all keeps the whole hierarchy (a lagged preconditioner, still
-//! SPD, so CG stays valid).
+//! Smoothed-aggregation algebraic multigrid: [`Amg`] (its documentation
+//! describes the algorithm and the re-use of the hierarchy).
 
 mod aggregate;
 mod bsr;
@@ -260,8 +226,50 @@ impl<const B: usize> CsrLevels<B> {
     }
 }
 
-/// Smoothed-aggregation AMG preconditioner (see the [module docs](self)).
+/// Smoothed-aggregation algebraic multigrid (Vaněk, Mandel, Brezina 1996)
+/// on the 3x3 blocks of a [`SymBlockMatrix`], and on CSR matrices grouped
+/// into blocks of 1, 2 or 3 unknowns per node ([`AmgOptions::block_size`]).
+/// Every level is stored as full block CSR of the same block size, so all
+/// kernels of the cycle run row by row (ready to be split across threads).
 ///
+/// Set-up, per level `l` (`A_0 = A`):
+/// 1. strength of connection on blocks: `A_ij` is strong when
+///    `|A_ij|_F^2 > theta_l^2 |A_ii|_F |A_jj|_F` (`theta_l` halves per level);
+/// 2. aggregation of the strong graph (three greedy passes);
+/// 3. the tentative prolongator `T` from the near-nullspace `N_l`, by a thin
+///    QR on every aggregate (`N_l = T N_{l+1}`): the three translations per
+///    particle by default (the constant for scalar matrices);
+/// 4. the smoothed prolongator `P = (I - omega D_F^-1 A_F) T`, `A_F` the
+///    filtered matrix (weak blocks lumped onto the diagonal) and
+///    `omega = 4/3 / rho(D_F^-1 A_F)`;
+/// 5. the Galerkin operator `A_{l+1} = P^T A_l P`, in block storage;
+///
+/// until a level has at most `coarse_size` unknowns, which is solved by a
+/// dense Cholesky factorisation (a matrix that small from the start is just
+/// that direct solve; a level whose aggregation stalls becomes the coarsest,
+/// factored if it has at most 3000 unknowns, else only smoothed). Nodes
+/// without strong neighbours join no aggregate and are left to the smoother. [`Amg::apply`](crate::Preconditioner::apply)
+/// is one V-cycle from a zero guess with block damped-Jacobi (or symmetric
+/// block Gauss-Seidel) smoothing; the post-smoother is the adjoint of the
+/// pre-smoother, so the V-cycle is a symmetric positive definite operator and
+/// PCG and filtered PCG stay valid.
+///
+/// # Re-use
+/// [`PreconditionerSetup::setup`] with a matrix of the same sparsity pattern
+/// as the last one (the same `Arc<BlockPattern>`, or equal CSR index arrays)
+/// is a *refill*: strength, aggregates, the tentative prolongator and every
+/// pattern are kept, and only the numbers (smoothers, `omega`, `P`, the
+/// Galerkin products, the coarsest factor) are recomputed, without allocating;
+/// the spectral radius estimates continue the power method from the last
+/// eigenvectors for `refill_power_iterations` steps. On the 128^2 cloth a
+/// refill costs about a third of a full set-up, or 8-10 V-cycles
+/// (docs/PERFORMANCE.md, `cargo bench -p hookean-sparse --bench amg`). A new
+/// pattern (or block size) triggers a full set-up; [`Amg::rebuild`] forces one (e.g. when the values changed so much
+/// that the strong graph of the old aggregates no longer fits). Not calling
+/// `setup` at all keeps the whole hierarchy (a lagged preconditioner, still
+/// SPD, so CG stays valid).
+///
+/// # Example
 /// ```
 /// use hookean_sparse::{Amg, CgParams, CgWorkspace, PreconditionerSetup, pcg};
 /// use std::sync::Arc;
