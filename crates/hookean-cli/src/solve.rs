@@ -6,8 +6,9 @@ use std::time::Instant;
 
 use clap::Args;
 use hookean_sparse::{
-    AmgStats, AnyPreconditioner, CgParams, CgWorkspace, DirectCholesky, LinearOperator,
-    PrecondKind, PreconditionerSetup, SymBlockMatrix, pcg, read_matrix_market_file, vecops::norm2,
+    Amg, AmgOptions, AmgStats, AnyPreconditioner, CgParams, CgWorkspace, DirectCholesky,
+    LinearOperator, PrecondKind, PreconditionerSetup, SymBlockMatrix, pcg, read_matrix_market_file,
+    vecops::norm2,
 };
 use serde::Serialize;
 
@@ -26,6 +27,10 @@ pub struct SolveArgs {
     /// and a symmetric matrix), csr, or auto (block when possible).
     #[arg(long, default_value = "auto")]
     format: String,
+    /// Unknowns per node for `--precond amg` on csr storage: 1, 2 (e.g. 2D
+    /// elasticity) or 3 (block storage always has 3).
+    #[arg(long, default_value_t = 1)]
+    block_size: usize,
 }
 
 /// The solver options `hookean solve` and `hookean bench-precond` share.
@@ -163,8 +168,11 @@ fn parse_solver(name: &str, omega: f64, out: &mut Vec<Solver>) -> Result<(), Cli
 pub enum Matrix {
     /// Symmetric 3x3-block storage.
     Block(SymBlockMatrix),
-    /// Plain CSR.
-    Csr(sprs::CsMat<f64>),
+    /// Plain CSR, with the unknowns per node multigrid groups into blocks.
+    Csr {
+        a: sprs::CsMat<f64>,
+        block_size: usize,
+    },
 }
 
 /// Runs one solver on `A x = b` (`matrix` in PCG's storage, `original` the
@@ -182,8 +190,13 @@ pub fn run_solver(
 ) -> SolveRecord {
     match solver {
         Solver::Pcg(kind) => match matrix {
-            Matrix::Block(m) => run_pcg(m, original, b, *kind, params, repeat, "sym-block-3x3"),
-            Matrix::Csr(m) => run_pcg(m, original, b, *kind, params, repeat, "csr"),
+            Matrix::Block(m) => {
+                let format = "sym-block-3x3";
+                run_pcg(m, original, b, *kind, 3, params, repeat, format)
+            }
+            Matrix::Csr { a, block_size } => {
+                run_pcg(a, original, b, *kind, *block_size, params, repeat, "csr")
+            }
         },
         Solver::Direct => run_direct(original, b, repeat),
     }
@@ -219,8 +232,17 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             b
         }
     };
+    if !(1..=3).contains(&args.block_size) {
+        return Err(CliError::Input(format!(
+            "--block-size must be 1, 2 or 3, got {}",
+            args.block_size
+        )));
+    }
     let matrix = match args.format.as_str() {
-        "csr" => Matrix::Csr(a.clone()),
+        "csr" => Matrix::Csr {
+            a: a.clone(),
+            block_size: args.block_size,
+        },
         "block" => Matrix::Block(SymBlockMatrix::from_csr(&a).map_err(|e| {
             CliError::Input(format!(
                 "{}: cannot use block storage: {e}",
@@ -229,7 +251,10 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         })?),
         "auto" => match SymBlockMatrix::from_csr(&a) {
             Ok(m) => Matrix::Block(m),
-            Err(_) => Matrix::Csr(a.clone()),
+            Err(_) => Matrix::Csr {
+                a: a.clone(),
+                block_size: args.block_size,
+            },
         },
         other => {
             return Err(CliError::Input(format!(
@@ -242,7 +267,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         .into_iter()
         .filter(|s| {
             !(args.solver.precond == "all"
-                && matches!(matrix, Matrix::Csr(_))
+                && matches!(matrix, Matrix::Csr { .. })
                 && matches!(s, Solver::Pcg(PrecondKind::Mic0 { .. })))
         })
         .collect();
@@ -294,11 +319,13 @@ fn empty_record(solver: &'static str, precond: String, format: &'static str) -> 
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 fn run_pcg<M>(
     m: &M,
     original: &sprs::CsMat<f64>,
     b: &[f64],
     kind: PrecondKind,
+    block_size: usize,
     params: &CgParams,
     repeat: usize,
     format: &'static str,
@@ -315,7 +342,15 @@ where
     let mut best_solve = f64::INFINITY;
     for _ in 0..repeat {
         let t0 = Instant::now();
-        let setup = AnyPreconditioner::new(kind).and_then(|mut p| p.setup(m).map(|()| p));
+        let new = match kind {
+            PrecondKind::Amg => Amg::with_options(AmgOptions {
+                block_size,
+                ..Default::default()
+            })
+            .map(AnyPreconditioner::Amg),
+            other => AnyPreconditioner::new(other),
+        };
+        let setup = new.and_then(|mut p| p.setup(m).map(|()| p));
         let setup_s = t0.elapsed().as_secs_f64();
         let p = match setup {
             Ok(p) => p,

@@ -107,6 +107,7 @@ fn default_rhs_is_a_times_ones_and_csr_storage_meets_the_tolerance() {
 
 #[test]
 fn amg_runs_on_csr_storage_and_in_a_list_with_mic0() {
+    let cloth = data("cloth16-A.mtx");
     let out = hookean(&[
         "solve",
         &data("cloth16-A.mtx"),
@@ -141,6 +142,22 @@ fn amg_runs_on_csr_storage_and_in_a_list_with_mic0() {
     assert_eq!(v["converged"], true);
     assert!(v["rel_residual"].as_f64().unwrap() <= 1e-8);
     assert!(v["amg"]["levels"].as_u64().unwrap() >= 2, "{v}");
+    // Grouped into 3x3 blocks, CSR storage gives the block storage's hierarchy.
+    let run = |extra: &[&str]| {
+        let mut args = vec!["solve", &*cloth, "--precond", "amg"];
+        args.extend_from_slice(extra);
+        let out = hookean(&args);
+        assert!(out.status.success());
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let grouped = run(&["--format", "csr", "--block-size", "3"]);
+    let block = run(&["--format", "block"]);
+    assert_eq!(grouped["iterations"], block["iterations"]);
+    assert_eq!(grouped["amg"], block["amg"]);
+    assert_input_error(
+        &hookean(&["solve", &cloth, "--block-size", "4"]),
+        "--block-size",
+    );
 }
 
 #[test]
