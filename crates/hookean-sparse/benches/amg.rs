@@ -1,7 +1,7 @@
 //! The costs of re-using a multigrid hierarchy on the testkit's cloth
 //! (N = 128, k = 1e4, h = 0.01, 49 152 unknowns), next to MIC(0):
 //! a full AMG set-up (`rebuild`), a refill of the values on the same
-//! pattern (`setup` again), one V-cycle, and PCG to `|r| <= 1e-8 |b|` with
+//! pattern (`setup` again; also keeping the prolongators), one V-cycle, and PCG to `|r| <= 1e-8 |b|` with
 //! each preconditioner. Re-using the hierarchy for several steps costs
 //! nothing at set-up (only the extra PCG iterations of a lagged preconditioner).
 //!
@@ -11,7 +11,7 @@ use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use hookean_sparse::{
-    Amg, CgParams, CgWorkspace, IncompleteCholesky, PrecondKind, Preconditioner,
+    Amg, AmgOptions, CgParams, CgWorkspace, IncompleteCholesky, PrecondKind, Preconditioner,
     PreconditionerSetup, pcg,
 };
 use hookean_testkit::cloth::{ClothParams, cloth_system};
@@ -34,6 +34,15 @@ fn bench(c: &mut Criterion) {
         bench.iter(|| amg.rebuild(&a).unwrap())
     });
     group.bench_function("amg_refill", |bench| bench.iter(|| amg.setup(&a).unwrap()));
+    let mut keep = Amg::with_options(AmgOptions {
+        keep_prolongators: true,
+        ..Default::default()
+    })
+    .unwrap();
+    keep.setup(&a).unwrap();
+    group.bench_function("amg_refill_keep_prolongators", |bench| {
+        bench.iter(|| keep.setup(&a).unwrap())
+    });
     let mut z = vec![0.0; n];
     group.bench_function("amg_vcycle", |bench| bench.iter(|| amg.apply(&b, &mut z)));
     let mut mic = IncompleteCholesky::modified(PrecondKind::MIC_OMEGA).unwrap();

@@ -177,6 +177,7 @@ struct Numeric {
     prolongation_weight: f64,
     power_iterations: usize,
     refill_power_iterations: usize,
+    keep_prolongators: bool,
 }
 
 /// A smoothed-aggregation hierarchy with `B x B` blocks on every level.
@@ -292,6 +293,7 @@ impl<const B: usize> Hierarchy<B> {
             prolongation_weight: options.prolongation_weight,
             power_iterations: options.power_iterations,
             refill_power_iterations: options.refill_power_iterations,
+            keep_prolongators: options.keep_prolongators,
         };
         let mut levels: Vec<Level<B>> = Vec::new();
         let mut work: Vec<Work> = Vec::new();
@@ -585,12 +587,40 @@ fn compute_level<const B: usize>(
     let (Some(tr), Some(next)) = (level.transfer.as_mut(), next) else {
         return Ok(());
     };
-    let a = &level.a;
+    if !(refill && num.keep_prolongators) {
+        smooth_prolongator(
+            &level.a,
+            &level.diag,
+            &level.dinv,
+            tr,
+            num.prolongation_weight,
+            iterations,
+            refill,
+            work,
+        )?;
+    }
+    product_values(&level.a, &tr.p, &mut tr.ap, &mut tr.marker);
+    product_values(&tr.r, &tr.ap, next, &mut tr.marker);
+    Ok(())
+}
+
+/// `A_F`, `D_F^-1`, `omega` and `P = (I - omega D_F^-1 A_F) T`, `R = P^T`.
+#[allow(clippy::too_many_arguments)]
+fn smooth_prolongator<const B: usize>(
+    a: &Bsr<B>,
+    diag: &[usize],
+    a_dinv: &[Blk<B>],
+    tr: &mut Transfer<B>,
+    prolongation_weight: f64,
+    iterations: usize,
+    refill: bool,
+    work: &mut Work,
+) -> Result<(), SparseError> {
     // A_F: strong blocks copied, weak ones lumped onto the diagonal.
     for i in 0..a.nrows {
-        let mut d = a.val[level.diag[i]];
+        let mut d = a.val[diag[i]];
         for k in a.row(i) {
-            if k != level.diag[i] && !tr.strong[k] {
+            if k != diag[i] && !tr.strong[k] {
                 for r in 0..B {
                     for c in 0..B {
                         d[r][c] += a.val[k][r][c];
@@ -608,7 +638,7 @@ fn compute_level<const B: usize>(
     // D_F^-1; where lumping made a diagonal block indefinite (a matrix that
     // is not an M-matrix, e.g. a scalar elasticity operator with positive
     // off-diagonal entries), D^-1 of A instead: any SPD scaling smooths T.
-    for ((inv, &d), dinv) in tr.df_inv.iter_mut().zip(&tr.af_diag).zip(&level.dinv) {
+    for ((inv, &d), dinv) in tr.df_inv.iter_mut().zip(&tr.af_diag).zip(a_dinv) {
         *inv = spd_inverse(&tr.af.val[d]).unwrap_or(*dinv);
     }
     let rho = spectral_radius(
@@ -619,7 +649,7 @@ fn compute_level<const B: usize>(
         &mut tr.eigenvector,
         &mut work.t,
     )?;
-    tr.omega = num.prolongation_weight / rho;
+    tr.omega = prolongation_weight / rho;
     // P = T - omega D_F^-1 (A_F T).
     product_values(&tr.af, &tr.t, &mut tr.p, &mut tr.marker);
     for i in 0..a.nrows {
@@ -644,8 +674,6 @@ fn compute_level<const B: usize>(
         }
     }
     tr.p.fill_transpose(&mut tr.r, &tr.r_map);
-    product_values(a, &tr.p, &mut tr.ap, &mut tr.marker);
-    product_values(&tr.r, &tr.ap, next, &mut tr.marker);
     Ok(())
 }
 

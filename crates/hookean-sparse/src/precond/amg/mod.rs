@@ -54,6 +54,13 @@ pub struct AmgOptions {
     /// eigenvector estimates (which fit the new values if they changed
     /// little). Default `3`. (Ignored when `power_iterations = 0`.)
     pub refill_power_iterations: usize,
+    /// At a refill, keep every prolongator of the last full set-up and
+    /// recompute only the smoothers, the Galerkin operators `P^T A P` and
+    /// the coarsest factor (still a symmetric positive definite V-cycle:
+    /// any full-rank `P` gives SPD coarse operators). Cheaper, and fit for
+    /// values that change slowly (time steps); default `false` (`P` is
+    /// smoothed again with the new values).
+    pub keep_prolongators: bool,
     /// Near-nullspace vectors of length `dim`, as many as the block size
     /// (3 for block matrices, [`block_size`](Self::block_size) for CSR ones:
     /// the coarse operators keep the block size). Empty (default): the
@@ -77,6 +84,7 @@ impl Default for AmgOptions {
             prolongation_weight: 4.0 / 3.0,
             power_iterations: 10,
             refill_power_iterations: 3,
+            keep_prolongators: false,
             near_nullspace: Vec::new(),
             block_size: 1,
         }
@@ -261,7 +269,10 @@ impl<const B: usize> CsrLevels<B> {
 /// pattern are kept, and only the numbers (smoothers, `omega`, `P`, the
 /// Galerkin products, the coarsest factor) are recomputed, without allocating;
 /// the spectral radius estimates continue the power method from the last
-/// eigenvectors for `refill_power_iterations` steps. On the 128^2 cloth a
+/// eigenvectors for `refill_power_iterations` steps. With
+/// [`AmgOptions::keep_prolongators`] a refill keeps the prolongators too
+/// and recomputes only the smoothers, the Galerkin operators and the
+/// coarsest factor. On the 128^2 cloth a
 /// refill costs about a third of a full set-up, or 8-10 V-cycles
 /// (docs/PERFORMANCE.md, `cargo bench -p hookean-sparse --bench amg`). A new
 /// pattern (or block size) triggers a full set-up; [`Amg::rebuild`] forces one (e.g. when the values changed so much

@@ -640,3 +640,47 @@ fn three_dof_amg_pcg_on_3d_elasticity_needs_at_most_40_iterations() {
     assert!(counts[0] <= 40, "{counts:?}");
     assert_eq!(counts[0], counts[1]);
 }
+
+#[test]
+fn a_refill_that_keeps_the_prolongators_recomputes_the_galerkin_operators() {
+    let a = spd_block_matrix(16, 14);
+    let mut amg = Amg::with_options(AmgOptions {
+        keep_prolongators: true,
+        ..small_coarse(AmgSmoother::BlockJacobi)
+    })
+    .unwrap();
+    amg.setup(&a).unwrap();
+    let p_before = dense_bsr(hierarchy3(&amg).level_matrices(0).1.unwrap().0);
+    // New values on the same pattern: more mass on the diagonal.
+    let mut a2 = a.clone();
+    a2.add_to_diagonal(&vec![0.7; a.dim()]).unwrap();
+    amg.setup(&a2).unwrap();
+    assert_eq!(amg.stats().refills, 1);
+    let h = hierarchy3(&amg);
+    let (al, Some((p, _))) = h.level_matrices(0) else {
+        unreachable!()
+    };
+    let p = dense_bsr(p);
+    assert_eq!(p, p_before);
+    // The coarse operator is P^T A2 P with the kept P.
+    let expected = matmul(&transpose_dense(&p), &matmul(&dense_bsr(al), &p));
+    assert_eq!(dense_bsr(al), dense(&a2));
+    let ac = dense_bsr(h.level_matrices(1).0);
+    let scale = expected
+        .iter()
+        .flatten()
+        .fold(0.0_f64, |m, v| m.max(v.abs()));
+    for (r, row) in expected.iter().enumerate() {
+        for (c, v) in row.iter().enumerate() {
+            assert!((ac[r][c] - v).abs() <= 1e-13 * scale);
+        }
+    }
+    // The default refill smooths P again with the new values: it differs.
+    let mut fresh = Amg::with_options(small_coarse(AmgSmoother::BlockJacobi)).unwrap();
+    fresh.setup(&a).unwrap();
+    fresh.setup(&a2).unwrap();
+    assert_ne!(
+        dense_bsr(hierarchy3(&fresh).level_matrices(0).1.unwrap().0),
+        p_before
+    );
+}
