@@ -23,10 +23,10 @@ use hookean_sparse::{
     AnyPreconditioner, CgParams, CgWorkspace, LinearOperator, PrecondKind, Preconditioner,
     PreconditionerSetup, SymBlockMatrix, pcg,
 };
-use hookean_testkit::cloth::{ClothParams, cloth_system};
+use hookean_testkit::cloth::{ClothSystemParams, cloth_system};
 
 fn system(n: usize, k: f64) -> (SymBlockMatrix, Vec<f64>) {
-    cloth_system(&ClothParams {
+    cloth_system(&ClothSystemParams {
         n,
         k,
         ..Default::default()

@@ -9,9 +9,10 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use hookean::scene::Scene;
 use hookean_filter::{
-    BisectionOptions, DrapeMethod, DrapeScene, ExplicitScheme, FilterOptions, RunOptions,
-    drape_velocity_run, fftshift, predict_dt_max, stable_step_against_lambda,
+    BisectionOptions, DrapeMethod, ExplicitScheme, FilterOptions, RunOptions, drape_velocity_run,
+    fftshift, predict_dt_max, stable_step_against_lambda,
 };
+use hookean_massspring::{ClothParams, cloth as cloth_model};
 use hookean_ode::Method;
 use serde::Serialize;
 
@@ -77,7 +78,7 @@ fn failed(e: impl std::fmt::Display) -> CliError {
 
 pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
     let scene = Scene::from_file(&args.scene, &[]).map_err(input)?;
-    let cloth = scene.cloth.as_ref().ok_or_else(|| {
+    let cloth = scene.cloth_params().ok_or_else(|| {
         CliError::Input(format!(
             "{}: filter-analysis needs a [cloth] scene",
             args.scene.display()
@@ -109,14 +110,12 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
     }
     std::fs::create_dir_all(&args.plot)
         .map_err(|e| input(format!("{}: {e}", args.plot.display())))?;
-    let drape = DrapeScene {
-        n: args.n,
-        stiffness: cloth.stiffness,
-        bend_ratio: cloth.bend_stiffness.unwrap_or(cloth.stiffness / 10.0) / cloth.stiffness,
-        damping: cloth.damping,
-        total_mass: cloth.mass,
+    let drape = ClothParams {
+        nu: args.n,
+        nv: args.n,
+        ..cloth.clone()
     };
-    let (model, state) = drape.build().map_err(failed)?;
+    let (model, state) = cloth_model(&drape).map_err(failed)?;
     let plain = predict_dt_max(
         &model,
         &state.x,
@@ -174,7 +173,7 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
 
     // Figure 6.
     let lambdas = [0.25, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0];
-    let build = || drape.build();
+    let build = || cloth_model(&drape).map_err(hookean_filter::FilterError::from);
     let options = BisectionOptions {
         run: RunOptions {
             t_end: 0.5,
@@ -221,8 +220,8 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
 
     let analysis = Analysis {
         n: args.n,
-        stiffness: cloth.stiffness,
-        damping: cloth.damping,
+        stiffness: cloth.structural.stiffness,
+        damping: cloth.structural.damping,
         dt_max_unfiltered: plain.dt_max,
         figure4,
         figure6: rows

@@ -10,20 +10,15 @@ use std::time::Instant;
 
 use criterion::{Criterion, criterion_group};
 use hookean_filter::{
-    DrapeScene, Edge, ExplicitScheme, FilterCoupling, FilterOptions, FilteredIntegrator,
-    VelocityFilter, predict_dt_max,
+    Edge, ExplicitScheme, FilterCoupling, FilterOptions, FilteredIntegrator, VelocityFilter,
+    predict_dt_max,
 };
-use hookean_massspring::{MassSpringModel, State};
+use hookean_massspring::{ClothParams, MassSpringModel, State, cloth};
 use hookean_ode::{Method, SecondOrderIntegrator, SolverOptions};
 
 /// The N = 64 drape and an FB Euler step half its predicted dt_max.
 fn drape64() -> (MassSpringModel, State, f64) {
-    let (model, state) = DrapeScene {
-        n: 64,
-        ..Default::default()
-    }
-    .build()
-    .unwrap();
+    let (model, state) = cloth(&ClothParams::drape(64)).unwrap();
     let dt = predict_dt_max(
         &model,
         &state.x,

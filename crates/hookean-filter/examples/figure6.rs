@@ -5,10 +5,8 @@
 //!
 //! Usage: `cargo run --release -p hookean-filter --example figure6`
 
-use hookean_filter::{
-    BisectionOptions, DrapeScene, FilterError, RunOptions, stable_step_against_lambda,
-};
-use hookean_massspring::{MassSpringModel, RopeParams, State, rope};
+use hookean_filter::{BisectionOptions, FilterError, RunOptions, stable_step_against_lambda};
+use hookean_massspring::{ClothParams, MassSpringModel, RopeParams, State, cloth, rope};
 use hookean_ode::Method;
 
 type Build = Box<dyn Fn() -> Result<(MassSpringModel, State), FilterError>>;
@@ -26,13 +24,7 @@ fn main() -> Result<(), FilterError> {
     let scenes: [(&str, Build); 2] = [
         (
             "drape 12x12",
-            Box::new(|| {
-                DrapeScene {
-                    n: 12,
-                    ..Default::default()
-                }
-                .build()
-            }),
+            Box::new(|| Ok(cloth(&ClothParams::drape(12))?)),
         ),
         (
             "rope 20",

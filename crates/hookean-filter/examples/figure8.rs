@@ -17,9 +17,10 @@
 use std::time::Instant;
 
 use hookean_filter::{
-    DrapeScene, ExplicitScheme, FilterCoupling, FilterOptions, ModelIntegrator, RunOptions,
-    predict_dt_max, run_bounded,
+    ExplicitScheme, FilterCoupling, FilterOptions, ModelIntegrator, RunOptions, predict_dt_max,
+    run_bounded,
 };
+use hookean_massspring::{ClothParams, cloth};
 use hookean_ode::{Method, NewtonOptions, SolverOptions};
 use hookean_sparse::PowerParams;
 
@@ -42,23 +43,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("|---|---|---|---|---|---|---|---|");
     for &n in &sizes {
         let n = n as usize;
-        let reference = DrapeScene {
-            n,
-            ..Default::default()
-        };
-        let (model, state) = reference.build()?;
+        let reference = ClothParams::drape(n);
+        let (model, state) = cloth(&reference)?;
         let k0_ref = predict_dt_max(&model, &state.x, None, fb, &power)?.k0;
         for &k0 in &k0s {
             // Damping scaled with sqrt(k) keeps the damping ratio of the
             // reference drape (explicit damping has a step limit of its own).
             let ratio = k0 / k0_ref;
-            let scene = DrapeScene {
-                stiffness: reference.stiffness * ratio,
-                damping: reference.damping * ratio.sqrt(),
-                ..reference.clone()
-            };
+            let scene = reference.clone().with_stiffness(
+                reference.structural.stiffness * ratio,
+                reference.structural.damping * ratio.sqrt(),
+            );
             // Implicit Euler first: its states give the run's largest k0.
-            let (model, state) = scene.build()?;
+            let (model, state) = cloth(&scene)?;
             let options = SolverOptions {
                 newton: NewtonOptions {
                     rtol: 1e-2,
@@ -103,7 +100,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 if filtered {
                     h *= 1.25;
                 }
-                let (model, state) = scene.build()?;
+                let (model, state) = cloth(&scene)?;
                 let filter =
                     filtered.then(|| (FilterOptions::default(), FilterCoupling::default()));
                 let mut sim =

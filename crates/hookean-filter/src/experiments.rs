@@ -1,9 +1,9 @@
 //! The experiments of the filtering paper as plain functions returning data
-//! (no plotting): the drape scene, bounded-energy runs, the stable step by
+//! (no plotting): bounded-energy runs, the stable step by
 //! bisection on the actual integration (figure 6), the velocity-over-time
 //! image (figure 4) and the spectrum of the velocity field (figure 5).
 
-use hookean_massspring::{ClothParams, ClothPins, MassSpringModel, SpringMaterial, State, cloth};
+use hookean_massspring::{ClothParams, MassSpringModel, State, cloth};
 use hookean_ode::{Method, OdeError, SolverOptions};
 use hookean_sparse::PowerParams;
 
@@ -13,56 +13,6 @@ use crate::model_integrator::ModelIntegrator;
 use crate::spectrum::{VelocityImage, power_spectrum};
 use crate::stability::ExplicitScheme;
 use crate::velocity::{FilterOptions, Kernel, VelocityFilter};
-
-/// The reference drape of docs/ARCHITECTURE.md: an `n x n` cloth of side 1 m in the
-/// horizontal plane, two corners of one edge pinned, structural and shear
-/// springs of stiffness `k`, bend springs of `bend_ratio k`, projected
-/// damping `d`, gravity 9.81 m/s^2.
-#[derive(Debug, Clone, PartialEq)]
-pub struct DrapeScene {
-    /// Particles per side. Default 16.
-    pub n: usize,
-    /// Structural and shear stiffness `k` (N/m). Default `1e4`.
-    pub stiffness: f64,
-    /// Bend stiffness over `k`. Default 0.1.
-    pub bend_ratio: f64,
-    /// Spring damping `d` (N s/m). Default 0.1.
-    pub damping: f64,
-    /// Total mass (kg). Default 1.
-    pub total_mass: f64,
-}
-
-impl Default for DrapeScene {
-    fn default() -> Self {
-        Self {
-            n: 16,
-            stiffness: 1e4,
-            bend_ratio: 0.1,
-            damping: 0.1,
-            total_mass: 1.0,
-        }
-    }
-}
-
-impl DrapeScene {
-    /// The model and its flat initial state at rest.
-    ///
-    /// # Errors
-    /// [`FilterError::MassSpring`] for bad parameters.
-    pub fn build(&self) -> Result<(MassSpringModel, State), FilterError> {
-        let k = self.stiffness;
-        Ok(cloth(&ClothParams {
-            nu: self.n,
-            nv: self.n,
-            total_mass: self.total_mass,
-            structural: SpringMaterial::new(k, self.damping),
-            shear: SpringMaterial::new(k, self.damping),
-            bend: SpringMaterial::new(self.bend_ratio * k, self.damping),
-            pins: ClothPins::TwoCorners,
-            ..ClothParams::default()
-        })?)
-    }
-}
 
 /// Options of [`run_bounded`].
 #[derive(Debug, Clone, PartialEq)]
@@ -422,14 +372,14 @@ pub struct VelocityRun {
     pub outcome: RunOutcome,
 }
 
-/// Runs the drape for `t_end` seconds with step `h` and `method`, recording
+/// Runs the (square) cloth `scene` for `t_end` seconds with step `h` and `method`, recording
 /// the velocity image (velocities scaled by `scale` m/s) and the spectra
 /// (frequency radius `> cutoff` of Nyquist counts as high).
 ///
 /// # Errors
 /// As [`run_bounded`]; [`FilterError::InvalidParameter`] for a cutoff outside `(0, sqrt 2)`.
 pub fn drape_velocity_run(
-    scene: &DrapeScene,
+    scene: &ClothParams,
     method: &DrapeMethod,
     h: f64,
     t_end: f64,
@@ -443,8 +393,15 @@ pub fn drape_velocity_run(
             reason: "must lie in (0, sqrt 2)",
         });
     }
-    let (model, state) = scene.build()?;
-    let n = scene.n;
+    if scene.nu != scene.nv {
+        return Err(FilterError::InvalidParameter {
+            name: "cloth (nv)",
+            value: scene.nv as f64,
+            reason: "the velocity image needs a square cloth (nu = nv)",
+        });
+    }
+    let (model, state) = cloth(scene)?;
+    let n = scene.nu;
     let (m, filter) = match method {
         DrapeMethod::FbEuler => (Method::FbEuler, None),
         DrapeMethod::BackwardEuler => (Method::ImplicitEuler, None),

@@ -60,11 +60,12 @@
 //! # Example: filtered FB Euler on the drape at 1.25 times the unfiltered limit
 //!
 //! ```
-//! use hookean_filter::{DrapeScene, ExplicitScheme, FilterCoupling, FilterOptions,
+//! use hookean_filter::{ExplicitScheme, FilterCoupling, FilterOptions,
 //!                      FilteredIntegrator, VelocityFilter, predict_dt_max};
+//! use hookean_massspring::{ClothParams, cloth};
 //! use hookean_ode::{Method, SecondOrderIntegrator, SolverOptions};
 //!
-//! let (model, state) = DrapeScene { n: 8, ..Default::default() }.build()?;
+//! let (model, state) = cloth(&ClothParams::drape(8))?;
 //! let plain = predict_dt_max(&model, &state.x, None, ExplicitScheme::ForwardBackwardEuler,
 //!                            &Default::default())?;
 //! let filtered = predict_dt_max(&model, &state.x, Some(&FilterOptions::default()),
@@ -91,9 +92,9 @@ mod velocity;
 
 pub use error::FilterError;
 pub use experiments::{
-    BisectionOptions, DrapeMethod, DrapeScene, Prediction, RunOptions, RunOutcome, StableStep,
-    StableStepRow, VelocityRun, drape_velocity_run, measure_stable_step, predict_dt_max,
-    run_bounded, stable_step_against_lambda,
+    BisectionOptions, DrapeMethod, Prediction, RunOptions, RunOutcome, StableStep, StableStepRow,
+    VelocityRun, drape_velocity_run, measure_stable_step, predict_dt_max, run_bounded,
+    stable_step_against_lambda,
 };
 pub use filtered::{FilterCoupling, FilterStats, FilteredIntegrator, position_weight};
 pub use model_integrator::ModelIntegrator;

@@ -1,11 +1,11 @@
 //! Bad input gets typed errors, and the coupling analysis of `FilterCoupling`.
 
 use hookean_filter::{
-    BisectionOptions, DrapeMethod, DrapeScene, ExplicitScheme, FilterCoupling, FilterError,
-    FilterOptions, Kernel, ModelIntegrator, RunOptions, drape_velocity_run, measure_stable_step,
-    predict_dt_max, run_bounded, stable_step_against_lambda,
+    BisectionOptions, DrapeMethod, ExplicitScheme, FilterCoupling, FilterError, FilterOptions,
+    Kernel, ModelIntegrator, RunOptions, drape_velocity_run, measure_stable_step, predict_dt_max,
+    run_bounded, stable_step_against_lambda,
 };
-use hookean_massspring::{RopeParams, rope};
+use hookean_massspring::{ClothParams, RopeParams, cloth, rope};
 use hookean_ode::{Method, SolverOptions};
 
 fn small() -> Result<
@@ -15,11 +15,7 @@ fn small() -> Result<
     ),
     FilterError,
 > {
-    DrapeScene {
-        n: 6,
-        ..Default::default()
-    }
-    .build()
+    Ok(cloth(&ClothParams::drape(6))?)
 }
 
 #[test]
@@ -57,10 +53,7 @@ fn experiment_parameters_are_checked() {
     ));
     assert!(matches!(
         drape_velocity_run(
-            &DrapeScene {
-                n: 4,
-                ..Default::default()
-            },
+            &ClothParams::drape(4),
             &DrapeMethod::FbEuler,
             1e-4,
             1e-3,
@@ -175,13 +168,7 @@ fn filtering_velocities_without_moving_positions_shrinks_the_step() {
         },
         ..Default::default()
     };
-    let build = || {
-        DrapeScene {
-            n: 10,
-            ..Default::default()
-        }
-        .build()
-    };
+    let build = || Ok(cloth(&ClothParams::drape(10))?);
     let (model, state) = build().unwrap();
     let guess = predict_dt_max(
         &model,

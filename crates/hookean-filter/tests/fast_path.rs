@@ -6,8 +6,8 @@
 //! rest length, `beta(d)` normalised to sum 1, the symmetric form
 //! `(I + B) / 2`, and identity rows for pinned particles.
 
-use hookean_filter::{DrapeScene, Edge, FilterOptions, Form, Kernel, PlanStats, VelocityFilter};
-use hookean_massspring::{MeshParams, ObjMesh, from_mesh};
+use hookean_filter::{Edge, FilterOptions, Form, Kernel, PlanStats, VelocityFilter};
+use hookean_massspring::{ClothParams, MeshParams, ObjMesh, cloth, from_mesh};
 
 /// The dense filter matrix `F` (row-major, n x n) from the definition.
 fn dense_filter(n: usize, edges: &[Edge], pinned: &[bool], o: &FilterOptions) -> Vec<f64> {
@@ -139,12 +139,7 @@ fn model_edges(model: &hookean_massspring::MassSpringModel) -> Vec<Edge> {
 #[test]
 fn drape_grid_with_pins_runs_as_stencils_and_matches_the_dense_filter() {
     let n_side = 16;
-    let (model, _) = DrapeScene {
-        n: n_side,
-        ..Default::default()
-    }
-    .build()
-    .unwrap();
+    let (model, _) = cloth(&ClothParams::drape(n_side)).unwrap();
     let n = model.n_particles();
     let edges = model_edges(&model);
     // Two pinned corners as in the drape, plus one interior particle

@@ -6,11 +6,12 @@
 //! coupling is the default [`FilterCoupling::Increment`].
 
 use hookean_filter::{
-    BisectionOptions, DrapeMethod, DrapeScene, FilterCoupling, FilterOptions, Kernel,
-    ModelIntegrator, RunOptions, drape_velocity_run, measure_stable_step, run_bounded,
-    stable_step_against_lambda,
+    BisectionOptions, DrapeMethod, FilterCoupling, FilterOptions, Kernel, ModelIntegrator,
+    RunOptions, drape_velocity_run, measure_stable_step, run_bounded, stable_step_against_lambda,
 };
-use hookean_massspring::{BlockParams, MassSpringModel, RopeParams, State, jelly_block, rope};
+use hookean_massspring::{
+    BlockParams, ClothParams, MassSpringModel, RopeParams, State, cloth, jelly_block, rope,
+};
 use hookean_ode::{Method, SolverOptions};
 
 fn bisection() -> BisectionOptions {
@@ -25,11 +26,7 @@ fn bisection() -> BisectionOptions {
 }
 
 fn drape() -> Result<(MassSpringModel, State), hookean_filter::FilterError> {
-    DrapeScene {
-        n: 12,
-        ..Default::default()
-    }
-    .build()
+    Ok(cloth(&ClothParams::drape(12))?)
 }
 
 fn rope20() -> Result<(MassSpringModel, State), hookean_filter::FilterError> {
@@ -154,11 +151,7 @@ fn at_1_25x_the_limit_fb_euler_blows_up_and_filtered_fb_euler_stays_bounded_body
 fn filtering_lowers_high_frequency_energy_towards_backward_euler() {
     // FB Euler must be stable at h = 0.01 for figures 4 and 5: a soft drape
     // (k = 10 N/m, predicted dt_max = 0.019 s) instead of the k = 1e4 reference.
-    let scene = DrapeScene {
-        n: 12,
-        stiffness: 10.0,
-        ..Default::default()
-    };
+    let scene = ClothParams::drape(12).with_stiffness(10.0, 0.1);
     let h = 0.01;
     let run = |m: DrapeMethod| drape_velocity_run(&scene, &m, h, 2.0, 1.0, 0.5).unwrap();
     let fb = run(DrapeMethod::FbEuler);

@@ -91,7 +91,7 @@ impl MassSpringModel {
     ) -> Result<StabilityInfo, MassSpringError> {
         let v = vec![0.0; x.len()];
         self.check_state(x, &v)?;
-        let mut dfdx = SymBlockMatrix::new(self.pattern.clone());
+        let mut dfdx = SymBlockMatrix::new(self.plan.pattern.clone());
         self.assemble_jacobians(
             x,
             &v,
@@ -170,10 +170,10 @@ impl MassSpringModel {
     pub fn implicit_system(&self) -> ImplicitSystem {
         let dim = 3 * self.n_particles();
         ImplicitSystem {
-            a: SymBlockMatrix::new(self.pattern.clone()),
+            a: SymBlockMatrix::new(self.plan.pattern.clone()),
             b: vec![0.0; dim],
-            dfdx: SymBlockMatrix::new(self.pattern.clone()),
-            dfdv: SymBlockMatrix::new(self.pattern.clone()),
+            dfdx: SymBlockMatrix::new(self.plan.pattern.clone()),
+            dfdv: SymBlockMatrix::new(self.plan.pattern.clone()),
             f: vec![0.0; dim],
             kv: vec![0.0; dim],
         }
@@ -222,10 +222,8 @@ impl MassSpringModel {
         for ((b, f), kv) in sys.b.iter_mut().zip(&sys.f).zip(&sys.kv) {
             *b = h * (f + h * kv);
         }
-        sys.a.set_zero();
-        sys.a.add_to_diagonal(&self.mass)?;
-        sys.a.add_scaled(-h, &sys.dfdv)?;
-        sys.a.add_scaled(-h * h, &sys.dfdx)?;
+        sys.a
+            .assign_diagonal_plus_combination(&self.mass, -h * h, &sys.dfdx, -h, &sys.dfdv)?;
         Ok(())
     }
 

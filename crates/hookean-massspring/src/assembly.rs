@@ -19,11 +19,11 @@ use std::sync::Arc;
 
 use hookean_problem::SecondOrderProblem;
 use hookean_sparse::block::{self, Block3};
-use hookean_sparse::{BlockPattern, Constraints, SymBlockMatrix};
+use hookean_sparse::{BlockPattern, Constraints, Slot, SymBlockMatrix};
 use nalgebra::Vector3;
 
 use crate::error::MassSpringError;
-use crate::model::{DampingInDfdx, MassSpringModel, SpringDamping, SpringSlots, point};
+use crate::model::{DampingInDfdx, MassSpringModel, Spring, SpringDamping, point};
 
 /// `k [ a I + (1 - a) u u^T ]` = `k [ a (I - u u^T) + u u^T ]`.
 #[inline(always)]
@@ -96,7 +96,7 @@ fn scatter_sym(
     loc: &mut [f64; 12],
     acc_c: &mut [f64; 12],
     at: usize,
-    h: &crate::model::HotSpring,
+    h: &HotSpring,
     constrained: bool,
     proj: &[Block3],
     b6: &[f64; 6],
@@ -156,7 +156,7 @@ impl ChunkGeometry {
 
     /// `e = x_j - x_i`, `l = |e|`, `1 / l` for every spring of `chunk`.
     #[inline(always)]
-    fn compute(&mut self, x: &[[f64; 3]], chunk: &[crate::model::HotSpring]) {
+    fn compute(&mut self, x: &[[f64; 3]], chunk: &[HotSpring]) {
         for (k, h) in chunk.iter().enumerate() {
             let (xi, xj) = (&x[h.i as usize], &x[h.j as usize]);
             for r in 0..3 {
@@ -245,6 +245,177 @@ pub(crate) struct AssemblyMode {
     pub(crate) clamp: bool,
     pub(crate) damping_in_dfdx: DampingInDfdx,
 }
+/// The cached storage slots of one spring's three blocks.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct SpringSlots {
+    pub(crate) ii: Slot,
+    pub(crate) jj: Slot,
+    pub(crate) ij: Slot,
+}
+
+/// A spring prepared for the hot loops: springs are kept in the storage
+/// order of their upper block, so that assembly writes the off-diagonal
+/// blocks sequentially. Oriented `i < j` (the force law and the symmetric
+/// Jacobian blocks do not depend on the orientation); 40 bytes.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct HotSpring {
+    pub(crate) i: u32,
+    pub(crate) j: u32,
+    /// Index of the stored upper block `(min, max)` in the value array.
+    pub(crate) upper: u32,
+    pub(crate) rest_length: f64,
+    pub(crate) stiffness: f64,
+    pub(crate) damping: f64,
+    /// Whether this spring is the first (in storage order) of its block:
+    /// it assigns the block, later springs of the same pair add to it.
+    pub(crate) first: bool,
+}
+
+/// Per-particle diagonal accumulators of assembly (the 6 unique entries of
+/// the symmetric diagonal block of `df/dx`, then of `df/dv`), kept contiguous so that the
+/// scatter to the second endpoint of a spring hits a compact array. All
+/// zeros between calls (each row zeroes its entry when it writes its
+/// diagonal blocks). Behind a mutex because the `SecondOrderProblem` methods
+/// take `&self`; a concurrent second caller (or any caller after a panic
+/// poisoned the mutex) falls back to a temporary zeroed buffer.
+#[derive(Debug, Default)]
+pub(crate) struct DiagScratch(pub(crate) std::sync::Mutex<Vec<Acc>>);
+
+impl Clone for DiagScratch {
+    fn clone(&self) -> Self {
+        let n = self.0.lock().map(|v| v.len()).unwrap_or(0);
+        DiagScratch(std::sync::Mutex::new(vec![[0.0; 12]; n]))
+    }
+}
+
+/// Where the assembly sweep writes each spring's blocks: the Jacobian
+/// pattern of a spring set and the positions of its blocks in the value
+/// array, built once from `hookean-sparse`'s public slot API (the storage
+/// layout is that crate's business), plus the per-row fast-path flags that
+/// the step's constraints switch.
+#[derive(Debug, Clone)]
+pub(crate) struct AssemblyPlan {
+    pub(crate) pattern: Arc<BlockPattern>,
+    pub(crate) slots: Vec<SpringSlots>,
+    pub(crate) diag_slots: Vec<Slot>,
+    /// The springs in storage order of their upper block.
+    pub(crate) hot: Vec<HotSpring>,
+    /// `hot[hot_row_ptr[r]..hot_row_ptr[r + 1]]` are the springs whose
+    /// upper block lies in block row `r = min(i, j)`.
+    pub(crate) hot_row_ptr: Vec<usize>,
+    /// Value index of each diagonal block.
+    pub(crate) diag_index: Vec<usize>,
+    /// Whether block row `r` takes the fast assembly path: no spring of the
+    /// row, nor its diagonal, touches a constrained particle (kept up to
+    /// date through [`mark_rows_of`](Self::mark_rows_of)).
+    pub(crate) row_fast: Vec<bool>,
+    /// `touch_rows[touch_ptr[p]..touch_ptr[p + 1]]` are the block rows whose
+    /// springs or diagonal touch particle `p` (`p` itself and the rows
+    /// `min(i, j)` of its springs).
+    pub(crate) touch_ptr: Vec<usize>,
+    /// See `touch_ptr`.
+    pub(crate) touch_rows: Vec<u32>,
+    pub(crate) diag_acc: DiagScratch,
+}
+
+impl AssemblyPlan {
+    /// The plan of `springs` (already checked) on `n` particles.
+    ///
+    /// # Errors
+    /// [`MassSpringError::InvalidParameter`] when a storage position does not
+    /// fit the 32-bit tables; the pattern's errors.
+    pub(crate) fn new(n: usize, springs: &[Spring]) -> Result<Self, MassSpringError> {
+        let pattern = Arc::new(BlockPattern::new(n, springs.iter().map(|s| (s.i, s.j)))?);
+        let probe = SymBlockMatrix::new(pattern.clone());
+        let slots = springs
+            .iter()
+            .map(|s| {
+                Ok(SpringSlots {
+                    ii: probe.slot(s.i, s.i)?,
+                    jj: probe.slot(s.j, s.j)?,
+                    ij: probe.slot(s.i, s.j)?,
+                })
+            })
+            .collect::<Result<Vec<_>, hookean_sparse::SparseError>>()?;
+        let diag_slots = (0..n)
+            .map(|p| probe.slot(p, p))
+            .collect::<Result<Vec<_>, _>>()?;
+        // The pattern's column indices are u32, so particle indices fit;
+        // storage positions (from the pattern's slots) are checked.
+        let to_u32 = |k: usize| {
+            u32::try_from(k).map_err(|_| MassSpringError::InvalidParameter {
+                name: "springs",
+                message: format!("index {k} does not fit the 32-bit assembly tables"),
+            })
+        };
+        let mut hot: Vec<HotSpring> = Vec::with_capacity(springs.len());
+        for s in springs {
+            let (r, c) = (s.i.min(s.j), s.i.max(s.j));
+            let upper = pattern
+                .find(r, c)
+                .ok_or(hookean_sparse::SparseError::NotInPattern { row: r, col: c })?;
+            hot.push(HotSpring {
+                i: to_u32(r)?,
+                j: to_u32(c)?,
+                rest_length: s.rest_length,
+                stiffness: s.stiffness,
+                damping: s.damping,
+                upper: to_u32(upper.index())?,
+                first: false,
+            });
+        }
+        hot.sort_by_key(|h| h.upper);
+        for k in 0..hot.len() {
+            hot[k].first = k == 0 || hot[k - 1].upper != hot[k].upper;
+        }
+        let diag_index = diag_slots.iter().map(Slot::index).collect();
+        let mut hot_row_ptr = vec![0usize; n + 1];
+        for h in &hot {
+            hot_row_ptr[h.i as usize + 1] += 1;
+        }
+        for r in 0..n {
+            hot_row_ptr[r + 1] += hot_row_ptr[r];
+        }
+        let mut touch_ptr = vec![1usize; n + 1];
+        touch_ptr[0] = 0;
+        for h in &hot {
+            touch_ptr[h.j as usize + 1] += 1;
+        }
+        for p in 0..n {
+            touch_ptr[p + 1] += touch_ptr[p];
+        }
+        let mut touch_rows = vec![0u32; touch_ptr[n]];
+        let mut fill = touch_ptr.clone();
+        for p in 0..n {
+            touch_rows[fill[p]] = to_u32(p)?;
+            fill[p] += 1;
+        }
+        for h in &hot {
+            let hi = h.j as usize;
+            touch_rows[fill[hi]] = h.i;
+            fill[hi] += 1;
+        }
+        Ok(Self {
+            pattern,
+            slots,
+            diag_slots,
+            hot,
+            hot_row_ptr,
+            diag_index,
+            row_fast: vec![true; n],
+            touch_ptr,
+            touch_rows,
+            diag_acc: DiagScratch(std::sync::Mutex::new(vec![[0.0; 12]; n])),
+        })
+    }
+
+    /// Sets the fast-path flag of every block row that touches particle `p`.
+    pub(crate) fn mark_rows_of(&mut self, p: usize, fast: bool) {
+        for &r in &self.touch_rows[self.touch_ptr[p]..self.touch_ptr[p + 1]] {
+            self.row_fast[r as usize] = fast;
+        }
+    }
+}
 
 impl MassSpringModel {
     /// Gravity, external forces and air friction: the per-particle part of `f`.
@@ -276,7 +447,7 @@ impl MassSpringModel {
         // order of operations as the fused sweep (same bits).
         for r in 0..n {
             let mut floc = [0.0; 3];
-            let row = &self.hot[self.hot_row_ptr[r]..self.hot_row_ptr[r + 1]];
+            let row = &self.plan.hot[self.plan.hot_row_ptr[r]..self.plan.hot_row_ptr[r + 1]];
             for chunk in row.chunks(CHUNK) {
                 geo.compute(x3, chunk);
                 for (k, s) in chunk.iter().enumerate() {
@@ -314,9 +485,9 @@ impl MassSpringModel {
 
     /// `f_p <- P_p f_p` for the constrained particles.
     pub(crate) fn project_rows(&self, f: &mut [f64]) {
-        for &p in &self.constrained_list {
+        for &p in &self.active_set.list {
             let fp = [f[3 * p], f[3 * p + 1], f[3 * p + 2]];
-            let q = block::mul_vec(&self.proj[p], &fp);
+            let q = block::mul_vec(&self.active_set.proj[p], &fp);
             f[3 * p..3 * p + 3].copy_from_slice(&q);
         }
     }
@@ -362,10 +533,10 @@ impl MassSpringModel {
         );
         assert!(
             dfdx.n_blocks() == n
-                && dfdx.values().len() == self.pattern.stored_blocks()
+                && dfdx.values().len() == self.plan.pattern.stored_blocks()
                 && dfdv
                     .as_ref()
-                    .is_none_or(|m| m.values().len() == self.pattern.stored_blocks()),
+                    .is_none_or(|m| m.values().len() == self.plan.pattern.stored_blocks()),
             "force_jacobians: matrices must be on the model's pattern (use jacobian_pattern())"
         );
         if let Some(f) = f.as_deref_mut() {
@@ -373,7 +544,7 @@ impl MassSpringModel {
         }
         // The scratch is all zeros between calls: every row takes (and
         // zeroes) its accumulator when it writes its diagonal blocks.
-        let mut guard = self.diag_acc.0.try_lock();
+        let mut guard = self.plan.diag_acc.0.try_lock();
         let mut local: Vec<Acc> = Vec::new();
         let acc: &mut [Acc] = match guard.as_deref_mut() {
             Ok(buf) if buf.len() == n => buf,
@@ -447,11 +618,11 @@ impl MassSpringModel {
         let c_air = self.options.air_friction;
         let mut geo = ChunkGeometry::new();
         for r in 0..n {
-            let row_fast = fast && self.row_fast[r];
+            let row_fast = fast && self.plan.row_fast[r];
             let mut loc = std::mem::replace(&mut acc[r], [0.0; 12]);
             // The force on the row's own particle, in registers.
             let mut floc = [0.0; 3];
-            let row = &self.hot[self.hot_row_ptr[r]..self.hot_row_ptr[r + 1]];
+            let row = &self.plan.hot[self.plan.hot_row_ptr[r]..self.plan.hot_row_ptr[r + 1]];
             for chunk in row.chunks(CHUNK) {
                 geo.compute(x3, chunk);
                 for (k, h) in chunk.iter().enumerate() {
@@ -510,9 +681,19 @@ impl MassSpringModel {
                             k6[t] += 0.5 * gs[t];
                         }
                     }
-                    let constrained = !row_fast && (self.constrained[i] || self.constrained[j]);
+                    let constrained = !row_fast
+                        && (self.active_set.constrained[i] || self.active_set.constrained[j]);
                     let acc_c = &mut acc[j];
-                    scatter_sym(vx, &mut loc, acc_c, 0, h, constrained, &self.proj, &k6);
+                    scatter_sym(
+                        vx,
+                        &mut loc,
+                        acc_c,
+                        0,
+                        h,
+                        constrained,
+                        &self.active_set.proj,
+                        &k6,
+                    );
                     if DV {
                         let d = h.damping;
                         let d6 = match DAMP {
@@ -520,16 +701,25 @@ impl MassSpringModel {
                             DAMP_INCORRECT => [d, 0.0, 0.0, d, 0.0, d],
                             _ => [0.0; 6],
                         };
-                        scatter_sym(vv, &mut loc, acc_c, 6, h, constrained, &self.proj, &d6);
+                        scatter_sym(
+                            vv,
+                            &mut loc,
+                            acc_c,
+                            6,
+                            h,
+                            constrained,
+                            &self.active_set.proj,
+                            &d6,
+                        );
                     }
                 }
             }
-            let idx = self.diag_index[r];
+            let idx = self.plan.diag_index[r];
             vx[idx] = unsym6(&loc[..6]);
             if DV {
                 let mut d = unsym6(&loc[6..]);
                 if c_air != 0.0 {
-                    d = block::add(&d, &block::scale(&self.proj[r], -c_air));
+                    d = block::add(&d, &block::scale(&self.active_set.proj[r], -c_air));
                 }
                 vv[idx] = d;
             }
@@ -614,7 +804,7 @@ impl MassSpringModel {
                 let dv = point(v, j) - point(v, i);
                 b = block::add(&b, &damping_position_block(s.damping, l, &u, &dv));
             }
-            let (pi, pj) = (&self.proj[i], &self.proj[j]);
+            let (pi, pj) = (&self.active_set.proj[i], &self.active_set.proj[j]);
             put(i, j, &matmul(&matmul(pi, &b), pj));
             put(j, i, &matmul(&matmul(pj, &b), pi));
             put(i, i, &neg(&matmul(&matmul(pi, &b), pi)));
@@ -633,7 +823,7 @@ impl MassSpringModel {
     pub fn assemble_linearized(&self, dfdx: &mut SymBlockMatrix, dfdv: &mut SymBlockMatrix) {
         dfdx.set_zero();
         dfdv.set_zero();
-        for (s, sl) in self.springs.iter().zip(&self.slots) {
+        for (s, sl) in self.springs.iter().zip(&self.plan.slots) {
             let (i, j) = (s.i, s.j);
             let kb = block::scale(&block::IDENTITY, s.stiffness);
             let d = match self.options.damping {
@@ -650,7 +840,7 @@ impl MassSpringModel {
         if c != 0.0 {
             for p in 0..self.n_particles() {
                 let pp = self.fixes[p].projector();
-                dfdv.add_to_slot(self.diag_slots[p], &block::scale(&pp, -c));
+                dfdv.add_to_slot(self.plan.diag_slots[p], &block::scale(&pp, -c));
             }
         }
     }
@@ -680,8 +870,8 @@ impl MassSpringModel {
     /// A pair of zero matrices on the Jacobian pattern, for `df/dx` and `df/dv`.
     pub fn new_jacobians(&self) -> (SymBlockMatrix, SymBlockMatrix) {
         (
-            SymBlockMatrix::new(self.pattern.clone()),
-            SymBlockMatrix::new(self.pattern.clone()),
+            SymBlockMatrix::new(self.plan.pattern.clone()),
+            SymBlockMatrix::new(self.plan.pattern.clone()),
         )
     }
 
@@ -725,7 +915,8 @@ impl MassSpringModel {
     ) -> Result<(), MassSpringError> {
         self.check_state(x, v)?;
         for m in [&*dfdx, &*dfdv] {
-            if !Arc::ptr_eq(m.pattern(), &self.pattern) && **m.pattern() != *self.pattern {
+            if !Arc::ptr_eq(m.pattern(), &self.plan.pattern) && **m.pattern() != *self.plan.pattern
+            {
                 return Err(MassSpringError::InvalidParameter {
                     name: "matrix",
                     message: "not on the model's Jacobian pattern".into(),
@@ -766,7 +957,7 @@ impl SecondOrderProblem for MassSpringModel {
     }
 
     fn jacobian_pattern(&self) -> Arc<BlockPattern> {
-        self.pattern.clone()
+        self.plan.pattern.clone()
     }
 
     /// Refills `df/dx` (clamped per [`ModelOptions::clamp_stiffness`](crate::ModelOptions::clamp_stiffness),
@@ -826,8 +1017,8 @@ impl SecondOrderProblem for MassSpringModel {
         } else {
             constraints.clear();
         }
-        for &p in &self.constrained_list {
-            let d = &self.active[p];
+        for &p in &self.active_set.list {
+            let d = &self.active_set.dirs[p];
             if d.count == 3 {
                 // Orthonormal and complete: equivalent to a pin at dv = 0.
                 constraints
@@ -952,7 +1143,7 @@ mod tests {
                         ..Default::default()
                     };
                     let (model, x, v) = scene(options);
-                    let rows = model.row_fast.iter().filter(|&&b| b).count();
+                    let rows = model.plan.row_fast.iter().filter(|&&b| b).count();
                     assert!(rows > 10 && rows < model.n_particles());
                     // Compressed springs: the clamp is active somewhere.
                     let compressed = model
@@ -978,18 +1169,18 @@ mod tests {
             clamp: true,
             damping_in_dfdx: DampingInDfdx::Drop,
         };
-        let slow = |m: &MassSpringModel| m.row_fast.iter().filter(|&&b| !b).count();
+        let slow = |m: &MassSpringModel| m.plan.row_fast.iter().filter(|&&b| !b).count();
         let before = slow(&model);
         // Releasing the sliding particle 12 frees its rows.
         model.release(12).unwrap();
-        assert!(model.row_fast[12] && model.row_fast[11]);
+        assert!(model.plan.row_fast[12] && model.plan.row_fast[11]);
         assert!(slow(&model) < before);
         assert_paths_agree(&model, &x, &v, mode);
         // Pinning an interior particle flags its row and the rows of its
         // lower neighbours.
-        assert!(model.row_fast[20] && model.row_fast[19] && model.row_fast[13]);
+        assert!(model.plan.row_fast[20] && model.plan.row_fast[19] && model.plan.row_fast[13]);
         model.pin(20, [x[60], x[61], x[62]]).unwrap();
-        assert!(!model.row_fast[20] && !model.row_fast[19] && !model.row_fast[13]);
+        assert!(!model.plan.row_fast[20] && !model.plan.row_fast[19] && !model.plan.row_fast[13]);
         assert_paths_agree(&model, &x, &v, mode);
         // A collider: contacts of begin_step flag rows, the next step with
         // no contact unflags them.

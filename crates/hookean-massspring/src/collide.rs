@@ -161,10 +161,10 @@ impl MassSpringModel {
                 if vn > 0.0 || point(&f, p).dot(&normal) > 0.0 {
                     continue; // separating: no constraint this step
                 }
-                let mut dirs: Dirs = self.active[p];
+                let mut dirs: Dirs = self.active_set.dirs[p];
                 if dirs.push([normal.x, normal.y, normal.z], 0.0) {
                     self.activate(p, dirs);
-                    self.contact_count += 1;
+                    self.active_set.contact_count += 1;
                 }
             }
         }

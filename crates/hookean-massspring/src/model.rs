@@ -1,12 +1,12 @@
 //! The mass-spring model: particles, springs, damping, permanent particle
-//! constraints, colliders, and the sparsity pattern of its Jacobians.
-
-use std::sync::Arc;
+//! constraints and colliders (the physics), with its assembly plan
+//! (`assembly::AssemblyPlan`) and the constraints of the current step
+//! ([`ActiveSet`]) as separate parts.
 
 use hookean_sparse::block::{self, Block3};
-use hookean_sparse::{BlockPattern, Slot, SymBlockMatrix};
 use nalgebra::Vector3;
 
+use crate::assembly::AssemblyPlan;
 use crate::collide::Collider;
 use crate::error::MassSpringError;
 
@@ -179,46 +179,33 @@ impl Dirs {
     }
 }
 
-/// The cached storage slots of one spring's three blocks.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct SpringSlots {
-    pub(crate) ii: Slot,
-    pub(crate) jj: Slot,
-    pub(crate) ij: Slot,
+/// The constraints of the current step: the active directions of each
+/// particle (its permanent ones plus contacts), their projectors `P_p`, and
+/// the list of constrained particles. Reset by `refresh_permanent` at the
+/// start of every step, extended by `activate`.
+#[derive(Debug, Clone)]
+pub(crate) struct ActiveSet {
+    /// Active constraint directions per particle.
+    pub(crate) dirs: Vec<Dirs>,
+    /// `P_p` of the active directions (identity for free particles).
+    pub(crate) proj: Vec<Block3>,
+    /// Whether particle `p` has active constraints.
+    pub(crate) constrained: Vec<bool>,
+    /// The particles with active constraints.
+    pub(crate) list: Vec<usize>,
+    /// Contacts found by the last collision pass.
+    pub(crate) contact_count: usize,
 }
 
-/// A spring prepared for the hot loops: springs are kept in the storage
-/// order of their upper block, so that assembly writes the off-diagonal
-/// blocks sequentially. Oriented `i < j` (the force law and the symmetric
-/// Jacobian blocks do not depend on the orientation); 40 bytes.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct HotSpring {
-    pub(crate) i: u32,
-    pub(crate) j: u32,
-    /// Index of the stored upper block `(min, max)` in the value array.
-    pub(crate) upper: u32,
-    pub(crate) rest_length: f64,
-    pub(crate) stiffness: f64,
-    pub(crate) damping: f64,
-    /// Whether this spring is the first (in storage order) of its block:
-    /// it assigns the block, later springs of the same pair add to it.
-    pub(crate) first: bool,
-}
-
-/// Per-particle diagonal accumulators of assembly (the 6 unique entries of
-/// the symmetric diagonal block of `df/dx`, then of `df/dv`), kept contiguous so that the
-/// scatter to the second endpoint of a spring hits a compact array. All
-/// zeros between calls (each row zeroes its entry when it writes its
-/// diagonal blocks). Behind a mutex because the `SecondOrderProblem` methods
-/// take `&self`; a concurrent second caller (or any caller after a panic
-/// poisoned the mutex) falls back to a temporary zeroed buffer.
-#[derive(Debug, Default)]
-pub(crate) struct DiagScratch(pub(crate) std::sync::Mutex<Vec<crate::assembly::Acc>>);
-
-impl Clone for DiagScratch {
-    fn clone(&self) -> Self {
-        let n = self.0.lock().map(|v| v.len()).unwrap_or(0);
-        DiagScratch(std::sync::Mutex::new(vec![[0.0; 12]; n]))
+impl ActiveSet {
+    fn new(n: usize) -> Self {
+        Self {
+            dirs: vec![Dirs::EMPTY; n],
+            proj: vec![block::IDENTITY; n],
+            constrained: vec![false; n],
+            list: Vec::with_capacity(n),
+            contact_count: 0,
+        }
     }
 }
 
@@ -254,39 +241,13 @@ pub struct MassSpringModel {
     pub(crate) springs: Vec<Spring>,
     pub(crate) options: ModelOptions,
     pub(crate) external: Vec<f64>,
-    pub(crate) pattern: Arc<BlockPattern>,
-    pub(crate) slots: Vec<SpringSlots>,
-    pub(crate) diag_slots: Vec<Slot>,
-    /// The springs in storage order of their upper block.
-    pub(crate) hot: Vec<HotSpring>,
-    /// `hot[hot_row_ptr[r]..hot_row_ptr[r + 1]]` are the springs whose
-    /// upper block lies in block row `r = min(i, j)`.
-    pub(crate) hot_row_ptr: Vec<usize>,
-    /// Value index of each diagonal block.
-    pub(crate) diag_index: Vec<usize>,
-    /// Whether block row `r` takes the fast assembly path: no spring of the
-    /// row, nor its diagonal, touches a constrained particle. Kept up to date by [`activate`](Self::activate) and
-    /// [`refresh_permanent`](Self::refresh_permanent).
-    pub(crate) row_fast: Vec<bool>,
-    /// `touch_rows[touch_ptr[p]..touch_ptr[p + 1]]` are the block rows whose
-    /// springs or diagonal touch particle `p` (`p` itself and the rows
-    /// `min(i, j)` of its springs).
-    pub(crate) touch_ptr: Vec<usize>,
-    /// See `touch_ptr`.
-    pub(crate) touch_rows: Vec<u32>,
-    pub(crate) diag_acc: DiagScratch,
+    /// Where assembly writes each spring's blocks (built once).
+    pub(crate) plan: AssemblyPlan,
     /// Permanent constraints (pins, sliding), per particle.
     pub(crate) fixes: Vec<Dirs>,
-    /// Active constraint directions of the current step (permanent + contacts).
-    pub(crate) active: Vec<Dirs>,
-    /// `P_p` of the active directions (identity for free particles).
-    pub(crate) proj: Vec<Block3>,
-    /// Whether particle `p` has active constraints.
-    pub(crate) constrained: Vec<bool>,
-    /// The particles with active constraints.
-    pub(crate) constrained_list: Vec<usize>,
+    /// The constraints of the current step (permanent + contacts).
+    pub(crate) active_set: ActiveSet,
     pub(crate) colliders: Vec<Collider>,
-    pub(crate) contact_count: usize,
     pub(crate) scratch: Vec<f64>,
     pub(crate) faces: Vec<[usize; 3]>,
     pub(crate) revision: u64,
@@ -294,8 +255,8 @@ pub struct MassSpringModel {
 
 impl MassSpringModel {
     /// A model of `masses.len()` particles (lumped masses in kg) joined by
-    /// `springs`, with [`ModelOptions`]. Builds the Jacobian pattern and the
-    /// per-spring slots once.
+    /// `springs`, with [`ModelOptions`]. Builds its assembly plan (the Jacobian
+    /// pattern and the positions of every spring's blocks) once.
     ///
     /// # Errors
     /// [`MassSpringError::InvalidMass`] for a zero, negative or non-finite
@@ -356,100 +317,18 @@ impl MassSpringModel {
             }
         }
         check_options(&options)?;
-        let pattern = Arc::new(BlockPattern::new(n, springs.iter().map(|s| (s.i, s.j)))?);
-        let probe = SymBlockMatrix::new(pattern.clone());
-        let slots = springs
-            .iter()
-            .map(|s| {
-                Ok(SpringSlots {
-                    ii: probe.slot(s.i, s.i)?,
-                    jj: probe.slot(s.j, s.j)?,
-                    ij: probe.slot(s.i, s.j)?,
-                })
-            })
-            .collect::<Result<Vec<_>, hookean_sparse::SparseError>>()?;
-        let diag_slots = (0..n)
-            .map(|p| probe.slot(p, p))
-            .collect::<Result<Vec<_>, _>>()?;
+        let plan = AssemblyPlan::new(n, &springs)?;
         let mass = masses.iter().flat_map(|&m| [m, m, m]).collect();
-        // The pattern's column indices are u32, so particle indices fit;
-        // storage positions (from the pattern's slots) are checked.
-        let to_u32 = |k: usize| {
-            u32::try_from(k).map_err(|_| MassSpringError::InvalidParameter {
-                name: "springs",
-                message: format!("index {k} does not fit the 32-bit assembly tables"),
-            })
-        };
-        let mut hot: Vec<HotSpring> = Vec::with_capacity(springs.len());
-        for s in &springs {
-            let (r, c) = (s.i.min(s.j), s.i.max(s.j));
-            let upper = pattern
-                .find(r, c)
-                .ok_or(hookean_sparse::SparseError::NotInPattern { row: r, col: c })?;
-            hot.push(HotSpring {
-                i: to_u32(r)?,
-                j: to_u32(c)?,
-                rest_length: s.rest_length,
-                stiffness: s.stiffness,
-                damping: s.damping,
-                upper: to_u32(upper.index())?,
-                first: false,
-            });
-        }
-        hot.sort_by_key(|h| h.upper);
-        for k in 0..hot.len() {
-            hot[k].first = k == 0 || hot[k - 1].upper != hot[k].upper;
-        }
-        let diag_index = diag_slots.iter().map(Slot::index).collect();
-        let mut hot_row_ptr = vec![0usize; n + 1];
-        for h in &hot {
-            hot_row_ptr[h.i as usize + 1] += 1;
-        }
-        for r in 0..n {
-            hot_row_ptr[r + 1] += hot_row_ptr[r];
-        }
-        let mut touch_ptr = vec![1usize; n + 1];
-        touch_ptr[0] = 0;
-        for h in &hot {
-            touch_ptr[h.j as usize + 1] += 1;
-        }
-        for p in 0..n {
-            touch_ptr[p + 1] += touch_ptr[p];
-        }
-        let mut touch_rows = vec![0u32; touch_ptr[n]];
-        let mut fill = touch_ptr.clone();
-        for p in 0..n {
-            touch_rows[fill[p]] = to_u32(p)?;
-            fill[p] += 1;
-        }
-        for h in &hot {
-            let hi = h.j as usize;
-            touch_rows[fill[hi]] = h.i;
-            fill[hi] += 1;
-        }
         Ok(Self {
             particle_mass: masses,
             mass,
             springs,
             options,
             external: vec![0.0; 3 * n],
-            pattern,
-            slots,
-            diag_slots,
-            hot,
-            hot_row_ptr,
-            diag_index,
-            row_fast: vec![true; n],
-            touch_ptr,
-            touch_rows,
-            diag_acc: DiagScratch(std::sync::Mutex::new(vec![[0.0; 12]; n])),
+            plan,
             fixes: vec![Dirs::EMPTY; n],
-            active: vec![Dirs::EMPTY; n],
-            proj: vec![block::IDENTITY; n],
-            constrained: vec![false; n],
-            constrained_list: Vec::with_capacity(n),
+            active_set: ActiveSet::new(n),
             colliders: Vec::new(),
-            contact_count: 0,
             scratch: vec![0.0; 3 * n],
             faces: Vec::new(),
             revision: 0,
@@ -624,7 +503,7 @@ impl MassSpringModel {
     /// Number of constrained directions of `particle` in the current step
     /// (permanent constraints and contacts found by the last `begin_step`).
     pub fn active_constraint_count(&self, particle: usize) -> usize {
-        self.active.get(particle).map_or(0, |d| d.count)
+        self.active_set.dirs.get(particle).map_or(0, |d| d.count)
     }
 
     /// Adds a collider (plane or sphere), handled in every `begin_step`.
@@ -639,7 +518,7 @@ impl MassSpringModel {
 
     /// Number of particle-collider contacts constrained by the last `begin_step`.
     pub fn contact_count(&self) -> usize {
-        self.contact_count
+        self.active_set.contact_count
     }
 
     /// Sets the triangles used by OBJ export (vertex indices are particles).
@@ -699,33 +578,29 @@ impl MassSpringModel {
 
     /// Resets the active constraints to the permanent ones (drops contacts).
     pub(crate) fn refresh_permanent(&mut self) {
-        for &p in &self.constrained_list {
-            self.constrained[p] = false;
-            self.active[p] = Dirs::EMPTY;
-            self.proj[p] = block::IDENTITY;
-            for &r in &self.touch_rows[self.touch_ptr[p]..self.touch_ptr[p + 1]] {
-                self.row_fast[r as usize] = true;
-            }
+        for &p in &self.active_set.list {
+            self.active_set.constrained[p] = false;
+            self.active_set.dirs[p] = Dirs::EMPTY;
+            self.active_set.proj[p] = block::IDENTITY;
+            self.plan.mark_rows_of(p, true);
         }
-        self.constrained_list.clear();
+        self.active_set.list.clear();
         for p in 0..self.fixes.len() {
             if self.fixes[p].count > 0 {
                 self.activate(p, self.fixes[p]);
             }
         }
-        self.contact_count = 0;
+        self.active_set.contact_count = 0;
     }
 
     pub(crate) fn activate(&mut self, p: usize, dirs: Dirs) {
-        if !self.constrained[p] {
-            self.constrained[p] = true;
-            self.constrained_list.push(p);
-            for &r in &self.touch_rows[self.touch_ptr[p]..self.touch_ptr[p + 1]] {
-                self.row_fast[r as usize] = false;
-            }
+        if !self.active_set.constrained[p] {
+            self.active_set.constrained[p] = true;
+            self.active_set.list.push(p);
+            self.plan.mark_rows_of(p, false);
         }
-        self.active[p] = dirs;
-        self.proj[p] = dirs.projector();
+        self.active_set.dirs[p] = dirs;
+        self.active_set.proj[p] = dirs.projector();
     }
 }
 

@@ -42,11 +42,15 @@ fn cloth_has_the_spring_counts_of_its_grid_and_rests_in_any_plane() {
     let bend = (nu - 2) * nv + nu * (nv - 2);
     assert_eq!(model.springs().len(), structural + shear + bend);
     assert_eq!(model.faces().len(), 2 * (nu - 1) * (nv - 1));
-    assert!((model.particle_masses().iter().sum::<f64>() - 1.0).abs() < 1e-14);
+    approx::assert_abs_diff_eq!(
+        model.particle_masses().iter().sum::<f64>(),
+        1.0,
+        epsilon = 1e-14
+    );
     // Spacing along each axis and the plane: particle (a, b) = origin + a du eu + b dv ev.
     let d = |i: usize, j: usize| dist(&s.x, i, j);
     assert!((d(0, 1) - 0.5).abs() < 1e-14 && (d(0, nu) - 0.5).abs() < 1e-14);
-    assert!((d(0, nu + 1) - 0.5 * 2f64.sqrt()).abs() < 1e-14);
+    approx::assert_abs_diff_eq!(d(0, nu + 1), 0.5 * 2f64.sqrt(), epsilon = 1e-14);
     // At rest: zero force without gravity.
     let mut f = vec![0.0; s.x.len()];
     model.force(0.0, &s.x, &s.v, &mut f);
@@ -140,7 +144,7 @@ fn mesh_model_has_one_spring_per_edge_and_bend_springs_across_shared_edges() {
         .find(|sp| (sp.i.min(sp.j), sp.i.max(sp.j)) == (1, 3))
         .unwrap();
     assert_eq!(bend.stiffness, 1e3);
-    assert!((bend.rest_length - 2f64.sqrt()).abs() < 1e-15);
+    approx::assert_abs_diff_eq!(bend.rest_length, 2f64.sqrt(), epsilon = 1e-15);
     assert_eq!(s.x.len(), 12);
     let (no_bend, _) = from_mesh(
         &mesh,
@@ -175,7 +179,7 @@ fn obj_export_round_trips_positions_faces_and_carries_colours() {
     let back = parse_obj(text.as_bytes()).unwrap();
     assert_eq!(back.triangles, model.faces());
     for (p, q) in back.positions.iter().flatten().zip(&s.x) {
-        assert!((p - q).abs() < 1e-9);
+        approx::assert_abs_diff_eq!(p, q, epsilon = 1e-9);
     }
     // A rope has no faces: its springs become OBJ lines.
     let (r, rs) = rope(&Default::default()).unwrap();

@@ -33,10 +33,10 @@ fn example3_energies_and_momentum_of_the_initial_state() {
     let (model, s) = tutorial_example3().unwrap();
     let e = model.energies(&s.x, &s.v).unwrap();
     // 1/2 0.1 5^2 = 1.25; -m g . x = -0.1 (-10)(-1) = -1; spring at rest length: 0.
-    assert!((e.kinetic - 1.25).abs() < 1e-15);
+    approx::assert_abs_diff_eq!(e.kinetic, 1.25, epsilon = 1e-15);
     assert!((e.gravitational + 1.0).abs() < 1e-15);
     assert_eq!(e.spring, 0.0);
-    assert!((e.total() - 0.25).abs() < 1e-15);
+    approx::assert_abs_diff_eq!(e.total(), 0.25, epsilon = 1e-15);
     let p = model.momentum(&s.x, &s.v).unwrap();
     assert_eq!(p.linear, [0.0, 0.0, -0.5]);
     assert_eq!(p.angular, [0.0; 3]);
@@ -157,11 +157,11 @@ fn a_sliding_particle_stays_in_its_plane() {
     let mut st = Stepper::new(&model);
     for _ in 0..100 {
         st.step(&mut model, &mut s, 0.01);
-        assert!((s.x[0] + s.x[2] - 1.0).abs() < 1e-12);
+        approx::assert_abs_diff_eq!(s.x[0] + s.x[2], 1.0, epsilon = 1e-12);
     }
     // It slides down the incline: tangential gravity g / sqrt(2) along (-1, 0, 1)/sqrt(2)... (z decreasing).
     assert!(s.x[2] < -0.5 && s.x[0] > 1.5);
-    assert!((s.x[1] - 0.5).abs() < 1e-12);
+    approx::assert_abs_diff_eq!(s.x[1], 0.5, epsilon = 1e-12);
 }
 
 fn single_particle(z: f64) -> (MassSpringModel, State) {
@@ -197,7 +197,7 @@ fn a_particle_dropped_on_the_plane_stays_above_it() {
         assert!(contacts > 100, "it came to rest on the plane");
         assert!(s.x[2] <= 0.05 && s.v[2].abs() < 1e-12);
         // Frictionless: the tangential velocity is kept.
-        assert!((s.v[0] - 0.3).abs() < 1e-12);
+        approx::assert_abs_diff_eq!(s.v[0], 0.3, epsilon = 1e-12);
     }
 }
 
@@ -288,7 +288,7 @@ fn k0_of_a_two_particle_spring_at_rest_is_2k_over_m() {
         "{}",
         info.k0
     );
-    assert!((info.dt_max - 2.0 / (2.0 * k / m).sqrt()).abs() < 1e-9);
+    approx::assert_abs_diff_eq!(info.dt_max, 2.0 / (2.0 * k / m).sqrt(), epsilon = 1e-9);
 }
 
 fn chain(n: usize, k: f64, m: f64, pin_start: bool) -> (MassSpringModel, State) {

@@ -558,7 +558,7 @@ mod tests {
         lu.solve(&a, &[3.0, 2.0, 4.0], &mut x, 0.0).unwrap();
         // Solution (1, 1, 1) by inspection.
         for v in x {
-            assert!((v - 1.0).abs() < 1e-14);
+            approx::assert_abs_diff_eq!(v, 1.0, epsilon = 1e-14);
         }
         let s = faer::mat![[1.0, 2.0], [2.0, 4.0]];
         assert!(matches!(

@@ -761,10 +761,10 @@ mod tests {
         // Choice 2: gamma (|G_k|/|G_{k-1}|)^alpha = 0.9 * 0.01 = 0.009, but the
         // safeguard gamma eta_prev^alpha = 0.9 * 0.25 = 0.225 > 0.1 wins.
         let e = forcing_term(ForcingTerm::EW2_DEFAULT, 1, &opts, 0.1, 1.0, 0.0, 0.5, 0.0);
-        assert!((e - 0.225).abs() < 1e-15);
+        approx::assert_abs_diff_eq!(e, 0.225, epsilon = 1e-15);
         // With eta_prev = 0.3 the safeguard is 0.081 < 0.1: not applied.
         let e = forcing_term(ForcingTerm::EW2_DEFAULT, 1, &opts, 0.1, 1.0, 0.0, 0.3, 0.0);
-        assert!((e - 0.009).abs() < 1e-15);
+        approx::assert_abs_diff_eq!(e, 0.009, epsilon = 1e-15);
         // Choice 1: | |G_k| - |lin res| | / |G_{k-1}| = |0.1 - 0.05| / 1 = 0.05;
         // safeguard 0.3^phi = 0.1431 > 0.1 wins.
         let e = forcing_term(
@@ -777,7 +777,7 @@ mod tests {
             0.3,
             0.0,
         );
-        assert!((e - 0.3f64.powf(GOLDEN)).abs() < 1e-15);
+        approx::assert_abs_diff_eq!(e, 0.3f64.powf(GOLDEN), epsilon = 1e-15);
         let e = forcing_term(
             ForcingTerm::EisenstatWalker1,
             2,
@@ -788,7 +788,7 @@ mod tests {
             0.2,
             0.0,
         );
-        assert!((e - 0.05).abs() < 1e-15);
+        approx::assert_abs_diff_eq!(e, 0.05, epsilon = 1e-15);
         // eta_max caps: |G| grew.
         let e = forcing_term(ForcingTerm::EW2_DEFAULT, 1, &opts, 3.0, 1.0, 0.0, 0.2, 0.0);
         assert_eq!(e, 0.9);

@@ -435,24 +435,14 @@ impl<P: SecondOrderProblem> ReducedStage<'_, P> {
     }
 
     fn assemble(&self, a: &mut SymBlockMatrix) -> Result<(), NonlinearError> {
-        let (cx, cv) = (-self.gh * self.gh, -self.gh);
-        let same = |m: &SymBlockMatrix| std::sync::Arc::ptr_eq(a.pattern(), m.pattern());
-        if same(self.dfdx) && same(self.dfdv) {
-            // One pass instead of zeroing and two scaled additions.
-            let blocks = self.dfdx.values().iter().zip(self.dfdv.values());
-            for (o, (x, v)) in a.values_mut().iter_mut().zip(blocks) {
-                for r in 0..3 {
-                    for c in 0..3 {
-                        o[r][c] = cx * x[r][c] + cv * v[r][c];
-                    }
-                }
-            }
-        } else {
-            a.set_zero();
-            a.add_scaled(cx, self.dfdx)?;
-            a.add_scaled(cv, self.dfdv)?;
-        }
-        a.add_to_diagonal(self.problem.mass())?;
+        let gh = self.gh;
+        a.assign_diagonal_plus_combination(
+            self.problem.mass(),
+            -gh * gh,
+            self.dfdx,
+            -gh,
+            self.dfdv,
+        )?;
         Ok(())
     }
 }

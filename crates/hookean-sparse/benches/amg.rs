@@ -14,10 +14,10 @@ use hookean_sparse::{
     Amg, AmgOptions, CgParams, CgWorkspace, IncompleteCholesky, PrecondKind, Preconditioner,
     PreconditionerSetup, pcg,
 };
-use hookean_testkit::cloth::{ClothParams, cloth_system};
+use hookean_testkit::cloth::{ClothSystemParams, cloth_system};
 
 fn bench(c: &mut Criterion) {
-    let (a, b) = cloth_system(&ClothParams {
+    let (a, b) = cloth_system(&ClothSystemParams {
         n: 128,
         k: 1e4,
         ..Default::default()

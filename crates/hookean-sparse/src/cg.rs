@@ -454,7 +454,7 @@ mod tests {
         .unwrap();
         assert_eq!(info.iterations, 3);
         for i in 0..n {
-            assert!((x[i] - 1.0 / (1 + i % 3) as f64).abs() < 1e-12);
+            approx::assert_abs_diff_eq!(x[i], 1.0 / (1 + i % 3) as f64, epsilon = 1e-12);
         }
     }
 

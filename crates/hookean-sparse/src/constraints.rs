@@ -235,8 +235,8 @@ mod tests {
         c.constrain(0, [1.0, 1.0, 0.0], 5.0).unwrap(); // x + y = 5 with x = 2: y = 3
         let mut x = vec![7.0, -1.0, 4.0];
         c.impose(&mut x);
-        assert!((x[0] - 2.0).abs() < 1e-15);
-        assert!((x[1] - 3.0).abs() < 1e-15);
+        approx::assert_abs_diff_eq!(x[0], 2.0, epsilon = 1e-15);
+        approx::assert_abs_diff_eq!(x[1], 3.0, epsilon = 1e-15);
         assert_eq!(x[2], 4.0);
         assert!(c.violation(&x) < 1e-15);
     }

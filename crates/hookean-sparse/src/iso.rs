@@ -246,9 +246,9 @@ mod tests {
         let d1 = a.apply_dot(&x, &mut y1);
         let d2 = full.apply_dot(&x, &mut y2);
         for (p, q) in y1.iter().zip(&y2) {
-            assert!((p - q).abs() < 1e-14);
+            approx::assert_abs_diff_eq!(p, q, epsilon = 1e-14);
         }
-        assert!((d1 - d2).abs() < 1e-12);
+        approx::assert_abs_diff_eq!(d1, d2, epsilon = 1e-12);
         // 7 diagonal + 2 x 6 off-diagonal blocks, 3 scalars each.
         assert_eq!(a.full_nnz(), 3 * (7 + 12));
         assert_eq!(

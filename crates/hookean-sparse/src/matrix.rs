@@ -319,6 +319,36 @@ impl SymBlockMatrix {
         Ok(())
     }
 
+    /// `self = diag(d) + a X + b Y` for matrices on one pattern, in one pass
+    /// over the values: the implicit-Euler matrix
+    /// `A = M - h df/dv - h^2 df/dx` of the reduced velocity form
+    /// (docs/ARCHITECTURE.md) with `d = M`, `a = -h^2`, `X = df/dx`,
+    /// `b = -h`, `Y = df/dv`. The one place that matrix is formed.
+    ///
+    /// # Errors
+    /// [`SparseError::InvalidParameter`] if the patterns differ;
+    /// [`SparseError::DimensionMismatch`] if `d.len() != dim()`.
+    pub fn assign_diagonal_plus_combination(
+        &mut self,
+        d: &[f64],
+        a: f64,
+        x: &SymBlockMatrix,
+        b: f64,
+        y: &SymBlockMatrix,
+    ) -> Result<(), SparseError> {
+        check_same_pattern(&self.pattern, &x.pattern)?;
+        check_same_pattern(&self.pattern, &y.pattern)?;
+        check_len("diagonal", d, self.dim())?;
+        for (o, (xv, yv)) in self.values.iter_mut().zip(x.values.iter().zip(&y.values)) {
+            for r in 0..3 {
+                for c in 0..3 {
+                    o[r][c] = a * xv[r][c] + b * yv[r][c];
+                }
+            }
+        }
+        self.add_to_diagonal(d)
+    }
+
     /// Multiplies every value by `s`.
     pub fn scale(&mut self, s: f64) {
         for b in &mut self.values {
@@ -701,7 +731,7 @@ mod tests {
         a.mul_vec(&x, &mut y).unwrap();
         for r in 0..15 {
             let expected: f64 = (0..15).map(|c| d[r][c] * x[c]).sum();
-            assert!((y[r] - expected).abs() < 1e-13);
+            approx::assert_abs_diff_eq!(y[r], expected, epsilon = 1e-13);
         }
     }
 
@@ -725,10 +755,41 @@ mod tests {
         a.mul_vec(&expected_p, &mut expected_q).unwrap();
         assert_eq!(p, expected_p);
         for (u, v) in q.iter().zip(&expected_q) {
-            assert!((u - v).abs() < 1e-14);
+            approx::assert_abs_diff_eq!(u, v, epsilon = 1e-14);
         }
         let expected_pq: f64 = expected_p.iter().zip(&expected_q).map(|(u, v)| u * v).sum();
-        assert!((pq - expected_pq).abs() < 1e-13 * expected_pq.abs());
+        approx::assert_relative_eq!(pq, expected_pq, max_relative = 1e-13);
+    }
+
+    #[test]
+    fn diagonal_plus_combination_is_the_dense_formula() {
+        // A = diag(d) + a X + b Y entry by entry, with X a chain and Y = 2 X + I.
+        let x = chain(4);
+        let mut y = SymBlockMatrix::new(x.pattern().clone());
+        y.add_scaled(2.0, &x).unwrap();
+        y.add_to_diagonal(&[1.0; 12]).unwrap();
+        let d: Vec<f64> = (0..12).map(|k| 0.5 + k as f64).collect();
+        let (a, b) = (-1e-4, -1e-2);
+        let mut m = SymBlockMatrix::new(x.pattern().clone());
+        m.assign_diagonal_plus_combination(&d, a, &x, b, &y)
+            .unwrap();
+        let (dm, dx, dy) = (dense(&m), dense(&x), dense(&y));
+        for r in 0..12 {
+            for c in 0..12 {
+                let diag = if r == c { d[r] } else { 0.0 };
+                let expected = diag + a * dx[r][c] + b * dy[r][c];
+                assert!((dm[r][c] - expected).abs() <= 1e-15 * (1.0 + expected.abs()));
+            }
+        }
+        let other = chain(3);
+        assert!(
+            m.assign_diagonal_plus_combination(&d, a, &other, b, &y)
+                .is_err()
+        );
+        assert!(
+            m.assign_diagonal_plus_combination(&d[..3], a, &x, b, &y)
+                .is_err()
+        );
     }
 
     #[test]

@@ -5,7 +5,7 @@ use hookean_sparse::{
     AnyPreconditioner, CgParams, CgWorkspace, DirectCholesky, LinearOperator, PrecondKind,
     PreconditionerSetup, SymBlockMatrix, pcg, vecops::norm2,
 };
-use hookean_testkit::cloth::{ClothParams, cloth_system};
+use hookean_testkit::cloth::{ClothSystemParams, cloth_system};
 use hookean_testkit::random::random_spd;
 use proptest::prelude::*;
 
@@ -56,7 +56,7 @@ proptest! {
 
 #[test]
 fn every_preconditioner_solves_the_reference_cloth_system() {
-    let (a, b) = cloth_system(&ClothParams {
+    let (a, b) = cloth_system(&ClothSystemParams {
         n: 16,
         ..Default::default()
     });
@@ -98,7 +98,7 @@ fn every_preconditioner_solves_the_reference_cloth_system() {
 #[test]
 fn refilled_matrix_reuses_the_preconditioner_pattern_and_stays_exact() {
     // Setup, refill with new values, setup again: results match a fresh setup.
-    let (mut a, b) = cloth_system(&ClothParams {
+    let (mut a, b) = cloth_system(&ClothSystemParams {
         n: 8,
         ..Default::default()
     });

@@ -5,11 +5,11 @@ use hookean_sparse::{
     Amg, AmgOptions, AmgSmoother, CgParams, CgWorkspace, Constraints, LinearOperator,
     PreconditionerSetup, filtered_pcg, pcg, vecops::norm2,
 };
-use hookean_testkit::cloth::{ClothParams, cloth_system};
+use hookean_testkit::cloth::{ClothSystemParams, cloth_system};
 
 /// PCG iterations to `|r| <= 1e-8 |b|`, after checking the true residual.
 fn iterations(n: usize, k: f64, options: &AmgOptions) -> usize {
-    let (a, b) = cloth_system(&ClothParams {
+    let (a, b) = cloth_system(&ClothSystemParams {
         n,
         k,
         ..Default::default()
@@ -71,7 +71,7 @@ fn amg_pcg_iterations_on_cloth_are_bounded() {
 fn filtered_pcg_with_amg_honours_constraints_in_few_iterations() {
     // The V-cycle is SPD, so Baraff-Witkin's filtered PCG stays valid.
     let n = 48;
-    let (a, b) = cloth_system(&ClothParams {
+    let (a, b) = cloth_system(&ClothSystemParams {
         n,
         ..Default::default()
     });

@@ -8,14 +8,14 @@ use hookean_sparse::{
     PrecondKind, Preconditioner, PreconditionerSetup, filtered_pcg, pcg,
 };
 use hookean_testkit::alloc::{Counting, allocations};
-use hookean_testkit::cloth::{ClothParams, cloth_system};
+use hookean_testkit::cloth::{ClothSystemParams, cloth_system};
 
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
 #[test]
 fn pcg_solves_and_preconditioner_applies_do_not_allocate() {
-    let (a, b) = cloth_system(&ClothParams {
+    let (a, b) = cloth_system(&ClothSystemParams {
         n: 16,
         ..Default::default()
     });

@@ -13,7 +13,7 @@ use std::io::BufWriter;
 use std::process::ExitCode;
 
 use hookean_sparse::{write_matrix_market, write_vector_market};
-use hookean_testkit::cloth::{ClothParams, cloth_system};
+use hookean_testkit::cloth::{ClothSystemParams, cloth_system};
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -26,7 +26,7 @@ fn main() -> ExitCode {
         eprintln!("usage: write_cloth_system N OUT_PREFIX [--force]");
         return ExitCode::from(2);
     };
-    let (a, b) = cloth_system(&ClothParams {
+    let (a, b) = cloth_system(&ClothSystemParams {
         n,
         ..Default::default()
     });

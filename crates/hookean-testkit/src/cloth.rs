@@ -18,9 +18,13 @@ use std::sync::Arc;
 use hookean_sparse::{BlockPattern, SymBlockMatrix, block};
 use rand::{Rng, SeedableRng, rngs::SmallRng};
 
-/// Parameters of [`cloth_system`].
+/// Parameters of [`cloth_system`]: the reference drape's springs, damping
+/// and step (docs/ARCHITECTURE.md; `k`, `d` and `h` default to its values)
+/// at `n = 32` with jittered positions. This crate builds the matrix on its
+/// own (it cannot use `hookean-massspring`, whose tests use it), so that it
+/// is an independent reference for the assembly.
 #[derive(Debug, Clone, PartialEq)]
-pub struct ClothParams {
+pub struct ClothSystemParams {
     /// Particles per side.
     pub n: usize,
     /// Structural and shear stiffness (N/m); bend springs get `k / 10`.
@@ -36,7 +40,7 @@ pub struct ClothParams {
     pub seed: u64,
 }
 
-impl Default for ClothParams {
+impl Default for ClothSystemParams {
     fn default() -> Self {
         Self {
             n: 32,
@@ -144,7 +148,7 @@ pub fn grid_positions(n: usize, jitter: f64, seed: u64) -> Vec<f64> {
 
 /// The system `A dv = b` of one implicit Euler step from rest (`v = 0`)
 /// under gravity, with the clamped stiffness matrix. Returns `(A, b)`.
-pub fn cloth_system(p: &ClothParams) -> (SymBlockMatrix, Vec<f64>) {
+pub fn cloth_system(p: &ClothSystemParams) -> (SymBlockMatrix, Vec<f64>) {
     let n2 = p.n * p.n;
     let springs = grid_springs(p.n, p.k);
     let x = grid_positions(p.n, p.jitter, p.seed);
@@ -318,7 +322,7 @@ mod tests {
 
     #[test]
     fn system_is_symmetric_with_positive_diagonal() {
-        let (a, b) = cloth_system(&ClothParams {
+        let (a, b) = cloth_system(&ClothSystemParams {
             n: 6,
             ..Default::default()
         });

@@ -206,16 +206,16 @@ fn opt_non_negative<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::E
 }
 
 fn d_cloth_n() -> usize {
-    64
+    ClothParams::default().nu
 }
 fn one() -> f64 {
     1.0
 }
 fn d_k() -> f64 {
-    1e4
+    ClothParams::default().structural.stiffness
 }
 fn d_damping() -> f64 {
-    0.1
+    ClothParams::default().structural.damping
 }
 fn d_pins() -> PinScene {
     PinScene::TwoCorners
@@ -900,6 +900,36 @@ impl Scene {
         }
     }
 
+    /// The cloth of a `[cloth]` scene as builder parameters (with the
+    /// scene's `[model]` options), or `None` for other scenes.
+    pub fn cloth_params(&self) -> Option<ClothParams> {
+        let c = self.cloth.as_ref()?;
+        let axis_v = match c.plane {
+            PlaneScene::Horizontal => [0.0, 1.0, 0.0],
+            PlaneScene::Vertical => [0.0, 0.0, 1.0],
+        };
+        Some(ClothParams {
+            nu: c.n,
+            nv: c.n,
+            width: c.size,
+            height: c.size,
+            origin: c.origin,
+            axis_u: [1.0, 0.0, 0.0],
+            axis_v,
+            total_mass: c.mass,
+            structural: SpringMaterial::new(c.stiffness, c.damping),
+            shear: SpringMaterial::new(c.stiffness, c.damping),
+            bend: SpringMaterial::new(c.bend_stiffness.unwrap_or(c.stiffness / 10.0), c.damping),
+            pins: match c.pins {
+                PinScene::TwoCorners => ClothPins::TwoCorners,
+                PinScene::FourCorners => ClothPins::FourCorners,
+                PinScene::Edge => ClothPins::Edge,
+                PinScene::None => ClothPins::None,
+            },
+            options: self.model_options(),
+        })
+    }
+
     /// Builds the model and the simulation the scene describes.
     ///
     /// # Errors
@@ -914,34 +944,8 @@ impl Scene {
             });
         }
         let options = self.model_options();
-        let (mut model, state) = if let Some(c) = &self.cloth {
-            let axis_v = match c.plane {
-                PlaneScene::Horizontal => [0.0, 1.0, 0.0],
-                PlaneScene::Vertical => [0.0, 0.0, 1.0],
-            };
-            hookean_massspring::cloth(&ClothParams {
-                nu: c.n,
-                nv: c.n,
-                width: c.size,
-                height: c.size,
-                origin: c.origin,
-                axis_u: [1.0, 0.0, 0.0],
-                axis_v,
-                total_mass: c.mass,
-                structural: SpringMaterial::new(c.stiffness, c.damping),
-                shear: SpringMaterial::new(c.stiffness, c.damping),
-                bend: SpringMaterial::new(
-                    c.bend_stiffness.unwrap_or(c.stiffness / 10.0),
-                    c.damping,
-                ),
-                pins: match c.pins {
-                    PinScene::TwoCorners => ClothPins::TwoCorners,
-                    PinScene::FourCorners => ClothPins::FourCorners,
-                    PinScene::Edge => ClothPins::Edge,
-                    PinScene::None => ClothPins::None,
-                },
-                options,
-            })?
+        let (mut model, state) = if let Some(params) = self.cloth_params() {
+            hookean_massspring::cloth(&params)?
         } else if let Some(r) = &self.rope {
             hookean_massspring::rope(&RopeParams {
                 n: r.n,

@@ -91,10 +91,8 @@ impl ClothStep {
 
     /// `J = M - h D - h^2 K` from the matrices in `dfdx`, `dfdv`.
     fn combine(&self, jac: &mut SymBlockMatrix) -> Result<(), NonlinearError> {
-        jac.set_zero();
-        jac.add_scaled(-self.h, &self.dfdv)?;
-        jac.add_scaled(-self.h * self.h, &self.dfdx)?;
-        jac.add_to_diagonal(&self.mass)?;
+        let h = self.h;
+        jac.assign_diagonal_plus_combination(&self.mass, -h * h, &self.dfdx, -h, &self.dfdv)?;
         Ok(())
     }
 }

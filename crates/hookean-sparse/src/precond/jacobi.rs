@@ -218,10 +218,10 @@ mod tests {
             let rz = p.apply_dot(&r, &mut z);
             let mut expected_rz = 0.0;
             for i in 0..r.len() {
-                assert!((z[i] - r[i] / d[i][i]).abs() < 1e-15);
+                approx::assert_abs_diff_eq!(z[i], r[i] / d[i][i], epsilon = 1e-15);
                 expected_rz += r[i] * r[i] / d[i][i];
             }
-            assert!((rz - expected_rz).abs() < 1e-12 * expected_rz.abs());
+            approx::assert_relative_eq!(rz, expected_rz, max_relative = 1e-12);
         }
     }
 
