@@ -369,7 +369,7 @@ mod tests {
         for r in 0..3 {
             for c in 0..3 {
                 let e = if r == c { 1.0 } else { 0.0 };
-                assert!((p[r][c] - e).abs() < 1e-14);
+                approx::assert_abs_diff_eq!(p[r][c], e, epsilon = 1e-14);
             }
         }
         assert!(spd_inverse(&[[1.0, 2.0], [2.0, 1.0]]).is_none());

@@ -159,7 +159,7 @@ fn near_nullspace_lies_in_the_range_of_the_tentative_prolongator() {
             let coarse: Vec<f64> = tt.iter().map(|row| dot(row, v)).collect();
             let back: Vec<f64> = t.iter().map(|row| dot(row, &coarse)).collect();
             for (x, y) in back.iter().zip(v) {
-                assert!((x - y).abs() < 1e-13 * norm2(v));
+                approx::assert_abs_diff_eq!(x, y, epsilon = 1e-13 * norm2(v));
             }
         }
     }
@@ -282,7 +282,7 @@ fn refill_reuses_the_hierarchy() {
     let mut z2 = vec![0.0; r.len()];
     amg.apply(&r, &mut z2);
     for (u, v) in z1.iter().zip(&z2) {
-        assert!((u - 2.0 * v).abs() < 1e-12 * norm2(&z1));
+        approx::assert_abs_diff_eq!(*u, 2.0 * v, epsilon = 1e-12 * norm2(&z1));
     }
     // A rebuild on the same values gives the same operator.
     amg.rebuild(&a2).unwrap();
@@ -290,7 +290,7 @@ fn refill_reuses_the_hierarchy() {
     let mut z3 = vec![0.0; r.len()];
     amg.apply(&r, &mut z3);
     for (u, v) in z3.iter().zip(&z2) {
-        assert!((u - v).abs() < 1e-13 * norm2(&z2));
+        approx::assert_abs_diff_eq!(u, v, epsilon = 1e-13 * norm2(&z2));
     }
     // With the power method, a refill continues from the last eigenvector
     // estimates for a few steps: its spectral radius estimates are at least
@@ -653,7 +653,7 @@ fn a_refill_that_keeps_the_prolongators_recomputes_the_galerkin_operators() {
         .fold(0.0_f64, |m, v| m.max(v.abs()));
     for (r, row) in expected.iter().enumerate() {
         for (c, v) in row.iter().enumerate() {
-            assert!((ac[r][c] - v).abs() <= 1e-13 * scale);
+            approx::assert_abs_diff_eq!(ac[r][c], v, epsilon = 1e-13 * scale);
         }
     }
     // The default refill smooths P again with the new values: it differs.
