@@ -16,6 +16,7 @@
 
 use clap::Args;
 use hookean_massspring::{ClothParams, SpringMaterial, State};
+use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
 use crate::CliError;
@@ -75,7 +76,7 @@ pub fn deformed_state(rest: &State, n: usize, pinned: &[usize]) -> State {
 }
 
 /// The benchmark system `(A, b)` for size `n` and stiffness `k`.
-pub fn cloth_system(
+fn deformed_cloth_system(
     n: usize,
     k: f64,
 ) -> Result<(hookean_sparse::SymBlockMatrix, Vec<f64>), CliError> {
@@ -122,9 +123,16 @@ pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
         "|---|---|---|---|---|---|---|---|".to_string(),
     ];
     let mut failed = false;
+    // A bar on a terminal (large N and many solvers take minutes).
+    let bar = ProgressBar::new((args.n.len() * args.k.len() * solvers.len()) as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} [{elapsed_precise}]")
+            .expect("valid template"),
+    );
     for &n in &args.n {
         for &k in &args.k {
-            let (a, b) = cloth_system(n, k)?;
+            bar.set_message(format!("N = {n}, k = {k:e}"));
+            let (a, b) = deformed_cloth_system(n, k)?;
             let csr = a.to_csr();
             let rows = b.len();
             let nnz = csr.nnz();
@@ -155,9 +163,11 @@ pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
                     serde_json::to_string(&BenchRecord { n, k, record })
                         .expect("records serialise")
                 );
+                bar.inc(1);
             }
         }
     }
+    bar.finish_and_clear();
     for line in table {
         eprintln!("{line}");
     }

@@ -17,6 +17,7 @@ use hookean::scene::Scene;
 use serde::Serialize;
 
 use crate::CliError;
+use crate::run::Progress;
 
 #[derive(Debug, Args)]
 pub struct ExportSystemArgs {
@@ -68,15 +69,20 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
     let mut sim = scene.build().map_err(input)?;
     let mut steps = 0;
     if args.at > 0.0 {
-        let summary = sim
-            .run_until(args.at, |_, _| std::ops::ControlFlow::Continue(()))
-            .map_err(|e| {
-                CliError::Input(format!(
-                    "{}: simulation to t = {} failed: {e}",
-                    args.scene.display(),
-                    args.at
-                ))
-            })?;
+        // A bar on a terminal: simulating to a late --at can take a while.
+        let mut progress = Progress::new(args.at, false);
+        let result = sim.run_until(args.at, |sim, r| {
+            progress.update(sim, r);
+            std::ops::ControlFlow::Continue(())
+        });
+        progress.clear();
+        let summary = result.map_err(|e| {
+            CliError::Input(format!(
+                "{}: simulation to t = {} failed: {e}",
+                args.scene.display(),
+                args.at
+            ))
+        })?;
         steps = summary.stats.steps;
     }
     std::fs::create_dir_all(&args.out)

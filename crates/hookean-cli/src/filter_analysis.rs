@@ -9,16 +9,20 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use hookean::scene::Scene;
 use hookean_filter::{
-    BisectionOptions, DrapeMethod, ExplicitScheme, FilterOptions, RunOptions, drape_velocity_run,
-    fftshift, predict_dt_max, stable_step_against_lambda,
+    BisectionOptions, DrapeMethod, ExplicitScheme, FilterOptions, RunOptions, VelocityImage,
+    drape_velocity_run, fftshift, predict_dt_max, stable_step_against_lambda,
 };
 use hookean_massspring::{ClothParams, cloth as cloth_model};
 use hookean_ode::Method;
 use serde::Serialize;
 
+use indicatif::{ProgressBar, ProgressStyle};
+use plotters::prelude::*;
+
 use crate::CliError;
+use crate::lineplot::{LogLogPlot, Series};
+use crate::plot::{colour_bar, draw_error, draw_on, labelled_chart};
 use crate::render::Canvas;
-use crate::svg::{LogLogPlot, Series};
 
 #[derive(Debug, Args)]
 pub struct FilterAnalysisArgs {
@@ -126,7 +130,13 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
     .map_err(failed)?;
     let h = args.step_fraction * plain.dt_max;
 
-    // Figures 4 and 5.
+    // Figures 4 and 5 (three runs), then figure 6: a bar on a terminal.
+    let bar = ProgressBar::new(4);
+    bar.set_style(
+        ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} [{elapsed_precise}]")
+            .expect("valid template"),
+    );
+    bar.enable_steady_tick(std::time::Duration::from_millis(200));
     let methods: [(&'static str, DrapeMethod); 3] = [
         ("fb-euler", DrapeMethod::FbEuler),
         ("backward-euler", DrapeMethod::BackwardEuler),
@@ -137,31 +147,19 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
     ];
     let mut figure4 = Vec::new();
     for (name, method) in &methods {
-        let run = drape_velocity_run(&drape, method, h, args.t_end, 1.0, 0.5).map_err(failed)?;
-        let img = &run.image;
-        let mut canvas = Canvas::new(img.width(), img.height().max(1));
-        for (k, px) in img.pixels().iter().enumerate() {
-            canvas.set(k % img.width(), k / img.width(), *px);
-        }
-        write_png(&canvas, &args.plot.join(format!("fig4-{name}.png")))?;
-        // Figure 5: log power spectrum, zero frequency at the centre, 8x enlarged.
+        bar.set_message(format!("figures 4 and 5: {name} run"));
+        let run = drape_velocity_run(&drape, method, h, args.t_end, VELOCITY_SCALE, 0.5)
+            .map_err(failed)?;
+        bar.inc(1);
+        write_png(
+            &figure4_picture(&run.image, name, h).map_err(CliError::Failed)?,
+            &args.plot.join(format!("fig4-{name}.png")),
+        )?;
         let spec = fftshift(&run.spectrum, args.n, args.n);
-        let top = spec.iter().copied().fold(0.0, f64::max).max(1e-300);
-        let scale = 8;
-        let mut canvas = Canvas::new(args.n * scale, args.n * scale);
-        for y in 0..args.n * scale {
-            for x in 0..args.n * scale {
-                let v = spec[(y / scale) * args.n + x / scale] / top;
-                let level = if v > 0.0 {
-                    (1.0 + v.log10() / 12.0).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                let g = (level * 255.0).round() as u8;
-                canvas.set(x, y, [g, g, g]);
-            }
-        }
-        write_png(&canvas, &args.plot.join(format!("fig5-{name}.png")))?;
+        write_png(
+            &figure5_picture(&spec, args.n, name).map_err(CliError::Failed)?,
+            &args.plot.join(format!("fig5-{name}.png")),
+        )?;
         figure4.push(Figure4Row {
             method: name,
             h,
@@ -172,6 +170,7 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
     }
 
     // Figure 6.
+    bar.set_message("figure 6: stable step by bisection for 7 lambdas");
     let lambdas = [0.25, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0];
     let build = || cloth_model(&drape).map_err(hookean_filter::FilterError::from);
     let options = BisectionOptions {
@@ -183,6 +182,7 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
     };
     let rows =
         stable_step_against_lambda(&build, &Method::FbEuler, &lambdas, &options).map_err(failed)?;
+    bar.finish_and_clear();
     let unfiltered = rows
         .iter()
         .find(|r| r.lambda.is_none())
@@ -215,7 +215,7 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
         ],
     };
     let svg_path = args.plot.join("fig6.svg");
-    std::fs::write(&svg_path, plot.render())
+    std::fs::write(&svg_path, plot.render().map_err(CliError::Failed)?)
         .map_err(|e| failed(format!("{}: {e}", svg_path.display())))?;
 
     let analysis = Analysis {
@@ -246,4 +246,117 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
 
 fn write_png(canvas: &Canvas, path: &Path) -> Result<(), CliError> {
     canvas.write_png(path).map_err(CliError::Failed)
+}
+
+/// Velocities of figure 4 map `[-VELOCITY_SCALE, VELOCITY_SCALE]` m/s to `[1, 255]`.
+const VELOCITY_SCALE: f64 = 1.0;
+
+/// Figure 4: the velocity image (one row per step, one column per particle,
+/// RGB = the velocity's x, y, z components) on axes of particle index and
+/// time, with one colour bar per channel.
+fn figure4_picture(img: &VelocityImage, name: &str, h: f64) -> Result<Canvas, String> {
+    let (cols, rows) = (img.width().max(1), img.height().max(1));
+    let t_end = rows as f64 * h;
+    let mut canvas = Canvas::new(900, 560);
+    let (xr, yr) = draw_on(&mut canvas, |root| {
+        root.fill(&WHITE).map_err(draw_error)?;
+        let (left, right) = root.split_horizontally(690);
+        let chart = labelled_chart(
+            &left,
+            &format!("Figure 4: velocities over time, {name}, h = {h:.3e} s"),
+            (0.0..cols as f64, "particle index (grid row by row)"),
+            (0.0..t_end, "time t (s)"),
+            false,
+        )?;
+        for (c, label) in ["R = v_x", "G = v_y", "B = v_z"].iter().enumerate() {
+            colour_bar(
+                &right,
+                (12 + 70 * c as i32, 80, 16, 380),
+                (-VELOCITY_SCALE, VELOCITY_SCALE),
+                |v| {
+                    let mut p = [128u8; 3];
+                    p[c] = (128.0 + 127.0 * v / VELOCITY_SCALE)
+                        .round()
+                        .clamp(0.0, 255.0) as u8;
+                    RGBColor(p[0], p[1], p[2])
+                },
+                Some(vec![-1.0, -0.5, 0.0, 0.5, 1.0]),
+                label,
+            )?;
+        }
+        right
+            .draw(&Text::new(
+                "velocity (m/s), clamped",
+                (40, 490),
+                ("sans-serif", 14).into_font(),
+            ))
+            .map_err(draw_error)?;
+        Ok(chart.plotting_area().get_pixel_range())
+    })?;
+    // The image, nearest neighbour, time upwards.
+    let px = img.pixels();
+    let (w, h_px) = ((xr.end - xr.start).max(1), (yr.end - yr.start).max(1));
+    for y in yr.clone() {
+        let row = (((yr.end - 1 - y) as f64 / h_px as f64) * rows as f64) as usize;
+        for x in xr.clone() {
+            let col = (((x - xr.start) as f64 / w as f64) * cols as f64) as usize;
+            if let Some(p) = px.get(row.min(rows - 1) * cols + col.min(cols - 1)) {
+                canvas.set(x as usize, y as usize, *p);
+            }
+        }
+    }
+    Ok(canvas)
+}
+
+/// Figure 5: the power spectrum of the final velocity field (zero frequency
+/// at the centre) in decibels below its peak, on axes of spatial frequency.
+fn figure5_picture(spec: &[f64], n: usize, name: &str) -> Result<Canvas, String> {
+    let top = spec.iter().copied().fold(0.0, f64::max).max(1e-300);
+    // log10 of the power relative to the peak, clamped to 12 decades.
+    let level = |p: f64| {
+        if p > 0.0 {
+            (p / top).log10().clamp(-12.0, 0.0)
+        } else {
+            -12.0
+        }
+    };
+    let grey = |l: f64| {
+        let g = ((1.0 + l / 12.0) * 255.0).round() as u8;
+        RGBColor(g, g, g)
+    };
+    // Cell k of a shifted axis is centred on the frequency (k - n/2) / n.
+    let cell = 1.0 / n as f64;
+    let f_lo = -((n / 2) as f64 + 0.5) * cell;
+    let f_hi = f_lo + 1.0;
+    let mut canvas = Canvas::new(700, 560);
+    draw_on(&mut canvas, |root| {
+        root.fill(&WHITE).map_err(draw_error)?;
+        let (left, right) = root.split_horizontally(570);
+        let mut chart = labelled_chart(
+            &left,
+            &format!("Figure 5: spectrum of the final velocities, {name}"),
+            (f_lo..f_hi, "frequency k_x (cycles per particle spacing)"),
+            (f_lo..f_hi, "frequency k_y (cycles per spacing)"),
+            false,
+        )?;
+        chart
+            .draw_series((0..n * n).map(|k| {
+                let (i, j) = (k % n, k / n);
+                let (x, y) = (f_lo + i as f64 * cell, f_lo + j as f64 * cell);
+                Rectangle::new(
+                    [(x, y), (x + cell, y + cell)],
+                    grey(level(spec[k])).filled(),
+                )
+            }))
+            .map_err(draw_error)?;
+        colour_bar(
+            &right,
+            (20, 80, 20, 400),
+            (-12.0, 0.0),
+            grey,
+            None,
+            "log10(power / peak)",
+        )
+    })?;
+    Ok(canvas)
 }

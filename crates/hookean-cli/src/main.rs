@@ -8,6 +8,7 @@
 //! hookean bench-precond [--n 32,64,128] [--k 1e2,1e4,1e6] [--rtol 1e-8] [--repeat K]
 //! hookean export-system SCENE --at T --out DIR [--force]
 //! hookean filter-analysis SCENE --plot DIR [--n 16] [--t-end 1.0] [--force]
+//! hookean view OUT_DIR [--force]
 //! ```
 //!
 //! Bad input (missing or malformed files, wrong sizes, unknown names) is a
@@ -22,12 +23,15 @@ use clap::{Parser, Subcommand};
 mod bench_precond;
 mod export_system;
 mod filter_analysis;
+mod lineplot;
+mod plot;
+mod regions;
 mod render;
 mod run;
 mod solve;
 mod stability;
-mod svg;
 mod tutorial_run;
+mod view;
 mod workprecision;
 
 /// Soft-object simulation with mass-spring systems: solvers, scenes, plots.
@@ -40,7 +44,7 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Simulate a scene file: summary.json, steps.csv, OBJ frames and final.png in the output folder.
+    /// Simulate a scene file: summary.json, steps.csv, OBJ frames, final.png and view.html in the output folder.
     Run(run::RunArgs),
     /// Solve A x = b from Matrix Market files with PCG (every preconditioner) or sparse Cholesky,
     /// printing one JSON object per line and per solver.
@@ -53,6 +57,8 @@ enum Command {
     BenchPrecond(bench_precond::BenchPrecondArgs),
     /// The filtering paper's figures 4, 5 and 6 for a cloth scene: PNGs, an SVG and analysis.json.
     FilterAnalysis(filter_analysis::FilterAnalysisArgs),
+    /// Write view.html (a self-contained WebGL player) for the output folder of an earlier `hookean run`.
+    View(view::ViewArgs),
     /// Write the linearised implicit-Euler system (A.mtx, b.mtx) of a scene's state at time T.
     ExportSystem(export_system::ExportSystemArgs),
 }
@@ -84,6 +90,7 @@ fn main() -> ExitCode {
         Command::BenchPrecond(args) => bench_precond::run(&args),
         Command::ExportSystem(args) => export_system::run(&args),
         Command::FilterAnalysis(args) => filter_analysis::run(&args),
+        Command::View(args) => view::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

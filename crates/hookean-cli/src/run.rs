@@ -10,11 +10,13 @@ use clap::Args;
 use hookean::scene::Scene;
 use hookean::{HookeanError, RunSummary, Simulation, Sink};
 use hookean_ode::StepReport;
+use hookean_ode::tutorial::LinearOscillator;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
 
 use crate::CliError;
-use crate::render::render;
+use crate::render::{RenderScene, render};
+use crate::view::{FrameEnergies, ViewCollider, ViewFrame, ViewRun};
 
 #[derive(Debug, Args)]
 pub struct RunArgs {
@@ -54,6 +56,10 @@ pub struct RunRecord {
     pub final_kinetic_energy: f64,
     pub final_total_energy: f64,
     pub frames: usize,
+    /// Simulated time of each `frame-NNNN.obj`.
+    pub frame_times: Vec<f64>,
+    /// The colliders, for viewers (`hookean view`).
+    pub colliders: Vec<ViewCollider>,
 }
 
 /// One row per accepted step.
@@ -98,12 +104,14 @@ impl Sink for StepsCsv {
     }
 }
 
-/// OBJ frames at a fixed rate of simulated time, coloured by speed.
+/// OBJ frames at a fixed rate of simulated time, coloured by speed, and the
+/// same frames kept for `view.html`.
 struct ObjFrames {
     dir: PathBuf,
     interval: f64,
     next: f64,
     count: usize,
+    view: Vec<ViewFrame>,
 }
 
 impl ObjFrames {
@@ -113,10 +121,30 @@ impl ObjFrames {
         let colours = hookean::massspring::speed_colours(sim.v(), 0.0);
         sim.model()
             .write_obj(BufWriter::new(file), sim.x(), Some(&colours))?;
+        self.view.push(view_frame(sim)?);
         self.count += 1;
         self.next += self.interval;
         Ok(())
     }
+}
+
+/// The current state as a frame of `view.html`.
+fn view_frame(sim: &Simulation) -> Result<ViewFrame, HookeanError> {
+    let e = sim.energies()?;
+    Ok(ViewFrame {
+        t: sim.t(),
+        x: sim.x().to_vec(),
+        speed: sim
+            .v()
+            .chunks_exact(3)
+            .map(|c| (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt())
+            .collect(),
+        energies: Some(FrameEnergies {
+            kinetic: e.kinetic,
+            gravitational: e.gravitational,
+            spring: e.spring,
+        }),
+    })
 }
 
 impl Sink for ObjFrames {
@@ -128,15 +156,90 @@ impl Sink for ObjFrames {
     }
 }
 
-/// The progress bar: simulated time, steps per second, current step size.
-struct Progress {
+/// The model's colliders as viewers draw them.
+fn colliders(sim: &Simulation) -> Vec<ViewCollider> {
+    sim.model()
+        .colliders()
+        .iter()
+        .map(ViewCollider::from)
+        .collect()
+}
+
+/// `view.html`'s content: the run's `summary` and recorded `frames` on the
+/// model's triangles (or springs) and colliders.
+fn view_of(sim: &Simulation, summary: serde_json::Value, frames: Vec<ViewFrame>) -> ViewRun {
+    ViewRun {
+        summary,
+        faces: sim.model().faces().to_vec(),
+        segments: sim.model().springs().iter().map(|s| (s.i, s.j)).collect(),
+        colliders: colliders(sim),
+        frames,
+        speed_source: "particle velocities of the run".into(),
+    }
+}
+
+/// `(t, z, exact z)` of the moving particle of the tutorial's example 3.
+struct ParticleTrace {
+    points: Vec<(f64, f64, f64)>,
+    exact: Option<LinearOscillator>,
+}
+
+impl ParticleTrace {
+    fn push(&mut self, sim: &Simulation) {
+        let t = sim.t();
+        let exact = self.exact.map_or(f64::NAN, |o| o.exact(t)[0]);
+        // Particle 0 is the pinned anchor; particle 1 moves along z.
+        self.points.push((t, sim.x()[3 + 2], exact));
+    }
+}
+
+impl Sink for ParticleTrace {
+    fn step(&mut self, sim: &Simulation, _: &StepReport) -> Result<(), HookeanError> {
+        self.push(sim);
+        Ok(())
+    }
+}
+
+/// The exact solution of example 3 when the scene keeps its model (the
+/// default damping, no air friction, g = -10 m/s^2); `None` otherwise.
+fn exact_example3(scene: &Scene) -> Option<LinearOscillator> {
+    let m = &scene.model;
+    (m.gravity == [0.0, 0.0, -10.0]
+        && m.air_friction == 0.0
+        && m.damping == hookean::scene::DampingScene::Projected)
+        .then(LinearOscillator::example3)
+}
+
+/// The progress bar of a simulation up to `t_end`: simulated time, steps
+/// per second, current step size. Drawn only on a terminal, never if `quiet`.
+pub struct Progress {
     bar: ProgressBar,
     start: Instant,
     steps: usize,
 }
 
-impl Sink for Progress {
-    fn step(&mut self, sim: &Simulation, r: &StepReport) -> Result<(), HookeanError> {
+impl Progress {
+    /// A bar over `[0, t_end]` simulated seconds.
+    pub fn new(t_end: f64, quiet: bool) -> Self {
+        let bar = ProgressBar::new((t_end * 1000.0) as u64);
+        bar.set_draw_target(if quiet {
+            ProgressDrawTarget::hidden()
+        } else {
+            ProgressDrawTarget::stderr()
+        });
+        bar.set_style(
+            ProgressStyle::with_template("{bar:40} {percent:>3}% {msg} [{elapsed_precise}]")
+                .expect("valid template"),
+        );
+        Self {
+            bar,
+            start: Instant::now(),
+            steps: 0,
+        }
+    }
+
+    /// Records an accepted step (redraws every 8 steps).
+    pub fn update(&mut self, sim: &Simulation, r: &StepReport) {
         self.steps += 1;
         if self.steps.is_multiple_of(8) {
             let rate = self.steps as f64 / self.start.elapsed().as_secs_f64().max(1e-9);
@@ -147,11 +250,22 @@ impl Sink for Progress {
                 r.h
             ));
         }
+    }
+
+    /// Removes the bar.
+    pub fn clear(&self) {
+        self.bar.finish_and_clear();
+    }
+}
+
+impl Sink for Progress {
+    fn step(&mut self, sim: &Simulation, r: &StepReport) -> Result<(), HookeanError> {
+        self.update(sim, r);
         Ok(())
     }
 
     fn finish(&mut self, _: &Simulation, _: &RunSummary) -> Result<(), HookeanError> {
-        self.bar.finish_and_clear();
+        self.clear();
         Ok(())
     }
 }
@@ -201,27 +315,25 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         },
         next: 0.0,
         count: 0,
+        view: Vec::new(),
     };
     if scene.output.frame_rate > 0.0 {
         frames.write(&sim).map_err(failed)?;
     }
-    let bar = ProgressBar::new((scene.duration * 1000.0) as u64);
-    bar.set_draw_target(if args.quiet {
-        ProgressDrawTarget::hidden()
-    } else {
-        ProgressDrawTarget::stderr()
+    let mut progress = Progress::new(scene.duration, args.quiet);
+    // The tutorial's example 3 ([particle]) is pictured as z(t) against its exact solution.
+    let mut trace = scene.particle.as_ref().map(|_| ParticleTrace {
+        points: vec![],
+        exact: exact_example3(&scene),
     });
-    bar.set_style(
-        ProgressStyle::with_template("{bar:40} {percent:>3}% {msg} [{elapsed_precise}]")
-            .expect("valid template"),
-    );
-    let mut progress = Progress {
-        bar,
-        start: Instant::now(),
-        steps: 0,
-    };
+    if let Some(t) = &mut trace {
+        t.push(&sim);
+    }
     let summary = {
         let mut sinks: Vec<&mut dyn Sink> = vec![&mut csv, &mut progress];
+        if let Some(t) = &mut trace {
+            sinks.push(t);
+        }
         if scene.output.frame_rate > 0.0 {
             sinks.push(&mut frames);
         }
@@ -230,11 +342,32 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let summary = match summary {
         Ok(s) => s,
         Err(e) => {
-            return Err(CliError::Failed(format!(
+            let mut message = format!(
                 "{}: the run stopped at t = {:.4} s: {e}",
                 args.scene.display(),
                 sim.t()
-            )));
+            );
+            // The frames up to the failure show how it went wrong.
+            if !frames.view.is_empty() {
+                let stats = sim.stats();
+                let summary = serde_json::json!({
+                    "scene": args.scene.display().to_string(),
+                    "method": sim.method().to_string(),
+                    "error": message,
+                    "steps": stats.steps,
+                    "rejected_steps": stats.rejected_steps,
+                    "newton_iterations": stats.newton_iterations,
+                    "cg_iterations": stats.linear_iterations,
+                });
+                let view = view_of(&sim, summary, std::mem::take(&mut frames.view));
+                if view.write(&out.join("view.html")).is_ok() {
+                    message += &format!(
+                        "; {} shows the frames before",
+                        out.join("view.html").display()
+                    );
+                }
+            }
+            return Err(CliError::Failed(message));
         }
     };
     let energies = sim.energies().map_err(failed)?;
@@ -257,24 +390,63 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
         final_kinetic_energy: energies.kinetic,
         final_total_energy: energies.total(),
         frames: frames.count,
+        frame_times: frames.view.iter().map(|f| f.t).collect(),
+        colliders: colliders(&sim),
     };
     let json = serde_json::to_string_pretty(&record).expect("records serialise");
     let summary_path = out.join("summary.json");
     std::fs::write(&summary_path, json + "\n")
         .map_err(|e| failed(format!("{}: {e}", summary_path.display())))?;
 
-    let segments: Vec<(usize, usize)> = sim.model().springs().iter().map(|s| (s.i, s.j)).collect();
-    let canvas = render(
-        sim.x(),
-        sim.v(),
-        sim.model().faces(),
-        &segments,
-        scene.output.width,
-        scene.output.height,
+    // view.html: the recorded frames (the last state alone without frames).
+    let mut view_frames = std::mem::take(&mut frames.view);
+    let last = view_frame(&sim).map_err(failed)?;
+    let last_is_a_frame = view_frames.last().is_some_and(|f| f.t == last.t);
+    if !last_is_a_frame {
+        view_frames.push(last);
+    }
+    let view = view_of(
+        &sim,
+        serde_json::to_value(&record).expect("records serialise"),
+        view_frames,
     );
+
+    // final.png: the last state on the run's scale (box and speeds of every frame).
+    let canvas = match &trace {
+        Some(ParticleTrace { points, .. }) => crate::plot::TimePlot {
+            title: "Tutorial example 3: particle on a damped spring",
+            y_label: "height z (m)",
+            numerical: &format!("{} (h = {} s)", sim.method(), scene.integrator.h),
+            points,
+        }
+        .draw(scene.output.width, scene.output.height),
+        None => render(
+            &RenderScene {
+                x: sim.x(),
+                v: sim.v(),
+                faces: &view.faces,
+                segments: &view.segments,
+                colliders: &view.colliders,
+                bounds: view.bounds(),
+                speed_max: view.speed_max(),
+                t: sim.t(),
+            },
+            scene.output.width,
+            scene.output.height,
+        ),
+    }
+    .map_err(CliError::Failed)?;
     canvas
         .write_png(&out.join("final.png"))
         .map_err(CliError::Failed)?;
+    let mut view = view;
+    if !last_is_a_frame {
+        view.frames.pop();
+    }
+    if view.frames.is_empty() {
+        view.frames.push(view_frame(&sim).map_err(failed)?);
+    }
+    view.write(&out.join("view.html"))?;
     eprintln!(
         "{}: {} steps, {} Newton and {} CG iterations, {:.2} s wall for {:.2} s simulated ({:.2}x real time); wrote {}",
         name,

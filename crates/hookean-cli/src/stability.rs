@@ -17,7 +17,7 @@ use hookean_ode::bdf::BdfCoefficients;
 use hookean_ode::stability::{ComplexGrid, RegionSample, sample_region};
 
 use crate::CliError;
-use crate::svg::{Panel, RegionPanels};
+use crate::regions::{Panel, RegionPanels};
 use crate::workprecision::{check_new_file, write_text};
 
 #[derive(Debug, Args)]
@@ -168,7 +168,7 @@ pub fn run(args: &StabilityArgs) -> Result<(), CliError> {
         fill_label: "stable: |R(z)| <= 1 (largest root modulus for BDF)".into(),
         curve_label: "BDF(k) boundary locus".into(),
     };
-    write_text(&args.plot, &fig.render())
+    write_text(&args.plot, &fig.render().map_err(CliError::Failed)?)
 }
 
 #[cfg(test)]

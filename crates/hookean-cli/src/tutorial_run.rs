@@ -12,7 +12,6 @@ use hookean_ode::{FirstOrderIntegrator, FirstOrderProblem};
 use serde::Serialize;
 
 use crate::CliError;
-use crate::render::Canvas;
 
 #[derive(Debug, Serialize)]
 struct TutorialRecord {
@@ -140,9 +139,22 @@ fn integrate<P: FirstOrderProblem>(
         "summary.json",
         serde_json::to_string_pretty(&record).expect("serialises") + "\n",
     )?;
-    plot(&points, scene.output.width, scene.output.height)
-        .write_png(&out.join("final.png"))
-        .map_err(CliError::Failed)?;
+    let title = match example {
+        1 => format!(
+            "Tutorial example 1: y' = {} y, y(0) = 1",
+            scene.tutorial.as_ref().map_or(f64::NAN, |t| t.lambda)
+        ),
+        _ => "Tutorial example 2: y'' = -5/2 y - 5 y'".to_string(),
+    };
+    crate::plot::TimePlot {
+        title: &title,
+        y_label: "y",
+        numerical: &format!("{} (h = {} s)", ode.method(), scene.integrator.h),
+        points: &points,
+    }
+    .draw(scene.output.width, scene.output.height)
+    .and_then(|c| c.write_png(&out.join("final.png")))
+    .map_err(CliError::Failed)?;
     if !quiet {
         eprintln!(
             "tutorial example {example}: {} steps, y({:.3}) = {y:.6e}, exact {e:.6e}, error {:.2e}; wrote {}",
@@ -153,41 +165,4 @@ fn integrate<P: FirstOrderProblem>(
         );
     }
     Ok(())
-}
-
-/// The numerical solution (blue) over the exact one (grey) against time.
-fn plot(points: &[(f64, f64, f64)], width: usize, height: usize) -> Canvas {
-    let mut c = Canvas::new(width, height);
-    let t_end = points.last().map_or(1.0, |p| p.0).max(1e-12);
-    let (lo, hi) = points
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-            let (a, b) = (p.1.min(p.2), p.1.max(p.2));
-            let (a, b) = if a.is_finite() && b.is_finite() {
-                (a, b)
-            } else {
-                (lo, hi)
-            };
-            (lo.min(a), hi.max(b))
-        });
-    let span = (hi - lo).max(1e-12);
-    let margin = 0.08;
-    let px = |t: f64, y: f64| -> [f64; 2] {
-        let x = (margin + (1.0 - 2.0 * margin) * t / t_end) * width as f64;
-        let y = (1.0 - margin - (1.0 - 2.0 * margin) * (y - lo) / span) * height as f64;
-        [x, y.clamp(-10.0, height as f64 + 10.0)]
-    };
-    // Axes: t along the bottom, y at the left.
-    let axis = [90, 90, 90];
-    c.thick_line(px(0.0, lo), px(t_end, lo), 1.0, axis);
-    c.thick_line(px(0.0, lo), px(0.0, hi), 1.0, axis);
-    for w in points.windows(2) {
-        c.thick_line(px(w[0].0, w[0].2), px(w[1].0, w[1].2), 3.0, [170, 170, 170]);
-    }
-    for w in points.windows(2) {
-        if w[0].1.is_finite() && w[1].1.is_finite() {
-            c.thick_line(px(w[0].0, w[0].1), px(w[1].0, w[1].1), 1.5, [30, 80, 200]);
-        }
-    }
-    c
 }

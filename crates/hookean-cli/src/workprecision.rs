@@ -26,7 +26,7 @@ use hookean_ode::workprecision::{self, Sweep, WorkPrecisionRow, observed_order};
 use hookean_ode::{Method, NewtonOptions, SolverOptions};
 
 use crate::CliError;
-use crate::svg::{LogLogPlot, Series};
+use crate::lineplot::{LogLogPlot, Series};
 
 #[derive(Debug, Args)]
 pub struct WorkPrecisionArgs {
@@ -268,7 +268,7 @@ pub fn run(args: &WorkPrecisionArgs) -> Result<(), CliError> {
             y_label: "error |Y(t_end) - y(t_end)|".into(),
             series,
         };
-        write_text(p, &plot.render())?;
+        write_text(p, &plot.render().map_err(CliError::Failed)?)?;
     }
     Ok(())
 }

@@ -24,7 +24,11 @@ fn writes_figures_4_5_6_and_the_filter_raises_the_stable_step() {
         assert!(dir.join(format!("fig5-{name}.png")).exists());
     }
     let svg = std::fs::read_to_string(dir.join("fig6.svg")).unwrap();
-    assert_eq!(svg.matches("<polyline").count(), 3);
+    // Three series named in the legend; the first (circles) has a marker per lambda, one in the legend.
+    for name in ["measured (bisection)", "predicted", "unfiltered"] {
+        assert!(svg.contains(name), "{name} missing from fig6.svg");
+    }
+    assert_eq!(svg.matches("<circle").count(), 7 + 1);
     let a: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("analysis.json")).unwrap()).unwrap();
     assert_eq!(a["figure4"].as_array().unwrap().len(), 3);

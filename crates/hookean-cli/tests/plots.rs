@@ -109,7 +109,8 @@ fn workprecision_on_the_wave_equation_writes_csv_and_svg_and_errors_fall_with_h(
     }
     let text = std::fs::read_to_string(&svg).unwrap();
     assert!(text.starts_with("<?xml") && text.trim_end().ends_with("</svg>"));
-    assert_eq!(text.matches("<polyline").count(), 3);
+    // The first series (rk4) is drawn with circles: one per level, one in the legend.
+    assert_eq!(text.matches("<circle").count(), 5 + 1);
     for name in ["rk4", "implicit-euler", "verlet", "f evaluations"] {
         assert!(text.contains(name), "{name} missing from the plot");
     }
@@ -219,10 +220,14 @@ fn stability_plot_has_a_panel_per_method_and_the_right_shading() {
     assert_ok(&out);
     let text = std::fs::read_to_string(&svg).unwrap();
     assert!(text.starts_with("<?xml") && text.trim_end().ends_with("</svg>"));
-    // One clipped panel per method, one boundary locus (BDF2 only).
-    assert_eq!(text.matches("<clipPath").count(), 3);
-    assert_eq!(text.matches("<polygon").count(), 1);
-    assert!(text.contains("Re z") && text.contains("Im z"));
+    // One panel per method (each with its axis titles), a boundary locus
+    // (in red, BDF2 only) besides the legend's red sample line.
+    assert_eq!(text.matches("\nRe z\n").count(), 3);
+    assert_eq!(text.matches("\nIm z\n").count(), 3);
+    for name in ["explicit-euler", "implicit-euler", "bdf2"] {
+        assert!(text.contains(&format!("\n{name}\n")), "no panel {name}");
+    }
+    assert!(text.matches("stroke=\"#D62728\"").count() >= 2);
     // Stable fractions of the window [-5, 3] x [-4, 4] on stdout: explicit
     // Euler's disc |1 + z| <= 1 covers pi / 64 of it (about 0.049), implicit
     // Euler all but the disc |1 - z| < 1 (about 1 - pi / 64).

@@ -3,7 +3,7 @@
 mod common;
 use common::*;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("hookean-run-{}-{name}", std::process::id()));
@@ -11,34 +11,11 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// Decodes an RGB PNG and returns (width, height, pixels).
-fn decode(path: &Path) -> (u32, u32, Vec<u8>) {
-    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
-    let mut reader = decoder.read_info().unwrap();
-    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
-    let info = reader.next_frame(&mut buf).unwrap();
-    buf.truncate(info.buffer_size());
-    (info.width, info.height, buf)
-}
-
 #[test]
 fn the_main_job_writes_every_promised_file_consistently() {
     // The README's main job on a small, short variant of the drape.
     let out = scratch("drape");
-    let o = hookean(&[
-        "run",
-        &repo("scenes/drape.toml"),
-        "--out",
-        out.to_str().unwrap(),
-        "--set",
-        "cloth.n=12",
-        "--set",
-        "duration=0.3",
-        "--quiet",
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let summary = run_drape(&out, 12, 0.3, 10.0);
     let csv = std::fs::read_to_string(out.join("steps.csv")).unwrap();
     let rows: Vec<Vec<f64>> = csv
         .lines()
@@ -69,13 +46,10 @@ fn the_main_job_writes_every_promised_file_consistently() {
         assert!(obj.lines().any(|l| l.starts_with("f ")));
     }
     // The picture decodes, has the configured size and is not blank.
-    let (w, h, px) = decode(&out.join("final.png"));
+    let (w, h, px) = decode_rgba(&out.join("final.png"));
     assert_eq!((w, h), (800, 600));
-    let coloured = px.chunks(3).filter(|p| p != &[255, 255, 255]).count();
-    assert!(
-        coloured > (w * h / 20) as usize,
-        "only {coloured} coloured pixels"
-    );
+    let coloured = px.iter().filter(|p| p[..3] != [255, 255, 255]).count();
+    assert!(coloured > w * h / 20, "only {coloured} coloured pixels");
     let _ = std::fs::remove_dir_all(&out);
 }
 
@@ -190,6 +164,58 @@ fn tutorial_example_2_with_bdf2_is_second_order_accurate() {
     assert!((3.5..4.5).contains(&ratio), "{errors:?}");
 }
 
+/// Speeds are coloured on the run's fixed scale, not the frame's: the jelly
+/// block, at rest on its plane at the end (kinetic energy ~1e-13 J), is drawn
+/// in the colour of zero speed, with no red (the top of the scale) in the view.
+#[test]
+fn a_jelly_at_rest_is_drawn_blue_not_red() {
+    let out = scratch("jelly");
+    let summary = run_scene(&out, "scenes/jelly.toml", &[]);
+    assert!(summary["final_kinetic_energy"].as_f64().unwrap() < 1e-6);
+    let (w, _, px) = decode_rgba(&out.join("final.png"));
+    // The 3D view: everything left of the colour bar strip.
+    let view: Vec<&[u8; 4]> = px
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| k % w < w - 130)
+        .map(|(_, p)| p)
+        .collect();
+    let red = view
+        .iter()
+        .filter(|p| p[0] > 160 && p[1] < 120 && p[2] < 100)
+        .count();
+    let blue = view
+        .iter()
+        .filter(|p| p[2] > 120 && p[0] < 90 && p[2] > p[1] + 40)
+        .count();
+    assert_eq!(red, 0, "red pixels in the view of a body at rest");
+    assert!(blue > 2000, "only {blue} blue pixels");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// The sphere of cloth-sphere is drawn: a disc of warm grey shades (the
+/// cloth is blue to red, the ground a light grey above 230).
+#[test]
+fn the_sphere_collider_is_drawn_in_final_png() {
+    let out = scratch("sphere");
+    run_scene(
+        &out,
+        "scenes/cloth-sphere.toml",
+        &["cloth.n=8".into(), "duration=0.05".into()],
+    );
+    let (w, h, px) = decode_rgba(&out.join("final.png"));
+    let sphere = px
+        .iter()
+        .filter(|p| {
+            let (r, g, b) = (p[0] as i32, p[1] as i32, p[2] as i32);
+            r < 215 && r > 40 && r >= g && g >= b && (5..=40).contains(&(r - b))
+        })
+        .count();
+    // r = 0.3 m in a view fitted to about 1 m: a disc of a few percent of the picture.
+    assert!(sphere > w * h / 50, "only {sphere} sphere-coloured pixels");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
 #[test]
 fn the_drape_runs_with_the_multigrid_preconditioner() {
     // 24 x 24 particles: 1 728 unknowns, so the hierarchy has two levels
@@ -198,23 +224,14 @@ fn the_drape_runs_with_the_multigrid_preconditioner() {
         .iter()
         .map(|p| {
             let out = scratch(&format!("drape-{p}"));
-            let o = hookean(&[
-                "run",
-                &repo("scenes/drape.toml"),
-                "--out",
-                out.to_str().unwrap(),
-                "--set",
-                "cloth.n=24",
-                "--set",
-                "duration=0.1",
-                "--set",
-                &format!("solver.preconditioner={p}"),
-                "--quiet",
-            ]);
-            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-            let text = std::fs::read_to_string(out.join("summary.json")).unwrap();
+            let sets = [
+                "cloth.n=24".to_string(),
+                "duration=0.1".to_string(),
+                format!("solver.preconditioner={p}"),
+            ];
+            let summary = run_scene(&out, "scenes/drape.toml", &sets);
             let _ = std::fs::remove_dir_all(&out);
-            serde_json::from_str(&text).unwrap()
+            summary
         })
         .collect();
     let (amg, mic0) = (&runs[0], &runs[1]);

@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::{assert_ok, hookean, repo};
+use common::{assert_ok, hookean, repo, run_scene};
 
 /// The JSON fields that measure time or name this machine's paths.
 const UNSTABLE: [&str; 6] = [
@@ -59,19 +59,11 @@ fn solve_reports_every_preconditioner() {
 fn run_summary_of_a_small_drape() {
     let dir = std::env::temp_dir().join(format!("hookean-snapshot-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let out = hookean(&[
-        "run",
-        &repo("scenes/drape.toml"),
-        "--out",
-        dir.to_str().expect("UTF-8 path"),
-        "--set",
-        "cloth.n=12",
-        "--set",
-        "duration=0.3",
-    ]);
-    assert_ok(&out);
-    let text = std::fs::read_to_string(dir.join("summary.json")).expect("summary.json");
+    let summary = run_scene(
+        &dir,
+        "scenes/drape.toml",
+        &["cloth.n=12".to_string(), "duration=0.3".to_string()],
+    );
     let _ = std::fs::remove_dir_all(&dir);
-    let summary: serde_json::Value = serde_json::from_str(&text).expect("JSON");
     insta::assert_snapshot!(stable(&summary));
 }

@@ -11,18 +11,9 @@ use std::ops::ControlFlow;
 
 use hookean::prelude::*;
 
-fn drape(n: usize) -> (MassSpringModel, State) {
-    cloth(&ClothParams {
-        nu: n,
-        nv: n,
-        ..Default::default()
-    })
-    .unwrap()
-}
-
 #[test]
 fn implicit_drape_statistics() {
-    let (model, state) = drape(16);
+    let (model, state) = cloth(&ClothParams::drape(16)).unwrap();
     let mut sim = Simulation::new(model, state, SimulationOptions::default()).unwrap();
     let summary = sim
         .run_until(0.5, |_, _| ControlFlow::Continue(()))

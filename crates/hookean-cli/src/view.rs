@@ -1,0 +1,503 @@
+//! `view.html`: one self-contained page that plays a run in the browser
+//! (WebGL), and `hookean view OUT_DIR`, which writes it for an existing run
+//! folder.
+//!
+//! The page is the template `view.html` (HTML, CSS and the player's
+//! JavaScript, included with `include_str!`) with two blocks filled in: a
+//! JSON block (the run's summary, frame times and energies, the fixed speed
+//! scale, colliders) and a base64 block of zlib-compressed binary data
+//! (topology, then per frame the positions quantised to `u16` over the
+//! bounding box of all frames, stored as wrapping differences to the
+//! previous frame, then the speeds quantised to `u8` over the fixed colour
+//! scale). The browser inflates it with its built-in `DecompressionStream`:
+//! nothing is fetched from the network.
+
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+
+use base64::Engine as _;
+use clap::Args;
+use hookean::massspring::{Collider, parse_obj};
+use serde::{Deserialize, Serialize};
+
+use crate::CliError;
+use crate::plot::linear_ticks;
+
+/// The player: HTML, CSS and JavaScript with `{{META}}` and `{{DATA}}` slots.
+const TEMPLATE: &str = include_str!("view.html");
+
+/// A collider as the page draws it (the contact margin is not drawn).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case")]
+pub enum ViewCollider {
+    /// The plane through `point` with outward unit `normal`.
+    Plane {
+        /// A point of the plane.
+        point: [f64; 3],
+        /// Unit outward normal.
+        normal: [f64; 3],
+    },
+    /// A ball.
+    Sphere {
+        /// Centre.
+        center: [f64; 3],
+        /// Radius (m).
+        radius: f64,
+    },
+}
+
+impl From<&Collider> for ViewCollider {
+    fn from(c: &Collider) -> Self {
+        match *c {
+            Collider::Plane { point, normal, .. } => ViewCollider::Plane { point, normal },
+            Collider::Sphere { center, radius, .. } => ViewCollider::Sphere { center, radius },
+        }
+    }
+}
+
+/// Kinetic, gravitational and spring energy of a frame (J).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FrameEnergies {
+    /// Kinetic energy.
+    pub kinetic: f64,
+    /// Gravitational potential energy.
+    pub gravitational: f64,
+    /// Elastic energy of the springs.
+    pub spring: f64,
+}
+
+/// One frame of a run.
+#[derive(Debug, Clone)]
+pub struct ViewFrame {
+    /// Simulated time (s).
+    pub t: f64,
+    /// Positions, `3 n` values.
+    pub x: Vec<f64>,
+    /// Particle speeds `|v_p|` (m/s), `n` values.
+    pub speed: Vec<f64>,
+    /// Energies, when known.
+    pub energies: Option<FrameEnergies>,
+}
+
+/// Everything the page shows.
+#[derive(Debug, Clone)]
+pub struct ViewRun {
+    /// The run's `summary.json`.
+    pub summary: serde_json::Value,
+    /// Triangles (drawn shaded); empty for ropes and lattices.
+    pub faces: Vec<[usize; 3]>,
+    /// Segments drawn as lines when there are no faces (springs).
+    pub segments: Vec<(usize, usize)>,
+    /// Planes and spheres.
+    pub colliders: Vec<ViewCollider>,
+    /// The frames, in time order; at least one.
+    pub frames: Vec<ViewFrame>,
+    /// Where the speeds come from (shown on the page).
+    pub speed_source: String,
+}
+
+/// The metadata block of the page.
+#[derive(Debug, Serialize)]
+struct Meta<'a> {
+    summary: &'a serde_json::Value,
+    particles: usize,
+    faces: usize,
+    segments: usize,
+    times: Vec<f64>,
+    energies: Vec<Option<FrameEnergies>>,
+    lo: [f64; 3],
+    hi: [f64; 3],
+    speed_max: f64,
+    speed_ticks: Vec<f64>,
+    speed_source: &'a str,
+    colliders: &'a [ViewCollider],
+}
+
+/// The smallest "nice" number (1, 2, 2.5 or 5 times a power of ten) at or
+/// above `v`; 1 for `v <= 0` or non-finite `v`.
+pub fn nice_ceiling(v: f64) -> f64 {
+    if !(v > 0.0 && v.is_finite()) {
+        return 1.0;
+    }
+    let p = 10f64.powf(v.log10().floor());
+    [1.0, 2.0, 2.5, 5.0, 10.0]
+        .iter()
+        .map(|m| m * p)
+        .find(|&s| s >= v * (1.0 - 1e-12))
+        .unwrap_or(10.0 * p)
+}
+
+/// Quantises `x` in `[lo, hi]` to `0..=65535`.
+fn quantise(x: f64, lo: f64, hi: f64) -> u16 {
+    if hi > lo {
+        ((x - lo) / (hi - lo) * 65535.0).round().clamp(0.0, 65535.0) as u16
+    } else {
+        0
+    }
+}
+
+impl ViewRun {
+    /// The bounding box of every frame's finite positions.
+    pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for f in &self.frames {
+            for p in f.x.chunks_exact(3) {
+                for c in 0..3 {
+                    if p[c].is_finite() {
+                        lo[c] = lo[c].min(p[c]);
+                        hi[c] = hi[c].max(p[c]);
+                    }
+                }
+            }
+        }
+        for c in 0..3 {
+            if !lo[c].is_finite() {
+                (lo[c], hi[c]) = (0.0, 0.0);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// The top of the fixed colour scale: the largest speed of any frame,
+    /// rounded up to a nice number.
+    pub fn speed_max(&self) -> f64 {
+        let top = self
+            .frames
+            .iter()
+            .flat_map(|f| f.speed.iter().copied())
+            .filter(|s| s.is_finite())
+            .fold(0.0, f64::max);
+        nice_ceiling(top)
+    }
+
+    /// The page: the template with this run filled in.
+    pub fn html(&self) -> String {
+        let n = self.frames.first().map_or(0, |f| f.x.len() / 3);
+        let (lo, hi) = self.bounds();
+        let speed_max = self.speed_max();
+        let segments: &[(usize, usize)] = if self.faces.is_empty() {
+            &self.segments
+        } else {
+            &[]
+        };
+        let mut bin = Vec::with_capacity(
+            12 * self.faces.len() + 8 * segments.len() + self.frames.len() * 7 * n,
+        );
+        for f in &self.faces {
+            for &i in f {
+                bin.extend_from_slice(&(i as u32).to_le_bytes());
+            }
+        }
+        for &(i, j) in segments {
+            bin.extend_from_slice(&(i as u32).to_le_bytes());
+            bin.extend_from_slice(&(j as u32).to_le_bytes());
+        }
+        let mut previous = vec![0u16; 3 * n];
+        for f in &self.frames {
+            for (k, (&x, prev)) in f.x.iter().zip(previous.iter_mut()).enumerate() {
+                let q = quantise(x, lo[k % 3], hi[k % 3]);
+                bin.extend_from_slice(&q.wrapping_sub(*prev).to_le_bytes());
+                *prev = q;
+            }
+        }
+        for f in &self.frames {
+            bin.extend(f.speed.iter().map(|&s| {
+                if s.is_finite() {
+                    (s / speed_max * 255.0).round().clamp(0.0, 255.0) as u8
+                } else {
+                    255
+                }
+            }));
+        }
+        let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+        z.write_all(&bin).expect("writing to memory");
+        let compressed = z.finish().expect("writing to memory");
+        let data = base64::engine::general_purpose::STANDARD.encode(compressed);
+        let meta = Meta {
+            summary: &self.summary,
+            particles: n,
+            faces: self.faces.len(),
+            segments: segments.len(),
+            times: self.frames.iter().map(|f| f.t).collect(),
+            energies: self.frames.iter().map(|f| f.energies).collect(),
+            lo,
+            hi,
+            speed_max,
+            speed_ticks: linear_ticks(0.0, speed_max),
+            speed_source: &self.speed_source,
+            colliders: &self.colliders,
+        };
+        // `</` may not appear inside a script element; `<\/` is the same JSON string.
+        let meta = serde_json::to_string(&meta)
+            .expect("metadata serialises")
+            .replace("</", "<\\/");
+        TEMPLATE
+            .replacen("{{META}}", &meta, 1)
+            .replacen("{{DATA}}", &data, 1)
+    }
+
+    /// Writes the page to `path`.
+    pub fn write(&self, path: &Path) -> Result<(), CliError> {
+        std::fs::write(path, self.html())
+            .map_err(|e| CliError::Failed(format!("{}: {e}", path.display())))
+    }
+}
+
+/// Speeds `|x_{k+1} - x_{k-1}| / (t_{k+1} - t_{k-1})` by central differences
+/// of the frames (one-sided at the ends; zero for a single frame).
+fn finite_difference_speeds(frames: &mut [ViewFrame]) {
+    let m = frames.len();
+    if m < 2 {
+        for f in frames.iter_mut() {
+            f.speed = vec![0.0; f.x.len() / 3];
+        }
+        return;
+    }
+    let speeds: Vec<Vec<f64>> = (0..m)
+        .map(|k| {
+            let (a, b) = (k.saturating_sub(1), (k + 1).min(m - 1));
+            let dt = frames[b].t - frames[a].t;
+            frames[a]
+                .x
+                .chunks_exact(3)
+                .zip(frames[b].x.chunks_exact(3))
+                .map(|(p, q)| {
+                    let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+                    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() / dt.max(1e-300)
+                })
+                .collect()
+        })
+        .collect();
+    for (f, s) in frames.iter_mut().zip(speeds) {
+        f.speed = s;
+    }
+}
+
+/// `hookean view OUT_DIR`.
+#[derive(Debug, Args)]
+pub struct ViewArgs {
+    /// A folder written by `hookean run` (summary.json, steps.csv, frame-*.obj).
+    dir: PathBuf,
+    /// Replace an existing view.html.
+    #[arg(long)]
+    force: bool,
+}
+
+fn input(e: impl std::fmt::Display) -> CliError {
+    CliError::Input(e.to_string())
+}
+
+/// Energies of `steps.csv` rows by time (`t,h,newton,cg,kinetic,gravitational,spring,total`).
+fn read_step_energies(path: &Path) -> Result<Vec<(f64, FrameEnergies)>, CliError> {
+    let text =
+        std::fs::read_to_string(path).map_err(|e| input(format!("{}: {e}", path.display())))?;
+    let mut rows = Vec::new();
+    for (k, line) in text.lines().enumerate().skip(1) {
+        let v: Vec<f64> = line
+            .split(',')
+            .map(|s| s.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|e| input(format!("{}:{}: {e}", path.display(), k + 1)))?;
+        if v.len() < 7 {
+            return Err(input(format!(
+                "{}:{}: expected at least 7 columns, found {}",
+                path.display(),
+                k + 1,
+                v.len()
+            )));
+        }
+        rows.push((
+            v[0],
+            FrameEnergies {
+                kinetic: v[4],
+                gravitational: v[5],
+                spring: v[6],
+            },
+        ));
+    }
+    Ok(rows)
+}
+
+/// The `l i j` records of an OBJ file (springs of ropes and lattices), 0-based.
+fn read_obj_lines(text: &str) -> Vec<(usize, usize)> {
+    text.lines()
+        .filter_map(|l| {
+            let mut t = l.split_whitespace();
+            (t.next()? == "l").then_some(())?;
+            let i: usize = t.next()?.parse().ok()?;
+            let j: usize = t.next()?.parse().ok()?;
+            (i > 0 && j > 0).then(|| (i - 1, j - 1))
+        })
+        .collect()
+}
+
+impl ViewRun {
+    /// Rebuilds a run from its folder: positions and topology from the
+    /// `frame-NNNN.obj` files, frame times and colliders from
+    /// `summary.json` (older summaries without `frame_times`: frames evenly
+    /// spread over the simulated time), energies from the `steps.csv` row
+    /// at each frame's time, speeds by finite differences of the frames
+    /// (OBJ files hold no velocities).
+    pub fn from_folder(dir: &Path) -> Result<Self, CliError> {
+        let summary_path = dir.join("summary.json");
+        let text = std::fs::read_to_string(&summary_path)
+            .map_err(|e| input(format!("{}: {e}", summary_path.display())))?;
+        let summary: serde_json::Value = serde_json::from_str(&text)
+            .map_err(|e| input(format!("{}: {e}", summary_path.display())))?;
+        let count = summary["frames"].as_u64().ok_or_else(|| {
+            input(format!(
+                "{}: no \"frames\" count (not written by `hookean run` of a mass-spring scene)",
+                summary_path.display()
+            ))
+        })? as usize;
+        if count == 0 {
+            return Err(input(format!(
+                "{}: the run wrote no frames (output.frame_rate = 0)",
+                dir.display()
+            )));
+        }
+        let times: Vec<f64> = match summary["frame_times"].as_array() {
+            Some(a) => a.iter().filter_map(serde_json::Value::as_f64).collect(),
+            None => {
+                let t_end = summary["simulated_s"].as_f64().unwrap_or(0.0);
+                (0..count)
+                    .map(|k| t_end * k as f64 / (count.max(2) - 1) as f64)
+                    .collect()
+            }
+        };
+        if times.len() != count {
+            return Err(input(format!(
+                "{}: {} frame times for {count} frames",
+                summary_path.display(),
+                times.len()
+            )));
+        }
+        let colliders: Vec<ViewCollider> = match summary.get("colliders") {
+            Some(c) => serde_json::from_value(c.clone())
+                .map_err(|e| input(format!("{}: colliders: {e}", summary_path.display())))?,
+            None => Vec::new(),
+        };
+        // Energies are optional (a folder without steps.csv still plays), a malformed file is not.
+        let steps_path = dir.join("steps.csv");
+        let steps = if steps_path.exists() {
+            read_step_energies(&steps_path)?
+        } else {
+            Vec::new()
+        };
+        let mut frames = Vec::with_capacity(count);
+        let (mut faces, mut segments) = (Vec::new(), Vec::new());
+        for (k, &t) in times.iter().enumerate() {
+            let path = dir.join(format!("frame-{k:04}.obj"));
+            let text = std::fs::read_to_string(&path)
+                .map_err(|e| input(format!("{}: {e}", path.display())))?;
+            let mesh = parse_obj(text.as_bytes())
+                .map_err(|e| input(format!("{}: {e}", path.display())))?;
+            if k == 0 {
+                faces = mesh.triangles;
+                segments = read_obj_lines(&text);
+            } else if mesh.positions.len()
+                != frames.first().map_or(0, |f: &ViewFrame| f.x.len() / 3)
+            {
+                return Err(input(format!(
+                    "{}: {} vertices, frame 0 has {}",
+                    path.display(),
+                    mesh.positions.len(),
+                    frames[0].x.len() / 3
+                )));
+            }
+            let tol = 1e-9 * t.abs().max(1.0);
+            frames.push(ViewFrame {
+                t,
+                x: mesh.positions.iter().flatten().copied().collect(),
+                speed: Vec::new(),
+                energies: steps
+                    .iter()
+                    .find(|(s, _)| (s - t).abs() <= tol)
+                    .map(|(_, e)| *e),
+            });
+        }
+        finite_difference_speeds(&mut frames);
+        Ok(ViewRun {
+            summary,
+            faces,
+            segments,
+            colliders,
+            frames,
+            speed_source: "finite differences of the OBJ frames".into(),
+        })
+    }
+}
+
+/// `hookean view OUT_DIR`: writes `OUT_DIR/view.html`.
+pub fn run(args: &ViewArgs) -> Result<(), CliError> {
+    let path = args.dir.join("view.html");
+    if path.exists() && !args.force {
+        return Err(CliError::Input(format!(
+            "{} exists; pass --force to replace it",
+            path.display()
+        )));
+    }
+    let view = ViewRun::from_folder(&args.dir)?;
+    view.write(&path)?;
+    eprintln!(
+        "wrote {} ({} frames, {:.1} MB)",
+        path.display(),
+        view.frames.len(),
+        std::fs::metadata(&path).map_or(0.0, |m| m.len() as f64 / 1e6)
+    );
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nice_ceiling_is_the_next_nice_number() {
+        assert_eq!(nice_ceiling(0.0), 1.0);
+        assert_eq!(nice_ceiling(0.7), 1.0);
+        assert_eq!(nice_ceiling(1.0), 1.0);
+        assert_eq!(nice_ceiling(1.3), 2.0);
+        assert_eq!(nice_ceiling(2.2), 2.5);
+        assert_eq!(nice_ceiling(3.1), 5.0);
+        assert!((nice_ceiling(3.1e-4) - 5e-4).abs() < 1e-18);
+    }
+
+    #[test]
+    fn quantisation_error_is_half_a_level() {
+        let (lo, hi) = (-1.5, 2.0);
+        for k in 0..=1000 {
+            let x = lo + (hi - lo) * k as f64 / 1000.0;
+            let back = lo + quantise(x, lo, hi) as f64 / 65535.0 * (hi - lo);
+            assert!((back - x).abs() <= 0.5 * (hi - lo) / 65535.0 + 1e-15);
+        }
+    }
+
+    /// A particle moving at constant velocity has that speed by finite differences.
+    #[test]
+    fn finite_differences_recover_a_constant_speed() {
+        let mut frames: Vec<ViewFrame> = (0..4)
+            .map(|k| {
+                let t = 0.1 * k as f64;
+                ViewFrame {
+                    t,
+                    x: vec![3.0 * t, 4.0 * t, 1.0],
+                    speed: vec![],
+                    energies: None,
+                }
+            })
+            .collect();
+        finite_difference_speeds(&mut frames);
+        for f in &frames {
+            assert!((f.speed[0] - 5.0).abs() < 1e-12, "{:?}", f.speed);
+        }
+    }
+
+    #[test]
+    fn obj_lines_are_zero_based() {
+        assert_eq!(
+            read_obj_lines("v 0 0 0\nv 1 0 0\nl 1 2\n# l 3 4\nl 0 1\n"),
+            vec![(0, 1)]
+        );
+    }
+}

@@ -1,0 +1,303 @@
+//! `view.html` in a real browser: headless Chromium (Debian's `chromium`),
+//! driven by its command line (`--dump-dom` to read the page's own status
+//! element after its scripts ran, `--screenshot` for the picture).
+//!
+//! Why the command line and not a DevTools-protocol crate: the two things
+//! the test needs (the DOM after the scripts ran, a screenshot) are plain
+//! flags of the browser, so the test adds no dependency tree (a websocket
+//! client and an async runtime) and no version coupling between a driver
+//! crate and the browser build. `--virtual-time-budget` lets the page's
+//! asynchronous start-up (inflating the data) finish before the dump.
+//!
+//! Without a browser the tests print why and pass, except under CI
+//! (`CI=true`), where a missing browser is a failure: `.ci/run` installs it.
+
+mod common;
+use common::*;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("hookean-view-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+/// The browser to drive: `$HOOKEAN_CHROMIUM`, or `chromium` /
+/// `chromium-browser` / `google-chrome` on the PATH. `None` (with the reason
+/// printed) when there is none and this is not CI; a panic under CI.
+fn chromium() -> Option<PathBuf> {
+    let found = std::env::var_os("HOOKEAN_CHROMIUM")
+        .map(PathBuf::from)
+        .or_else(|| {
+            let path = std::env::var_os("PATH")?;
+            std::env::split_paths(&path).find_map(|dir| {
+                ["chromium", "chromium-browser", "google-chrome"]
+                    .iter()
+                    .map(|name| dir.join(name))
+                    .find(|p| p.is_file())
+            })
+        });
+    if found.is_none() {
+        assert!(
+            std::env::var("CI").map_or(true, |v| v != "true"),
+            "CI=true but no chromium on the PATH: .ci/run must install it (apt-get install chromium)"
+        );
+        eprintln!(
+            "SKIPPED: no chromium on the PATH (set HOOKEAN_CHROMIUM or install Debian's chromium)"
+        );
+    }
+    found
+}
+
+/// Runs headless Chromium on `url` with the extra `args` (among them a
+/// `--virtual-time-budget`: how many milliseconds of page time pass before
+/// the DOM is dumped or the screenshot taken); returns stdout and the wall
+/// time of the whole process.
+fn browse(browser: &Path, profile: &Path, url: &str, args: &[&str]) -> (String, f64) {
+    let start = Instant::now();
+    let out = Command::new(browser)
+        .args([
+            "--headless=new",
+            "--no-sandbox",
+            "--use-angle=swiftshader",
+            "--enable-unsafe-swiftshader",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--no-first-run",
+            "--hide-scrollbars",
+            "--window-size=1000,640",
+        ])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .args(args)
+        .arg(url)
+        .output()
+        .expect("chromium starts");
+    let wall = start.elapsed().as_secs_f64();
+    assert!(
+        out.status.success(),
+        "chromium failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    (String::from_utf8_lossy(&out.stdout).into_owned(), wall)
+}
+
+/// Opens `page` at `#fragment` with `--dump-dom` (a fresh profile under
+/// `dir`); returns the page's status, the DOM and the browser's wall time.
+fn dump_status(
+    browser: &Path,
+    dir: &Path,
+    page: &Path,
+    fragment: &str,
+) -> (serde_json::Value, String, f64) {
+    let profile = dir.join(format!("profile-{fragment}"));
+    let (dom, wall) = browse(
+        browser,
+        &profile,
+        &file_url(page, fragment),
+        &["--dump-dom", "--virtual-time-budget=10000"],
+    );
+    (page_status(&dom), dom, wall)
+}
+
+/// The JSON the page wrote into `<pre id="status">`.
+fn page_status(dom: &str) -> serde_json::Value {
+    let start = dom.find("<pre id=\"status\">").expect("status element") + 17;
+    let end = start + dom[start..].find("</pre>").expect("closed status element");
+    let text = dom[start..end]
+        .replace("&lt;", "<")
+        .replace("&gt;", ">")
+        .replace("&quot;", "\"")
+        .replace("&amp;", "&");
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("status {text:?}: {e}"))
+}
+
+/// Pixels of the speed colour map (clearly saturated: the cloth, not the
+/// white background, the grey ground or the black text) in the central part
+/// of the 3D view (left of the side panel, above the controls).
+fn cloth_pixels(width: usize, height: usize, px: &[[u8; 4]]) -> (usize, usize) {
+    let (x0, x1, y0, y1) = (width / 10, width * 6 / 10, height / 8, height * 7 / 8);
+    let mut count = 0;
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let p = px[y * width + x];
+            let (hi, lo) = (p[..3].iter().max().unwrap(), p[..3].iter().min().unwrap());
+            if hi - lo > 60 {
+                count += 1;
+            }
+        }
+    }
+    (count, (x1 - x0) * (y1 - y0))
+}
+
+fn file_url(path: &Path, fragment: &str) -> String {
+    format!(
+        "file://{}#{fragment}",
+        path.canonicalize().unwrap().display()
+    )
+}
+
+fn run_small_drape(out: &Path) -> serde_json::Value {
+    run_drape(out, 16, 0.5, 10.0)
+}
+
+#[test]
+fn view_html_plays_the_run_in_headless_chromium() {
+    let out = scratch("drape");
+    let summary = run_small_drape(&out);
+    let Some(browser) = chromium() else { return };
+    let page = out.join("view.html");
+    let frames = summary["frames"].as_u64().unwrap();
+    let times = summary["frame_times"].as_array().unwrap();
+    assert_eq!(frames, 6, "0, 0.1, ..., 0.5 s");
+    assert_eq!(times.len() as u64, frames);
+
+    // The last frame: no script errors, the slider at its end, the time of
+    // the last frame on the slider's label.
+    let (s, dom, wall) = dump_status(&browser, &out, &page, "frame=last");
+    assert_eq!(s["errors"], serde_json::json!([]), "{s}");
+    assert_eq!(s["state"], "ready", "{s}");
+    assert_eq!(s["frames"].as_u64(), Some(frames), "{s}");
+    assert_eq!(s["slider_max"].as_u64(), Some(frames - 1), "{s}");
+    assert_eq!(s["slider_value"].as_u64(), Some(frames - 1), "{s}");
+    let t_last = summary["simulated_s"].as_f64().unwrap();
+    assert!((s["t"].as_f64().unwrap() - t_last).abs() < 1e-9, "{s}");
+    assert_eq!(s["time_text"], format!("t = {t_last:.3} s"), "{s}");
+    // The summary the page shows is the run's.
+    assert!(dom.contains(&format!("<td>{}</td>", summary["newton_iterations"])));
+    eprintln!(
+        "view.html ({} bytes, {frames} frames): chromium --dump-dom took {wall:.2} s",
+        std::fs::metadata(&page).unwrap().len(),
+    );
+
+    // Without a fragment the page plays: after some seconds of page time the
+    // animation has moved on from frame 0 at least once.
+    let (s, _, _) = dump_status(&browser, &out, &page, "");
+    assert_eq!(s["state"], "ready", "{s}");
+    assert!(s["played"].as_u64().unwrap_or(0) >= 1, "{s}");
+
+    // Frame 0: a screenshot that shows the cloth.
+    let shot = out.join("frame0.png");
+    let profile = out.join("profile-0");
+    browse(
+        &browser,
+        &profile,
+        &file_url(&page, "frame=0"),
+        &[
+            &format!("--screenshot={}", shot.display()),
+            "--virtual-time-budget=10000",
+        ],
+    );
+    let (w, h, px) = decode_rgba(&shot);
+    assert_eq!((w, h), (1000, 640));
+    let (cloth, region) = cloth_pixels(w, h, &px);
+    assert!(
+        cloth * 50 > region,
+        "only {cloth} of {region} pixels in the view's centre are cloth-coloured"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// The issue's size target: the 128 x 128 drape with 51 frames makes a
+/// page under 10 MB that loads without errors. The time Chromium takes to
+/// start, open it and draw is printed (and recorded in docs/VIEWER.md), not
+/// asserted: timings do not belong in tests.
+#[test]
+fn view_html_of_the_128_drape_with_51_frames_is_under_10_mb() {
+    let out = scratch("drape128");
+    let summary = run_drape(&out, 128, 1.0, 50.0);
+    assert_eq!(summary["frames"], 51);
+    let page = out.join("view.html");
+    let bytes = std::fs::metadata(&page).unwrap().len();
+    assert!(bytes < 10_000_000, "view.html has {bytes} bytes");
+    let Some(browser) = chromium() else { return };
+    let (s, _, wall) = dump_status(&browser, &out, &page, "frame=last");
+    assert_eq!(s["state"], "ready", "{s}");
+    assert_eq!(s["frames"], 51, "{s}");
+    eprintln!(
+        "128 x 128 drape, 51 frames: view.html {:.2} MB; chromium started, opened it, decoded and drew the last frame in {wall:.2} s",
+        bytes as f64 / 1e6
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn hookean_view_rebuilds_the_page_from_a_run_folder() {
+    let out = scratch("rebuild");
+    let summary = run_small_drape(&out);
+    let page = out.join("view.html");
+    // An existing page is not replaced without --force.
+    assert_input_error(&hookean(&["view", out.to_str().unwrap()]), "--force");
+    std::fs::remove_file(&page).unwrap();
+    assert_ok(&hookean(&["view", out.to_str().unwrap()]));
+    let html = std::fs::read_to_string(&page).unwrap();
+    // Self-contained: no external scripts, styles or fetches.
+    for needle in ["src=\"http", "href=\"http", "fetch(", "<link"] {
+        assert!(!html.contains(needle), "view.html contains {needle}");
+    }
+    let Some(browser) = chromium() else { return };
+    let (s, _, _) = dump_status(&browser, &out, &page, "frame=last");
+    assert_eq!(s["state"], "ready", "{s}");
+    assert_eq!(s["frames"], summary["frames"], "{s}");
+    let t_last = summary["simulated_s"].as_f64().unwrap();
+    assert!((s["t"].as_f64().unwrap() - t_last).abs() < 1e-9, "{s}");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn a_malformed_steps_csv_is_an_input_error_and_a_missing_one_is_not() {
+    let out = scratch("steps");
+    run_drape(&out, 8, 0.2, 10.0);
+    let dir = out.to_str().unwrap();
+    std::fs::write(out.join("steps.csv"), "t,h\n0.1,x\n").unwrap();
+    assert_input_error(&hookean(&["view", dir, "--force"]), "steps.csv:2");
+    std::fs::remove_file(out.join("steps.csv")).unwrap();
+    assert_ok(&hookean(&["view", dir, "--force"]));
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// FB Euler far beyond its stable step blows up (non-finite state at
+/// t = 0.58 s): the run fails with exit code 1 but leaves a view.html of the
+/// frames before, which loads without script errors although its last
+/// energies are not finite (null in JSON).
+#[test]
+fn a_run_that_blows_up_leaves_a_view_of_the_frames_before() {
+    let out = scratch("blowup");
+    let o = hookean(&[
+        "run",
+        &repo("scenes/drape.toml"),
+        "--out",
+        out.to_str().unwrap(),
+        "--set",
+        "cloth.n=8",
+        "--set",
+        "integrator.method=fb-euler",
+        "--set",
+        "output.frame_rate=100",
+        "--quiet",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("view.html shows the frames before"),
+        "{stderr}"
+    );
+    let Some(browser) = chromium() else { return };
+    let (s, dom, _) = dump_status(&browser, &out, &out.join("view.html"), "frame=last");
+    assert_eq!(s["errors"], serde_json::json!([]), "{s}");
+    assert_eq!(s["state"], "ready", "{s}");
+    assert!(s["frames"].as_u64().unwrap() > 1, "{s}");
+    assert!(dom.contains("run failed"));
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn view_of_a_folder_without_a_run_is_an_input_error() {
+    let out = scratch("empty");
+    std::fs::create_dir_all(&out).unwrap();
+    assert_input_error(&hookean(&["view", out.to_str().unwrap()]), "summary.json");
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Regenerates every picture of docs/GALLERY.md (and the two view.html
+# screenshots of docs/) with the commands the gallery lists.
+#   HOOKEAN=target/release/hookean docs/gallery/regenerate.sh
+# Needs headless Chromium (Debian's `chromium`) for the screenshots.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+hookean=${HOOKEAN:-target/release/hookean}
+out=$(mktemp -d)
+g=docs/gallery
+
+for scene in drape cloth-sphere jelly rope tutorial1 tutorial2 tutorial3; do
+  "$hookean" run "scenes/$scene.toml" --out "$out/$scene" --quiet
+  cp "$out/$scene/final.png" "$g/final-$scene.png"
+done
+mv "$g/final-drape.png" docs/drape.png # the README's picture
+"$hookean" filter-analysis scenes/drape.toml --plot "$out/filter" > /dev/null
+cp "$out"/filter/fig4-*.png "$out"/filter/fig5-*.png "$out/filter/fig6.svg" "$g/"
+for problem in tutorial1 tutorial2 tutorial3 wave; do
+  "$hookean" workprecision --problem "$problem" --out "$out/wp-$problem.csv" --plot "$g/workprecision-$problem.svg" --force > /dev/null
+done
+"$hookean" stability --plot "$g/stability.svg" --force > /dev/null
+
+# view.html of the reference drape, first and last frame.
+chrome() {
+  chromium --headless=new --no-sandbox --use-angle=swiftshader --enable-unsafe-swiftshader \
+    --disable-background-networking --disable-component-update --disable-sync --no-first-run \
+    --hide-scrollbars --window-size=1000,640 --virtual-time-budget=10000 \
+    --user-data-dir="$(mktemp -d)" "$@" 2> /dev/null
+}
+page="file://$(cd "$out/drape" && pwd)/view.html"
+chrome --screenshot=docs/view-drape-first.png "$page#frame=0"
+chrome --screenshot=docs/view-drape-last.png "$page#frame=last"
+ls -l "$out/drape/view.html"
+rm -rf "$out"
