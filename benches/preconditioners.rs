@@ -112,7 +112,7 @@ fn criterion_groups(c: &mut Criterion) {
     g.finish();
 }
 
-/// Every preconditioner: the five of `PrecondKind::all` and MIC(0).
+/// Every preconditioner: the six of `PrecondKind::all` (AMG included) and MIC(0).
 fn kinds() -> Vec<PrecondKind> {
     let mut kinds = PrecondKind::all(1.0).to_vec();
     kinds.push(PrecondKind::Mic0 {

@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! hookean run SCENE [--out DIR] [--set key=value]... [--force]
-//! hookean solve A.mtx [--rhs b.mtx] [--precond all] [--omega 1.0] [--rtol 1e-8] [--max-iter N] [--repeat K]
+//! hookean solve A.mtx [--rhs b.mtx] [--precond all|amg|mic0,amg|...] [--format auto|block|csr] [--block-size 1|2|3] [--omega 1.0] [--rtol 1e-8] [--max-iter N] [--repeat K]
 //! hookean workprecision --problem tutorial1|tutorial2|tutorial3|wave [--methods a,b] --out wp.csv [--plot wp.svg] [--force]
 //! hookean stability [--methods a,b] --plot regions.svg [--re -5,3] [--im -4,4] [--force]
 //! hookean bench-precond [--n 32,64,128] [--k 1e2,1e4,1e6] [--rtol 1e-8] [--repeat K]

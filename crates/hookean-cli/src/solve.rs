@@ -6,8 +6,9 @@ use std::time::Instant;
 
 use clap::Args;
 use hookean_sparse::{
-    AnyPreconditioner, CgParams, CgWorkspace, DirectCholesky, LinearOperator, PrecondKind,
-    PreconditionerSetup, SymBlockMatrix, pcg, read_matrix_market_file, vecops::norm2,
+    Amg, AmgOptions, AmgStats, AnyPreconditioner, CgParams, CgWorkspace, DirectCholesky,
+    LinearOperator, PrecondKind, PreconditionerSetup, SymBlockMatrix, pcg, read_matrix_market_file,
+    vecops::norm2,
 };
 use serde::Serialize;
 
@@ -26,12 +27,18 @@ pub struct SolveArgs {
     /// and a symmetric matrix), csr, or auto (block when possible).
     #[arg(long, default_value = "auto")]
     format: String,
+    /// Unknowns per node for `--precond amg` on csr storage: 1, 2 (e.g. 2D
+    /// elasticity) or 3 (block storage always has 3).
+    #[arg(long, default_value_t = 1)]
+    block_size: usize,
 }
 
 /// The solver options `hookean solve` and `hookean bench-precond` share.
 #[derive(Debug, Args)]
 pub struct SolverArgs {
-    /// none, jacobi, block-jacobi, ssor, ic0, mic0 (block storage only), direct (faer sparse Cholesky) or all.
+    /// none, jacobi, block-jacobi, ssor, ic0, mic0 (block storage only), amg (smoothed-aggregation
+    /// multigrid: 3x3 blocks on block storage, scalar on csr), direct (faer sparse Cholesky), all,
+    /// or a comma-separated list of these (run in that order, in one process).
     #[arg(long, default_value = "all")]
     pub precond: String,
     /// SSOR relaxation, in (0, 2).
@@ -88,8 +95,35 @@ pub struct SolveRecord {
     pub iterations: usize,
     pub rel_residual: f64,
     pub converged: bool,
+    /// The multigrid hierarchy, for `amg`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub amg: Option<AmgRecord>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
+}
+
+/// The statistics of an AMG hierarchy in `hookean solve`'s JSON.
+#[derive(Debug, Serialize)]
+pub struct AmgRecord {
+    pub levels: usize,
+    /// Scalar unknowns per level, finest first.
+    pub rows: Vec<usize>,
+    /// Scalar nonzeros per level.
+    pub nonzeros: Vec<usize>,
+    pub operator_complexity: f64,
+    pub grid_complexity: f64,
+}
+
+impl From<&AmgStats> for AmgRecord {
+    fn from(s: &AmgStats) -> Self {
+        Self {
+            levels: s.levels.len(),
+            rows: s.levels.iter().map(|l| l.rows).collect(),
+            nonzeros: s.levels.iter().map(|l| l.nonzeros).collect(),
+            operator_complexity: s.operator_complexity,
+            grid_complexity: s.grid_complexity,
+        }
+    }
 }
 
 /// One solver of the comparison: PCG with a preconditioner, or the direct
@@ -101,10 +135,17 @@ pub enum Solver {
     Direct,
 }
 
-/// `all` (every preconditioner, then `direct`), `direct`, or one
-/// preconditioner name (SSOR with relaxation `omega`).
-fn parse_solvers(name: &str, omega: f64) -> Result<Vec<Solver>, CliError> {
+/// A comma-separated list of `all` (every preconditioner, then `direct`),
+/// `direct`, or preconditioner names (SSOR with relaxation `omega`).
+fn parse_solvers(names: &str, omega: f64) -> Result<Vec<Solver>, CliError> {
     let mut out = Vec::new();
+    for name in names.split(',') {
+        parse_solver(name.trim(), omega, &mut out)?;
+    }
+    Ok(out)
+}
+
+fn parse_solver(name: &str, omega: f64, out: &mut Vec<Solver>) -> Result<(), CliError> {
     if name == "all" {
         out.extend(PrecondKind::all(omega).into_iter().map(Solver::Pcg));
         out.push(Solver::Pcg(PrecondKind::Mic0 {
@@ -120,15 +161,18 @@ fn parse_solvers(name: &str, omega: f64) -> Result<Vec<Solver>, CliError> {
             other => other,
         }));
     }
-    Ok(out)
+    Ok(())
 }
 
 /// The matrix in the storage PCG runs on.
 pub enum Matrix {
     /// Symmetric 3x3-block storage.
     Block(SymBlockMatrix),
-    /// Plain CSR.
-    Csr(sprs::CsMat<f64>),
+    /// Plain CSR, with the unknowns per node multigrid groups into blocks.
+    Csr {
+        a: sprs::CsMat<f64>,
+        block_size: usize,
+    },
 }
 
 /// Runs one solver on `A x = b` (`matrix` in PCG's storage, `original` the
@@ -146,8 +190,13 @@ pub fn run_solver(
 ) -> SolveRecord {
     match solver {
         Solver::Pcg(kind) => match matrix {
-            Matrix::Block(m) => run_pcg(m, original, b, *kind, params, repeat, "sym-block-3x3"),
-            Matrix::Csr(m) => run_pcg(m, original, b, *kind, params, repeat, "csr"),
+            Matrix::Block(m) => {
+                let format = "sym-block-3x3";
+                run_pcg(m, original, b, *kind, 3, params, repeat, format)
+            }
+            Matrix::Csr { a, block_size } => {
+                run_pcg(a, original, b, *kind, *block_size, params, repeat, "csr")
+            }
         },
         Solver::Direct => run_direct(original, b, repeat),
     }
@@ -183,8 +232,17 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             b
         }
     };
+    if !(1..=3).contains(&args.block_size) {
+        return Err(CliError::Input(format!(
+            "--block-size must be 1, 2 or 3, got {}",
+            args.block_size
+        )));
+    }
     let matrix = match args.format.as_str() {
-        "csr" => Matrix::Csr(a.clone()),
+        "csr" => Matrix::Csr {
+            a: a.clone(),
+            block_size: args.block_size,
+        },
         "block" => Matrix::Block(SymBlockMatrix::from_csr(&a).map_err(|e| {
             CliError::Input(format!(
                 "{}: cannot use block storage: {e}",
@@ -193,7 +251,10 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         })?),
         "auto" => match SymBlockMatrix::from_csr(&a) {
             Ok(m) => Matrix::Block(m),
-            Err(_) => Matrix::Csr(a.clone()),
+            Err(_) => Matrix::Csr {
+                a: a.clone(),
+                block_size: args.block_size,
+            },
         },
         other => {
             return Err(CliError::Input(format!(
@@ -206,7 +267,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         .into_iter()
         .filter(|s| {
             !(args.solver.precond == "all"
-                && matches!(matrix, Matrix::Csr(_))
+                && matches!(matrix, Matrix::Csr { .. })
                 && matches!(s, Solver::Pcg(PrecondKind::Mic0 { .. })))
         })
         .collect();
@@ -253,15 +314,18 @@ fn empty_record(solver: &'static str, precond: String, format: &'static str) -> 
         iterations: 0,
         rel_residual: f64::NAN,
         converged: false,
+        amg: None,
         error: None,
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 fn run_pcg<M>(
     m: &M,
     original: &sprs::CsMat<f64>,
     b: &[f64],
     kind: PrecondKind,
+    block_size: usize,
     params: &CgParams,
     repeat: usize,
     format: &'static str,
@@ -278,7 +342,15 @@ where
     let mut best_solve = f64::INFINITY;
     for _ in 0..repeat {
         let t0 = Instant::now();
-        let setup = AnyPreconditioner::new(kind).and_then(|mut p| p.setup(m).map(|()| p));
+        let new = match kind {
+            PrecondKind::Amg => Amg::with_options(AmgOptions {
+                block_size,
+                ..Default::default()
+            })
+            .map(AnyPreconditioner::Amg),
+            other => AnyPreconditioner::new(other),
+        };
+        let setup = new.and_then(|mut p| p.setup(m).map(|()| p));
         let setup_s = t0.elapsed().as_secs_f64();
         let p = match setup {
             Ok(p) => p,
@@ -302,6 +374,9 @@ where
         }
         best_setup = best_setup.min(setup_s);
         best_solve = best_solve.min(solve_s);
+        if let AnyPreconditioner::Amg(amg) = &p {
+            record.amg = Some(amg.stats().into());
+        }
     }
     record.setup_s = best_setup;
     record.solve_s = best_solve;

@@ -292,3 +292,30 @@ fn the_sphere_collider_is_drawn_in_final_png() {
     assert!(sphere > w * h / 50, "only {sphere} sphere-coloured pixels");
     let _ = std::fs::remove_dir_all(&out);
 }
+
+#[test]
+fn the_drape_runs_with_the_multigrid_preconditioner() {
+    // 24 x 24 particles: 1 728 unknowns, so the hierarchy has two levels
+    // and every Newton iteration refills it.
+    let runs: Vec<serde_json::Value> = ["amg", "mic0"]
+        .iter()
+        .map(|p| {
+            let out = scratch(&format!("drape-{p}"));
+            let sets = [
+                "cloth.n=24".to_string(),
+                "duration=0.1".to_string(),
+                format!("solver.preconditioner={p}"),
+            ];
+            let summary = run_scene(&out, "scenes/drape.toml", &sets);
+            let _ = std::fs::remove_dir_all(&out);
+            summary
+        })
+        .collect();
+    let (amg, mic0) = (&runs[0], &runs[1]);
+    assert_eq!(amg["steps"], 10);
+    assert_eq!(amg["rejected_steps"], 0);
+    // Multigrid needs fewer CG iterations than MIC(0) for the same
+    // Newton tolerances.
+    let cg = |v: &serde_json::Value| v["cg_iterations"].as_u64().unwrap();
+    assert!(cg(amg) < cg(mic0), "{amg} {mic0}");
+}

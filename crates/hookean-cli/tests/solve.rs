@@ -58,10 +58,18 @@ fn solves_the_bundled_system_with_every_solver() {
             "block-jacobi",
             "ssor",
             "ic0",
+            "amg",
             "mic0",
             "direct"
         ]
     );
+    // The multigrid's hierarchy is reported: 768 unknowns, more than the
+    // default coarse size (500), so at least two levels.
+    let amg = &lines[5]["amg"];
+    assert!(amg["levels"].as_u64().unwrap() >= 2, "{amg}");
+    assert_eq!(amg["rows"][0], 768);
+    let oc = amg["operator_complexity"].as_f64().unwrap();
+    assert!((1.0..2.0).contains(&oc), "{amg}");
     for v in &lines {
         assert_eq!(v["rows"], 768);
         assert_eq!(v["converged"], true, "{v}");
@@ -95,6 +103,61 @@ fn default_rhs_is_a_times_ones_and_csr_storage_meets_the_tolerance() {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["format"], "csr");
     assert!(v["rel_residual"].as_f64().unwrap() < 1e-12);
+}
+
+#[test]
+fn amg_runs_on_csr_storage_and_in_a_list_with_mic0() {
+    let cloth = data("cloth16-A.mtx");
+    let out = hookean(&[
+        "solve",
+        &data("cloth16-A.mtx"),
+        "--rhs",
+        &data("cloth16-b.mtx"),
+        "--precond",
+        "mic0,amg",
+    ]);
+    assert!(out.status.success());
+    let lines: Vec<serde_json::Value> = String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 2);
+    assert_eq!(
+        (&lines[0]["precond"], &lines[1]["precond"]),
+        (&"mic0".into(), &"amg".into())
+    );
+    assert!(lines[0].get("amg").is_none());
+    let out = hookean(&[
+        "solve",
+        &data("cloth16-A.mtx"),
+        "--precond",
+        "amg",
+        "--format",
+        "csr",
+    ]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["format"], "csr");
+    assert_eq!(v["converged"], true);
+    assert!(v["rel_residual"].as_f64().unwrap() <= 1e-8);
+    assert!(v["amg"]["levels"].as_u64().unwrap() >= 2, "{v}");
+    // Grouped into 3x3 blocks, CSR storage gives the block storage's hierarchy.
+    let run = |extra: &[&str]| {
+        let mut args = vec!["solve", &*cloth, "--precond", "amg"];
+        args.extend_from_slice(extra);
+        let out = hookean(&args);
+        assert!(out.status.success());
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let grouped = run(&["--format", "csr", "--block-size", "3"]);
+    let block = run(&["--format", "block"]);
+    assert_eq!(grouped["iterations"], block["iterations"]);
+    assert_eq!(grouped["amg"], block["amg"]);
+    assert_input_error(
+        &hookean(&["solve", &cloth, "--block-size", "4"]),
+        "--block-size",
+    );
 }
 
 #[test]

@@ -106,6 +106,28 @@ pub enum SparseError {
         /// Its determinant.
         determinant: f64,
     },
+    /// Multigrid met an operator that is not positive definite on some level
+    /// (a diagonal block of a coarse operator, or the coarsest operator's
+    /// factorisation).
+    #[error("AMG level {level}: {what} is not positive definite (scalar row {row})")]
+    AmgNotPositiveDefinite {
+        /// Level (0 is the finest).
+        level: usize,
+        /// Scalar row of that level where it was found.
+        row: usize,
+        /// Which operator: `"diagonal block"` or `"coarsest operator"`.
+        what: &'static str,
+    },
+    /// A near-nullspace vector does not have the matrix's dimension.
+    #[error("near-nullspace vector {vector} has {found} entries, the matrix has {expected} rows")]
+    NullspaceLength {
+        /// Which vector (0-based).
+        vector: usize,
+        /// The matrix dimension.
+        expected: usize,
+        /// The vector's length.
+        found: usize,
+    },
     /// Incomplete Cholesky found no positive pivots even with a large diagonal shift.
     #[error(
         "incomplete Cholesky failed: pivot {row} not positive even with diagonal shift {shift:e}"

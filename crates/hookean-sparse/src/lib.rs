@@ -1,7 +1,8 @@
 //! Sparse linear algebra for mass-spring systems: 3x3 block-sparse
 //! matrices, preconditioned conjugate gradients (plain and filtered for
-//! constraints), five preconditioners, a power method, Matrix Market I/O and
-//! a sparse Cholesky baseline.
+//! constraints), six preconditioners (one of them smoothed-aggregation
+//! multigrid), a power method, Matrix Market I/O and a sparse Cholesky
+//! baseline.
 //!
 //! This is section 4 of Hauth's tutorial "Numerical Techniques for Soft
 //! Object Simulation" (Eurographics 2004), built for the systems an implicit
@@ -16,8 +17,8 @@
 //!   and closures ([`MatrixFree`]).
 //! - [`Preconditioner`] / [`PreconditionerSetup`]: [`Identity`], [`Jacobi`],
 //!   [`BlockJacobi`], [`Ssor`], [`IncompleteCholesky`] (IC(0), and MIC(0)
-//!   with [`IncompleteCholesky::modified`]); [`AnyPreconditioner`] picks one
-//!   by name.
+//!   with [`IncompleteCholesky::modified`]) and smoothed-aggregation
+//!   multigrid [`Amg`]; [`AnyPreconditioner`] picks one by name.
 //! - [`pcg`] and [`filtered_pcg`] (Baraff-Witkin's filtered CG, the
 //!   tutorial's Algorithm 4) with [`CgParams`], a reusable [`CgWorkspace`]
 //!   and an optional per-iteration callback; they return [`CgInfo`].
@@ -89,6 +90,6 @@ pub use mtx::{
 pub use operator::{LinearOperator, MatrixFree};
 pub use power::{PowerHook, PowerInfo, PowerParams, power_method};
 pub use precond::{
-    AnyPreconditioner, BlockJacobi, Identity, IncompleteCholesky, Jacobi, PrecondKind,
-    Preconditioner, PreconditionerSetup, Ssor,
+    Amg, AmgLevelStats, AmgOptions, AmgSmoother, AmgStats, AnyPreconditioner, BlockJacobi,
+    Identity, IncompleteCholesky, Jacobi, PrecondKind, Preconditioner, PreconditionerSetup, Ssor,
 };

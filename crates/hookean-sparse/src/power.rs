@@ -71,7 +71,7 @@ pub struct PowerInfo {
 pub fn power_method<A: LinearOperator + ?Sized>(
     a: &A,
     params: &PowerParams,
-    mut hook: Option<PowerHook<'_>>,
+    hook: Option<PowerHook<'_>>,
 ) -> Result<PowerInfo, SparseError> {
     let n = a.nrows();
     if n == 0 {
@@ -80,21 +80,44 @@ pub fn power_method<A: LinearOperator + ?Sized>(
             message: "the power method needs a non-empty operator".into(),
         });
     }
-    let mut state = params.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-    let mut v: Vec<f64> = (0..n)
-        .map(|_| {
-            // xorshift64*: deterministic, no dependency.
-            state ^= state >> 12;
-            state ^= state << 25;
-            state ^= state >> 27;
-            let u = state.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11;
-            0.5 + u as f64 / (1u64 << 53) as f64
-        })
-        .collect();
+    let mut v = vec![0.0; n];
     let mut w = vec![0.0; n];
+    let (eigenvalue, iterations, converged) =
+        power_iterate(a, params, hook, false, &mut v, &mut w)?;
+    Ok(PowerInfo {
+        eigenvalue,
+        eigenvector: v,
+        iterations,
+        converged,
+    })
+}
+
+/// [`power_method`] on caller-owned vectors (`v`, `w` of length `a.nrows()`,
+/// at least 1): returns `(eigenvalue, iterations, converged)` and leaves the
+/// eigenvector estimate in `v`. With `warm`, `v` is the start vector (e.g.
+/// the eigenvector of a previous, similar operator) instead of the seeded
+/// pseudo-random one. Allocates nothing (multigrid set-ups call it at every
+/// refill).
+pub(crate) fn power_iterate<A: LinearOperator + ?Sized>(
+    a: &A,
+    params: &PowerParams,
+    mut hook: Option<PowerHook<'_>>,
+    warm: bool,
+    v: &mut [f64],
+    w: &mut [f64],
+) -> Result<(f64, usize, bool), SparseError> {
+    let mut state = params.seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    for vi in v.iter_mut().take(if warm { 0 } else { usize::MAX }) {
+        // xorshift64*: deterministic, no dependency.
+        state ^= state >> 12;
+        state ^= state << 25;
+        state ^= state >> 27;
+        let u = state.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11;
+        *vi = 0.5 + u as f64 / (1u64 << 53) as f64;
+    }
     let mut alpha = 0.0;
     for k in 1..=params.max_iter {
-        a.apply(&v, &mut w);
+        a.apply(v, w);
         if w.iter().any(|x| !x.is_finite()) {
             return Err(SparseError::NonFinite {
                 what: "power method iterate",
@@ -104,7 +127,7 @@ pub fn power_method<A: LinearOperator + ?Sized>(
         // alpha is the entry of largest magnitude of w (the paper's max(v)),
         // signed by w_i / v_i: an eigenvector with two extreme entries of
         // equal magnitude and opposite signs then keeps a stable sign.
-        let i = largest_entry(&w);
+        let i = largest_entry(w);
         let magnitude = w[i].abs();
         if magnitude == 0.0 {
             return Err(SparseError::InvalidParameter {
@@ -118,29 +141,19 @@ pub fn power_method<A: LinearOperator + ?Sized>(
             w[i].signum()
         };
         let new_alpha = sign * magnitude;
-        for (vi, wi) in v.iter_mut().zip(&w) {
+        for (vi, wi) in v.iter_mut().zip(w.iter()) {
             *vi = wi / new_alpha;
         }
         if let Some(h) = hook.as_mut() {
-            h(&mut v);
+            h(v);
         }
         let settled = k > 1 && (new_alpha - alpha).abs() <= params.rtol * new_alpha.abs();
         alpha = new_alpha;
         if settled {
-            return Ok(PowerInfo {
-                eigenvalue: alpha,
-                eigenvector: v,
-                iterations: k,
-                converged: true,
-            });
+            return Ok((alpha, k, true));
         }
     }
-    Ok(PowerInfo {
-        eigenvalue: alpha,
-        eigenvector: v,
-        iterations: params.max_iter,
-        converged: false,
-    })
+    Ok((alpha, params.max_iter, false))
 }
 
 /// Index of the entry of largest magnitude (the first one on ties).

@@ -84,12 +84,13 @@ fn every_preconditioner_solves_the_reference_cloth_system() {
         iterations.push(info.iterations);
     }
     // Stronger preconditioners need fewer iterations on this SPD M-matrix-like
-    // system: IC(0) and SSOR beat the diagonal ones, all beat none.
-    let [none, jacobi, block_jacobi, ssor, ic0] = iterations[..] else {
+    // system: IC(0) and SSOR beat the diagonal ones, all beat none, and
+    // multigrid beats IC(0).
+    let [none, jacobi, block_jacobi, ssor, ic0, amg] = iterations[..] else {
         unreachable!()
     };
     assert!(
-        ic0 < jacobi && ssor < jacobi && block_jacobi <= jacobi && jacobi <= none,
+        ic0 < jacobi && ssor < jacobi && block_jacobi <= jacobi && jacobi <= none && amg < ic0,
         "{iterations:?}"
     );
 }
@@ -113,7 +114,17 @@ fn refilled_matrix_reuses_the_preconditioner_pattern_and_stays_exact() {
         use hookean_sparse::Preconditioner;
         reused.apply(&b, &mut z1);
         fresh.apply(&b, &mut z2);
-        assert_eq!(z1, z2, "{kind}");
+        if kind == PrecondKind::Amg {
+            // The multigrid's refill keeps the aggregates (the same here:
+            // scaling keeps the strong graph) but continues its spectral
+            // radius estimates from the last eigenvectors, so its weights,
+            // and the result, differ slightly from a fresh set-up.
+            let diff: f64 = z1.iter().zip(&z2).map(|(u, v)| (u - v) * (u - v)).sum();
+            let norm: f64 = z2.iter().map(|v| v * v).sum();
+            assert!(diff.sqrt() < 0.05 * norm.sqrt(), "{kind}");
+        } else {
+            assert_eq!(z1, z2, "{kind}");
+        }
     }
     a.set_zero();
     assert!(a.values().iter().flatten().flatten().all(|&v| v == 0.0));

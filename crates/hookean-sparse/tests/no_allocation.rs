@@ -1,6 +1,7 @@
 //! The hot paths allocate nothing: PCG and filtered PCG iterations (with a
-//! reused workspace) and every preconditioner apply, checked with a counting
-//! global allocator.
+//! reused workspace) and every preconditioner apply and refill (the
+//! multigrid's V-cycle and numeric set-up included), checked with a
+//! counting global allocator.
 
 use hookean_sparse::{
     AnyPreconditioner, CgParams, CgWorkspace, Constraints, InitialGuess, LinearOperator,
@@ -15,7 +16,7 @@ static GLOBAL: Counting = Counting;
 #[test]
 fn pcg_solves_and_preconditioner_applies_do_not_allocate() {
     let (a, b) = cloth_system(&ClothSystemParams {
-        n: 12,
+        n: 16,
         ..Default::default()
     });
     let n = a.dim();
@@ -29,6 +30,10 @@ fn pcg_solves_and_preconditioner_applies_do_not_allocate() {
     for kind in PrecondKind::all(1.0) {
         let mut p = AnyPreconditioner::new(kind).unwrap();
         p.setup(&a).unwrap();
+        if let AnyPreconditioner::Amg(amg) = &p {
+            // A real V-cycle, not only the coarsest direct solve.
+            assert!(amg.stats().levels.len() >= 2);
+        }
         // Refill with the same pattern: no allocation either.
         let (count, r) = allocations(|| p.setup(&a));
         r.unwrap();

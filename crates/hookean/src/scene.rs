@@ -498,7 +498,8 @@ pub struct SolverScene {
     /// PCG iteration limit. Default 500.
     #[serde(default = "d_cg_max", deserialize_with = "at_least_one")]
     pub max_cg: usize,
-    /// `none`, `jacobi`, `block-jacobi`, `ssor`, `ic0` or `mic0` (default).
+    /// `none`, `jacobi`, `block-jacobi`, `ssor`, `ic0`, `mic0` (default) or
+    /// `amg` (smoothed-aggregation multigrid with default options).
     #[serde(default = "d_precond", deserialize_with = "precond")]
     pub preconditioner: PrecondKind,
     /// SSOR relaxation in (0, 2). Default 1.

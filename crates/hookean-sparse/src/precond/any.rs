@@ -4,7 +4,8 @@ use std::fmt;
 use std::str::FromStr;
 
 use super::{
-    BlockJacobi, Identity, IncompleteCholesky, Jacobi, Preconditioner, PreconditionerSetup, Ssor,
+    Amg, BlockJacobi, Identity, IncompleteCholesky, Jacobi, Preconditioner, PreconditionerSetup,
+    Ssor,
 };
 use crate::error::SparseError;
 
@@ -29,6 +30,9 @@ pub enum PrecondKind {
         /// Relaxation in [0, 1].
         omega: f64,
     },
+    /// [`Amg`] with default [`AmgOptions`](super::AmgOptions): `amg`
+    /// (other options through [`AnyPreconditioner::Amg`] or [`Amg`] itself).
+    Amg,
 }
 
 impl PrecondKind {
@@ -38,13 +42,14 @@ impl PrecondKind {
 
     /// Every kind that works on both matrix types (all but MIC(0)), with
     /// SSOR at `omega`.
-    pub fn all(omega: f64) -> [PrecondKind; 5] {
+    pub fn all(omega: f64) -> [PrecondKind; 6] {
         [
             PrecondKind::None,
             PrecondKind::Jacobi,
             PrecondKind::BlockJacobi,
             PrecondKind::Ssor { omega },
             PrecondKind::Ic0,
+            PrecondKind::Amg,
         ]
     }
 
@@ -57,6 +62,7 @@ impl PrecondKind {
             PrecondKind::Ssor { .. } => "ssor",
             PrecondKind::Ic0 => "ic0",
             PrecondKind::Mic0 { .. } => "mic0",
+            PrecondKind::Amg => "amg",
         }
     }
 }
@@ -70,8 +76,8 @@ impl fmt::Display for PrecondKind {
 impl FromStr for PrecondKind {
     type Err = SparseError;
 
-    /// Parses `none`, `jacobi`, `block-jacobi`, `ssor` (omega 1), `ic0` or
-    /// `mic0` (omega [`MIC_OMEGA`](Self::MIC_OMEGA)).
+    /// Parses `none`, `jacobi`, `block-jacobi`, `ssor` (omega 1), `ic0`,
+    /// `mic0` (omega [`MIC_OMEGA`](Self::MIC_OMEGA)) or `amg`.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         Ok(match s {
             "none" => PrecondKind::None,
@@ -82,11 +88,12 @@ impl FromStr for PrecondKind {
             "mic0" => PrecondKind::Mic0 {
                 omega: PrecondKind::MIC_OMEGA,
             },
+            "amg" => PrecondKind::Amg,
             other => {
                 return Err(SparseError::InvalidParameter {
                     name: "preconditioner",
                     message: format!(
-                        "unknown preconditioner '{other}' (expected none, jacobi, block-jacobi, ssor, ic0 or mic0)"
+                        "unknown preconditioner '{other}' (expected none, jacobi, block-jacobi, ssor, ic0, mic0 or amg)"
                     ),
                 });
             }
@@ -109,6 +116,8 @@ pub enum AnyPreconditioner {
     Ssor(Ssor),
     /// IC(0) or MIC(0).
     Ic0(IncompleteCholesky),
+    /// Smoothed-aggregation multigrid.
+    Amg(Amg),
 }
 
 impl AnyPreconditioner {
@@ -127,6 +136,7 @@ impl AnyPreconditioner {
             PrecondKind::Mic0 { omega } => {
                 AnyPreconditioner::Ic0(IncompleteCholesky::modified(omega)?)
             }
+            PrecondKind::Amg => AnyPreconditioner::Amg(Amg::new()),
         })
     }
 
@@ -141,6 +151,7 @@ impl AnyPreconditioner {
                 omega: p.relaxation(),
             },
             AnyPreconditioner::Ic0(_) => PrecondKind::Ic0,
+            AnyPreconditioner::Amg(_) => PrecondKind::Amg,
         }
     }
 }
@@ -153,6 +164,7 @@ macro_rules! dispatch {
             AnyPreconditioner::BlockJacobi($p) => $e,
             AnyPreconditioner::Ssor($p) => $e,
             AnyPreconditioner::Ic0($p) => $e,
+            AnyPreconditioner::Amg($p) => $e,
         }
     };
 }
@@ -179,6 +191,7 @@ where
     BlockJacobi: PreconditionerSetup<A>,
     Ssor: PreconditionerSetup<A>,
     IncompleteCholesky: PreconditionerSetup<A>,
+    Amg: PreconditionerSetup<A>,
 {
     fn setup(&mut self, a: &A) -> Result<(), SparseError> {
         dispatch!(self, p => p.setup(a))

@@ -2,7 +2,7 @@
 //! and its modified form MIC(0) on block matrices.
 
 use super::block_ic0::BlockFactor;
-use super::{Preconditioner, PreconditionerSetup, square_dim};
+use super::{Preconditioner, PreconditionerSetup, as_csr, square_dim};
 use crate::error::SparseError;
 use crate::matrix::SymBlockMatrix;
 
@@ -390,13 +390,7 @@ impl PreconditionerSetup<sprs::CsMat<f64>> for IncompleteCholesky {
             });
         }
         let n = square_dim(a)?;
-        let owned;
-        let a = if a.is_csr() {
-            a
-        } else {
-            owned = a.to_csr();
-            &owned
-        };
+        let a = &*as_csr(a);
         let indptr = a.proper_indptr();
         let same = matches!(&self.source,
             Source::Csr { indptr: p, indices: i } if p.as_slice() == &*indptr && i.as_slice() == a.indices());

@@ -12,16 +12,19 @@
 //! | [`BlockJacobi`] | 3x3 diagonal blocks of `A` | 3x3 inverses | `9n` |
 //! | [`Ssor`] | `(D + wL) D^-1 (D + wL^T) / (w (2 - w))` (eq. 54) | copy of `A` | two triangular sweeps |
 //! | [`IncompleteCholesky`] | `L L^T`, `L` on the pattern of `A` | IC(0) factorisation | two triangular solves |
+//! | [`Amg`] | smoothed-aggregation V-cycle | aggregates, `P`, Galerkin `P^T A P` per level | one V-cycle |
 //!
 //! Every preconditioner is implemented for [`SymBlockMatrix`](crate::SymBlockMatrix)
 //! and for scalar `sprs::CsMat<f64>`; [`AnyPreconditioner`] picks one by name.
 
+mod amg;
 mod any;
 mod block_ic0;
 mod ic0;
 mod jacobi;
 mod ssor;
 
+pub use amg::{Amg, AmgLevelStats, AmgOptions, AmgSmoother, AmgStats};
 pub use any::{AnyPreconditioner, PrecondKind};
 pub use ic0::IncompleteCholesky;
 pub use jacobi::{BlockJacobi, Identity, Jacobi};
@@ -99,6 +102,15 @@ pub(crate) fn square_dim(a: &sprs::CsMat<f64>) -> Result<usize, SparseError> {
     Ok(rows)
 }
 
+/// `a` in CSR form: itself, or a converted copy of a CSC matrix.
+pub(crate) fn as_csr(a: &sprs::CsMat<f64>) -> std::borrow::Cow<'_, sprs::CsMat<f64>> {
+    if a.is_csr() {
+        std::borrow::Cow::Borrowed(a)
+    } else {
+        std::borrow::Cow::Owned(a.to_csr())
+    }
+}
+
 /// A scalar CSR copy of a `sprs` matrix (converted from CSC if needed) with
 /// the position of every row's diagonal entry.
 #[derive(Debug, Clone, Default)]
@@ -115,13 +127,7 @@ impl ScalarCsr {
     /// Every row must store its diagonal entry.
     pub fn refill(&mut self, a: &sprs::CsMat<f64>, who: &'static str) -> Result<(), SparseError> {
         let n = square_dim(a)?;
-        let owned;
-        let a = if a.is_csr() {
-            a
-        } else {
-            owned = a.to_csr();
-            &owned
-        };
+        let a = &*as_csr(a);
         let indptr = a.proper_indptr();
         let same = self.indptr.as_slice() == &*indptr && self.indices.as_slice() == a.indices();
         if !same {

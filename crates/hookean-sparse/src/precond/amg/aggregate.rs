@@ -1,0 +1,198 @@
+//! The symbolic half of smoothed aggregation (Vaněk, Mandel, Brezina 1996,
+//! "Algebraic multigrid by smoothed aggregation for second and fourth order
+//! elliptic problems", section 3): strength of connection on blocks,
+//! aggregation, and the tentative prolongator from the near-nullspace.
+
+use super::bsr::{Blk, Bsr, frobenius2, zero};
+use crate::error::SparseError;
+
+/// Marks a node that belongs to no aggregate (it has no strong neighbour;
+/// the smoother alone handles it).
+pub(crate) const NO_AGGREGATE: u32 = u32::MAX;
+
+/// Strength of connection on blocks: the off-diagonal block `A_ij` is strong
+/// when `|A_ij|_F^2 > theta^2 |A_ii|_F |A_jj|_F` (the block form of the
+/// symmetric test `|a_ij| > theta sqrt(|a_ii a_jj|)`; symmetric in `i, j`
+/// because `|A_ji|_F = |A_ij^T|_F`). Diagonal slots are marked not strong.
+pub(crate) fn strong_connections<const B: usize>(
+    a: &Bsr<B>,
+    diag: &[usize],
+    theta: f64,
+) -> Vec<bool> {
+    let norms: Vec<f64> = diag.iter().map(|&d| frobenius2(&a.val[d]).sqrt()).collect();
+    let mut strong = vec![false; a.nnz_blocks()];
+    for i in 0..a.nrows {
+        for k in a.row(i) {
+            let j = a.col[k] as usize;
+            strong[k] = j != i && frobenius2(&a.val[k]) > theta * theta * norms[i] * norms[j];
+        }
+    }
+    strong
+}
+
+/// Greedy aggregation on the graph of strong connections (the three passes
+/// of Vaněk, Mandel, Brezina, as in pyamg's standard aggregation):
+/// 1. every node whose strong neighbours are all free seeds an aggregate of
+///    itself and those neighbours;
+/// 2. every free node joins the aggregate of a strong neighbour seeded in pass 1;
+/// 3. every node still free forms an aggregate with its free strong neighbours.
+///
+/// Nodes without strong neighbours stay out ([`NO_AGGREGATE`]). Returns the
+/// aggregate of every node and the number of aggregates.
+pub(crate) fn aggregate<const B: usize>(a: &Bsr<B>, strong: &[bool]) -> (Vec<u32>, usize) {
+    let n = a.nrows;
+    let mut agg = vec![NO_AGGREGATE; n];
+    let mut seeded = vec![false; n];
+    let mut count = 0u32;
+    let neighbours = |i: usize| a.row(i).filter(|&k| strong[k]).map(|k| a.col[k] as usize);
+    for i in 0..n {
+        if agg[i] != NO_AGGREGATE {
+            continue;
+        }
+        let mut any = false;
+        let mut all_free = true;
+        for j in neighbours(i) {
+            any = true;
+            all_free &= agg[j] == NO_AGGREGATE;
+        }
+        if any && all_free {
+            agg[i] = count;
+            seeded[i] = true;
+            for j in neighbours(i) {
+                agg[j] = count;
+                seeded[j] = true;
+            }
+            count += 1;
+        }
+    }
+    for i in 0..n {
+        if agg[i] == NO_AGGREGATE
+            && let Some(j) = neighbours(i).find(|&j| seeded[j])
+        {
+            agg[i] = agg[j];
+        }
+    }
+    for i in 0..n {
+        if agg[i] == NO_AGGREGATE && neighbours(i).next().is_some() {
+            agg[i] = count;
+            for j in neighbours(i) {
+                if agg[j] == NO_AGGREGATE {
+                    agg[j] = count;
+                }
+            }
+            count += 1;
+        }
+    }
+    (agg, count as usize)
+}
+
+/// The tentative prolongator `T` (one block per aggregated node) and the
+/// coarse near-nullspace: on every aggregate the stacked nullspace blocks
+/// `N_a = Q_a R_a` (thin QR, modified Gram-Schmidt done twice); the rows of
+/// `Q_a` become the blocks of `T` in the aggregate's column, `R_a` the
+/// coarse nullspace block of the aggregate. So `N = T N_c` exactly and
+/// `T^T T = I`.
+///
+/// # Errors
+/// [`SparseError::InvalidParameter`] if the nullspace is rank-deficient on
+/// an aggregate.
+pub(crate) fn tentative_prolongator<const B: usize>(
+    agg: &[u32],
+    n_agg: usize,
+    nullspace: &[Blk<B>],
+) -> Result<(Bsr<B>, Vec<Blk<B>>), SparseError> {
+    let n = agg.len();
+    // Members of every aggregate, by counting sort.
+    let mut start = vec![0usize; n_agg + 1];
+    for &a in agg.iter().filter(|&&a| a != NO_AGGREGATE) {
+        start[a as usize + 1] += 1;
+    }
+    for a in 0..n_agg {
+        start[a + 1] += start[a];
+    }
+    let mut next = start.clone();
+    let mut members = vec![0usize; start[n_agg]];
+    for (i, &a) in agg.iter().enumerate() {
+        if a != NO_AGGREGATE {
+            members[next[a as usize]] = i;
+            next[a as usize] += 1;
+        }
+    }
+    let mut row_ptr = Vec::with_capacity(n + 1);
+    row_ptr.push(0);
+    let mut col = Vec::new();
+    let mut slot = vec![usize::MAX; n];
+    for (i, &a) in agg.iter().enumerate() {
+        if a != NO_AGGREGATE {
+            slot[i] = col.len();
+            col.push(a);
+        }
+        row_ptr.push(col.len());
+    }
+    let mut val: Vec<Blk<B>> = vec![zero::<B>(); col.len()];
+    for (i, &s) in slot.iter().enumerate() {
+        if s != usize::MAX {
+            val[s] = nullspace[i];
+        }
+    }
+    let mut coarse = vec![zero::<B>(); n_agg];
+    for a in 0..n_agg {
+        let nodes = &members[start[a]..start[a + 1]];
+        let r = &mut coarse[a];
+        for c in 0..B {
+            let norm0 = column_norm(&val, &slot, nodes, c);
+            for _pass in 0..2 {
+                for p in 0..c {
+                    let mut d = 0.0;
+                    for &i in nodes {
+                        let q = &val[slot[i]];
+                        for row in q.iter() {
+                            d += row[p] * row[c];
+                        }
+                    }
+                    for &i in nodes {
+                        let q = &mut val[slot[i]];
+                        for row in q.iter_mut() {
+                            row[c] -= d * row[p];
+                        }
+                    }
+                    r[p][c] += d;
+                }
+            }
+            let norm = column_norm(&val, &slot, nodes, c);
+            if !(norm > 1e-10 * norm0 && norm > 0.0) {
+                return Err(SparseError::InvalidParameter {
+                    name: "near_nullspace",
+                    message: format!(
+                        "the near-nullspace vectors are linearly dependent on the aggregate of node {}",
+                        nodes[0]
+                    ),
+                });
+            }
+            r[c][c] = norm;
+            for &i in nodes {
+                for row in val[slot[i]].iter_mut() {
+                    row[c] /= norm;
+                }
+            }
+        }
+    }
+    Ok((
+        Bsr {
+            nrows: n,
+            ncols: n_agg,
+            row_ptr,
+            col,
+            val,
+        },
+        coarse,
+    ))
+}
+
+fn column_norm<const B: usize>(val: &[Blk<B>], slot: &[usize], nodes: &[usize], c: usize) -> f64 {
+    nodes
+        .iter()
+        .flat_map(|&i| val[slot[i]].iter().map(move |row| row[c] * row[c]))
+        .sum::<f64>()
+        .sqrt()
+}

@@ -1,0 +1,424 @@
+//! The storage of every multigrid level: full (both triangles) block CSR
+//! with `B x B` blocks, generic in the block size (3 for particles, 1 for
+//! scalar matrices), and the small dense block kernels on it.
+//!
+//! Full storage (rather than the symmetric storage of
+//! [`SymBlockMatrix`](crate::SymBlockMatrix)) makes every kernel of the
+//! V-cycle a loop over rows that only writes its own row: smoothing,
+//! residual, restriction (with `R = P^T` stored explicitly) and
+//! prolongation can later be split by row ranges across threads.
+
+/// A dense `B x B` block, row-major.
+pub(crate) type Blk<const B: usize> = [[f64; B]; B];
+
+/// The zero block.
+#[inline(always)]
+pub(crate) fn zero<const B: usize>() -> Blk<B> {
+    [[0.0; B]; B]
+}
+
+/// The identity block.
+pub(crate) fn identity<const B: usize>() -> Blk<B> {
+    let mut m = zero::<B>();
+    for (r, row) in m.iter_mut().enumerate() {
+        row[r] = 1.0;
+    }
+    m
+}
+
+/// `y += m x`.
+#[inline(always)]
+pub(crate) fn mul_add<const B: usize>(m: &Blk<B>, x: &[f64; B], y: &mut [f64; B]) {
+    for r in 0..B {
+        let mut s = 0.0;
+        for c in 0..B {
+            s += m[r][c] * x[c];
+        }
+        y[r] += s;
+    }
+}
+
+/// `m x`.
+#[inline(always)]
+pub(crate) fn mul_vec<const B: usize>(m: &Blk<B>, x: &[f64; B]) -> [f64; B] {
+    let mut y = [0.0; B];
+    mul_add(m, x, &mut y);
+    y
+}
+
+/// `c += a b`.
+#[inline(always)]
+pub(crate) fn mul_mat_add<const B: usize>(a: &Blk<B>, b: &Blk<B>, c: &mut Blk<B>) {
+    for r in 0..B {
+        for k in 0..B {
+            let ark = a[r][k];
+            for col in 0..B {
+                c[r][col] += ark * b[k][col];
+            }
+        }
+    }
+}
+
+/// `m^T`.
+#[inline(always)]
+pub(crate) fn transpose<const B: usize>(m: &Blk<B>) -> Blk<B> {
+    let mut t = zero::<B>();
+    for r in 0..B {
+        for c in 0..B {
+            t[c][r] = m[r][c];
+        }
+    }
+    t
+}
+
+/// The squared Frobenius norm.
+#[inline(always)]
+pub(crate) fn frobenius2<const B: usize>(m: &Blk<B>) -> f64 {
+    m.iter().flatten().map(|v| v * v).sum()
+}
+
+/// The inverse of the symmetric part `(m + m^T) / 2` of a block by its
+/// Cholesky factorisation, or `None` when that part is not positive
+/// definite (a pivot `<= 1e-14` of the largest diagonal entry, or not
+/// finite). The result is symmetric, so a smoother built from it is too.
+pub(crate) fn spd_inverse<const B: usize>(m: &Blk<B>) -> Option<Blk<B>> {
+    let mut l = zero::<B>();
+    let scale = (0..B).fold(0.0_f64, |s, i| s.max(m[i][i].abs()));
+    for j in 0..B {
+        let mut d = m[j][j];
+        for k in 0..j {
+            d -= l[j][k] * l[j][k];
+        }
+        if !(d > 1e-14 * scale && d.is_finite()) {
+            return None;
+        }
+        let ljj = d.sqrt();
+        l[j][j] = ljj;
+        for i in j + 1..B {
+            let mut s = 0.5 * (m[i][j] + m[j][i]);
+            for k in 0..j {
+                s -= l[i][k] * l[j][k];
+            }
+            l[i][j] = s / ljj;
+        }
+    }
+    // Columns of the inverse: solve L L^T x = e_c.
+    let mut inv = zero::<B>();
+    for c in 0..B {
+        let mut y = [0.0; B];
+        for i in 0..B {
+            let mut s = if i == c { 1.0 } else { 0.0 };
+            for k in 0..i {
+                s -= l[i][k] * y[k];
+            }
+            y[i] = s / l[i][i];
+        }
+        for i in (0..B).rev() {
+            let mut s = y[i];
+            for k in i + 1..B {
+                s -= l[k][i] * y[k];
+            }
+            y[i] = s / l[i][i];
+        }
+        for i in 0..B {
+            inv[i][c] = y[i];
+        }
+    }
+    // Exactly symmetric.
+    for r in 0..B {
+        for c in r + 1..B {
+            let s = 0.5 * (inv[r][c] + inv[c][r]);
+            inv[r][c] = s;
+            inv[c][r] = s;
+        }
+    }
+    Some(inv)
+}
+
+/// The determinant of a block (for error messages), by Gaussian elimination
+/// with partial pivoting.
+pub(crate) fn determinant<const B: usize>(m: &Blk<B>) -> f64 {
+    let mut a = *m;
+    let mut det = 1.0;
+    for k in 0..B {
+        let p = (k..B)
+            .max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs()))
+            .unwrap_or(k);
+        if a[p][k] == 0.0 {
+            return 0.0;
+        }
+        if p != k {
+            a.swap(p, k);
+            det = -det;
+        }
+        det *= a[k][k];
+        for i in k + 1..B {
+            let f = a[i][k] / a[k][k];
+            for j in k..B {
+                a[i][j] -= f * a[k][j];
+            }
+        }
+    }
+    det
+}
+
+/// A sparse matrix of `B x B` blocks in block CSR, both triangles stored,
+/// columns sorted within each row. Rectangular for prolongators.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Bsr<const B: usize> {
+    pub nrows: usize,
+    pub ncols: usize,
+    pub row_ptr: Vec<usize>,
+    pub col: Vec<u32>,
+    pub val: Vec<Blk<B>>,
+}
+
+impl<const B: usize> Bsr<B> {
+    /// An empty `nrows x ncols` matrix (no stored blocks).
+    pub fn empty(nrows: usize, ncols: usize) -> Self {
+        Self {
+            nrows,
+            ncols,
+            row_ptr: vec![0; nrows + 1],
+            col: Vec::new(),
+            val: Vec::new(),
+        }
+    }
+
+    /// Stored blocks.
+    pub fn nnz_blocks(&self) -> usize {
+        self.col.len()
+    }
+
+    /// The slots of row `i`.
+    #[inline(always)]
+    pub fn row(&self, i: usize) -> std::ops::Range<usize> {
+        self.row_ptr[i]..self.row_ptr[i + 1]
+    }
+
+    /// The slot of the diagonal block of every row, or the first row without one.
+    pub fn diagonal_slots(&self) -> Result<Vec<usize>, usize> {
+        (0..self.nrows)
+            .map(|i| {
+                let row = self.row(i);
+                self.col[row.clone()]
+                    .binary_search(&(i as u32))
+                    .map(|k| row.start + k)
+                    .map_err(|_| i)
+            })
+            .collect()
+    }
+
+    /// `sum_j A_ij x_j` for row `i` (`x` as blocks).
+    #[inline(always)]
+    pub fn row_times(&self, i: usize, x: &[[f64; B]]) -> [f64; B] {
+        let r = self.row(i);
+        let mut acc = [0.0; B];
+        for (&c, v) in self.col[r.clone()].iter().zip(&self.val[r]) {
+            mul_add(v, &x[c as usize], &mut acc);
+        }
+        acc
+    }
+
+    /// `y = A x`.
+    pub fn spmv(&self, x: &[f64], y: &mut [f64]) {
+        let (x3, _) = x.as_chunks::<B>();
+        let (y3, _) = y.as_chunks_mut::<B>();
+        for (i, yi) in y3[..self.nrows].iter_mut().enumerate() {
+            *yi = self.row_times(i, x3);
+        }
+    }
+
+    /// `r = b - A x`.
+    pub fn residual(&self, b: &[f64], x: &[f64], r: &mut [f64]) {
+        let (x3, _) = x.as_chunks::<B>();
+        let (b3, _) = b.as_chunks::<B>();
+        let (r3, _) = r.as_chunks_mut::<B>();
+        for (i, (ri, bi)) in r3[..self.nrows].iter_mut().zip(b3).enumerate() {
+            let acc = self.row_times(i, x3);
+            for c in 0..B {
+                ri[c] = bi[c] - acc[c];
+            }
+        }
+    }
+
+    /// `y += A x`.
+    pub fn spmv_add(&self, x: &[f64], y: &mut [f64]) {
+        let (x3, _) = x.as_chunks::<B>();
+        let (y3, _) = y.as_chunks_mut::<B>();
+        for (i, yi) in y3[..self.nrows].iter_mut().enumerate() {
+            let acc = self.row_times(i, x3);
+            for c in 0..B {
+                yi[c] += acc[c];
+            }
+        }
+    }
+
+    /// The pattern of `A^T` (values zero) and, for every slot of it, the
+    /// slot of `A` it transposes.
+    pub fn transpose_pattern(&self) -> (Self, Vec<u32>) {
+        let mut count = vec![0usize; self.ncols + 1];
+        for &c in &self.col {
+            count[c as usize + 1] += 1;
+        }
+        for j in 0..self.ncols {
+            count[j + 1] += count[j];
+        }
+        let row_ptr = count.clone();
+        let mut next = count;
+        let nnz = self.col.len();
+        let mut col = vec![0u32; nnz];
+        let mut map = vec![0u32; nnz];
+        for i in 0..self.nrows {
+            for k in self.row(i) {
+                let j = self.col[k] as usize;
+                let p = next[j];
+                next[j] += 1;
+                col[p] = i as u32;
+                map[p] = k as u32;
+            }
+        }
+        let t = Self {
+            nrows: self.ncols,
+            ncols: self.nrows,
+            row_ptr,
+            col,
+            val: vec![zero::<B>(); nnz],
+        };
+        (t, map)
+    }
+
+    /// Refills `t` (built by [`transpose_pattern`](Self::transpose_pattern))
+    /// with the transposed values of `self`.
+    pub fn fill_transpose(&self, t: &mut Self, map: &[u32]) {
+        for (v, &k) in t.val.iter_mut().zip(map) {
+            *v = transpose(&self.val[k as usize]);
+        }
+    }
+}
+
+/// The pattern of the product `C = X Y` (values zero), columns sorted.
+/// `marker` is scratch of length `y.ncols`.
+pub(crate) fn product_pattern<const B: usize>(x: &Bsr<B>, y: &Bsr<B>) -> Bsr<B> {
+    let mut marker = vec![usize::MAX; y.ncols];
+    let mut row_ptr = Vec::with_capacity(x.nrows + 1);
+    let mut col: Vec<u32> = Vec::new();
+    row_ptr.push(0);
+    for i in 0..x.nrows {
+        let start = col.len();
+        for k in x.row(i) {
+            let m = x.col[k] as usize;
+            for q in y.row(m) {
+                let j = y.col[q] as usize;
+                if marker[j] != i {
+                    marker[j] = i;
+                    col.push(j as u32);
+                }
+            }
+        }
+        col[start..].sort_unstable();
+        row_ptr.push(col.len());
+    }
+    let nnz = col.len();
+    Bsr {
+        nrows: x.nrows,
+        ncols: y.ncols,
+        row_ptr,
+        col,
+        val: vec![zero::<B>(); nnz],
+    }
+}
+
+/// The numbers of `C = X Y` on the pattern from [`product_pattern`]
+/// (Gustavson's row-by-row product). `marker` (length `c.ncols`) maps a
+/// column to its slot in the current row; entries left from other rows are
+/// never read, because every column the row produces is in its pattern.
+pub(crate) fn product_values<const B: usize>(
+    x: &Bsr<B>,
+    y: &Bsr<B>,
+    c: &mut Bsr<B>,
+    marker: &mut [usize],
+) {
+    for i in 0..x.nrows {
+        let row = c.row(i);
+        for p in row.clone() {
+            marker[c.col[p] as usize] = p;
+        }
+        c.val[row].fill(zero::<B>());
+        for k in x.row(i) {
+            let xk = &x.val[k];
+            let m = x.col[k] as usize;
+            for q in y.row(m) {
+                let p = marker[y.col[q] as usize];
+                mul_mat_add(xk, &y.val[q], &mut c.val[p]);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spd_inverse_inverts_and_rejects_indefinite_blocks() {
+        let m = [[4.0, 1.0, 0.5], [1.0, 3.0, -0.2], [0.5, -0.2, 2.0]];
+        let inv = spd_inverse(&m).unwrap();
+        let mut p = zero::<3>();
+        mul_mat_add(&m, &inv, &mut p);
+        for r in 0..3 {
+            for c in 0..3 {
+                let e = if r == c { 1.0 } else { 0.0 };
+                approx::assert_abs_diff_eq!(p[r][c], e, epsilon = 1e-14);
+            }
+        }
+        assert!(spd_inverse(&[[1.0, 2.0], [2.0, 1.0]]).is_none());
+        assert!(spd_inverse(&[[0.0]]).is_none());
+        assert!(
+            (determinant(&m) - (4.0 * (6.0 - 0.04) - (2.0 + 0.1) + 0.5 * (-0.2 - 1.5))).abs()
+                < 1e-12
+        );
+    }
+
+    #[test]
+    fn product_and_transpose_match_dense_products() {
+        // X: 3x2 block rows/cols of 2x2 blocks, Y: 2x3.
+        let x = Bsr::<2> {
+            nrows: 3,
+            ncols: 2,
+            row_ptr: vec![0, 1, 3, 4],
+            col: vec![0, 0, 1, 1],
+            val: vec![
+                [[1.0, 2.0], [3.0, 4.0]],
+                [[0.5, 0.0], [1.0, -1.0]],
+                [[2.0, 1.0], [0.0, 1.0]],
+                [[-1.0, 0.0], [0.0, 3.0]],
+            ],
+        };
+        let (mut xt, map) = x.transpose_pattern();
+        x.fill_transpose(&mut xt, &map);
+        let mut c = product_pattern(&xt, &x);
+        let mut marker = vec![0; c.ncols];
+        product_values(&xt, &x, &mut c, &mut marker);
+        let dense = |m: &Bsr<2>| {
+            let mut d = vec![vec![0.0; 2 * m.ncols]; 2 * m.nrows];
+            for i in 0..m.nrows {
+                for k in m.row(i) {
+                    for r in 0..2 {
+                        for s in 0..2 {
+                            d[2 * i + r][2 * m.col[k] as usize + s] = m.val[k][r][s];
+                        }
+                    }
+                }
+            }
+            d
+        };
+        let (dx, dc) = (dense(&x), dense(&c));
+        for r in 0..4 {
+            for s in 0..4 {
+                let e: f64 = (0..6).map(|k| dx[k][r] * dx[k][s]).sum();
+                assert!((dc[r][s] - e).abs() < 1e-14, "({r},{s})");
+            }
+        }
+    }
+}

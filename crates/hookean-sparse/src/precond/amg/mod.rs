@@ -1,0 +1,637 @@
+//! Smoothed-aggregation algebraic multigrid: [`Amg`] (its documentation
+//! describes the algorithm and the re-use of the hierarchy).
+
+mod aggregate;
+mod bsr;
+mod hierarchy;
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use self::bsr::{Blk, Bsr, identity, transpose, zero};
+use self::hierarchy::Hierarchy;
+use super::{Preconditioner, PreconditionerSetup, as_csr, square_dim};
+use crate::error::SparseError;
+use crate::matrix::{BlockPattern, SymBlockMatrix};
+
+/// The smoother of every level but the coarsest.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum AmgSmoother {
+    /// Block damped Jacobi `x += omega D^-1 (b - A x)` with
+    /// `omega = jacobi_weight / rho(D^-1 A)`; every row independent.
+    #[default]
+    BlockJacobi,
+    /// Forward block Gauss-Seidel before the coarse correction, backward after.
+    SymmetricGaussSeidel,
+}
+
+/// Options of [`Amg`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct AmgOptions {
+    /// Strength threshold `theta` on the finest level, halved on every
+    /// coarser one (as AMGCL). In [0, 1). Default `0.08`.
+    pub strength_threshold: f64,
+    /// Stop coarsening at this many unknowns (then a dense Cholesky solve). Default `500`.
+    pub coarse_size: usize,
+    /// At most this many levels. Default `10`.
+    pub max_levels: usize,
+    /// The smoother. Default block damped Jacobi.
+    pub smoother: AmgSmoother,
+    /// Pre- and post-smoothing steps per level. Default `1`.
+    pub sweeps: usize,
+    /// Block-Jacobi weight times `rho(D^-1 A)`, in (0, 2). Default `4/3`.
+    pub jacobi_weight: f64,
+    /// Prolongator-smoothing weight times `rho(D_F^-1 A_F)`, in (0, 2). Default `4/3`.
+    pub prolongation_weight: f64,
+    /// Power-method steps estimating the spectral radii `rho(D^-1 A)`
+    /// (allocation-free, on the V-cycle's vectors). Default `10`. `0` uses
+    /// Gershgorin's bound `max_i sum_j |D_i^-1 A_ij|_inf` instead: an upper
+    /// bound (the smoother then surely converges), but loose for 3x3 blocks
+    /// whose conditioning is poor (cloth: a tiny out-of-plane stiffness),
+    /// which damps far too much.
+    pub power_iterations: usize,
+    /// Power-method steps at a refill, started from the previous set-up's
+    /// eigenvector estimates (which fit the new values if they changed
+    /// little). Default `3`. (Ignored when `power_iterations = 0`.)
+    pub refill_power_iterations: usize,
+    /// At a refill, keep every prolongator of the last full set-up and
+    /// recompute only the smoothers, the Galerkin operators `P^T A P` and
+    /// the coarsest factor (still a symmetric positive definite V-cycle:
+    /// any full-rank `P` gives SPD coarse operators). Cheaper, and fit for
+    /// values that change slowly (time steps); default `false` (`P` is
+    /// smoothed again with the new values).
+    pub keep_prolongators: bool,
+    /// Near-nullspace vectors of length `dim`, as many as the block size
+    /// (3 for block matrices, [`block_size`](Self::block_size) for CSR ones:
+    /// the coarse operators keep the block size). Empty (default): the
+    /// translations (for a scalar matrix, the constant).
+    pub near_nullspace: Vec<Vec<f64>>,
+    /// Unknowns per node of a CSR matrix (node `i` owns rows
+    /// `block_size * i ..`, e.g. 2 for 2D elasticity): 1 (default), 2 or 3.
+    /// [`SymBlockMatrix`] input always has 3.
+    pub block_size: usize,
+}
+
+impl Default for AmgOptions {
+    fn default() -> Self {
+        Self {
+            strength_threshold: 0.08,
+            coarse_size: 500,
+            max_levels: 10,
+            smoother: AmgSmoother::BlockJacobi,
+            sweeps: 1,
+            jacobi_weight: 4.0 / 3.0,
+            prolongation_weight: 4.0 / 3.0,
+            power_iterations: 10,
+            refill_power_iterations: 3,
+            keep_prolongators: false,
+            near_nullspace: Vec::new(),
+            block_size: 1,
+        }
+    }
+}
+
+/// Statistics of one level.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AmgLevelStats {
+    /// Scalar unknowns.
+    pub rows: usize,
+    /// Scalar nonzeros of the operator (every stored block counted dense).
+    pub nonzeros: usize,
+    /// Damped-Jacobi weight `omega` (0 for Gauss-Seidel).
+    pub smoother_weight: f64,
+    /// Prolongator-smoothing weight (0 on the coarsest level).
+    pub prolongation_weight: f64,
+}
+
+/// Statistics of an [`Amg`] hierarchy.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct AmgStats {
+    /// Finest first.
+    pub levels: Vec<AmgLevelStats>,
+    /// `sum_l nnz(A_l) / nnz(A_0)`.
+    pub operator_complexity: f64,
+    /// `sum_l rows(A_l) / rows(A_0)`.
+    pub grid_complexity: f64,
+    /// Wall time of the last full set-up (s).
+    pub setup_seconds: f64,
+    /// Wall time of the last refill (s), 0 if there was none.
+    pub refill_seconds: f64,
+    /// Full set-ups so far.
+    pub setups: usize,
+    /// Refills so far.
+    pub refills: usize,
+}
+
+/// The finest level's storage and where its blocks come from.
+#[derive(Debug, Clone)]
+enum Inner {
+    Empty,
+    /// From a [`SymBlockMatrix`]: every full-storage slot copies a stored
+    /// block, transposed when it lies below the diagonal.
+    Block {
+        source: Arc<BlockPattern>,
+        map: Vec<(u32, bool)>,
+        h: Hierarchy<3>,
+    },
+    /// From a CSR matrix, with 1, 2 or 3 unknowns per node.
+    Csr1(CsrLevels<1>),
+    Csr2(CsrLevels<2>),
+    Csr3(CsrLevels<3>),
+}
+
+/// Where a CSR entry goes in block storage: `(block slot, row, column)`.
+type EntrySlot = (u32, u8, u8);
+
+/// A hierarchy set up from a scalar CSR matrix grouped into `B x B` blocks
+/// (node `i` owns rows `B i .. B i + B`), with the CSR pattern it came from
+/// and where every CSR entry goes: `(block slot, row, column)`.
+#[derive(Debug, Clone)]
+struct CsrLevels<const B: usize> {
+    indptr: Vec<usize>,
+    indices: Vec<usize>,
+    map: Vec<EntrySlot>,
+    h: Hierarchy<B>,
+}
+
+impl<const B: usize> CsrLevels<B> {
+    fn same_pattern(&self, a: &sprs::CsMat<f64>) -> bool {
+        self.indptr.as_slice() == &*a.proper_indptr() && self.indices.as_slice() == a.indices()
+    }
+
+    /// The block pattern of a CSR matrix (CSR storage order) and the map of
+    /// its entries.
+    fn blocks(a: &sprs::CsMat<f64>) -> Result<(Bsr<B>, Vec<EntrySlot>), SparseError> {
+        let dim = a.rows();
+        if !dim.is_multiple_of(B) {
+            return Err(SparseError::InvalidParameter {
+                name: "block_size",
+                message: format!("the dimension {dim} is not a multiple of the block size {B}"),
+            });
+        }
+        let n = dim / B;
+        let indptr = a.proper_indptr();
+        let mut marker = vec![usize::MAX; n];
+        let mut row_ptr = Vec::with_capacity(n + 1);
+        let mut col: Vec<u32> = Vec::new();
+        row_ptr.push(0);
+        for i in 0..n {
+            let start = col.len();
+            for &j in &a.indices()[indptr[B * i]..indptr[B * i + B]] {
+                if marker[j / B] != i {
+                    marker[j / B] = i;
+                    col.push((j / B) as u32);
+                }
+            }
+            col[start..].sort_unstable();
+            row_ptr.push(col.len());
+        }
+        let mut map = Vec::with_capacity(a.nnz());
+        for row in 0..dim {
+            let i = row / B;
+            let cols = &col[row_ptr[i]..row_ptr[i + 1]];
+            for &j in &a.indices()[indptr[row]..indptr[row + 1]] {
+                let k = cols
+                    .binary_search(&((j / B) as u32))
+                    .expect("every entry's block is in the pattern");
+                map.push(((row_ptr[i] + k) as u32, (row % B) as u8, (j % B) as u8));
+            }
+        }
+        let nnz = col.len();
+        let bsr = Bsr {
+            nrows: n,
+            ncols: n,
+            row_ptr,
+            col,
+            val: vec![zero::<B>(); nnz],
+        };
+        Ok((bsr, map))
+    }
+
+    /// Writes the CSR values into the block storage.
+    fn fill(bsr: &mut Bsr<B>, map: &[EntrySlot], data: &[f64]) {
+        bsr.val.fill(zero::<B>());
+        for (&(slot, r, c), &v) in map.iter().zip(data) {
+            bsr.val[slot as usize][r as usize][c as usize] = v;
+        }
+    }
+
+    fn new(a: &sprs::CsMat<f64>, amg: &Amg) -> Result<Self, SparseError> {
+        let (mut fine, map) = Self::blocks(a)?;
+        Self::fill(&mut fine, &map, a.data());
+        let nullspace = amg.nullspace::<B>(fine.nrows)?;
+        Ok(Self {
+            indptr: a.proper_indptr().into_owned(),
+            indices: a.indices().to_vec(),
+            h: Hierarchy::new(fine, nullspace, &amg.options)?,
+            map,
+        })
+    }
+
+    fn refill(&mut self, a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
+        Self::fill(self.h.finest_mut(), &self.map, a.data());
+        self.h.compute()
+    }
+}
+
+/// Smoothed-aggregation algebraic multigrid (Vaněk, Mandel, Brezina 1996)
+/// on the 3x3 blocks of a [`SymBlockMatrix`], and on CSR matrices grouped
+/// into blocks of 1, 2 or 3 unknowns per node ([`AmgOptions::block_size`]).
+/// Every level is stored as full block CSR of the same block size, so all
+/// kernels of the cycle run row by row (ready to be split across threads).
+///
+/// Set-up, per level `l` (`A_0 = A`):
+/// 1. strength of connection on blocks: `A_ij` is strong when
+///    `|A_ij|_F^2 > theta_l^2 |A_ii|_F |A_jj|_F` (`theta_l` halves per level);
+/// 2. aggregation of the strong graph (three greedy passes);
+/// 3. the tentative prolongator `T` from the near-nullspace `N_l`, by a thin
+///    QR on every aggregate (`N_l = T N_{l+1}`): the three translations per
+///    particle by default (the constant for scalar matrices);
+/// 4. the smoothed prolongator `P = (I - omega D_F^-1 A_F) T`, `A_F` the
+///    filtered matrix (weak blocks lumped onto the diagonal) and
+///    `omega = 4/3 / rho(D_F^-1 A_F)`;
+/// 5. the Galerkin operator `A_{l+1} = P^T A_l P`, in block storage;
+///
+/// until a level has at most `coarse_size` unknowns, which is solved by a
+/// dense Cholesky factorisation (a matrix that small from the start is just
+/// that direct solve; a level whose aggregation stalls becomes the coarsest,
+/// factored if it has at most 3000 unknowns, else only smoothed). Nodes
+/// without strong neighbours join no aggregate and are left to the smoother. [`Amg::apply`](crate::Preconditioner::apply)
+/// is one V-cycle from a zero guess with block damped-Jacobi (or symmetric
+/// block Gauss-Seidel) smoothing; the post-smoother is the adjoint of the
+/// pre-smoother, so the V-cycle is a symmetric positive definite operator and
+/// PCG and filtered PCG stay valid.
+///
+/// # Re-use
+/// [`PreconditionerSetup::setup`] with a matrix of the same sparsity pattern
+/// as the last one (the same `Arc<BlockPattern>`, or equal CSR index arrays)
+/// is a *refill*: strength, aggregates, the tentative prolongator and every
+/// pattern are kept, and only the numbers (smoothers, `omega`, `P`, the
+/// Galerkin products, the coarsest factor) are recomputed, without allocating;
+/// the spectral radius estimates continue the power method from the last
+/// eigenvectors for `refill_power_iterations` steps. With
+/// [`AmgOptions::keep_prolongators`] a refill keeps the prolongators too
+/// and recomputes only the smoothers, the Galerkin operators and the
+/// coarsest factor. On the 128^2 cloth a
+/// refill costs about a third of a full set-up, or 8-10 V-cycles
+/// (docs/PERFORMANCE.md, `cargo bench -p hookean-sparse --bench amg`). A new
+/// pattern (or block size) triggers a full set-up; [`Amg::rebuild`] forces one (e.g. when the values changed so much
+/// that the strong graph of the old aggregates no longer fits). Not calling
+/// `setup` at all keeps the whole hierarchy (a lagged preconditioner, still
+/// SPD, so CG stays valid).
+///
+/// # Example
+/// ```
+/// use hookean_sparse::{Amg, CgParams, CgWorkspace, PreconditionerSetup, pcg};
+/// use std::sync::Arc;
+/// use hookean_sparse::{BlockPattern, SymBlockMatrix, block};
+/// // A chain of 2000 particles joined by springs, plus a small mass.
+/// let n = 2000;
+/// let pattern = Arc::new(BlockPattern::new(n, (1..n).map(|i| (i - 1, i)))?);
+/// let mut a = SymBlockMatrix::new(pattern);
+/// for i in 1..n {
+///     a.add_to_block(i - 1, i - 1, &block::IDENTITY)?;
+///     a.add_to_block(i, i, &block::IDENTITY)?;
+///     a.add_to_block(i - 1, i, &block::scale(&block::IDENTITY, -1.0))?;
+/// }
+/// a.add_to_diagonal(&vec![1e-4; 3 * n])?;
+/// let mut amg = Amg::new();
+/// amg.setup(&a)?;
+/// assert!(amg.stats().levels.len() > 1);
+/// let b = vec![1.0; 3 * n];
+/// let mut x = vec![0.0; 3 * n];
+/// let info = pcg(&a, &amg, &b, &mut x, &CgParams::default(), &mut CgWorkspace::new(3 * n), None)?;
+/// assert!(info.converged && info.iterations < 30);
+/// # Ok::<(), hookean_sparse::SparseError>(())
+/// ```
+#[derive(Debug, Clone)]
+pub struct Amg {
+    options: AmgOptions,
+    inner: Inner,
+    stats: AmgStats,
+}
+
+impl Default for Amg {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Amg {
+    /// An empty preconditioner with default options; call
+    /// [`setup`](PreconditionerSetup::setup) before use.
+    pub fn new() -> Self {
+        Self {
+            options: AmgOptions::default(),
+            inner: Inner::Empty,
+            stats: AmgStats::default(),
+        }
+    }
+
+    /// An empty preconditioner with the given options.
+    ///
+    /// # Errors
+    /// [`SparseError::InvalidParameter`] for an option out of range.
+    pub fn with_options(options: AmgOptions) -> Result<Self, SparseError> {
+        let bad = |name: &'static str, message: String| {
+            Err(SparseError::InvalidParameter { name, message })
+        };
+        let o = &options;
+        if !(0.0..1.0).contains(&o.strength_threshold) {
+            return bad(
+                "strength_threshold",
+                format!("{} is outside [0, 1)", o.strength_threshold),
+            );
+        }
+        if o.coarse_size == 0
+            || o.max_levels == 0
+            || o.sweeps == 0
+            || o.refill_power_iterations == 0
+        {
+            return bad(
+                "coarse_size, max_levels, sweeps, refill_power_iterations",
+                "must all be at least 1".into(),
+            );
+        }
+        if !(1..=3).contains(&o.block_size) {
+            return bad("block_size", format!("{} is not 1, 2 or 3", o.block_size));
+        }
+        for (name, w) in [
+            ("jacobi_weight", o.jacobi_weight),
+            ("prolongation_weight", o.prolongation_weight),
+        ] {
+            if !(w > 0.0 && w < 2.0) {
+                return bad(name, format!("{w} is outside (0, 2)"));
+            }
+        }
+        Ok(Self {
+            options,
+            inner: Inner::Empty,
+            stats: AmgStats::default(),
+        })
+    }
+
+    /// The options.
+    pub fn options(&self) -> &AmgOptions {
+        &self.options
+    }
+
+    /// Statistics of the current hierarchy (empty before the first set-up).
+    pub fn stats(&self) -> &AmgStats {
+        &self.stats
+    }
+
+    /// A full set-up of `a`, even if its pattern is the one of the last
+    /// set-up (new strength graph and aggregates for the new values).
+    ///
+    /// # Errors
+    /// As [`setup`](PreconditionerSetup::setup).
+    pub fn rebuild<A: ?Sized>(&mut self, a: &A) -> Result<(), SparseError>
+    where
+        Self: PreconditionerSetup<A>,
+    {
+        self.inner = Inner::Empty;
+        self.setup(a)
+    }
+
+    /// The near-nullspace as one `B x B` block per node (column `c` is vector `c`).
+    fn nullspace<const B: usize>(&self, n: usize) -> Result<Vec<Blk<B>>, SparseError> {
+        let vs = &self.options.near_nullspace;
+        if vs.is_empty() {
+            return Ok(vec![identity::<B>(); n]);
+        }
+        if vs.len() != B {
+            return Err(SparseError::InvalidParameter {
+                name: "near_nullspace",
+                message: format!(
+                    "{} vectors given; the block size of this matrix is {B}, and the coarse levels keep it",
+                    vs.len()
+                ),
+            });
+        }
+        for (vector, v) in vs.iter().enumerate() {
+            if v.len() != B * n {
+                return Err(SparseError::NullspaceLength {
+                    vector,
+                    expected: B * n,
+                    found: v.len(),
+                });
+            }
+        }
+        Ok((0..n)
+            .map(|i| {
+                let mut blk = zero::<B>();
+                for (r, row) in blk.iter_mut().enumerate() {
+                    for (c, v) in vs.iter().enumerate() {
+                        row[c] = v[B * i + r];
+                    }
+                }
+                blk
+            })
+            .collect())
+    }
+
+    fn record<const B: usize>(&mut self, h: &Hierarchy<B>, seconds: f64, refill: bool) {
+        if refill {
+            self.stats.refill_seconds = seconds;
+            self.stats.refills += 1;
+            for (s, l) in self.stats.levels.iter_mut().zip(h.level_stats()) {
+                s.smoother_weight = l.smoother_weight;
+                s.prolongation_weight = l.prolongation_weight;
+            }
+            return;
+        }
+        let levels: Vec<AmgLevelStats> = h.level_stats().collect();
+        let (rows0, nnz0) = (levels[0].rows as f64, levels[0].nonzeros as f64);
+        self.stats.operator_complexity =
+            levels.iter().map(|l| l.nonzeros as f64).sum::<f64>() / nnz0;
+        self.stats.grid_complexity = levels.iter().map(|l| l.rows as f64).sum::<f64>() / rows0;
+        self.stats.levels = levels;
+        self.stats.setup_seconds = seconds;
+        self.stats.setups += 1;
+    }
+
+    /// Runs `f` on the hierarchy, dropping it when `f` fails (so the next
+    /// set-up starts afresh).
+    fn finish(&mut self, start: Instant, refill: bool) {
+        let seconds = start.elapsed().as_secs_f64();
+        match std::mem::replace(&mut self.inner, Inner::Empty) {
+            Inner::Block { source, map, h } => {
+                self.record(&h, seconds, refill);
+                self.inner = Inner::Block { source, map, h };
+            }
+            Inner::Csr1(c) => {
+                self.record(&c.h, seconds, refill);
+                self.inner = Inner::Csr1(c);
+            }
+            Inner::Csr2(c) => {
+                self.record(&c.h, seconds, refill);
+                self.inner = Inner::Csr2(c);
+            }
+            Inner::Csr3(c) => {
+                self.record(&c.h, seconds, refill);
+                self.inner = Inner::Csr3(c);
+            }
+            Inner::Empty => {}
+        }
+    }
+}
+
+/// The full-storage pattern of a symmetric block matrix and, for every slot,
+/// the stored block it copies (`true`: transposed, the slot is below the diagonal).
+fn full_pattern(p: &BlockPattern) -> (Bsr<3>, Vec<(u32, bool)>) {
+    let n = p.n_blocks();
+    let (row_ptr, cols) = (p.row_ptr(), p.col_idx());
+    let mut lower = vec![0usize; n];
+    for &j in cols {
+        lower[j as usize] += 1;
+    }
+    // `lower` counted the diagonal once per row too.
+    let mut full_ptr = vec![0usize; n + 1];
+    for i in 0..n {
+        full_ptr[i + 1] = full_ptr[i] + (lower[i] - 1) + (row_ptr[i + 1] - row_ptr[i]);
+    }
+    let nnz = full_ptr[n];
+    let mut col = vec![0u32; nnz];
+    let mut map = vec![(0u32, false); nnz];
+    let mut next_lower: Vec<usize> = full_ptr[..n].to_vec();
+    for i in 0..n {
+        // Diagonal and upper blocks go after the row's lower blocks.
+        let first = full_ptr[i] + lower[i] - 1;
+        for (p, s) in (first..).zip(row_ptr[i]..row_ptr[i + 1]) {
+            let j = cols[s] as usize;
+            col[p] = j as u32;
+            map[p] = (s as u32, false);
+            if j != i {
+                // Block (j, i) = stored (i, j)^T, in row j, where rows i
+                // arrive in increasing order: sorted.
+                let q = next_lower[j];
+                next_lower[j] += 1;
+                col[q] = i as u32;
+                map[q] = (s as u32, true);
+            }
+        }
+    }
+    let a = Bsr {
+        nrows: n,
+        ncols: n,
+        row_ptr: full_ptr,
+        col,
+        val: vec![zero::<3>(); nnz],
+    };
+    (a, map)
+}
+
+fn fill_from_blocks(
+    a: &mut Bsr<3>,
+    map: &[(u32, bool)],
+    src: &SymBlockMatrix,
+) -> Result<(), SparseError> {
+    let v = src.values();
+    for (k, (dst, &(s, t))) in a.val.iter_mut().zip(map).enumerate() {
+        let b = &v[s as usize];
+        if b.iter().flatten().any(|x| !x.is_finite()) {
+            return Err(SparseError::NonFinite {
+                what: "matrix",
+                index: Some(k),
+            });
+        }
+        *dst = if t { transpose(b) } else { *b };
+    }
+    Ok(())
+}
+
+impl PreconditionerSetup<SymBlockMatrix> for Amg {
+    fn setup(&mut self, a: &SymBlockMatrix) -> Result<(), SparseError> {
+        let start = Instant::now();
+        let refill = matches!(&self.inner, Inner::Block { source, .. }
+            if Arc::ptr_eq(source, a.pattern()) || **source == **a.pattern());
+        let result = match &mut self.inner {
+            Inner::Block { map, h, .. } if refill => {
+                fill_from_blocks(h.finest_mut(), map, a).and_then(|()| h.compute())
+            }
+            _ => {
+                let (mut fine, map) = full_pattern(a.pattern());
+                let built = fill_from_blocks(&mut fine, &map, a)
+                    .and_then(|()| self.nullspace::<3>(a.n_blocks()))
+                    .and_then(|ns| Hierarchy::new(fine, ns, &self.options));
+                built.map(|h| {
+                    self.inner = Inner::Block {
+                        source: a.pattern().clone(),
+                        map,
+                        h,
+                    };
+                })
+            }
+        };
+        if let Err(e) = result {
+            self.inner = Inner::Empty;
+            return Err(e);
+        }
+        self.finish(start, refill);
+        Ok(())
+    }
+}
+
+impl PreconditionerSetup<sprs::CsMat<f64>> for Amg {
+    /// AMG on a symmetric positive definite CSR or CSC matrix (CSC is
+    /// converted, which allocates), with [`AmgOptions::block_size`]
+    /// unknowns per node.
+    fn setup(&mut self, a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
+        let start = Instant::now();
+        square_dim(a)?;
+        let a = &*as_csr(a);
+        if let Some(k) = a.data().iter().position(|v| !v.is_finite()) {
+            return Err(SparseError::NonFinite {
+                what: "matrix",
+                index: Some(k),
+            });
+        }
+        let refill = match (&mut self.inner, self.options.block_size) {
+            (Inner::Csr1(c), 1) if c.same_pattern(a) => Some(c.refill(a)),
+            (Inner::Csr2(c), 2) if c.same_pattern(a) => Some(c.refill(a)),
+            (Inner::Csr3(c), 3) if c.same_pattern(a) => Some(c.refill(a)),
+            _ => None,
+        };
+        let refilled = refill.is_some();
+        let result = match refill {
+            Some(r) => r,
+            None => match self.options.block_size {
+                1 => CsrLevels::new(a, self).map(|c| self.inner = Inner::Csr1(c)),
+                2 => CsrLevels::new(a, self).map(|c| self.inner = Inner::Csr2(c)),
+                _ => CsrLevels::new(a, self).map(|c| self.inner = Inner::Csr3(c)),
+            },
+        };
+        if let Err(e) = result {
+            self.inner = Inner::Empty;
+            return Err(e);
+        }
+        self.finish(start, refilled);
+        Ok(())
+    }
+}
+
+impl Preconditioner for Amg {
+    fn dim(&self) -> Option<usize> {
+        Some(match &self.inner {
+            Inner::Empty => 0,
+            Inner::Block { h, .. } => h.dim(),
+            Inner::Csr1(c) => c.h.dim(),
+            Inner::Csr2(c) => c.h.dim(),
+            Inner::Csr3(c) => c.h.dim(),
+        })
+    }
+
+    fn apply(&self, r: &[f64], z: &mut [f64]) {
+        match &self.inner {
+            Inner::Empty => z.copy_from_slice(r),
+            Inner::Block { h, .. } => h.apply(r, z),
+            Inner::Csr1(c) => c.h.apply(r, z),
+            Inner::Csr2(c) => c.h.apply(r, z),
+            Inner::Csr3(c) => c.h.apply(r, z),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;
