@@ -169,6 +169,16 @@ pub fn check_new_file(path: &Path, force: bool, flag: &str) -> Result<(), CliErr
     Ok(())
 }
 
+/// Whether two output paths name the same file (lexically after making
+/// them absolute, or as the file system resolves them when both exist).
+pub fn same_path(a: &Path, b: &Path) -> bool {
+    let absolute = |p: &Path| std::path::absolute(p).ok();
+    if absolute(a).is_some() && absolute(a) == absolute(b) {
+        return true;
+    }
+    matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y)
+}
+
 /// Writes `text` to `path`, an input error on failure.
 pub fn write_text(path: &Path, text: &str) -> Result<(), CliError> {
     std::fs::write(path, text)
@@ -220,6 +230,12 @@ pub fn run(args: &WorkPrecisionArgs) -> Result<(), CliError> {
     check_new_file(&args.out, args.force, "--out")?;
     if let Some(p) = &args.plot {
         check_new_file(p, args.force, "--plot")?;
+        if same_path(&args.out, p) {
+            return Err(CliError::Input(format!(
+                "--out and --plot name the same file {}: the plot would overwrite the table",
+                p.display()
+            )));
+        }
     }
     let mut all = Vec::new();
     let mut series = Vec::new();

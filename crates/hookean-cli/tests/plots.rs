@@ -159,6 +159,20 @@ fn workprecision_rejects_bad_input() {
     let csv = s(&dir.join("wp.csv"));
     let out = hookean(&["workprecision", "--problem", "tutorial9", "--out", &csv]);
     assert_input_error(&out, "unknown problem 'tutorial9'");
+    // Two outputs to one path (also spelled differently): refused before
+    // anything is written.
+    let dotted = s(&dir.join(".").join("wp.csv"));
+    let out = hookean(&[
+        "workprecision",
+        "--problem",
+        "tutorial1",
+        "--out",
+        &csv,
+        "--plot",
+        &dotted,
+    ]);
+    assert_input_error(&out, "the same file");
+    assert!(!dir.join("wp.csv").exists());
     let out = hookean(&[
         "workprecision",
         "--problem",
