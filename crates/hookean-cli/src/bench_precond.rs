@@ -158,11 +158,11 @@ pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
                         .as_deref()
                         .map_or(String::new(), |e| format!(" error: {e}"))
                 ));
-                println!(
+                crate::outln!(
                     "{}",
                     serde_json::to_string(&BenchRecord { n, k, record })
                         .expect("records serialise")
-                );
+                )?;
                 bar.inc(1);
             }
         }

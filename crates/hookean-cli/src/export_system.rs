@@ -102,9 +102,9 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
         matrix: a_path.display().to_string(),
         rhs: b_path.display().to_string(),
     };
-    println!(
+    crate::outln!(
         "{}",
         serde_json::to_string(&record).expect("records serialise")
-    );
+    )?;
     Ok(())
 }

@@ -240,7 +240,7 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
         serde_json::to_string_pretty(&analysis).expect("serialises") + "\n",
     )
     .map_err(|e| failed(format!("{}: {e}", json_path.display())))?;
-    println!("{}", serde_json::to_string(&analysis).expect("serialises"));
+    crate::outln!("{}", serde_json::to_string(&analysis).expect("serialises"))?;
     Ok(())
 }
 

@@ -73,7 +73,31 @@ pub enum CliError {
     SolverFailed,
     /// A run failed on valid input (exit code 1), with the reason.
     Failed(String),
+    /// Standard output was closed by its reader (`hookean solve ... | head`):
+    /// the command stops quietly with exit code 141, as a tool killed by
+    /// SIGPIPE does.
+    OutputClosed,
 }
+
+/// Writes one line to standard output; a closed pipe is
+/// [`CliError::OutputClosed`] instead of a panic.
+pub fn write_line(line: std::fmt::Arguments<'_>) -> Result<(), CliError> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_fmt(line).and_then(|()| out.write_all(b"\n")) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(CliError::OutputClosed),
+        Err(e) => Err(CliError::Failed(format!("standard output: {e}"))),
+    }
+}
+
+/// `println!` for command output: `outln!(...)?` (see [`write_line`]).
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        $crate::write_line(format_args!($($arg)*))
+    };
+}
+pub(crate) use outln;
 
 impl From<hookean_sparse::SparseError> for CliError {
     fn from(e: hookean_sparse::SparseError) -> Self {
@@ -104,5 +128,6 @@ fn main() -> ExitCode {
             eprintln!("hookean: error: {message}");
             ExitCode::from(1)
         }
+        Err(CliError::OutputClosed) => ExitCode::from(141),
     }
 }

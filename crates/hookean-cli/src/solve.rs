@@ -282,10 +282,10 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             ..record
         };
         failed |= record.error.is_some();
-        println!(
+        crate::outln!(
             "{}",
             serde_json::to_string(&record).expect("records serialise")
-        );
+        )?;
     }
     if failed {
         return Err(CliError::SolverFailed);

@@ -150,10 +150,10 @@ pub fn run(args: &StabilityArgs) -> Result<(), CliError> {
             }
             None => vec![],
         };
-        println!(
+        crate::outln!(
             "{m}: stable fraction of the window {:.4}",
             sample.stable_fraction()
-        );
+        )?;
         panels.push(Panel {
             title: m.to_string(),
             rects: stable_rects(&sample),

@@ -239,8 +239,10 @@ pub fn run(args: &WorkPrecisionArgs) -> Result<(), CliError> {
     }
     let mut all = Vec::new();
     let mut series = Vec::new();
-    println!("| method | order | observed order (4 finest) | f evals (finest) | error (finest) |");
-    println!("|---|---|---|---|---|");
+    crate::outln!(
+        "| method | order | observed order (4 finest) | f evals (finest) | error (finest) |"
+    )?;
+    crate::outln!("|---|---|---|---|---|")?;
     for m in &methods {
         let sweep = if m.is_variable_step() {
             Sweep::Tolerances((1..=args.levels).map(|e| 10f64.powi(-(e as i32))).collect())
@@ -255,13 +257,13 @@ pub fn run(args: &WorkPrecisionArgs) -> Result<(), CliError> {
             .collect();
         let tail = &finite[finite.len().saturating_sub(4)..];
         let last = rows.last().expect("at least one level");
-        println!(
+        crate::outln!(
             "| {m} | {} | {} | {} | {:.3e} |",
             m.order(),
             observed_order(tail).map_or("-".to_string(), |q| format!("{q:.2}")),
             last.stats.f_evals,
             last.error
-        );
+        )?;
         series.push(Series {
             name: m.to_string(),
             points: rows

@@ -217,3 +217,38 @@ fn a_matrix_that_is_not_positive_definite_is_reported_per_solver() {
         "{v}"
     );
 }
+
+/// A reader that closes the pipe early (`hookean solve ... | head -1`) ends
+/// the command quietly with exit code 141 (as SIGPIPE does), not a panic.
+#[test]
+fn a_closed_output_pipe_is_not_a_panic() {
+    use std::io::{BufRead, BufReader};
+    use std::process::{Command, Stdio};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_hookean"))
+        .args([
+            "solve",
+            &repo("data/cloth16-A.mtx"),
+            "--rhs",
+            &repo("data/cloth16-b.mtx"),
+            "--precond",
+            "all",
+            // Each line then takes 100 solves (tenths of a second), so the
+            // reader is gone long before the last one is written.
+            "--repeat",
+            "100",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the hookean binary runs");
+    let mut first = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    assert!(first.starts_with('{'), "{first}");
+    // The reader is gone: later lines hit a closed pipe.
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(out.status.code(), Some(141), "{stderr}");
+}
