@@ -106,20 +106,18 @@ fn force_replaces_a_run_whole_and_a_failed_run_changes_nothing() {
     let before = files(&out);
     let summary_before = std::fs::read_to_string(out.join("summary.json")).unwrap();
 
+    // `hookean run scenes/drape.toml --out OUT --force --set cloth.n=8 --set ...`.
+    let forced = |sets: &[&str]| {
+        let scene = repo("scenes/drape.toml");
+        let mut args = vec!["run", &scene, "--out", out.to_str().unwrap(), "--force"];
+        for s in ["cloth.n=8"].iter().chain(sets) {
+            args.extend(["--set", s]);
+        }
+        hookean(&args)
+    };
+
     // FB Euler at h = 0.01 on this cloth blows up: exit 1, nothing changed.
-    let o = hookean(&[
-        "run",
-        &repo("scenes/drape.toml"),
-        "--out",
-        out.to_str().unwrap(),
-        "--force",
-        "--set",
-        "cloth.n=8",
-        "--set",
-        "duration=3",
-        "--set",
-        "integrator.method=fb-euler",
-    ]);
+    let o = forced(&["duration=3", "integrator.method=fb-euler"]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("partial output is in"), "{stderr}");
@@ -138,18 +136,7 @@ fn force_replaces_a_run_whole_and_a_failed_run_changes_nothing() {
     let _ = std::fs::remove_dir_all(&partial);
 
     // A shorter run with --force: only its own 3 frames remain.
-    let o = hookean(&[
-        "run",
-        &repo("scenes/drape.toml"),
-        "--out",
-        out.to_str().unwrap(),
-        "--force",
-        "--quiet",
-        "--set",
-        "cloth.n=8",
-        "--set",
-        "duration=0.2",
-    ]);
+    let o = forced(&["duration=0.2"]);
     assert_ok(&o);
     let after = files(&out);
     let objs = after.iter().filter(|f| f.ends_with(".obj")).count();
