@@ -13,8 +13,9 @@
 //!
 //! Bad input (missing or malformed files, wrong sizes, unknown names) is a
 //! one-line message on stderr and exit code 2; a solver that fails on a
-//! valid input (e.g. a matrix that is not positive definite) is reported in
-//! its JSON line and the command exits with 1.
+//! valid input (e.g. a matrix that is not positive definite, or a direct
+//! solve of a nonsymmetric matrix) or does not reach its tolerance is
+//! reported in its JSON line and the command exits with 1.
 
 use std::process::ExitCode;
 

@@ -218,6 +218,38 @@ fn a_matrix_that_is_not_positive_definite_is_reported_per_solver() {
     );
 }
 
+/// A solve that stops short of its tolerance is a failed run (exit 1), its
+/// JSON saying `"converged": false`; so is a direct (Cholesky) solve of a
+/// nonsymmetric matrix, which would otherwise read one triangle and solve
+/// another system.
+#[test]
+fn unconverged_and_nonsymmetric_solves_exit_1() {
+    let one_line = |out: &Output| -> serde_json::Value {
+        serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}: {out:?}"))
+    };
+    let system = data("cloth16-A.mtx");
+    for limit in [["--max-iter", "0"], ["--rtol", "0"]] {
+        let mut args = vec!["solve", system.as_str(), "--precond", "jacobi"];
+        args.extend(limit);
+        let out = hookean(&args);
+        assert_eq!(out.status.code(), Some(1), "{limit:?}");
+        assert_eq!(one_line(&out)["converged"], false, "{limit:?}");
+    }
+    // [[2, 1], [0, 2]]: lower triangle [[2, 0], [0, 2]] would give x = b / 2.
+    let general = scratch(
+        "nonsym.mtx",
+        "%%MatrixMarket matrix coordinate real general\n2 2 3\n1 1 2.0\n1 2 1.0\n2 2 2.0\n",
+    );
+    let out = hookean(&["solve", &general, "--precond", "direct"]);
+    assert_eq!(out.status.code(), Some(1));
+    let v = one_line(&out);
+    assert!(
+        v["error"].as_str().unwrap().contains("not symmetric"),
+        "{v}"
+    );
+    assert_eq!(v["converged"], false);
+}
+
 /// A reader that closes the pipe early (`hookean solve ... | head -1`) ends
 /// the command quietly with exit code 141 (as SIGPIPE does), not a panic.
 #[test]

@@ -39,12 +39,15 @@ impl DirectCholesky {
         self.factor_lower_csc(a.dim(), indptr, indices, &data)
     }
 
-    /// Factors a symmetric `sprs` matrix; only its lower triangle is read.
+    /// Factors a symmetric `sprs` matrix (checked: a Cholesky factor reads
+    /// one triangle, so a nonsymmetric matrix would be solved as another one).
     ///
     /// # Errors
-    /// [`SparseError::NotSquare`], [`SparseError::NonFinite`], [`SparseError::Direct`].
+    /// [`SparseError::NotSquare`], [`SparseError::NonFinite`],
+    /// [`SparseError::NotSymmetric`], [`SparseError::Direct`].
     pub fn factor_csr(&mut self, a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
         let n = square_dim(a)?;
+        crate::matrix::check_csr_symmetric(a)?;
         // CSC arrays of the lower triangle = CSR arrays of the upper triangle.
         let csr = if a.is_csr() { a.clone() } else { a.to_csr() };
         let mut indptr = Vec::with_capacity(n + 1);

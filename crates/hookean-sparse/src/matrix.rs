@@ -26,6 +26,34 @@ pub struct BlockPattern {
     col_idx: Vec<u32>,
 }
 
+/// `Ok` when the square CSR matrix `a` is finite and symmetric: every entry
+/// equals its transpose to `1e-12` of the largest entry.
+///
+/// # Errors
+/// [`SparseError::NonFinite`] or [`SparseError::NotSymmetric`] naming the
+/// first offending entry.
+pub(crate) fn check_csr_symmetric(a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
+    let cols = a.cols();
+    let mut max_abs = 0.0_f64;
+    for (&v, (r, c)) in a.iter() {
+        if !v.is_finite() {
+            return Err(SparseError::NonFinite {
+                what: "matrix",
+                index: Some(r * cols + c),
+            });
+        }
+        max_abs = max_abs.max(v.abs());
+    }
+    let tol = 1e-12 * max_abs;
+    for (&v, (r, c)) in a.iter() {
+        let t = a.get(c, r).copied().unwrap_or(0.0);
+        if (v - t).abs() > tol {
+            return Err(SparseError::NotSymmetric { row: r, col: c });
+        }
+    }
+    Ok(())
+}
+
 /// `Ok` when two matrices share their pattern (the same `Arc`, or equal
 /// patterns), as element-wise operations on their value arrays need.
 pub(crate) fn check_same_pattern(
@@ -608,23 +636,7 @@ impl SymBlockMatrix {
             return Err(SparseError::NotBlockAligned { dim: rows });
         }
         let n = rows / 3;
-        let mut max_abs = 0.0_f64;
-        for (&v, (r, c)) in a.iter() {
-            if !v.is_finite() {
-                return Err(SparseError::NonFinite {
-                    what: "matrix",
-                    index: Some(r * cols + c),
-                });
-            }
-            max_abs = max_abs.max(v.abs());
-        }
-        let tol = 1e-12 * max_abs;
-        for (&v, (r, c)) in a.iter() {
-            let t = a.get(c, r).copied().unwrap_or(0.0);
-            if (v - t).abs() > tol {
-                return Err(SparseError::NotSymmetric { row: r, col: c });
-            }
-        }
+        check_csr_symmetric(a)?;
         let pattern = Arc::new(BlockPattern::new(
             n,
             a.iter().map(|(_, (r, c))| (r / 3, c / 3)),
