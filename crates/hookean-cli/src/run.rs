@@ -28,12 +28,26 @@ pub struct RunArgs {
     /// Override a scene value: --set cloth.n=32 --set integrator.method=fb-euler.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
-    /// Write into an existing output folder, replacing the files this command writes.
+    /// Replace an existing output folder of an earlier run (once this run succeeds).
     #[arg(long)]
     force: bool,
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+    /// Refuse scenes whose model would need more memory than this (GiB).
+    #[arg(long, value_name = "GIB", default_value_t = 8.0, allow_negative_numbers = true)]
+    max_memory: f64,
+}
+
+/// `--max-memory` in bytes.
+pub fn max_memory_bytes(gib: f64) -> Result<u64, CliError> {
+    if gib > 0.0 && gib.is_finite() {
+        Ok((gib * (1u64 << 30) as f64).min(u64::MAX as f64) as u64)
+    } else {
+        Err(CliError::Input(format!(
+            "--max-memory must be a positive number of GiB, got {gib}"
+        )))
+    }
 }
 
 /// The statistics of a run, as written to `summary.json`.
@@ -284,6 +298,9 @@ fn failed(e: impl std::fmt::Display) -> CliError {
 pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let scene =
         Scene::from_file(&args.scene, &args.set).map_err(|e| CliError::Input(e.to_string()))?;
+    scene
+        .check_memory(max_memory_bytes(args.max_memory)?)
+        .map_err(|e| CliError::Input(format!("{}: {e}", args.scene.display())))?;
     let name = args
         .scene
         .file_stem()

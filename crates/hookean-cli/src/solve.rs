@@ -42,10 +42,10 @@ pub struct SolverArgs {
     #[arg(long, default_value = "all")]
     pub precond: String,
     /// SSOR relaxation, in (0, 2).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub omega: f64,
     /// Relative residual tolerance |r| / |b| of PCG.
-    #[arg(long, default_value_t = 1e-8)]
+    #[arg(long, default_value_t = 1e-8, allow_negative_numbers = true)]
     pub rtol: f64,
     /// PCG iteration limit (default 2 n).
     #[arg(long)]

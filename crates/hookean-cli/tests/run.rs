@@ -306,3 +306,30 @@ fn the_drape_runs_with_the_multigrid_preconditioner() {
     let cg = |v: &serde_json::Value| v["cg_iterations"].as_u64().unwrap();
     assert!(cg(amg) < cg(mic0), "{amg} {mic0}");
 }
+
+/// Sizes no machine can hold are refused before anything is built, naming
+/// the key: a cloth of 10^10 (or 2^64) particles, a picture 2^32 pixels wide;
+/// the memory cap is a flag.
+#[test]
+fn absurd_sizes_are_input_errors_naming_the_key() {
+    let out = scratch("sizes");
+    let run = |sets: &[&str], extra: &[&str]| {
+        let scene = repo("scenes/drape.toml");
+        let mut args = vec!["run", &scene, "--out", out.to_str().unwrap(), "--quiet"];
+        for s in sets {
+            args.extend(["--set", s]);
+        }
+        args.extend(extra);
+        hookean(&args)
+    };
+    assert_input_error(&run(&["cloth.n=100000"], &[]), "cloth.n");
+    assert_input_error(&run(&["cloth.n=4294967296"], &[]), "cloth.n");
+    assert_input_error(&run(&["output.width=4294967296"], &[]), "pixels");
+    assert!(!out.exists(), "nothing was written");
+    // An 8 x 8 cloth needs about 0.2 MiB: refused under a 0.1 MiB cap.
+    let small = ["cloth.n=8", "duration=0.01"];
+    assert_input_error(&run(&small, &["--max-memory", "0.0001"]), "--max-memory");
+    assert_input_error(&run(&small, &["--max-memory", "-1"]), "--max-memory");
+    assert_ok(&run(&small, &[]));
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -86,6 +86,20 @@ fn at_least_one<'de, D: Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
     }
 }
 
+/// Largest picture side, in pixels.
+const MAX_PIXELS: usize = 16_384;
+
+fn pixels<'de, D: Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
+    let v = usize::deserialize(d)?;
+    if (1..=MAX_PIXELS).contains(&v) {
+        Ok(v)
+    } else {
+        Err(D::Error::custom(format!(
+            "must lie in 1..={MAX_PIXELS} pixels, got {v}"
+        )))
+    }
+}
+
 fn finite3<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
     let v = <[f64; 3]>::deserialize(d)?;
     if v.iter().all(|x| x.is_finite()) {
@@ -687,11 +701,11 @@ pub struct OutputScene {
     /// OBJ frames per simulated second (0: none). Default 10.
     #[serde(default = "d_frame_rate", deserialize_with = "non_negative")]
     pub frame_rate: f64,
-    /// Width of `final.png` in pixels. Default 800.
-    #[serde(default = "d_width", deserialize_with = "at_least_one")]
+    /// Width of `final.png` in pixels (1 to 16 384). Default 800.
+    #[serde(default = "d_width", deserialize_with = "pixels")]
     pub width: usize,
-    /// Height of `final.png` in pixels. Default 600.
-    #[serde(default = "d_height", deserialize_with = "at_least_one")]
+    /// Height of `final.png` in pixels (1 to 16 384). Default 600.
+    #[serde(default = "d_height", deserialize_with = "pixels")]
     pub height: usize,
 }
 
@@ -927,6 +941,61 @@ impl Scene {
                 PinScene::None => ClothPins::None,
             },
             options: self.model_options(),
+        })
+    }
+
+    /// An upper estimate of the memory the scene's model and its implicit
+    /// solver need, in bytes, and the key that sets the size: about
+    /// 1 KiB per particle (state, forces, solver vectors) and 0.5 KiB per
+    /// spring (its Jacobian blocks in `df/dx`, `df/dv`, the system matrix
+    /// and its preconditioner). `None` for a size that overflows 64 bits.
+    pub fn memory_estimate(&self) -> (Option<u64>, &'static str) {
+        const PER_PARTICLE: u64 = 1 << 10;
+        const PER_SPRING: u64 = 1 << 9;
+        // Springs per particle: cloth 6 (structural, shear, bend), rope 2,
+        // 3D lattice at most 13 (half of the 26 neighbours).
+        let (particles, springs_per, key) = if let Some(c) = &self.cloth {
+            ((c.n as u64).checked_mul(c.n as u64), 6, "cloth.n")
+        } else if let Some(r) = &self.rope {
+            (Some(r.n as u64), 2, "rope.n")
+        } else if let Some(j) = &self.jelly {
+            let [a, b, c] = j.n.map(|k| k as u64);
+            (
+                a.checked_mul(b).and_then(|ab| ab.checked_mul(c)),
+                13,
+                "jelly.n",
+            )
+        } else {
+            (Some(1), 1, "particle")
+        };
+        let bytes = particles.and_then(|p| {
+            p.checked_mul(PER_PARTICLE)?
+                .checked_add(p.checked_mul(springs_per)?.checked_mul(PER_SPRING)?)
+        });
+        (bytes, key)
+    }
+
+    /// Refuses a scene whose [`memory_estimate`](Self::memory_estimate)
+    /// exceeds `max_bytes`, naming the key that sets its size.
+    ///
+    /// # Errors
+    /// [`HookeanError::InvalidOption`] naming the key.
+    pub fn check_memory(&self, max_bytes: u64) -> Result<(), HookeanError> {
+        let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+        let (bytes, key) = self.memory_estimate();
+        let message = match bytes {
+            Some(b) if b <= max_bytes => return Ok(()),
+            Some(b) => format!(
+                "the model would need about {:.1} GiB, more than the {:.1} GiB allowed \
+                 (hookean run --max-memory raises the cap)",
+                gib(b),
+                gib(max_bytes)
+            ),
+            None => "the model's size overflows 64-bit arithmetic".to_string(),
+        };
+        Err(HookeanError::InvalidOption {
+            name: key.into(),
+            message,
         })
     }
 
