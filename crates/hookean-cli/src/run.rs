@@ -35,7 +35,12 @@ pub struct RunArgs {
     #[arg(long)]
     quiet: bool,
     /// Refuse scenes whose model would need more memory than this (GiB).
-    #[arg(long, value_name = "GIB", default_value_t = 8.0, allow_negative_numbers = true)]
+    #[arg(
+        long,
+        value_name = "GIB",
+        default_value_t = 8.0,
+        allow_negative_numbers = true
+    )]
     max_memory: f64,
 }
 
