@@ -66,7 +66,9 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
         )));
     }
     let scene = Scene::from_file(&args.scene, &args.set).map_err(input)?;
-    let mut sim = scene.build().map_err(input)?;
+    let mut sim = scene
+        .build()
+        .map_err(|e| input(format!("{}: {e}", args.scene.display())))?;
     let mut steps = 0;
     if args.at > 0.0 {
         // A bar on a terminal: simulating to a late --at can take a while.

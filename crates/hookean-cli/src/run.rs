@@ -303,9 +303,7 @@ fn failed(e: impl std::fmt::Display) -> CliError {
 pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let scene =
         Scene::from_file(&args.scene, &args.set).map_err(|e| CliError::Input(e.to_string()))?;
-    scene
-        .check_memory(max_memory_bytes(args.max_memory)?)
-        .map_err(|e| CliError::Input(format!("{}: {e}", args.scene.display())))?;
+    let max_bytes = max_memory_bytes(args.max_memory)?;
     let name = args
         .scene
         .file_stem()
@@ -324,7 +322,7 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let report = if let Some(t) = &scene.tutorial {
         crate::tutorial_run::run(&scene, t, &args.scene, staging.dir(), args.quiet)
     } else {
-        run_model(args, &scene, &name, staging.dir())
+        run_model(args, &scene, &name, max_bytes, staging.dir())
     };
     match report {
         Ok(report) => {
@@ -343,10 +341,17 @@ fn run_model(
     args: &RunArgs,
     scene: &Scene,
     name: &str,
+    max_bytes: u64,
     out: &Path,
 ) -> Result<Option<String>, CliError> {
     let out = out.to_path_buf();
-    let mut sim = scene.build().map_err(|e| CliError::Input(e.to_string()))?;
+    let mut sim = scene.build_within(max_bytes).map_err(|e| match e {
+        HookeanError::TooLarge { .. } => CliError::Input(format!(
+            "{}: {e} (--max-memory raises the cap)",
+            args.scene.display()
+        )),
+        e => CliError::Input(e.to_string()),
+    })?;
 
     let mut csv = StepsCsv::create(out.join("steps.csv")).map_err(failed)?;
     let mut frames = ObjFrames {

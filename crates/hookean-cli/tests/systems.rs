@@ -204,5 +204,16 @@ fn export_system_rejects_bad_input() {
         &hookean(&["export-system", &s(&good), "--at", "-1", "--out", &out_dir]),
         "--at",
     );
+    // A cloth no machine can hold is refused before it is built (it aborted
+    // on a failed allocation), naming the scene and the key.
+    let huge = hookean(&[
+        "export-system",
+        &s(&good),
+        "--set",
+        "cloth.n=100000",
+        "--out",
+        &out_dir,
+    ]);
+    assert_input_error(&huge, "good.toml: cloth.n");
     assert!(!dir.join("sys").exists());
 }

@@ -42,7 +42,8 @@ impl ModelIntegrator {
     /// [`FilteredIntegrator`] with the given coupling.
     ///
     /// # Errors
-    /// [`FilterError::ImplicitMethod`] for a filter with an implicit method;
+    /// [`FilterError::ImplicitMethod`] for a filter with an implicit method
+    /// (from [`FilteredIntegrator::new`]);
     /// the integrator's and the filter's construction errors.
     pub fn new(
         model: MassSpringModel,
@@ -52,13 +53,6 @@ impl ModelIntegrator {
         filter: Option<(FilterOptions, FilterCoupling)>,
     ) -> Result<Self, FilterError> {
         model.check_state(&state.x, &state.v)?;
-        if filter.is_some() && method.is_implicit() {
-            // Checked before the filter is built (FilteredIntegrator::new
-            // checks it too, after the costly set-up).
-            return Err(FilterError::ImplicitMethod {
-                method: method.to_string(),
-            });
-        }
         let vf = match &filter {
             Some((o, _)) => Some(VelocityFilter::from_model(&model, o.clone())?),
             None => None,
@@ -109,14 +103,6 @@ impl ModelIntegrator {
         match self {
             ModelIntegrator::Plain(i) => i.problem_mut(),
             ModelIntegrator::Filtered(f) => f.inner_mut().problem_mut(),
-        }
-    }
-
-    /// The velocity filter, if any.
-    pub fn filter(&self) -> Option<&VelocityFilter> {
-        match self {
-            ModelIntegrator::Plain(_) => None,
-            ModelIntegrator::Filtered(f) => Some(f.filter()),
         }
     }
 

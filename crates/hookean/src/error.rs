@@ -38,6 +38,22 @@ pub enum HookeanError {
         /// Why.
         message: String,
     },
+    /// A scene whose model would need more memory than allowed (see
+    /// `Scene::build_within`); `bytes` is `None` when its size overflows
+    /// 64-bit arithmetic.
+    #[error(
+        "{key}: the model would need {}, more than the {:.1} GiB allowed",
+        bytes.map_or("more than 2^64 bytes".to_string(), |b| format!("about {:.1} GiB", b as f64 / (1u64 << 30) as f64)),
+        *max_bytes as f64 / (1u64 << 30) as f64
+    )]
+    TooLarge {
+        /// The scene key that sets the size (`cloth.n`, `jelly.n`, ...).
+        key: &'static str,
+        /// The estimate.
+        bytes: Option<u64>,
+        /// The cap.
+        max_bytes: u64,
+    },
     /// Writing an output failed.
     #[error("{path}: {message}")]
     Io {

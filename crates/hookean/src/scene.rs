@@ -975,35 +975,34 @@ impl Scene {
         (bytes, key)
     }
 
-    /// Refuses a scene whose [`memory_estimate`](Self::memory_estimate)
-    /// exceeds `max_bytes`, naming the key that sets its size.
+    /// The memory cap of [`build`](Self::build): 8 GiB.
+    pub const DEFAULT_MAX_BYTES: u64 = 8 << 30;
+
+    /// Builds the model and the simulation the scene describes, refusing a
+    /// scene larger than [`DEFAULT_MAX_BYTES`](Self::DEFAULT_MAX_BYTES).
     ///
     /// # Errors
-    /// [`HookeanError::InvalidOption`] naming the key.
-    pub fn check_memory(&self, max_bytes: u64) -> Result<(), HookeanError> {
-        let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
-        let (bytes, key) = self.memory_estimate();
-        let message = match bytes {
-            Some(b) if b <= max_bytes => return Ok(()),
-            Some(b) => format!(
-                "the model would need about {:.1} GiB, more than the {:.1} GiB allowed \
-                 (hookean run --max-memory raises the cap)",
-                gib(b),
-                gib(max_bytes)
-            ),
-            None => "the model's size overflows 64-bit arithmetic".to_string(),
-        };
-        Err(HookeanError::InvalidOption {
-            name: key.into(),
-            message,
-        })
+    /// As [`build_within`](Self::build_within).
+    pub fn build(&self) -> Result<Simulation, HookeanError> {
+        self.build_within(Self::DEFAULT_MAX_BYTES)
     }
 
-    /// Builds the model and the simulation the scene describes.
+    /// Builds the model and the simulation the scene describes, refusing
+    /// (before anything is allocated) a scene whose
+    /// [`memory_estimate`](Self::memory_estimate) exceeds `max_bytes`.
     ///
     /// # Errors
-    /// The builders' and the integrator's typed errors.
-    pub fn build(&self) -> Result<Simulation, HookeanError> {
+    /// [`HookeanError::TooLarge`] naming the key that sets the size; the
+    /// builders' and the integrator's typed errors.
+    pub fn build_within(&self, max_bytes: u64) -> Result<Simulation, HookeanError> {
+        let (bytes, key) = self.memory_estimate();
+        if bytes.is_none_or(|b| b > max_bytes) {
+            return Err(HookeanError::TooLarge {
+                key,
+                bytes,
+                max_bytes,
+            });
+        }
         if self.tutorial.is_some() {
             return Err(HookeanError::InvalidOption {
                 name: "tutorial".into(),

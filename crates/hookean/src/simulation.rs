@@ -269,11 +269,6 @@ impl Simulation {
         self.integrator.model_mut()
     }
 
-    /// The integrator (plain, or filtered), e.g. for its velocity filter.
-    pub fn integrator(&self) -> &ModelIntegrator {
-        &self.integrator
-    }
-
     /// Counters of everything done so far.
     pub fn stats(&self) -> Stats {
         self.integrator.stats()
