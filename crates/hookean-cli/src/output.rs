@@ -97,7 +97,11 @@ impl Staging {
         if self.target.exists() {
             let old = sibling(&self.target, "old");
             std::fs::rename(&self.target, &old).map_err(moved)?;
-            std::fs::rename(&self.dir, &self.target).map_err(moved)?;
+            if let Err(e) = std::fs::rename(&self.dir, &self.target) {
+                // Put the earlier run back before reporting.
+                let _ = std::fs::rename(&old, &self.target);
+                return Err(moved(e));
+            }
             std::fs::remove_dir_all(&old).map_err(|e| io(&old, e))?;
         } else {
             std::fs::rename(&self.dir, &self.target).map_err(moved)?;
