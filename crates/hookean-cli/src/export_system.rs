@@ -55,7 +55,7 @@ fn input<E: std::fmt::Display>(e: E) -> CliError {
 pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
     if !(args.at >= 0.0 && args.at.is_finite()) {
         return Err(CliError::Input(format!(
-            "--at must be a non-negative time, got {}",
+            "--at must be a non-negative time, got {:?}",
             args.at
         )));
     }

@@ -90,19 +90,19 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
     })?;
     if args.n < 4 {
         return Err(CliError::Input(format!(
-            "--n must be at least 4, got {}",
+            "--n must be at least 4, got {:?}",
             args.n
         )));
     }
     if !(args.t_end > 0.0 && args.t_end.is_finite()) {
         return Err(CliError::Input(format!(
-            "--t-end must be positive, got {}",
+            "--t-end must be positive, got {:?}",
             args.t_end
         )));
     }
     if !(args.step_fraction > 0.0 && args.step_fraction <= 2.0) {
         return Err(CliError::Input(format!(
-            "--step-fraction must lie in (0, 2], got {}",
+            "--step-fraction must lie in (0, 2], got {:?}",
             args.step_fraction
         )));
     }

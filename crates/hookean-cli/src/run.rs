@@ -50,7 +50,7 @@ pub fn max_memory_bytes(gib: f64) -> Result<u64, CliError> {
         Ok((gib * (1u64 << 30) as f64).min(u64::MAX as f64) as u64)
     } else {
         Err(CliError::Input(format!(
-            "--max-memory must be a positive number of GiB, got {gib}"
+            "--max-memory must be a positive number of GiB, got {gib:?}"
         )))
     }
 }
@@ -350,7 +350,7 @@ fn run_model(
             "{}: {e} (--max-memory raises the cap)",
             args.scene.display()
         )),
-        e => CliError::Input(e.to_string()),
+        e => CliError::Input(format!("{}: {e}", args.scene.display())),
     })?;
 
     let mut csv = StepsCsv::create(out.join("steps.csv")).map_err(failed)?;

@@ -72,7 +72,7 @@ impl Problem {
             "tutorial1" => {
                 if !lambda.is_finite() {
                     return Err(CliError::Input(format!(
-                        "--lambda must be finite, got {lambda}"
+                        "--lambda must be finite, got {lambda:?}"
                     )));
                 }
                 Problem::Dahlquist(Dahlquist { lambda })
@@ -219,7 +219,7 @@ pub fn run(args: &WorkPrecisionArgs) -> Result<(), CliError> {
     let methods = methods(&args.methods, &problem, &args.problem)?;
     if !(1..=16).contains(&args.levels) {
         return Err(CliError::Input(format!(
-            "--levels must lie in 1..=16, got {}",
+            "--levels must lie in 1..=16, got {:?}",
             args.levels
         )));
     }

@@ -765,9 +765,12 @@ impl<S: System> Core<S> {
     }
 
     /// How close to `t_end` counts as on it: `max(1e-9 h, 8 eps |t_end|)`
-    /// with `h` the next nominal step.
+    /// with `h` the next nominal step, capped at `h <= max(|t_end|, t_end - t)`
+    /// so that a step far longer than the whole run (h = 1e300 for a 0.02 s
+    /// run) does not make the run a sliver to skip.
     fn landing_slack(&self, t_end: f64) -> f64 {
-        (1e-9 * self.h_next()).max(8.0 * f64::EPSILON * t_end.abs())
+        let h = self.h_next().min(t_end.abs().max(t_end - self.t));
+        (1e-9 * h).max(8.0 * f64::EPSILON * t_end.abs())
     }
 
     /// The one rule for landing on an end time, used by every driver: one

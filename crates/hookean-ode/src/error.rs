@@ -19,7 +19,7 @@ pub enum OdeError {
         found: usize,
     },
     /// A parameter is out of its admissible range.
-    #[error("invalid parameter {name} = {value}: {reason}")]
+    #[error("invalid parameter {name} = {value:?}: {reason}")]
     InvalidParameter {
         /// Name of the parameter.
         name: &'static str,

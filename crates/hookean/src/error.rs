@@ -30,6 +30,27 @@ pub enum HookeanError {
         /// What is wrong.
         message: String,
     },
+    /// A `--set key=value` override of a scene that is malformed or makes
+    /// the scene invalid.
+    #[error("{file}: --set {arg}: {message}")]
+    Override {
+        /// The scene file.
+        file: String,
+        /// The override as given.
+        arg: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A scene table whose values each parse but do not make a model (a
+    /// jelly of 0 particles, a cloth so large its springs have infinite
+    /// length, a filter on an implicit method): the table and the reason.
+    #[error("[{table}]: {message}")]
+    Build {
+        /// The table (`cloth`, `jelly`, `filter`, `collider 2`, ...).
+        table: String,
+        /// The builder's reason.
+        message: String,
+    },
     /// An option combination that cannot work.
     #[error("invalid option {name}: {message}")]
     InvalidOption {
