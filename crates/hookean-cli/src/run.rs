@@ -390,11 +390,15 @@ fn run_model(
     let summary = match summary {
         Ok(s) => s,
         Err(e) => {
-            let mut message = format!(
-                "{}: the run stopped at t = {:.4} s: {e}",
-                args.scene.display(),
-                sim.t()
-            );
+            let mut message = if matches!(e, HookeanError::BlowUp { .. }) {
+                format!("{}: {e}", args.scene.display())
+            } else {
+                format!(
+                    "{}: the run stopped at t = {:.4} s: {e}",
+                    args.scene.display(),
+                    sim.t()
+                )
+            };
             // The frames up to the failure show how it went wrong.
             if !frames.view.is_empty() {
                 let stats = sim.stats();

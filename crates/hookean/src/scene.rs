@@ -933,6 +933,7 @@ impl Scene {
                 },
                 rings: f.rings,
             }),
+            ..SimulationOptions::default()
         }
     }
 
