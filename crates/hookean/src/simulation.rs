@@ -162,8 +162,8 @@ pub struct Simulation {
 /// gravitational energy never exceeds the starting total `E_0 = K_0 + G_0 +
 /// S_0`, spring energy being non-negative). An unstable integrator breaks
 /// this by orders of magnitude within a few steps, so the check allows
-/// `K + G <= E_0 + factor * scale` with the energy scale `scale = K_0 + S_0
-/// + M |g| D + M D^2 / (1 s)^2 * 1e-6` (`M` the total mass, `D` the
+/// `K + G <= E_0 + factor * scale` with the energy scale
+/// `scale = K_0 + S_0 + M |g| D + 1e-6 M D^2 / (1 s)^2` (`M` the total mass, `D` the
 /// diagonal of the starting bounding box; the last term keeps a scene at
 /// rest without gravity from tripping on round-off). It costs one pass over
 /// the particles per step.
