@@ -89,6 +89,11 @@ pub struct SolverOptions {
     /// The Newton iteration of the implicit methods (the tutorial's
     /// section 3) and its linear solver: `hookean-nonlinear`'s options, with
     /// the integrators' defaults (see [`SolverOptions::default_newton`]).
+    /// For second-order problems `M x'' = f` the Newton residual
+    /// `M (V - psi_v) - gh f` is a momentum: its absolute tolerance
+    /// `newton.atol` is read as a velocity and multiplied by the mean
+    /// particle mass, so that the same `k/m` gives the same motion in any
+    /// mass unit.
     pub newton: NewtonOptions,
     /// Starting guess of implicit Euler's Newton iteration. Default
     /// [`Predictor::Previous`].

@@ -7,7 +7,8 @@
 use std::cell::RefCell;
 
 use hookean_nonlinear::{
-    DenseLu, Newton, NewtonStats, NonlinearError, NonlinearSystem, PcgSolver, SparseLu,
+    DenseLu, Newton, NewtonOptions, NewtonStats, NonlinearError, NonlinearSystem, PcgSolver,
+    SparseLu,
 };
 use hookean_sparse::{AnyPreconditioner, Constraints, SymBlockMatrix};
 
@@ -506,6 +507,21 @@ pub(crate) struct SecondSys<P> {
     /// warm start of the next stage's first linear solve.
     last_delta: Vec<f64>,
     last_delta_gh: f64,
+    /// The Newton options as the user gave them (`newton` holds them with
+    /// the absolute tolerance in momentum units, see [`momentum_options`]).
+    user_newton: NewtonOptions,
+    /// The mean particle mass.
+    mean_mass: f64,
+}
+
+/// The velocity form's residual `M (V - psi_v) - gh f` is a momentum: its
+/// absolute tolerance is the user's `atol` (a velocity) times the mean mass,
+/// so that the same `k/m` converges alike in any mass unit.
+fn momentum_options(user: &NewtonOptions, mean_mass: f64) -> NewtonOptions {
+    NewtonOptions {
+        atol: user.atol * mean_mass,
+        ..user.clone()
+    }
 }
 
 impl<P: SecondOrderProblem> SecondSys<P> {
@@ -520,13 +536,17 @@ impl<P: SecondOrderProblem> SecondSys<P> {
             });
         }
         let linear = PcgSolver::from_options(&opts.newton)?;
+        let mass = problem.mass();
+        let mean_mass = mass.iter().sum::<f64>() / mass.len().max(1) as f64;
         let newton = Newton::new(
-            opts.newton.clone(),
+            momentum_options(&opts.newton, mean_mass),
             SymBlockMatrix::new(pattern.clone()),
             linear,
         )?;
         Ok(Self {
             n,
+            user_newton: opts.newton.clone(),
+            mean_mass,
             constraints: Constraints::new(n / 3),
             dfdx: SymBlockMatrix::new(pattern.clone()),
             dfdv: SymBlockMatrix::new(pattern),
@@ -608,10 +628,11 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
         stats: &mut Stats,
     ) -> Result<StageInfo, StageFailure> {
         let n = self.n;
-        if self.newton.options() != &opts.newton {
+        if self.user_newton != opts.newton {
             self.newton
-                .set_options(opts.newton.clone())
+                .set_options(momentum_options(&opts.newton, self.mean_mass))
                 .map_err(StageFailure::Other)?;
+            self.user_newton = opts.newton.clone();
         }
         // One copy of the step's constraints per stage solve (they change
         // between steps; none is made while the set is empty).
