@@ -53,6 +53,7 @@
 //! ```
 
 pub mod bdf;
+pub mod bdf_solver;
 pub mod control;
 mod core;
 pub mod error;
@@ -62,10 +63,14 @@ pub mod options;
 pub mod stability;
 mod system;
 pub mod tableau;
+pub mod testset;
 pub mod tutorial;
 pub mod workprecision;
 
 pub use bdf::BdfCoefficients;
+pub use bdf_solver::{
+    BdfOptions, BdfSolver, BdfStats, Direction, EventHit, Events, Formula, Solution, Tolerance,
+};
 pub use control::{
     IterationController, IterationControllerOptions, NewtonOutcome, PiController,
     PiControllerOptions, StepDecision,
@@ -78,3 +83,9 @@ pub use method::Method;
 pub use options::{IntegrateInfo, Predictor, SolverOptions, Stats, StepControl, StepReport};
 pub use system::FirstOrderForm;
 pub use tableau::ButcherTableau;
+/// The sparse matrix crate of [`FirstOrderProblem::sparse_jacobian_pattern`]
+/// and [`FirstOrderProblem::jacobian_sparse`], re-exported so that users
+/// need not match its version by hand.
+pub use sprs;
+/// The dense linear algebra crate of the first-order Newton matrices.
+pub use faer;
