@@ -76,7 +76,9 @@
 //! # Ok::<(), hookean_ode::OdeError>(())
 //! ```
 
-use hookean_nonlinear::{DenseLu, LinearSolver, NonlinearError, SparseLu};
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::linalg::lu::partial_pivoting::{factor::lu_in_place, solve::solve_in_place};
+use hookean_nonlinear::{LinearSolver, NonlinearError, SparseLu};
 use hookean_problem::FirstOrderProblem;
 
 use crate::error::OdeError;
@@ -278,20 +280,27 @@ fn interpolation_matrix(k: usize, rho: f64) -> [[f64; MAX_ORDER + 1]; MAX_ORDER 
     r
 }
 
-/// The Jacobian, the iteration matrix `I - c J` and its LU: dense (faer) or
-/// sparse (faer's sparse LU on the problem's pattern).
+/// The Jacobian, the iteration matrix `I - c J` and its LU: dense (faer's
+/// partial-pivoting LU in place, with its workspace kept so that solves do
+/// not allocate) or sparse (faer's sparse LU on the problem's pattern).
 enum Matrices {
     Dense {
         jac: Vec<f64>,
-        m: faer::Mat<f64>,
-        lu: DenseLu,
+        /// `I - c J`, overwritten by its LU factors.
+        lu: faer::Mat<f64>,
+        perm: Vec<usize>,
+        perm_inv: Vec<usize>,
+        mem: MemBuffer,
     },
-    Sparse {
-        jac: sprs::CsMat<f64>,
-        m: sprs::CsMat<f64>,
-        diag: Vec<usize>,
-        lu: SparseLu,
-    },
+    Sparse(Box<SparseMatrices>),
+}
+
+/// The sparse branch of [`Matrices`].
+struct SparseMatrices {
+    jac: sprs::CsMat<f64>,
+    m: sprs::CsMat<f64>,
+    diag: Vec<usize>,
+    lu: SparseLu,
 }
 
 /// Why one attempt at a step failed without ending the run.
@@ -312,11 +321,14 @@ pub enum Direction {
     Falling,
 }
 
+/// The event functions' callback `g(t, y, out)`.
+type EventFn<'a> = Box<dyn FnMut(f64, &[f64], &mut [f64]) + 'a>;
+
 /// Event functions `g(t, y)` whose roots [`BdfSolver::solve_at_with_events`]
 /// locates on the dense output, each with a direction and a terminal flag
 /// (a terminal event ends the run at the root).
 pub struct Events<'a> {
-    g: Box<dyn FnMut(f64, &[f64], &mut [f64]) + 'a>,
+    g: EventFn<'a>,
     directions: Vec<Direction>,
     terminal: Vec<bool>,
     g_old: Vec<f64>,
@@ -425,6 +437,9 @@ pub struct BdfSolver<P> {
     jac_current: bool,
     /// CVODE's `crate`: the contraction rate estimate of the kept LU.
     rate: f64,
+    /// Fixed order and step (no error test, no order or step change): for
+    /// the tests of each formula's order.
+    frozen: bool,
     stats: BdfStats,
     y_pred: Vec<f64>,
     psi: Vec<f64>,
@@ -477,7 +492,11 @@ impl BdfOptions {
             return Err(invalid("h0", h0, "must be positive and finite"));
         }
         if !(self.h_min >= 0.0 && self.h_min.is_finite()) {
-            return Err(invalid("h_min", self.h_min, "must be finite and non-negative"));
+            return Err(invalid(
+                "h_min",
+                self.h_min,
+                "must be finite and non-negative",
+            ));
         }
         if !(self.h_max > self.h_min) {
             return Err(invalid("h_max", self.h_max, "must exceed h_min"));
@@ -539,11 +558,27 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
             });
         }
         let mats = match problem.sparse_jacobian_pattern() {
-            None => Matrices::Dense {
-                jac: vec![0.0; n * n],
-                m: faer::Mat::zeros(n, n),
-                lu: DenseLu::new(),
-            },
+            None => {
+                let par = faer::Par::Seq;
+                let req = StackReq::any_of(&[
+                    faer::linalg::lu::partial_pivoting::factor::lu_in_place_scratch::<usize, f64>(
+                        n,
+                        n,
+                        par,
+                        Default::default(),
+                    ),
+                    faer::linalg::lu::partial_pivoting::solve::solve_in_place_scratch::<usize, f64>(
+                        n, 1, par,
+                    ),
+                ]);
+                Matrices::Dense {
+                    jac: vec![0.0; n * n],
+                    lu: faer::Mat::zeros(n, n),
+                    perm: vec![0; n],
+                    perm_inv: vec![0; n],
+                    mem: MemBuffer::new(req),
+                }
+            }
             Some(pattern) => {
                 if pattern.shape() != (n, n) {
                     return Err(OdeError::DimensionMismatch {
@@ -553,12 +588,12 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
                     });
                 }
                 let diag = diagonal_positions(&pattern)?;
-                Matrices::Sparse {
+                Matrices::Sparse(Box::new(SparseMatrices {
                     m: pattern.clone(),
                     jac: pattern,
                     diag,
                     lu: SparseLu::new(),
-                }
+                }))
             }
         };
         let rtol = opts.rtol;
@@ -586,6 +621,7 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
             jac_evaluated: false,
             jac_current: false,
             rate: 1.0,
+            frozen: false,
             stats: BdfStats::default(),
             y_pred: vec![0.0; n],
             psi: vec![0.0; n],
@@ -733,8 +769,10 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
         self.n_equal_steps = 0;
     }
 
-    /// Evaluates `J = df/dy` at `(t, y_pred)`.
-    fn eval_jacobian(&mut self, t: f64) -> Result<(), OdeError> {
+    /// Evaluates `J = df/dy` at `(t, y_pred)`; `Ok(false)` if it is not
+    /// finite (a recoverable failure: the step is retried smaller, and the
+    /// next attempt evaluates the Jacobian again).
+    fn eval_jacobian(&mut self, t: f64) -> Result<bool, OdeError> {
         self.stats.num_jac_evals += 1;
         let n = self.n;
         match &mut self.mats {
@@ -759,10 +797,12 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
                     self.stats.num_lin_rhs_evals += n + 1;
                 }
                 if jac.iter().any(|v| !v.is_finite()) {
-                    return Err(OdeError::NonFinite { what: "Jacobian", t });
+                    self.jac_evaluated = false;
+                    return Ok(false);
                 }
             }
-            Matrices::Sparse { jac, m, .. } => {
+            Matrices::Sparse(sp) => {
+                let SparseMatrices { jac, m, .. } = &mut **sp;
                 if !self.problem.jacobian_sparse(t, &self.y_pred, jac) {
                     return Err(invalid(
                         "jacobian_sparse",
@@ -778,14 +818,15 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
                     });
                 }
                 if jac.data().iter().any(|v| !v.is_finite()) {
-                    return Err(OdeError::NonFinite { what: "Jacobian", t });
+                    self.jac_evaluated = false;
+                    return Ok(false);
                 }
             }
         }
         self.jac_age = 0;
         self.jac_evaluated = true;
         self.jac_current = true;
-        Ok(())
+        Ok(true)
     }
 
     /// Factors `M = I - c J`. A singular matrix is a recoverable failure
@@ -794,17 +835,47 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
         self.stats.num_lin_solv_setups += 1;
         self.lu_c = f64::NAN;
         let result = match &mut self.mats {
-            Matrices::Dense { jac, m, lu } => {
+            Matrices::Dense {
+                jac,
+                lu,
+                perm,
+                perm_inv,
+                mem,
+            } => {
                 let n = self.n;
                 for j in 0..n {
                     for i in 0..n {
                         let id = if i == j { 1.0 } else { 0.0 };
-                        m[(i, j)] = id - c * jac[i * n + j];
+                        lu[(i, j)] = id - c * jac[i * n + j];
                     }
                 }
-                lu.setup(m)
+                lu_in_place(
+                    lu.as_mut(),
+                    perm,
+                    perm_inv,
+                    faer::Par::Seq,
+                    MemStack::new(mem),
+                    Default::default(),
+                );
+                // A pivot |u_kk| <= n eps max |u_ij| counts as singular.
+                let mut umax = 0.0f64;
+                for j in 0..n {
+                    for i in 0..=j {
+                        umax = umax.max(lu[(i, j)].abs());
+                    }
+                }
+                let tiny = n as f64 * f64::EPSILON * umax;
+                if (0..n).all(|k| lu[(k, k)].abs() > tiny) {
+                    Ok(())
+                } else {
+                    Err(NonlinearError::SingularJacobian {
+                        pivot: 0,
+                        value: 0.0,
+                    })
+                }
             }
-            Matrices::Sparse { jac, m, diag, lu } => {
+            Matrices::Sparse(sp) => {
+                let SparseMatrices { jac, m, diag, lu } = &mut **sp;
                 for (dst, src) in m.data_mut().iter_mut().zip(jac.data()) {
                     *dst = -c * src;
                 }
@@ -832,8 +903,28 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
     /// Solves `M x = rhs` into `dy` with the kept LU.
     fn solve_linear(&mut self) -> Result<(), OdeError> {
         let result = match &mut self.mats {
-            Matrices::Dense { m, lu, .. } => lu.solve(m, &self.rhs, &mut self.dy, 0.0),
-            Matrices::Sparse { m, lu, .. } => lu.solve(m, &self.rhs, &mut self.dy, 0.0),
+            Matrices::Dense {
+                lu,
+                perm,
+                perm_inv,
+                mem,
+                ..
+            } => {
+                self.dy.copy_from_slice(&self.rhs);
+                let n = self.n;
+                let rhs = faer::MatMut::from_column_major_slice_mut(&mut self.dy, n, 1);
+                let p = faer::perm::PermRef::new_checked(perm, perm_inv, n);
+                solve_in_place(
+                    lu.as_ref(),
+                    lu.as_ref(),
+                    p,
+                    rhs,
+                    faer::Par::Seq,
+                    MemStack::new(mem),
+                );
+                Ok(Default::default())
+            }
+            Matrices::Sparse(sp) => sp.lu.solve(&sp.m, &self.rhs, &mut self.dy, 0.0),
         };
         match result {
             Ok(_) | Err(NonlinearError::SingularJacobian { .. }) => Ok(()),
@@ -888,9 +979,7 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
             }
             if k > 0 {
                 let rate = norm / old;
-                if rate >= MAX_RATE
-                    || rate.powi((maxit - k) as i32) / (1.0 - rate) * norm > tol
-                {
+                if rate >= MAX_RATE || rate.powi((maxit - k) as i32) / (1.0 - rate) * norm > tol {
                     return Ok(Attempt::Failed {
                         iterations: k + 1,
                         update_norm: norm,
@@ -1016,11 +1105,12 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
                     .opts
                     .steps_per_jacobian
                     .is_some_and(|n| self.jac_age >= n);
+                let mut usable = true;
                 if !self.jac_evaluated || jac_old {
-                    self.eval_jacobian(t_new)?;
+                    usable = self.eval_jacobian(t_new)?;
                     refactor = true;
                 }
-                let factored = !refactor || self.factor(c)?;
+                let factored = usable && (!refactor || self.factor(c)?);
                 let attempt = if factored {
                     self.newton(t_new, c)?
                 } else {
@@ -1033,11 +1123,13 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
                     break attempt;
                 }
                 self.stats.num_nonlin_solv_conv_fails += 1;
-                if self.jac_current {
+                if self.jac_current || !usable {
                     break attempt;
                 }
                 // Slow convergence with an old Jacobian: a fresh one and a new LU.
-                self.eval_jacobian(t_new)?;
+                if !self.eval_jacobian(t_new)? {
+                    break attempt;
+                }
                 self.lu_c = f64::NAN;
             };
             let iterations = match attempt {
@@ -1073,7 +1165,7 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
                     t,
                 });
             }
-            if error_norm > 1.0 {
+            if error_norm > 1.0 && !self.frozen {
                 self.stats.num_err_test_fails += 1;
                 err_fails += 1;
                 if err_fails >= self.opts.max_error_test_failures {
@@ -1143,7 +1235,7 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
                 bound: self.bound,
             });
         }
-        if self.n_equal_steps < k + 1 {
+        if self.n_equal_steps < k + 1 || self.frozen {
             return Ok(());
         }
         let err_m = if k > 1 {
@@ -1250,7 +1342,11 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
         self.run(times, Some(events))
     }
 
-    fn run(&mut self, times: &[f64], mut events: Option<&mut Events<'_>>) -> Result<Solution, OdeError> {
+    fn run(
+        &mut self,
+        times: &[f64],
+        mut events: Option<&mut Events<'_>>,
+    ) -> Result<Solution, OdeError> {
         for (i, &t) in times.iter().enumerate() {
             if !t.is_finite() || t < self.t || (i > 0 && t < times[i - 1]) {
                 return Err(invalid(
@@ -1314,7 +1410,11 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
     /// Finds the roots of the event functions in the last step, appends them
     /// (in time order, up to and including the first terminal one) to
     /// `hits`; returns whether a terminal event was hit.
-    fn locate_events(&mut self, ev: &mut Events<'_>, hits: &mut Vec<EventHit>) -> Result<bool, OdeError> {
+    fn locate_events(
+        &mut self,
+        ev: &mut Events<'_>,
+        hits: &mut Vec<EventHit>,
+    ) -> Result<bool, OdeError> {
         let m = ev.directions.len();
         (ev.g)(self.t, &self.d[0], &mut ev.g_new);
         self.stats.num_g_evals += 1;
@@ -1391,5 +1491,118 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
             std::mem::swap(&mut ev.g_old, &mut ev.g_new);
         }
         Ok(terminal)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `y' = -y^2 + sin^2 t + cos t`, exact solution `y = sin t`.
+    struct Sine;
+    impl FirstOrderProblem for Sine {
+        fn dim(&self) -> usize {
+            1
+        }
+        fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+            dy[0] = -y[0] * y[0] + t.sin().powi(2) + t.cos();
+        }
+        fn jacobian(&self, _t: f64, y: &[f64], j: &mut [f64]) -> bool {
+            j[0] = -2.0 * y[0];
+            true
+        }
+    }
+
+    /// `N` steps of order `k` and step `h = 1/N` from `t0 = 1` with the
+    /// exact history `D_j = nabla^j y(t0)`; returns the errors at `t0 + 1`
+    /// and of the dense output at the middle of the last step.
+    fn frozen_run(formula: Formula, k: usize, n: usize) -> (f64, f64) {
+        let (t0, h) = (1.0f64, 1.0 / n as f64);
+        let opts = BdfOptions {
+            rtol: 1e-12,
+            atol: Tolerance::Scalar(1e-12),
+            formula,
+            max_order: k,
+            max_newton_iterations: 20,
+            ..BdfOptions::default()
+        };
+        let mut s = BdfSolver::new(Sine, t0, &[t0.sin()], opts).unwrap();
+        // Backward differences of the exact values y(t0 - i h), i = 0..=k.
+        let mut diff: Vec<f64> = (0..=k).map(|i| (t0 - i as f64 * h).sin()).collect();
+        for j in 0..=k {
+            s.d[j][0] = diff[0];
+            for i in 0..k - j {
+                diff[i] -= diff[i + 1];
+            }
+        }
+        s.h = h;
+        s.order = k;
+        s.started = true;
+        s.frozen = true;
+        let t_end = t0 + 1.0;
+        while s.t() < t_end - 0.5 * h {
+            s.step(t_end + 1.0).unwrap();
+        }
+        assert!((s.t() - t_end).abs() < 1e-12 && s.order() == k);
+        assert_eq!(s.stats().num_nonlin_solv_conv_fails, 0);
+        let mut mid = [0.0];
+        let tm = s.t() - 0.5 * h;
+        s.interpolate(tm, &mut mid).unwrap();
+        ((s.y()[0] - t_end.sin()).abs(), (mid[0] - tm.sin()).abs())
+    }
+
+    #[test]
+    fn each_order_converges_with_its_order_and_so_does_the_dense_output() {
+        for formula in [Formula::Bdf, Formula::Ndf] {
+            for k in 1..=MAX_ORDER {
+                let (e1, m1) = frozen_run(formula, k, 80);
+                let (e2, m2) = frozen_run(formula, k, 160);
+                let p = (e1 / e2).log2();
+                let q = (m1 / m2).log2();
+                assert!(
+                    (p - k as f64).abs() < 0.3,
+                    "{formula:?} order {k}: observed {p}"
+                );
+                assert!(
+                    (q - k as f64).abs() < 0.4,
+                    "{formula:?} order {k}: dense output {q}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn rescaling_the_history_keeps_the_interpolating_polynomial() {
+        // D of the cubic p(t) = t^3 on the grid 0, -1, -2, -3 (h = 1), then
+        // re-interpolated onto h = 0.37: the new differences are those of p
+        // on the grid 0, -0.37, -0.74, -1.11.
+        let opts = BdfOptions::default();
+        let mut s = BdfSolver::new(Sine, 0.0, &[0.0], opts).unwrap();
+        let p = |t: f64| t.powi(3);
+        let diffs = |h: f64| {
+            let mut v: Vec<f64> = (0..4).map(|i| p(-(i as f64) * h)).collect();
+            let mut d = vec![0.0; 4];
+            for j in 0..4 {
+                d[j] = v[0];
+                for i in 0..3 - j {
+                    v[i] -= v[i + 1];
+                }
+            }
+            d
+        };
+        for (j, dj) in diffs(1.0).into_iter().enumerate() {
+            s.d[j][0] = dj;
+        }
+        s.order = 3;
+        s.h = 1.0;
+        s.rescale(0.37);
+        for (j, dj) in diffs(0.37).into_iter().enumerate() {
+            assert!(
+                (s.d[j][0] - dj).abs() < 1e-12,
+                "D_{j}: {} vs {dj}",
+                s.d[j][0]
+            );
+        }
+        assert!((s.h - 0.37).abs() < 1e-15);
     }
 }

@@ -142,7 +142,9 @@ pub enum OdeError {
         bound: f64,
     },
     /// The local error test failed too often on one step.
-    #[error("the local error test failed {failures} times on the step from t = {t} (last h = {h:e})")]
+    #[error(
+        "the local error test failed {failures} times on the step from t = {t} (last h = {h:e})"
+    )]
     ErrorTestFailed {
         /// The time reached.
         t: f64,

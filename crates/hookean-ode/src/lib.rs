@@ -76,16 +76,16 @@ pub use control::{
     PiControllerOptions, StepDecision,
 };
 pub use error::OdeError;
+/// The dense linear algebra crate of the first-order Newton matrices.
+pub use faer;
 pub use hookean_nonlinear::{ForcingTerm, NewtonMethod, NewtonOptions};
 pub use hookean_problem::{FirstOrderProblem, SecondOrderProblem};
 pub use integrator::{FirstOrderIntegrator, SecondOrderIntegrator};
 pub use method::Method;
 pub use options::{IntegrateInfo, Predictor, SolverOptions, Stats, StepControl, StepReport};
-pub use system::FirstOrderForm;
-pub use tableau::ButcherTableau;
 /// The sparse matrix crate of [`FirstOrderProblem::sparse_jacobian_pattern`]
 /// and [`FirstOrderProblem::jacobian_sparse`], re-exported so that users
 /// need not match its version by hand.
 pub use sprs;
-/// The dense linear algebra crate of the first-order Newton matrices.
-pub use faer;
+pub use system::FirstOrderForm;
+pub use tableau::ButcherTableau;
