@@ -3,10 +3,10 @@
 
 Same problems, initial values, end times, reference solutions, tolerances
 (atol = rtol * floor) and error measure (max_i |y_i - ref_i| / (|ref_i| + floor_i))
-as crates/hookean-ode/examples/stiff_set.rs, with analytic Jacobians (sparse
+as crates/hookean-ode/examples/stiff_set.rs and benches/stiff-compare, with analytic Jacobians (sparse
 for the spring chain). Prints the same CSV columns. Run by scripts/stiff-compare.sh.
 
-usage: stiff_scipy.py REPEATS RTOL...
+usage: stiff_scipy.py sweep REPEATS RTOL... | stiff_scipy.py target REPEATS
 """
 import math
 import sys
@@ -141,37 +141,79 @@ def spring_chain(reference):
     return "spring-chain-50-sparse", f, jac, y0, 10.0, reference, [1e-3] * (2 * n)
 
 
+def run(problem, rtol):
+    name, f, jac, y0, t_end, ref, floor = problem
+    atol = np.array(floor) * rtol
+    start = time.perf_counter()
+    sol = solve_ivp(f, (0.0, t_end), y0, method="BDF", rtol=rtol, atol=atol, jac=jac)
+    wall = time.perf_counter() - start
+    if not sol.success:
+        return None, wall
+    y = sol.y[:, -1]
+    err = max(abs(a - r) / (abs(r) + fl) for a, r, fl in zip(y, ref, floor))
+    return (err, len(sol.t) - 1, sol.njev, sol.nlu, sol.nfev), wall
+
+
+def median_time(problem, rtol, repeats):
+    times = sorted(run(problem, rtol)[1] for _ in range(max(repeats, 1)))
+    return times[len(times) // 2]
+
+
 def main():
-    repeats = int(sys.argv[1]) if len(sys.argv) > 1 else 1
-    rtols = [float(a) for a in sys.argv[2:]] or [1e-4, 1e-5, 1e-6, 1e-7, 1e-8]
+    """Modes: `sweep REPEATS RTOL...` prints one row per problem and rtol;
+    `target REPEATS` walks the rtol ladder 1e-3, 3e-4, ..., 1e-10 until the
+    error is <= 1e-4 and prints that rung with the time at 1e-4 interpolated
+    (log time linear in log error between the rungs around the target), as
+    benches/stiff-compare does for the Rust solvers."""
+    mode = sys.argv[1] if len(sys.argv) > 1 else "sweep"
+    repeats = int(sys.argv[2]) if len(sys.argv) > 2 else 1
+    rtols = [float(a) for a in sys.argv[3:]] or [1e-4, 1e-5, 1e-6, 1e-7, 1e-8]
     # The chain is linear: its reference is exp(10 A) y0 (scipy.linalg.expm).
     from scipy.linalg import expm
     _, _, jac, y0, t_end, _, _ = spring_chain(None)
     chain_ref = list(expm(t_end * jac(0, y0).toarray()) @ y0)
     problems = [robertson(40.0), robertson(1e5), vanderpol(), hires(), orego(), e5(),
                 spring_chain(chain_ref)]
-    print("problem,rtol,error,steps,rhs_evals,jac_evals,lu_setups,newton_iters,"
-          "err_test_fails,conv_fails,wall_s,status", flush=True)
     print(f"# scipy {scipy.__version__}, numpy {np.__version__}", file=sys.stderr)
-    for rtol in rtols:
-        for name, f, jac, y0, t_end, ref, floor in problems:
-            atol = np.array(floor) * rtol
-            times = []
-            sol = None
-            for _ in range(repeats):
-                start = time.perf_counter()
-                sol = solve_ivp(f, (0.0, t_end), y0, method="BDF", rtol=rtol, atol=atol, jac=jac)
-                times.append(time.perf_counter() - start)
-            times.sort()
-            wall = times[len(times) // 2]
-            if not sol.success:
-                print(f"{name},{rtol:e},inf,,,,,,,,{wall:.6e},\"{sol.message}\"", flush=True)
+    if mode == "sweep":
+        print("problem,rtol,error,steps,rhs_evals,jac_evals,lu_setups,wall_s,status", flush=True)
+        for rtol in rtols:
+            for problem in problems:
+                res, _ = run(problem, rtol)
+                wall = median_time(problem, rtol, repeats)
+                if res is None:
+                    print(f"{problem[0]},{rtol:e},inf,,,,,{wall:.6e},failed", flush=True)
+                    continue
+                err, steps, njev, nlu, nfev = res
+                print(f"{problem[0]},{rtol:e},{err:.3e},{steps},{nfev},{njev},{nlu},{wall:.6e},ok",
+                      flush=True)
+        return
+    target = 1e-4
+    ladder = []
+    for e in range(3, 11):
+        ladder.append(10.0 ** -e)
+        if e < 10:
+            ladder.append(0.3 * 10.0 ** -e)
+    print("problem,solver,rtol,error,steps,jac_evals,lu_setups,rhs_evals,wall_s,wall_s_at_1e-4",
+          flush=True)
+    for problem in problems:
+        above = None
+        for rtol in ladder:
+            res, _ = run(problem, rtol)
+            if res is None:
                 continue
-            y = sol.y[:, -1]
-            err = max(abs(a - r) / (abs(r) + fl) for a, r, fl in zip(y, ref, floor))
-            steps = len(sol.t) - 1
-            print(f"{name},{rtol:e},{err:.3e},{steps},{sol.nfev},{sol.njev},{sol.nlu},,,,{wall:.6e},ok",
+            err, steps, njev, nlu, nfev = res
+            wall = median_time(problem, rtol, repeats)
+            if not err <= target:
+                above = (err, wall)
+                continue
+            at = wall
+            if above is not None and err > 0:
+                w = (math.log(target) - math.log(above[0])) / (math.log(err) - math.log(above[0]))
+                at = math.exp(math.log(above[1]) + w * (math.log(wall) - math.log(above[1])))
+            print(f"{problem[0]},scipy,{rtol:e},{err:.3e},{steps},{njev},{nlu},{nfev},{wall:.6e},{at:.6e}",
                   flush=True)
+            break
 
 
 if __name__ == "__main__":
