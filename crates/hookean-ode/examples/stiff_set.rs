@@ -11,17 +11,12 @@
 use std::time::Instant;
 
 use hookean_ode::testset::{
-    E5, Hires, Orego, Robertson, SpringChain, TestProblem, VanDerPol, mixed_error,
+    E5, Hires, Orego, Robertson, SpringChain, TestProblem, VanDerPol, mixed_error, options,
 };
-use hookean_ode::{BdfOptions, BdfSolver, BdfStats, OdeError};
+use hookean_ode::{BdfSolver, BdfStats, OdeError};
 
 fn run<P: TestProblem + Clone>(p: &P, rtol: f64) -> Result<(Vec<f64>, BdfStats), OdeError> {
-    let atol: Vec<f64> = p.floor().iter().map(|f| f * rtol).collect();
-    let opts = BdfOptions {
-        rtol,
-        atol: atol.into(),
-        ..BdfOptions::default()
-    };
+    let opts = options(p, rtol);
     let mut s = BdfSolver::new(p.clone(), 0.0, &p.y0(), opts)?;
     let stats = s.solve_to(p.t_end())?;
     Ok((s.y().to_vec(), stats))

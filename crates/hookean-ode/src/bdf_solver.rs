@@ -43,7 +43,9 @@
 //! **Order and step size.** After `k + 1` steps of equal size, the errors of
 //! orders `k - 1`, `k`, `k + 1` are estimated from `D_k`, `d` and
 //! `d - D_{k+1}`; the order with the largest admissible step is taken
-//! (Shampine-Reichelt, section 2.4), the step grows by at most 10. The first
+//! (Shampine-Reichelt, section 2.4), the step grows by at most 10; a change
+//! of the step by a factor in `(0.9, 1.5)` at the same order is not made
+//! (CVODE's hysteresis), so that the kept LU stays valid. The first
 //! step is order 1 with Hairer-Wanner's initial step estimate (Hairer,
 //! Norsett, Wanner, "Solving ODEs I", section II.4).
 //!
@@ -90,6 +92,10 @@ pub const MAX_ORDER: usize = 5;
 /// The NDF modification `kappa_k` of orders 0..=5 (Shampine-Reichelt,
 /// table 1; order 5 is the BDF).
 const NDF_KAPPA: [f64; MAX_ORDER + 1] = [0.0, -0.1850, -1.0 / 9.0, -0.0823, -0.0415, 0.0];
+
+/// After an accepted step, the step size is kept (and the order is not
+/// changed) while the proposed factor lies in this band.
+const KEEP_STEP: (f64, f64) = (0.9, 1.5);
 
 /// Step-size change limits after an accepted step, and after a failure.
 const MAX_FACTOR: f64 = 10.0;
@@ -580,14 +586,7 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
                 }
             }
             Some(pattern) => {
-                if pattern.shape() != (n, n) {
-                    return Err(OdeError::DimensionMismatch {
-                        what: "sparse Jacobian pattern (rows)",
-                        expected: n,
-                        found: pattern.rows(),
-                    });
-                }
-                let diag = diagonal_positions(&pattern)?;
+                let diag = diagonal_positions(&pattern, n)?;
                 Matrices::Sparse(Box::new(SparseMatrices {
                     m: pattern.clone(),
                     jac: pattern,
@@ -1261,7 +1260,12 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
         }
         self.order = k + best - 1;
         let factor = (safety * factors[best]).min(MAX_FACTOR);
-        self.rescale(factor);
+        // Hysteresis: keep the order and step unless the change is worth
+        // the re-interpolation and a likely refactorisation (CVODE keeps h
+        // for growth below THRESH = 1.5).
+        if best != 1 || !(KEEP_STEP.0 < factor && factor < KEEP_STEP.1) {
+            self.rescale(factor);
+        }
         Ok(())
     }
 

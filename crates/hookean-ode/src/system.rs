@@ -257,12 +257,23 @@ impl<P: FirstOrderProblem> NonlinearSystem for SparseFirstStage<'_, P> {
     }
 }
 
-/// The positions in `pattern.data()` of the diagonal entries of a square
-/// sparse pattern (CSR or CSC), to add the identity of `I - gh df/dy`.
+/// The positions in `pattern.data()` of the diagonal entries of an `n x n`
+/// sparse Jacobian pattern (CSR or CSC), to add the identity of `I - gh df/dy`.
 ///
 /// # Errors
+/// [`OdeError::DimensionMismatch`] for another shape,
 /// [`OdeError::InvalidParameter`] if a diagonal entry is missing.
-pub(crate) fn diagonal_positions(pattern: &sprs::CsMat<f64>) -> Result<Vec<usize>, OdeError> {
+pub(crate) fn diagonal_positions(
+    pattern: &sprs::CsMat<f64>,
+    n: usize,
+) -> Result<Vec<usize>, OdeError> {
+    if pattern.shape() != (n, n) {
+        return Err(OdeError::DimensionMismatch {
+            what: "sparse Jacobian pattern (rows)",
+            expected: n,
+            found: pattern.rows(),
+        });
+    }
     let mut diag = vec![usize::MAX; pattern.outer_dims()];
     let mut k = 0;
     for (outer, vec) in pattern.outer_iterator().enumerate() {
@@ -315,14 +326,7 @@ impl<P: FirstOrderProblem> FirstSys<P> {
         let newton = match problem.sparse_jacobian_pattern() {
             None => FirstNewton::Dense(None),
             Some(pattern) => {
-                if pattern.shape() != (n, n) {
-                    return Err(OdeError::DimensionMismatch {
-                        what: "sparse Jacobian pattern (rows)",
-                        expected: n,
-                        found: pattern.rows(),
-                    });
-                }
-                let diag = diagonal_positions(&pattern)?;
+                let diag = diagonal_positions(&pattern, n)?;
                 FirstNewton::Sparse(Box::new(SparseNewton {
                     newton: Newton::new(opts.newton.clone(), pattern.clone(), SparseLu::new())?,
                     jsp: pattern,

@@ -26,6 +26,8 @@
 
 use hookean_problem::FirstOrderProblem;
 
+use crate::bdf_solver::BdfOptions;
+
 /// A stiff test problem: the right-hand side with its Jacobian, the
 /// initial value, the end time and the reference solution there.
 pub trait TestProblem: FirstOrderProblem {
@@ -41,6 +43,21 @@ pub trait TestProblem: FirstOrderProblem {
     /// absolute tolerance is `rtol * floor` (per component), and errors
     /// are measured relative to `|y_ref| + floor` (the test set's mixed error).
     fn floor(&self) -> Vec<f64>;
+}
+
+/// The one set of default options used on the whole test set: only the
+/// tolerances follow the problem, `atol_i = rtol * floor_i`.
+pub fn options<P: TestProblem>(problem: &P, rtol: f64) -> BdfOptions {
+    BdfOptions {
+        rtol,
+        atol: problem
+            .floor()
+            .iter()
+            .map(|f| f * rtol)
+            .collect::<Vec<f64>>()
+            .into(),
+        ..BdfOptions::default()
+    }
 }
 
 /// The mixed relative error `max_i |y_i - ref_i| / (|ref_i| + floor_i)` of

@@ -3,8 +3,8 @@
 //! factors). (The sparse path does allocate: faer's sparse triangular
 //! solves take a fresh workspace per call in `hookean-nonlinear`'s `SparseLu`.)
 
-use hookean_ode::testset::{Hires, SpringChain, TestProblem};
-use hookean_ode::{BdfOptions, BdfSolver};
+use hookean_ode::BdfSolver;
+use hookean_ode::testset::{Hires, SpringChain, TestProblem, options};
 use hookean_testkit::alloc::{Counting, allocations};
 
 #[global_allocator]
@@ -12,16 +12,7 @@ static GLOBAL: Counting = Counting;
 
 fn check<P: TestProblem>(p: P) {
     let t_end = p.t_end();
-    let opts = BdfOptions {
-        rtol: 1e-6,
-        atol: p
-            .floor()
-            .iter()
-            .map(|f| f * 1e-6)
-            .collect::<Vec<f64>>()
-            .into(),
-        ..BdfOptions::default()
-    };
+    let opts = options(&p, 1e-6);
     let y0 = p.y0();
     let mut s = BdfSolver::new(p, 0.0, &y0, opts).unwrap();
     let mut quiet = 0;

@@ -3,7 +3,7 @@
 //! failures; and the fixed-step BDF4 blow-up of issue 13.
 
 use hookean_ode::testset::{
-    E5, Hires, Orego, Robertson, SpringChain, TestProblem, VanDerPol, mixed_error,
+    self, E5, Hires, Orego, Robertson, SpringChain, TestProblem, VanDerPol, mixed_error,
 };
 use hookean_ode::{
     BdfCoefficients, BdfOptions, BdfSolver, BdfStats, Direction, Events, FirstOrderIntegrator,
@@ -14,12 +14,7 @@ use num_complex::Complex64;
 /// One set of default options; only the tolerances follow the problem
 /// (`atol = rtol * floor`).
 fn solve<P: TestProblem + Clone>(p: &P, rtol: f64) -> Result<(f64, BdfStats), OdeError> {
-    let atol: Vec<f64> = p.floor().iter().map(|f| f * rtol).collect();
-    let opts = BdfOptions {
-        rtol,
-        atol: atol.into(),
-        ..BdfOptions::default()
-    };
+    let opts = testset::options(p, rtol);
     let mut s = BdfSolver::new(p.clone(), 0.0, &p.y0(), opts)?;
     let stats = s.solve_to(p.t_end())?;
     assert_eq!(s.t(), p.t_end());
