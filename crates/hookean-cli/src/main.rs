@@ -34,6 +34,7 @@ mod solve;
 mod stability;
 mod tutorial_run;
 mod view;
+mod work;
 mod workprecision;
 
 /// Soft-object simulation with mass-spring systems: solvers, scenes, plots.

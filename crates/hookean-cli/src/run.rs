@@ -42,6 +42,8 @@ pub struct RunArgs {
         allow_negative_numbers = true
     )]
     max_memory: f64,
+    #[command(flatten)]
+    work: crate::work::WorkCap,
 }
 
 /// `--max-memory` in bytes.
@@ -304,6 +306,9 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let scene =
         Scene::from_file(&args.scene, &args.set).map_err(|e| CliError::Input(e.to_string()))?;
     let max_bytes = max_memory_bytes(args.max_memory)?;
+    if scene.tutorial.is_some() {
+        check_work(args, &scene, 1)?;
+    }
     let name = args
         .scene
         .file_stem()
@@ -336,6 +341,20 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     }
 }
 
+/// Refuses a run of `particles` particles whose work is above `--max-work`.
+fn check_work(args: &RunArgs, scene: &Scene, particles: usize) -> Result<(), CliError> {
+    args.work.check(
+        scene.duration / scene.integrator.h,
+        particles as f64,
+        &format!(
+            "{}: duration = {:?} s at integrator.h = {:?} s",
+            args.scene.display(),
+            scene.duration,
+            scene.integrator.h
+        ),
+    )
+}
+
 /// Runs a mass-spring scene, writing into `out`; returns the one-line report.
 fn run_model(
     args: &RunArgs,
@@ -352,6 +371,7 @@ fn run_model(
         )),
         e => CliError::Input(format!("{}: {e}", args.scene.display())),
     })?;
+    check_work(args, scene, sim.model().n_particles())?;
 
     let mut csv = StepsCsv::create(out.join("steps.csv")).map_err(failed)?;
     let mut frames = ObjFrames {

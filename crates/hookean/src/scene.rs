@@ -967,6 +967,24 @@ impl Scene {
         })
     }
 
+    /// The number of particles (unknowns for a `[tutorial]` scene) the
+    /// scene's model has, and the key that sets it; `None` for a count that
+    /// overflows 64 bits.
+    pub fn particle_count(&self) -> (Option<u64>, &'static str) {
+        if let Some(c) = &self.cloth {
+            ((c.n as u64).checked_mul(c.n as u64), "cloth.n")
+        } else if let Some(r) = &self.rope {
+            (Some(r.n as u64), "rope.n")
+        } else if let Some(j) = &self.jelly {
+            let [a, b, c] = j.n.map(|k| k as u64);
+            (a.checked_mul(b).and_then(|ab| ab.checked_mul(c)), "jelly.n")
+        } else if self.particle.is_some() {
+            (Some(1), "particle")
+        } else {
+            (Some(1), "tutorial")
+        }
+    }
+
     /// An upper estimate of the memory the scene's model and its implicit
     /// solver need, in bytes, and the key that sets the size: about
     /// 1 KiB per particle (state, forces, solver vectors) and 0.5 KiB per
@@ -977,20 +995,16 @@ impl Scene {
         const PER_SPRING: u64 = 1 << 9;
         // Springs per particle: cloth 6 (structural, shear, bend), rope 2,
         // 3D lattice at most 13 (half of the 26 neighbours).
-        let (particles, springs_per, key) = if let Some(c) = &self.cloth {
-            ((c.n as u64).checked_mul(c.n as u64), 6, "cloth.n")
-        } else if let Some(r) = &self.rope {
-            (Some(r.n as u64), 2, "rope.n")
-        } else if let Some(j) = &self.jelly {
-            let [a, b, c] = j.n.map(|k| k as u64);
-            (
-                a.checked_mul(b).and_then(|ab| ab.checked_mul(c)),
-                13,
-                "jelly.n",
-            )
+        let springs_per = if self.cloth.is_some() {
+            6
+        } else if self.rope.is_some() {
+            2
+        } else if self.jelly.is_some() {
+            13
         } else {
-            (Some(1), 1, "particle")
+            1
         };
+        let (particles, key) = self.particle_count();
         let bytes = particles.and_then(|p| {
             p.checked_mul(PER_PARTICLE)?
                 .checked_add(p.checked_mul(springs_per)?.checked_mul(PER_SPRING)?)
