@@ -35,10 +35,10 @@ pub struct FilterAnalysisArgs {
     #[arg(long, default_value_t = 16)]
     n: usize,
     /// Simulated seconds of the figure-4 runs.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     t_end: f64,
     /// Step of the figure-4 runs, as a fraction of the unfiltered FB Euler limit dt_max.
-    #[arg(long, default_value_t = 0.9)]
+    #[arg(long, default_value_t = 0.9, allow_negative_numbers = true)]
     step_fraction: f64,
     /// Write into an existing folder.
     #[arg(long)]

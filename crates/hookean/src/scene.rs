@@ -664,32 +664,30 @@ pub enum FormScene {
     Plain,
 }
 
-/// `[[collider]]`: a plane or a sphere.
+/// `[[collider]]`: a plane or a sphere. Its values are checked when the
+/// scene is built (errors name the collider: `[collider 2]: ...`), since the
+/// `kind`-tagged table loses the position of a bad value.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields, tag = "kind", rename_all = "kebab-case")]
 pub enum ColliderScene {
     /// The half-space above a plane.
     Plane {
         /// A point of the plane.
-        #[serde(deserialize_with = "finite3")]
         point: [f64; 3],
         /// Its outward normal (normalised on use).
-        #[serde(deserialize_with = "finite3")]
         normal: [f64; 3],
         /// Contact margin (m). Default 0.
-        #[serde(default, deserialize_with = "non_negative")]
+        #[serde(default)]
         margin: f64,
     },
     /// The outside of a ball.
     Sphere {
         /// Centre.
-        #[serde(deserialize_with = "finite3")]
         center: [f64; 3],
         /// Radius (m).
-        #[serde(deserialize_with = "positive")]
         radius: f64,
         /// Contact margin (m). Default 0.
-        #[serde(default, deserialize_with = "non_negative")]
+        #[serde(default)]
         margin: f64,
     },
 }
