@@ -176,6 +176,15 @@ pub struct Scene {
     /// What to write.
     #[serde(default)]
     pub output: OutputScene,
+    /// Worker threads of the kernels (rayon) when `hookean run` is not
+    /// given `--threads`. Default: `RAYON_NUM_THREADS`, else all cores.
+    /// Results are bitwise reproducible for a given thread count.
+    #[serde(default, deserialize_with = "threads")]
+    pub threads: Option<usize>,
+}
+
+fn threads<'de, D: Deserializer<'de>>(d: D) -> Result<Option<usize>, D::Error> {
+    at_least_one(d).map(Some)
 }
 
 fn d_duration() -> f64 {
