@@ -114,9 +114,14 @@ fn method<'de, D: Deserializer<'de>>(d: D) -> Result<Method, D::Error> {
     s.parse().map_err(|e| D::Error::custom(format!("{e}")))
 }
 
-fn precond<'de, D: Deserializer<'de>>(d: D) -> Result<PrecondKind, D::Error> {
+fn precond<'de, D: Deserializer<'de>>(d: D) -> Result<Option<PrecondKind>, D::Error> {
     let s = String::deserialize(d)?;
-    s.parse().map_err(|e| D::Error::custom(format!("{e}")))
+    if s == "auto" {
+        return Ok(None);
+    }
+    s.parse()
+        .map(Some)
+        .map_err(|e| D::Error::custom(format!("{e} (or \"auto\")")))
 }
 
 fn omega<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
@@ -140,6 +145,13 @@ fn mic_omega<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
         )))
     }
 }
+
+/// From this many particles on, `preconditioner = "auto"` takes AMG
+/// instead of MIC(0): on the drape AMG's set-up at every Newton iteration
+/// costs more than it saves at 64 x 64 (4 096 particles) and wins 1.35-1.56x
+/// at 128 x 128 (16 384; docs/PERFORMANCE.md, issues 15 and 16). The
+/// crossover between the two was not measured more finely.
+pub const AUTO_AMG_PARTICLES: usize = 10_000;
 
 /// A scene: one model, how to integrate it, for how long, what to write.
 #[derive(Debug, Clone, Deserialize)]
@@ -402,6 +414,15 @@ pub struct ModelScene {
     /// Gravity (m/s^2). Default `[0, 0, -9.81]`.
     #[serde(default = "d_gravity", deserialize_with = "finite3")]
     pub gravity: [f64; 3],
+    /// Clamp compressed springs' stiffness blocks (`max(0, 1 - l0/l)`) so the
+    /// step's matrix is SPD. Default `true`; `false` gives Newton the exact
+    /// stiffness Jacobian, which may be indefinite (PCG may then fail).
+    #[serde(default = "d_true")]
+    pub clamp_stiffness: bool,
+}
+
+fn d_true() -> bool {
+    true
 }
 
 impl Default for ModelScene {
@@ -410,6 +431,7 @@ impl Default for ModelScene {
             damping: DampingScene::Projected,
             air_friction: 0.0,
             gravity: d_gravity(),
+            clamp_stiffness: true,
         }
     }
 }
@@ -521,10 +543,12 @@ pub struct SolverScene {
     /// PCG iteration limit. Default 500.
     #[serde(default = "d_cg_max", deserialize_with = "at_least_one")]
     pub max_cg: usize,
-    /// `none`, `jacobi`, `block-jacobi`, `ssor`, `ic0`, `mic0` (default) or
-    /// `amg` (smoothed-aggregation multigrid with default options).
-    #[serde(default = "d_precond", deserialize_with = "precond")]
-    pub preconditioner: PrecondKind,
+    /// `none`, `jacobi`, `block-jacobi`, `ssor`, `ic0`, `mic0`, `amg`
+    /// (smoothed-aggregation multigrid with default options) or `auto`
+    /// (default, `None` here): `amg` from [`AUTO_AMG_PARTICLES`] particles
+    /// on, `mic0` below (measured on the drape, docs/PERFORMANCE.md).
+    #[serde(default, deserialize_with = "precond")]
+    pub preconditioner: Option<PrecondKind>,
     /// SSOR relaxation in (0, 2). Default 1.
     #[serde(default = "one", deserialize_with = "omega")]
     pub omega: f64,
@@ -546,7 +570,7 @@ impl Default for SolverScene {
             max_newton: d_newton_max(),
             cg_rtol: d_cg_rtol(),
             max_cg: d_cg_max(),
-            preconditioner: d_precond(),
+            preconditioner: None,
             omega: 1.0,
             mic_omega: d_mic_omega(),
             warm_start: true,
@@ -568,11 +592,6 @@ fn d_mic_omega() -> f64 {
 }
 fn d_cg_max() -> usize {
     500
-}
-fn d_precond() -> PrecondKind {
-    PrecondKind::Mic0 {
-        omega: PrecondKind::MIC_OMEGA,
-    }
 }
 
 /// The Newton variant.
@@ -866,7 +885,24 @@ impl Scene {
             },
             air_friction: self.model.air_friction,
             gravity: self.model.gravity,
+            clamp_stiffness: self.model.clamp_stiffness,
             ..ModelOptions::default()
+        }
+    }
+
+    /// The scene's preconditioner, `auto` resolved by the model's size.
+    pub fn preconditioner(&self) -> PrecondKind {
+        match self.solver.preconditioner {
+            Some(kind) => kind,
+            None if self
+                .particles()
+                .is_some_and(|p| p >= AUTO_AMG_PARTICLES as u64) =>
+            {
+                PrecondKind::Amg
+            }
+            None => PrecondKind::Mic0 {
+                omega: self.solver.mic_omega,
+            },
         }
     }
 
@@ -901,7 +937,7 @@ impl Scene {
         };
         solver.newton.linear_max_iter = Some(s.max_cg);
         solver.warm_start = s.warm_start;
-        solver.newton.preconditioner = match s.preconditioner {
+        solver.newton.preconditioner = match self.preconditioner() {
             PrecondKind::Ssor { .. } => PrecondKind::Ssor { omega: s.omega },
             PrecondKind::Mic0 { .. } => PrecondKind::Mic0 { omega: s.mic_omega },
             other => other,
@@ -963,25 +999,36 @@ impl Scene {
         const PER_SPRING: u64 = 1 << 9;
         // Springs per particle: cloth 6 (structural, shear, bend), rope 2,
         // 3D lattice at most 13 (half of the 26 neighbours).
-        let (particles, springs_per, key) = if let Some(c) = &self.cloth {
-            ((c.n as u64).checked_mul(c.n as u64), 6, "cloth.n")
-        } else if let Some(r) = &self.rope {
-            (Some(r.n as u64), 2, "rope.n")
-        } else if let Some(j) = &self.jelly {
-            let [a, b, c] = j.n.map(|k| k as u64);
-            (
-                a.checked_mul(b).and_then(|ab| ab.checked_mul(c)),
-                13,
-                "jelly.n",
-            )
+        let (springs_per, key) = if self.cloth.is_some() {
+            (6, "cloth.n")
+        } else if self.rope.is_some() {
+            (2, "rope.n")
+        } else if self.jelly.is_some() {
+            (13, "jelly.n")
         } else {
-            (Some(1), 1, "particle")
+            (1, "particle")
         };
+        let particles = self.particles();
         let bytes = particles.and_then(|p| {
             p.checked_mul(PER_PARTICLE)?
                 .checked_add(p.checked_mul(springs_per)?.checked_mul(PER_SPRING)?)
         });
         (bytes, key)
+    }
+
+    /// The number of particles of the scene's model (`None` if it
+    /// overflows 64 bits).
+    pub fn particles(&self) -> Option<u64> {
+        if let Some(c) = &self.cloth {
+            (c.n as u64).checked_mul(c.n as u64)
+        } else if let Some(r) = &self.rope {
+            Some(r.n as u64)
+        } else if let Some(j) = &self.jelly {
+            let [a, b, c] = j.n.map(|k| k as u64);
+            a.checked_mul(b).and_then(|ab| ab.checked_mul(c))
+        } else {
+            Some(1)
+        }
     }
 
     /// The memory cap of [`build`](Self::build): 8 GiB.
