@@ -338,7 +338,7 @@ fn absurd_sizes_are_input_errors_naming_the_key() {
 fn two_runs_with_the_same_thread_count_write_identical_frames() {
     // 48 x 48 = 2 304 particles: above hookean_sparse::par::MIN_PARALLEL_BLOCKS,
     // so the threaded kernels (row-split SpMV, tree-summed dot products) run.
-    assert!(48 * 48 >= hookean_sparse::par::MIN_PARALLEL_BLOCKS);
+    const { assert!(48 * 48 >= hookean_sparse::par::MIN_PARALLEL_BLOCKS) };
     let run = |name: &str, threads: &str, extra: &[&str]| {
         let out = scratch(name);
         let out_s = out.to_str().unwrap().to_string();

@@ -175,7 +175,7 @@ impl BlockPattern {
     /// First block row of part `t` of `parts` parts with about equal numbers
     /// of stored blocks (`t = parts` gives `n`). A fixed function of the
     /// pattern and `parts`, so threaded kernels split the same way every call.
-    pub(crate) fn part_start(&self, t: usize, parts: usize) -> usize {
+    pub fn part_start(&self, t: usize, parts: usize) -> usize {
         if t >= parts {
             return self.n;
         }
