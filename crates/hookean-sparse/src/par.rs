@@ -83,6 +83,49 @@ fn tree_sum_leaves(
     a + b
 }
 
+/// Two sums over matching fixed-size leaves of `a` and `b` (mutable, same
+/// length): `leaf(offset, a_leaf, b_leaf)` returns the leaf's pair, and the
+/// pairs are added in a fixed binary tree (as [`tree_sum`]). For fused
+/// passes that update vectors and reduce them, e.g. CG's `r -= alpha q`,
+/// `z = D^-1 r` with `r . r` and `r . z`.
+///
+/// # Panics
+/// If the lengths differ.
+pub(crate) fn tree_sum2_mut(
+    a: &mut [f64],
+    b: &mut [f64],
+    leaf: &(impl Fn(usize, &mut [f64], &mut [f64]) -> (f64, f64) + Sync),
+) -> (f64, f64) {
+    assert_eq!(a.len(), b.len());
+    let len = a.len();
+    if parts_for(len / 3) <= 1 {
+        return leaf(0, a, b);
+    }
+    tree_sum2_leaves(0, len.div_ceil(LEAF), 0, a, b, leaf)
+}
+
+fn tree_sum2_leaves(
+    l0: usize,
+    l1: usize,
+    offset: usize,
+    a: &mut [f64],
+    b: &mut [f64],
+    leaf: &(impl Fn(usize, &mut [f64], &mut [f64]) -> (f64, f64) + Sync),
+) -> (f64, f64) {
+    if l1 - l0 == 1 {
+        return leaf(offset, a, b);
+    }
+    let mid = (l0 + l1) / 2;
+    let split = (mid - l0) * LEAF;
+    let (a0, a1) = a.split_at_mut(split);
+    let (b0, b1) = b.split_at_mut(split);
+    let (x, y) = rayon::join(
+        || tree_sum2_leaves(l0, mid, offset, a0, b0, leaf),
+        || tree_sum2_leaves(mid, l1, offset + split, a1, b1, leaf),
+    );
+    (x.0 + y.0, x.1 + y.1)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -109,5 +152,44 @@ mod tests {
         // With one thread the kernel does not fork (one leaf over all of it);
         // with two or more the fixed tree gives the same bits.
         assert_eq!(sums[1].to_bits(), sums[2].to_bits());
+    }
+
+    #[test]
+    fn tree_sum2_updates_every_entry_once_and_sums_in_a_fixed_order() {
+        let n = 3 * MIN_PARALLEL_BLOCKS * 3 + 5;
+        let run = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| {
+                    let mut a = vec![1.0; n];
+                    let mut b: Vec<f64> = (0..n).map(|i| i as f64).collect();
+                    let s = tree_sum2_mut(&mut a, &mut b, &|at, a, b| {
+                        let mut s = (0.0, 0.0);
+                        for k in 0..a.len() {
+                            a[k] += (at + k) as f64;
+                            b[k] *= 0.5;
+                            s.0 += a[k];
+                            s.1 += b[k];
+                        }
+                        s
+                    });
+                    (a, b, s)
+                })
+        };
+        let (a1, b1, s1) = run(1);
+        let (a2, b2, s2) = run(2);
+        let (_, _, s3) = run(3);
+        assert_eq!((&a1, &b1), (&a2, &b2));
+        assert!(a1.iter().enumerate().all(|(k, &v)| v == 1.0 + k as f64));
+        let m = n as f64;
+        assert!((s2.0 - (m + m * (m - 1.0) / 2.0)).abs() <= 1e-12 * m * m);
+        assert!((s2.1 - m * (m - 1.0) / 4.0).abs() <= 1e-12 * m * m);
+        assert!((s1.0 - s2.0).abs() <= 1e-12 * m * m);
+        assert_eq!(
+            (s2.0.to_bits(), s2.1.to_bits()),
+            (s3.0.to_bits(), s3.1.to_bits())
+        );
     }
 }
