@@ -648,8 +648,13 @@ impl MassSpringModel {
             ($($fl:literal, $dv:literal, $dm:ident, $dd:literal;)*) => {
                 match (has_f, has_dv, damping, damping_dx) {
                     $(($fl, $dv, $dm, $dd) => {
-                        self.sweep_parts::<$fl, $dv, { damp_code($dm) }, $dd>(
-                            x, v, out, clamp_floor, fast, 0, parts.max(1), parts,
+                        Self::sweep_parts(
+                            Sweep::<'_, '_, $fl, $dv, { damp_code($dm) }, $dd> {
+                                model: self, x, v, out, clamp_floor, fast,
+                            },
+                            0,
+                            parts.max(1),
+                            parts,
                         )
                     })*
                     _ => unreachable!("damping_dx implies projected damping"),
@@ -695,40 +700,45 @@ impl MassSpringModel {
         }
     }
 
-    /// The sweep over parts `p0..p1` of `parts` (the rows of `out`):
-    /// halves under [`rayon::join`], each part a [`sweep`](Self::sweep)
-    /// compiled for the CPU's instruction set ([`run_sweep`]).
-    #[allow(clippy::too_many_arguments)]
+    /// The sweep `op` over parts `p0..p1` of `parts` (the rows of
+    /// `op.out`): halves under [`rayon::join`], each part a
+    /// [`sweep`](Self::sweep) compiled for the CPU's instruction set
+    /// ([`run_sweep`]).
     fn sweep_parts<const F: bool, const DV: bool, const DAMP: u8, const DDX: bool>(
-        &self,
-        x: &[f64],
-        v: &[f64],
-        out: Outputs<'_>,
-        clamp_floor: f64,
-        fast: bool,
+        op: Sweep<'_, '_, F, DV, DAMP, DDX>,
         p0: usize,
         p1: usize,
         parts: usize,
     ) {
         if p1 - p0 <= 1 {
-            run_sweep(Sweep::<'_, '_, F, DV, DAMP, DDX> {
-                model: self,
-                x,
-                v,
-                out,
-                clamp_floor,
-                fast,
-            });
+            run_sweep(op);
             return;
         }
+        let Sweep {
+            model,
+            x,
+            v,
+            out,
+            clamp_floor,
+            fast,
+        } = op;
         let mid = (p0 + p1) / 2;
-        let r = self.plan.pattern.part_start(mid, parts);
-        let rp = self.plan.pattern.row_ptr();
+        let r = model.plan.pattern.part_start(mid, parts);
+        let rp = model.plan.pattern.row_ptr();
         let starts = (rp[out.rows.start], rp[r]);
-        let (a, b) = out.split(r, starts, mid - p0, self.plan.bandwidth);
+        let (a, b) = out.split(r, starts, mid - p0, model.plan.bandwidth);
+        let half = |out| Sweep::<'_, '_, F, DV, DAMP, DDX> {
+            model,
+            x,
+            v,
+            out,
+            clamp_floor,
+            fast,
+        };
+        let (a, b) = (half(a), half(b));
         rayon::join(
-            || self.sweep_parts::<F, DV, DAMP, DDX>(x, v, a, clamp_floor, fast, p0, mid, parts),
-            || self.sweep_parts::<F, DV, DAMP, DDX>(x, v, b, clamp_floor, fast, mid, p1, parts),
+            || Self::sweep_parts(a, p0, mid, parts),
+            || Self::sweep_parts(b, mid, p1, parts),
         );
     }
 
@@ -1270,26 +1280,30 @@ mod tests {
         assert_eq!(first.0, fa);
         assert_eq!(first.1.values(), xa.values());
         assert_eq!(first.2.values(), va.values());
-        let (fb, xb, vb) = run(&model.clone(), x, v, mode, false);
-        let scale = xb
-            .values()
-            .iter()
-            .flatten()
-            .flatten()
-            .fold(0.0f64, |m, v| m.max(v.abs()));
+        let checked = run(&model.clone(), x, v, mode, false);
+        assert_round_off(&(fa, xa, va), &checked, &format!("{mode:?}"));
+    }
+
+    /// Two assemblies `(f, df/dx, df/dv)` agree to round-off: `1e-12`
+    /// relative for `f`, `1e-12` of the largest `df/dx` entry for the blocks.
+    fn assert_round_off(
+        a: &(Vec<f64>, SymBlockMatrix, SymBlockMatrix),
+        b: &(Vec<f64>, SymBlockMatrix, SymBlockMatrix),
+        what: &str,
+    ) {
+        let scale = (b.1.values().iter().flatten().flatten()).fold(0.0f64, |m, v| m.max(v.abs()));
         assert!(scale > 1e3);
-        for (a, b) in fa.iter().zip(&fb) {
-            assert!((a - b).abs() <= 1e-12 * (1.0 + b.abs()), "f {a} vs {b}");
+        for (u, w) in a.0.iter().zip(&b.0) {
+            assert!(
+                (u - w).abs() <= 1e-12 * (1.0 + w.abs()),
+                "{what}: f {u} vs {w}"
+            );
         }
-        for (ma, mb) in [(&xa, &xb), (&va, &vb)] {
-            for (a, b) in ma
-                .values()
-                .iter()
-                .flatten()
-                .flatten()
-                .zip(mb.values().iter().flatten().flatten())
-            {
-                assert!((a - b).abs() <= 1e-12 * scale, "{mode:?}: {a} vs {b}");
+        for (ma, mb) in [(&a.1, &b.1), (&a.2, &b.2)] {
+            let pairs = (ma.values().iter().flatten().flatten())
+                .zip(mb.values().iter().flatten().flatten());
+            for (u, w) in pairs {
+                assert!((u - w).abs() <= 1e-12 * scale, "{what}: {u} vs {w}");
             }
         }
     }
@@ -1317,13 +1331,7 @@ mod tests {
                 damping_in_dfdx: DampingInDfdx::Symmetrize,
             },
         ] {
-            let (fs, xs, vs) = pool(1).install(|| run(&model, &x, &v, mode, true));
-            let scale = xs
-                .values()
-                .iter()
-                .flatten()
-                .flatten()
-                .fold(0.0f64, |m, v| m.max(v.abs()));
+            let serial = pool(1).install(|| run(&model, &x, &v, mode, true));
             for threads in [2, 3] {
                 let p = pool(threads);
                 let (fa, xa, va) = p.install(|| run(&model, &x, &v, mode, true));
@@ -1332,23 +1340,7 @@ mod tests {
                     (&fa, xa.values(), va.values()),
                     (&again.0, again.1.values(), again.2.values())
                 );
-                for (a, b) in fa.iter().zip(&fs) {
-                    assert!((a - b).abs() <= 1e-12 * (1.0 + b.abs()), "f {a} vs {b}");
-                }
-                for (ma, mb) in [(&xa, &xs), (&va, &vs)] {
-                    for (a, b) in ma
-                        .values()
-                        .iter()
-                        .flatten()
-                        .flatten()
-                        .zip(mb.values().iter().flatten().flatten())
-                    {
-                        assert!(
-                            (a - b).abs() <= 1e-12 * scale,
-                            "{threads} threads: {a} vs {b}"
-                        );
-                    }
-                }
+                assert_round_off(&(fa, xa, va), &serial, &format!("{threads} threads"));
             }
         }
     }

@@ -509,19 +509,24 @@ impl SymBlockMatrix {
         let e = s + y3.len();
         let p = &*self.pattern;
         let vals = &self.values;
-        for (j, yj) in (s..e).zip(y3.iter_mut()) {
-            let mut acc = [0.0; 3];
-            for k in p.lower_ptr[j]..p.lower_ptr[j + 1] {
-                let i = p.lower_row[k] as usize;
-                if i >= s {
-                    break;
+        if s == 0 {
+            // The first part (or the serial kernel): no earlier rows.
+            y3.fill([0.0; 3]);
+        } else {
+            for (j, yj) in (s..e).zip(y3.iter_mut()) {
+                let mut acc = [0.0; 3];
+                for k in p.lower_ptr[j]..p.lower_ptr[j + 1] {
+                    let i = p.lower_row[k] as usize;
+                    if i >= s {
+                        break;
+                    }
+                    let u = block::mul_transpose_vec(&vals[p.lower_slot[k]], &x3[i]);
+                    acc[0] += u[0];
+                    acc[1] += u[1];
+                    acc[2] += u[2];
                 }
-                let u = block::mul_transpose_vec(&vals[p.lower_slot[k]], &x3[i]);
-                acc[0] += u[0];
-                acc[1] += u[1];
-                acc[2] += u[2];
+                *yj = acc;
             }
-            *yj = acc;
         }
         let mut dot = 0.0;
         for i in s..e {
@@ -552,45 +557,13 @@ impl SymBlockMatrix {
         dot
     }
 
-    /// The serial kernel of [`spmv_dot`](Self::spmv_dot).
+    /// The serial kernel of [`spmv_dot`](Self::spmv_dot): all rows as one part.
     #[inline]
     fn spmv_dot_serial(&self, x: &[f64], y: &mut [f64]) -> f64 {
         let n = self.pattern.n;
         let (x3, _) = x.as_chunks::<3>();
         let (y3, _) = y.as_chunks_mut::<3>();
-        let x3 = &x3[..n];
-        let y3 = &mut y3[..n];
-        y3.fill([0.0; 3]);
-        let row_ptr = &self.pattern.row_ptr;
-        let cols = &self.pattern.col_idx;
-        let vals = &self.values;
-        let mut dot = 0.0;
-        for i in 0..n {
-            let start = row_ptr[i];
-            let end = row_ptr[i + 1];
-            let xi = x3[i];
-            let mut yi = block::mul_vec(&vals[start], &xi);
-            for (&j, b) in cols[start + 1..end].iter().zip(&vals[start + 1..end]) {
-                let j = j as usize;
-                let xj = &x3[j];
-                let t = block::mul_vec(b, xj);
-                yi[0] += t[0];
-                yi[1] += t[1];
-                yi[2] += t[2];
-                let u = block::mul_transpose_vec(b, &xi);
-                let yj = &mut y3[j];
-                yj[0] += u[0];
-                yj[1] += u[1];
-                yj[2] += u[2];
-            }
-            // Rows < i scattered into y_i already and no later row touches it.
-            let out = &mut y3[i];
-            out[0] += yi[0];
-            out[1] += yi[1];
-            out[2] += yi[2];
-            dot += xi[0] * out[0] + xi[1] * out[1] + xi[2] * out[2];
-        }
-        dot
+        self.spmv_rows(&x3[..n], &mut y3[..n], 0)
     }
 
     /// CG's fused updates and product, in one pass over the matrix:
