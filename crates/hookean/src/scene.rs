@@ -890,19 +890,18 @@ impl Scene {
         }
     }
 
-    /// The scene's preconditioner, `auto` resolved by the model's size.
+    /// The scene's preconditioner: `auto` resolved by the model's size,
+    /// SSOR's and MIC(0)'s relaxations from `omega` and `mic_omega`.
     pub fn preconditioner(&self) -> PrecondKind {
-        match self.solver.preconditioner {
-            Some(kind) => kind,
-            None if self
-                .particles()
-                .is_some_and(|p| p >= AUTO_AMG_PARTICLES as u64) =>
-            {
-                PrecondKind::Amg
-            }
-            None => PrecondKind::Mic0 {
-                omega: self.solver.mic_omega,
-            },
+        let s = &self.solver;
+        let auto_amg = self
+            .particles()
+            .is_some_and(|p| p >= AUTO_AMG_PARTICLES as u64);
+        match s.preconditioner {
+            None if auto_amg => PrecondKind::Amg,
+            None | Some(PrecondKind::Mic0 { .. }) => PrecondKind::Mic0 { omega: s.mic_omega },
+            Some(PrecondKind::Ssor { .. }) => PrecondKind::Ssor { omega: s.omega },
+            Some(other) => other,
         }
     }
 
@@ -937,11 +936,7 @@ impl Scene {
         };
         solver.newton.linear_max_iter = Some(s.max_cg);
         solver.warm_start = s.warm_start;
-        solver.newton.preconditioner = match self.preconditioner() {
-            PrecondKind::Ssor { .. } => PrecondKind::Ssor { omega: s.omega },
-            PrecondKind::Mic0 { .. } => PrecondKind::Mic0 { omega: s.mic_omega },
-            other => other,
-        };
+        solver.newton.preconditioner = self.preconditioner();
         SimulationOptions {
             method: self.integrator.method.clone(),
             solver,
@@ -1125,6 +1120,24 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn auto_preconditioner_follows_the_particle_count_and_names_win() {
+        let kind = |text: &str| {
+            Scene::from_toml_str("s.toml", text)
+                .unwrap()
+                .preconditioner()
+        };
+        let side = (AUTO_AMG_PARTICLES as f64).sqrt().ceil() as usize;
+        let below = format!("[cloth]\nn = {}\n", side - 1);
+        let above = format!("[cloth]\nn = {side}\n");
+        assert!(matches!(kind(&below), PrecondKind::Mic0 { .. }));
+        assert_eq!(kind(&above), PrecondKind::Amg);
+        let named = format!("{above}[solver]\npreconditioner = \"mic0\"\nmic_omega = 0.5\n");
+        assert_eq!(kind(&named), PrecondKind::Mic0 { omega: 0.5 });
+        let auto = format!("{below}[solver]\npreconditioner = \"auto\"\n");
+        assert!(matches!(kind(&auto), PrecondKind::Mic0 { .. }));
+    }
 
     fn err(text: &str) -> (usize, usize, String) {
         match Scene::from_toml_str("s.toml", text) {
