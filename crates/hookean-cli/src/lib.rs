@@ -11,6 +11,9 @@
 //! hookean view OUT_DIR [--force]
 //! ```
 //!
+//! Every command takes `--threads N` (default: the scene's `threads` key
+//! for `run`, else `RAYON_NUM_THREADS`, else all cores); see [`threads`].
+//!
 //! Bad input (missing or malformed files, wrong sizes, unknown names) is a
 //! one-line message on stderr and exit code 2; a solver that fails on a
 //! valid input (e.g. a matrix that is not positive definite, or a direct
@@ -32,6 +35,7 @@ mod render;
 mod run;
 mod solve;
 mod stability;
+mod threads;
 mod tutorial_run;
 mod view;
 mod work;
@@ -41,6 +45,11 @@ mod workprecision;
 #[derive(Debug, Parser)]
 #[command(name = "hookean", version, about)]
 struct Cli {
+    /// Worker threads of the linear algebra and assembly kernels (default:
+    /// the scene's `threads`, else RAYON_NUM_THREADS, else all cores).
+    /// Results are bitwise reproducible for a given thread count.
+    #[arg(long, global = true, value_name = "N", value_parser = threads::parse)]
+    threads: Option<usize>,
     #[command(subcommand)]
     command: Command,
 }
@@ -114,16 +123,8 @@ impl From<hookean_sparse::SparseError> for CliError {
 /// builds a binary of its own from it.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result = match cli.command {
-        Command::Run(args) => run::run(&args),
-        Command::Solve(args) => solve::run(&args),
-        Command::Workprecision(args) => workprecision::run(&args),
-        Command::Stability(args) => stability::run(&args),
-        Command::BenchPrecond(args) => bench_precond::run(&args),
-        Command::ExportSystem(args) => export_system::run(&args),
-        Command::FilterAnalysis(args) => filter_analysis::run(&args),
-        Command::View(args) => view::run(&args),
-    };
+    let threads = cli.threads;
+    let result = threads::install(threads, || dispatch(cli.command, threads)).and_then(|r| r);
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(CliError::Input(message)) => {
@@ -136,5 +137,19 @@ pub fn main() -> ExitCode {
             ExitCode::from(1)
         }
         Err(CliError::OutputClosed) => ExitCode::from(141),
+    }
+}
+
+/// Runs one command (inside the thread pool of [`threads::install`]).
+fn dispatch(command: Command, threads: Option<usize>) -> Result<(), CliError> {
+    match command {
+        Command::Run(args) => run::run(&args, threads),
+        Command::Solve(args) => solve::run(&args),
+        Command::Workprecision(args) => workprecision::run(&args),
+        Command::Stability(args) => stability::run(&args),
+        Command::BenchPrecond(args) => bench_precond::run(&args),
+        Command::ExportSystem(args) => export_system::run(&args),
+        Command::FilterAnalysis(args) => filter_analysis::run(&args),
+        Command::View(args) => view::run(&args),
     }
 }

@@ -72,6 +72,9 @@ pub struct RunRecord {
     pub jacobian_evals: usize,
     pub linear_setups: usize,
     pub wall_s: f64,
+    /// Worker threads of the kernels (`--threads`, the scene's `threads`,
+    /// `RAYON_NUM_THREADS` or all cores, in that order).
+    pub threads: usize,
     pub simulated_s: f64,
     pub simulated_s_per_wall_s: f64,
     pub final_kinetic_energy: f64,
@@ -302,9 +305,18 @@ fn failed(e: impl std::fmt::Display) -> CliError {
     CliError::Failed(e.to_string())
 }
 
-pub fn run(args: &RunArgs) -> Result<(), CliError> {
+/// `hookean run`; `threads` is the command's `--threads`, which wins over
+/// the scene's `threads` key.
+pub fn run(args: &RunArgs, threads: Option<usize>) -> Result<(), CliError> {
     let scene =
         Scene::from_file(&args.scene, &args.set).map_err(|e| CliError::Input(e.to_string()))?;
+    match (threads, scene.threads) {
+        (None, Some(t)) => crate::threads::install(Some(t), || run_scene(args, &scene))?,
+        _ => run_scene(args, &scene),
+    }
+}
+
+fn run_scene(args: &RunArgs, scene: &Scene) -> Result<(), CliError> {
     let max_bytes = max_memory_bytes(args.max_memory)?;
     if scene.tutorial.is_some() {
         check_work(args, &scene, 1)?;
@@ -325,9 +337,9 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     }
     let staging = crate::output::Staging::new(&out)?;
     let report = if let Some(t) = &scene.tutorial {
-        crate::tutorial_run::run(&scene, t, &args.scene, staging.dir(), args.quiet)
+        crate::tutorial_run::run(scene, t, &args.scene, staging.dir(), args.quiet)
     } else {
-        run_model(args, &scene, &name, max_bytes, staging.dir())
+        run_model(args, scene, &name, max_bytes, staging.dir())
     };
     match report {
         Ok(report) => {
@@ -457,6 +469,7 @@ fn run_model(
         jacobian_evals: s.jacobian_evals,
         linear_setups: s.linear_setups,
         wall_s: summary.wall.as_secs_f64(),
+        threads: crate::threads::current(),
         simulated_s: summary.simulated,
         simulated_s_per_wall_s: summary.speed(),
         final_kinetic_energy: energies.kinetic,

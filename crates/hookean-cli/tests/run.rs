@@ -333,3 +333,73 @@ fn absurd_sizes_are_input_errors_naming_the_key() {
     assert_ok(&run(&small, &[]));
     let _ = std::fs::remove_dir_all(&out);
 }
+
+#[test]
+fn two_runs_with_the_same_thread_count_write_identical_frames() {
+    // 48 x 48 = 2 304 particles: above hookean_sparse::par::MIN_PARALLEL_BLOCKS,
+    // so the threaded kernels (row-split SpMV, tree-summed dot products) run.
+    const { assert!(48 * 48 >= hookean_sparse::par::MIN_PARALLEL_BLOCKS) };
+    let run = |name: &str, threads: &str, extra: &[&str]| {
+        let out = scratch(name);
+        let out_s = out.to_str().unwrap().to_string();
+        let drape = repo("scenes/drape.toml");
+        let mut args = vec![
+            "run",
+            &drape,
+            "--set",
+            "cloth.n=48",
+            "--set",
+            "duration=0.05",
+            "--set",
+            "output.frame_rate=100",
+            "--set",
+            "output.width=8",
+            "--set",
+            "output.height=8",
+            "--out",
+            &out_s,
+        ];
+        if !threads.is_empty() {
+            args.extend(["--threads", threads]);
+        }
+        args.extend(extra);
+        assert_ok(&hookean(&args));
+        out
+    };
+    let files = |dir: &PathBuf| {
+        let mut names: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.ends_with(".obj") || n == "steps.csv")
+            .collect();
+        names.sort();
+        names
+    };
+    let a = run("threads-a", "2", &[]);
+    let b = run("threads-b", "2", &[]);
+    let names = files(&a);
+    assert_eq!(names.len(), 7, "6 frames and steps.csv: {names:?}");
+    assert_eq!(names, files(&b));
+    for name in &names {
+        let (x, y) = (
+            std::fs::read(a.join(name)).unwrap(),
+            std::fs::read(b.join(name)).unwrap(),
+        );
+        assert!(x == y, "{name} differs between two 2-thread runs");
+    }
+    let summary = |dir: &PathBuf| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
+    };
+    assert_eq!(summary(&a)["threads"], 2);
+    // The scene's `threads` key applies without --threads; --threads wins.
+    let c = run("threads-c", "", &["--set", "threads=1"]);
+    assert_eq!(summary(&c)["threads"], 1);
+    let d = run("threads-d", "2", &["--set", "threads=1"]);
+    assert_eq!(summary(&d)["threads"], 2);
+    for dir in [a, b, c, d] {
+        let _ = std::fs::remove_dir_all(dir);
+    }
+    let o = hookean(&["--threads", "0", "view", "x"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("threads >= 1"));
+}

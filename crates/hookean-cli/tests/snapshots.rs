@@ -62,7 +62,11 @@ fn run_summary_of_a_small_drape() {
     let summary = run_scene(
         &dir,
         "scenes/drape.toml",
-        &["cloth.n=12".to_string(), "duration=0.3".to_string()],
+        &[
+            "cloth.n=12".to_string(),
+            "duration=0.3".to_string(),
+            "threads=1".to_string(),
+        ],
     );
     let _ = std::fs::remove_dir_all(&dir);
     insta::assert_snapshot!(stable(&summary));

@@ -93,6 +93,7 @@ fn unsym6(a: &[f64]) -> Block3 {
 #[inline(always)]
 fn scatter_sym(
     vals: &mut [Block3],
+    base: usize,
     loc: &mut [f64; 12],
     acc_c: &mut [f64; 12],
     at: usize,
@@ -116,9 +117,9 @@ fn scatter_sym(
         (unsym6(b6), *b6, *b6)
     };
     if h.first {
-        vals[h.upper as usize] = off;
+        vals[h.upper as usize - base] = off;
     } else {
-        let t = &mut vals[h.upper as usize];
+        let t = &mut vals[h.upper as usize - base];
         for r in 0..3 {
             for c in 0..3 {
                 t[r][c] += off[r][c];
@@ -199,12 +200,63 @@ const fn damp_code(d: SpringDamping) -> u8 {
     }
 }
 
-/// The outputs of one assembly sweep (empty slices for parts not computed).
+/// The outputs of one assembly sweep over block rows `rows` (empty slices
+/// for parts not computed): `f` and `acc` hold exactly those rows, `vx` and
+/// `vv` their stored blocks (value index `base` first). Contributions to
+/// particles past the rows go to `halo` (particle `rows.end + k` at `k`).
 struct Outputs<'a> {
     f: &'a mut [f64],
     vx: &'a mut [Block3],
     vv: &'a mut [Block3],
     acc: &'a mut [Acc],
+    rows: std::ops::Range<usize>,
+    base: usize,
+    halo: &'a mut [Halo],
+}
+
+impl<'a> Outputs<'a> {
+    /// Splits at block row `r` (inside `rows`) and at part `k` of the halo
+    /// parts of `bw` entries each.
+    fn split(self, r: usize, starts: (usize, usize), k: usize, bw: usize) -> (Self, Self) {
+        let s = self.rows.start;
+        let f_at = if self.f.is_empty() { 0 } else { 3 * (r - s) };
+        let (f0, f1) = self.f.split_at_mut(f_at);
+        let v_at = starts.1 - starts.0;
+        let (x0, x1) = self.vx.split_at_mut(v_at);
+        let (v0, v1) = self
+            .vv
+            .split_at_mut(if self.vv.is_empty() { 0 } else { v_at });
+        let (a0, a1) = self.acc.split_at_mut(r - s);
+        let (h0, h1) = self.halo.split_at_mut(k * bw);
+        (
+            Outputs {
+                f: f0,
+                vx: x0,
+                vv: v0,
+                acc: a0,
+                rows: s..r,
+                base: self.base,
+                halo: h0,
+            },
+            Outputs {
+                f: f1,
+                vx: x1,
+                vv: v1,
+                acc: a1,
+                rows: r..self.rows.end,
+                base: starts.1,
+                halo: h1,
+            },
+        )
+    }
+}
+
+/// What a part of the threaded sweep adds to a particle of a later part:
+/// its diagonal accumulator and force.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Halo {
+    acc: Acc,
+    f: [f64; 3],
 }
 
 /// One assembly sweep as a [`pulp::WithSimd`] operation, so that it can be
@@ -278,13 +330,15 @@ pub(crate) struct HotSpring {
 /// diagonal blocks). Behind a mutex because the `SecondOrderProblem` methods
 /// take `&self`; a concurrent second caller (or any caller after a panic
 /// poisoned the mutex) falls back to a temporary zeroed buffer.
+/// The second vector holds the halos of the threaded sweep (all zeros
+/// between calls too), grown on the first threaded call.
 #[derive(Debug, Default)]
-pub(crate) struct DiagScratch(pub(crate) std::sync::Mutex<Vec<Acc>>);
+pub(crate) struct DiagScratch(pub(crate) std::sync::Mutex<(Vec<Acc>, Vec<Halo>)>);
 
 impl Clone for DiagScratch {
     fn clone(&self) -> Self {
-        let n = self.0.lock().map(|v| v.len()).unwrap_or(0);
-        DiagScratch(std::sync::Mutex::new(vec![[0.0; 12]; n]))
+        let n = self.0.lock().map(|v| v.0.len()).unwrap_or(0);
+        DiagScratch(std::sync::Mutex::new((vec![[0.0; 12]; n], Vec::new())))
     }
 }
 
@@ -315,6 +369,9 @@ pub(crate) struct AssemblyPlan {
     pub(crate) touch_ptr: Vec<usize>,
     /// See `touch_ptr`.
     pub(crate) touch_rows: Vec<u32>,
+    /// `max (j - i)` over the stored blocks: how far past its rows a part
+    /// of the threaded sweep scatters.
+    pub(crate) bandwidth: usize,
     pub(crate) diag_acc: DiagScratch,
 }
 
@@ -369,6 +426,10 @@ impl AssemblyPlan {
             hot[k].first = k == 0 || hot[k - 1].upper != hot[k].upper;
         }
         let diag_index = diag_slots.iter().map(Slot::index).collect();
+        let bandwidth = (0..n)
+            .map(|r| pattern.col_idx()[pattern.row_ptr()[r + 1] - 1] as usize - r)
+            .max()
+            .unwrap_or(0);
         let mut hot_row_ptr = vec![0usize; n + 1];
         for h in &hot {
             hot_row_ptr[h.i as usize + 1] += 1;
@@ -405,7 +466,8 @@ impl AssemblyPlan {
             row_fast: vec![true; n],
             touch_ptr,
             touch_rows,
-            diag_acc: DiagScratch(std::sync::Mutex::new(vec![[0.0; 12]; n])),
+            bandwidth,
+            diag_acc: DiagScratch(std::sync::Mutex::new((vec![[0.0; 12]; n], Vec::new()))),
         })
     }
 
@@ -545,27 +607,39 @@ impl MassSpringModel {
         // The scratch is all zeros between calls: every row takes (and
         // zeroes) its accumulator when it writes its diagonal blocks.
         let mut guard = self.plan.diag_acc.0.try_lock();
-        let mut local: Vec<Acc> = Vec::new();
-        let acc: &mut [Acc] = match guard.as_deref_mut() {
-            Ok(buf) if buf.len() == n => buf,
+        let mut local: (Vec<Acc>, Vec<Halo>) = (Vec::new(), Vec::new());
+        let (acc, halo_buf) = match guard.as_deref_mut() {
+            Ok(buf) if buf.0.len() == n => (&mut buf.0, &mut buf.1),
             _ => {
-                local.resize(n, [0.0; 12]);
-                &mut local
+                local.0.resize(n, [0.0; 12]);
+                (&mut local.0, &mut local.1)
             }
         };
+        // Threaded: one part of the rows per thread (the SpMV's split),
+        // each with a halo of `bandwidth` particles past its rows.
+        let parts = hookean_sparse::par::parts_for(n);
+        let bw = self.plan.bandwidth;
+        if parts > 1 && halo_buf.len() < parts * bw {
+            halo_buf.resize(parts * bw, Halo::default());
+        }
         let damping = self.options.damping;
         let damping_dx = damping == SpringDamping::Projected
             && mode.damping_in_dfdx == DampingInDfdx::Symmetrize;
         let has_f = f.is_some();
         let has_dv = dfdv.is_some();
+        let mut dfdv = dfdv;
         let out = Outputs {
             f: f.as_deref_mut().unwrap_or_default(),
             vx: dfdx.values_mut(),
-            vv: match dfdv {
-                Some(m) => m.values_mut(),
-                None => &mut [],
+            vv: dfdv.as_deref_mut().map_or(&mut [], |m| m.values_mut()),
+            acc: &mut acc[..],
+            rows: 0..n,
+            base: 0,
+            halo: if parts > 1 {
+                &mut halo_buf[..parts * bw]
+            } else {
+                &mut []
             },
-            acc,
         };
         let clamp_floor = if mode.clamp { 0.0 } else { f64::NEG_INFINITY };
         // The loop invariants become const generics: the spring loop carries
@@ -574,9 +648,14 @@ impl MassSpringModel {
             ($($fl:literal, $dv:literal, $dm:ident, $dd:literal;)*) => {
                 match (has_f, has_dv, damping, damping_dx) {
                     $(($fl, $dv, $dm, $dd) => {
-                        run_sweep(Sweep::<'_, '_, $fl, $dv, { damp_code($dm) }, $dd> {
-                            model: self, x, v, out, clamp_floor, fast,
-                        })
+                        Self::sweep_parts(
+                            Sweep::<'_, '_, $fl, $dv, { damp_code($dm) }, $dd> {
+                                model: self, x, v, out, clamp_floor, fast,
+                            },
+                            0,
+                            parts.max(1),
+                            parts,
+                        )
                     })*
                     _ => unreachable!("damping_dx implies projected damping"),
                 }
@@ -589,9 +668,78 @@ impl MassSpringModel {
             false, true, P, false; false, true, P, true; false, true, I, false; false, true, N, false;
             false, false, P, false; false, false, P, true; false, false, I, false; false, false, N, false;
         }
+        if parts > 1 {
+            // The halos, added in part order (the same bits every run), and
+            // zeroed for the next call.
+            let vx = dfdx.values_mut();
+            let mut vv = dfdv.map(|m| m.values_mut());
+            let mut f3 = f.as_deref_mut().map(|f| f.as_chunks_mut::<3>().0);
+            for t in 0..parts {
+                let e = self.plan.pattern.part_start(t + 1, parts);
+                for (k, h) in halo_buf[t * bw..(t + 1) * bw].iter_mut().enumerate() {
+                    let j = e + k;
+                    if j >= n {
+                        break;
+                    }
+                    let d = self.plan.diag_index[j];
+                    vx[d] = block::add(&vx[d], &unsym6(&h.acc[..6]));
+                    if let Some(vv) = vv.as_deref_mut() {
+                        vv[d] = block::add(&vv[d], &unsym6(&h.acc[6..]));
+                    }
+                    if let Some(f3) = f3.as_deref_mut() {
+                        for q in 0..3 {
+                            f3[j][q] += h.f[q];
+                        }
+                    }
+                    *h = Halo::default();
+                }
+            }
+        }
         if let Some(f) = f {
             self.project_rows(f);
         }
+    }
+
+    /// The sweep `op` over parts `p0..p1` of `parts` (the rows of
+    /// `op.out`): halves under [`rayon::join`], each part a
+    /// [`sweep`](Self::sweep) compiled for the CPU's instruction set
+    /// ([`run_sweep`]).
+    fn sweep_parts<const F: bool, const DV: bool, const DAMP: u8, const DDX: bool>(
+        op: Sweep<'_, '_, F, DV, DAMP, DDX>,
+        p0: usize,
+        p1: usize,
+        parts: usize,
+    ) {
+        if p1 - p0 <= 1 {
+            run_sweep(op);
+            return;
+        }
+        let Sweep {
+            model,
+            x,
+            v,
+            out,
+            clamp_floor,
+            fast,
+        } = op;
+        let mid = (p0 + p1) / 2;
+        let r = model.plan.pattern.part_start(mid, parts);
+        let rp = model.plan.pattern.row_ptr();
+        let starts = (rp[out.rows.start], rp[r]);
+        let (a, b) = out.split(r, starts, mid - p0, model.plan.bandwidth);
+        let half = |out| Sweep::<'_, '_, F, DV, DAMP, DDX> {
+            model,
+            x,
+            v,
+            out,
+            clamp_floor,
+            fast,
+        };
+        let (a, b) = (half(a), half(b));
+        rayon::join(
+            || Self::sweep_parts(a, p0, mid, parts),
+            || Self::sweep_parts(b, mid, p1, parts),
+        );
     }
 
     /// One assembly sweep, row by row (`r = min(i, j)`): the diagonal
@@ -601,6 +749,9 @@ impl MassSpringModel {
     /// a chunk are independent, so they overlap instead of serialising the
     /// loop. Rows flagged fast (no constrained particle) skip the
     /// projections and their look-ups.
+    ///
+    /// Threaded, `out` holds the rows of one part; what its springs add to
+    /// particles past those rows goes to its halo, added after all parts.
     #[inline(always)]
     fn sweep<const F: bool, const DV: bool, const DAMP: u8, const DDX: bool>(
         &self,
@@ -610,16 +761,24 @@ impl MassSpringModel {
         clamp_floor: f64,
         fast: bool,
     ) {
-        let n = self.n_particles();
         let need_dv = DDX || (F && DAMP != DAMP_NONE);
-        let Outputs { f, vx, vv, acc } = out;
+        let Outputs {
+            f,
+            vx,
+            vv,
+            acc,
+            rows,
+            base,
+            halo,
+        } = out;
+        let (s, end) = (rows.start, rows.end);
         let f = f.as_chunks_mut::<3>().0;
         let (x3, v3) = (x.as_chunks::<3>().0, v.as_chunks::<3>().0);
         let c_air = self.options.air_friction;
         let mut geo = ChunkGeometry::new();
-        for r in 0..n {
+        for r in s..end {
             let row_fast = fast && self.plan.row_fast[r];
-            let mut loc = std::mem::replace(&mut acc[r], [0.0; 12]);
+            let mut loc = std::mem::replace(&mut acc[r - s], [0.0; 12]);
             // The force on the row's own particle, in registers.
             let mut floc = [0.0; 3];
             let row = &self.plan.hot[self.plan.hot_row_ptr[r]..self.plan.hot_row_ptr[r + 1]];
@@ -631,9 +790,9 @@ impl MassSpringModel {
                     if l <= 0.0 || l.is_nan() {
                         // Coincident endpoints: no direction, no force, no Jacobian.
                         if h.first {
-                            vx[h.upper as usize] = block::ZERO;
+                            vx[h.upper as usize - base] = block::ZERO;
                             if DV {
-                                vv[h.upper as usize] = block::ZERO;
+                                vv[h.upper as usize - base] = block::ZERO;
                             }
                         }
                         continue;
@@ -651,7 +810,11 @@ impl MassSpringModel {
                             DAMP_INCORRECT => fi += dv * h.damping,
                             _ => {}
                         }
-                        let fj = &mut f[j];
+                        let fj = if j < end {
+                            &mut f[j - s]
+                        } else {
+                            &mut halo[j - end].f
+                        };
                         for q in 0..3 {
                             floc[q] += fi[q];
                             fj[q] -= fi[q];
@@ -683,9 +846,14 @@ impl MassSpringModel {
                     }
                     let constrained = !row_fast
                         && (self.active_set.constrained[i] || self.active_set.constrained[j]);
-                    let acc_c = &mut acc[j];
+                    let acc_c = if j < end {
+                        &mut acc[j - s]
+                    } else {
+                        &mut halo[j - end].acc
+                    };
                     scatter_sym(
                         vx,
+                        base,
                         &mut loc,
                         acc_c,
                         0,
@@ -703,6 +871,7 @@ impl MassSpringModel {
                         };
                         scatter_sym(
                             vv,
+                            base,
                             &mut loc,
                             acc_c,
                             6,
@@ -714,7 +883,7 @@ impl MassSpringModel {
                     }
                 }
             }
-            let idx = self.plan.diag_index[r];
+            let idx = self.plan.diag_index[r] - base;
             vx[idx] = unsym6(&loc[..6]);
             if DV {
                 let mut d = unsym6(&loc[6..]);
@@ -725,7 +894,7 @@ impl MassSpringModel {
             }
             if F {
                 for q in 0..3 {
-                    f[r][q] += floc[q];
+                    f[r - s][q] += floc[q];
                 }
             }
         }
@@ -1047,9 +1216,18 @@ mod tests {
     /// spring duplicated (with other material), compressed by 10% and
     /// shaken, with random velocities.
     fn scene(options: ModelOptions) -> (MassSpringModel, Vec<f64>, Vec<f64>) {
+        scene_sized(options, 7, 6)
+    }
+
+    /// [`scene`] on an `nu x nv` cloth.
+    fn scene_sized(
+        options: ModelOptions,
+        nu: usize,
+        nv: usize,
+    ) -> (MassSpringModel, Vec<f64>, Vec<f64>) {
         let (base, state) = cloth(&ClothParams {
-            nu: 7,
-            nv: 6,
+            nu,
+            nv,
             ..Default::default()
         })
         .unwrap();
@@ -1102,26 +1280,67 @@ mod tests {
         assert_eq!(first.0, fa);
         assert_eq!(first.1.values(), xa.values());
         assert_eq!(first.2.values(), va.values());
-        let (fb, xb, vb) = run(&model.clone(), x, v, mode, false);
-        let scale = xb
-            .values()
-            .iter()
-            .flatten()
-            .flatten()
-            .fold(0.0f64, |m, v| m.max(v.abs()));
+        let checked = run(&model.clone(), x, v, mode, false);
+        assert_round_off(&(fa, xa, va), &checked, &format!("{mode:?}"));
+    }
+
+    /// Two assemblies `(f, df/dx, df/dv)` agree to round-off: `1e-12`
+    /// relative for `f`, `1e-12` of the largest `df/dx` entry for the blocks.
+    fn assert_round_off(
+        a: &(Vec<f64>, SymBlockMatrix, SymBlockMatrix),
+        b: &(Vec<f64>, SymBlockMatrix, SymBlockMatrix),
+        what: &str,
+    ) {
+        let scale = (b.1.values().iter().flatten().flatten()).fold(0.0f64, |m, v| m.max(v.abs()));
         assert!(scale > 1e3);
-        for (a, b) in fa.iter().zip(&fb) {
-            assert!((a - b).abs() <= 1e-12 * (1.0 + b.abs()), "f {a} vs {b}");
+        for (u, w) in a.0.iter().zip(&b.0) {
+            assert!(
+                (u - w).abs() <= 1e-12 * (1.0 + w.abs()),
+                "{what}: f {u} vs {w}"
+            );
         }
-        for (ma, mb) in [(&xa, &xb), (&va, &vb)] {
-            for (a, b) in ma
-                .values()
-                .iter()
-                .flatten()
-                .flatten()
-                .zip(mb.values().iter().flatten().flatten())
-            {
-                assert!((a - b).abs() <= 1e-12 * scale, "{mode:?}: {a} vs {b}");
+        for (ma, mb) in [(&a.1, &b.1), (&a.2, &b.2)] {
+            let pairs = (ma.values().iter().flatten().flatten())
+                .zip(mb.values().iter().flatten().flatten());
+            for (u, w) in pairs {
+                assert!((u - w).abs() <= 1e-12 * scale, "{what}: {u} vs {w}");
+            }
+        }
+    }
+
+    /// The threaded sweep (row parts, halos added afterwards in part order)
+    /// sums the same terms as the serial one in another order: equal to
+    /// round-off, and bitwise repeatable for a given thread count.
+    #[test]
+    fn threaded_assembly_agrees_with_the_serial_sweep_and_repeats_its_bits() {
+        let (model, x, v) = scene_sized(ModelOptions::default(), 50, 48);
+        assert!(model.n_particles() >= hookean_sparse::par::MIN_PARALLEL_BLOCKS);
+        let pool = |t: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .unwrap()
+        };
+        for mode in [
+            AssemblyMode {
+                clamp: true,
+                damping_in_dfdx: DampingInDfdx::Drop,
+            },
+            AssemblyMode {
+                clamp: false,
+                damping_in_dfdx: DampingInDfdx::Symmetrize,
+            },
+        ] {
+            let serial = pool(1).install(|| run(&model, &x, &v, mode, true));
+            for threads in [2, 3] {
+                let p = pool(threads);
+                let (fa, xa, va) = p.install(|| run(&model, &x, &v, mode, true));
+                let again = p.install(|| run(&model, &x, &v, mode, true));
+                assert_eq!(
+                    (&fa, xa.values(), va.values()),
+                    (&again.0, again.1.values(), again.2.values())
+                );
+                assert_round_off(&(fa, xa, va), &serial, &format!("{threads} threads"));
             }
         }
     }

@@ -69,6 +69,7 @@ mod iso;
 mod matrix;
 mod mtx;
 mod operator;
+pub mod par;
 mod power;
 mod precond;
 pub mod vecops;

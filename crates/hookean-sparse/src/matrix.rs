@@ -24,6 +24,12 @@ pub struct BlockPattern {
     n: usize,
     row_ptr: Vec<usize>,
     col_idx: Vec<u32>,
+    /// The transpose's index, for the threaded SpMV: column `j`'s stored
+    /// upper blocks `(i, j)`, `i < j`, are `lower_row[k]` / `lower_slot[k]`
+    /// for `k` in `lower_ptr[j]..lower_ptr[j + 1]`, rows ascending.
+    lower_ptr: Vec<usize>,
+    lower_row: Vec<u32>,
+    lower_slot: Vec<usize>,
 }
 
 /// `Ok` when the square CSR matrix `a` is finite and symmetric: every entry
@@ -136,11 +142,45 @@ impl BlockPattern {
             }
             row_ptr.push(col_idx.len());
         }
+        // The transposed index by counting sort: rows visited in increasing
+        // order leave every column's list sorted by row.
+        let mut lower_ptr = vec![0usize; n + 1];
+        for &(_, j) in &upper {
+            lower_ptr[j as usize + 1] += 1;
+        }
+        for j in 0..n {
+            lower_ptr[j + 1] += lower_ptr[j];
+        }
+        let mut fill = lower_ptr.clone();
+        let mut lower_row = vec![0u32; upper.len()];
+        let mut lower_slot = vec![0usize; upper.len()];
+        for i in 0..n {
+            for k in row_ptr[i] + 1..row_ptr[i + 1] {
+                let j = col_idx[k] as usize;
+                lower_row[fill[j]] = i as u32;
+                lower_slot[fill[j]] = k;
+                fill[j] += 1;
+            }
+        }
         Ok(Self {
             n,
             row_ptr,
             col_idx,
+            lower_ptr,
+            lower_row,
+            lower_slot,
         })
+    }
+
+    /// First block row of part `t` of `parts` parts with about equal numbers
+    /// of stored blocks (`t = parts` gives `n`). A fixed function of the
+    /// pattern and `parts`, so threaded kernels split the same way every call.
+    pub fn part_start(&self, t: usize, parts: usize) -> usize {
+        if t >= parts {
+            return self.n;
+        }
+        let target = self.col_idx.len() * t / parts;
+        self.row_ptr[..self.n].partition_point(|&p| p < target)
     }
 
     /// Number of block rows (and block columns).
@@ -415,38 +455,100 @@ impl SymBlockMatrix {
     /// The symmetric SpMV kernel: `y = A x`, and returns `x . y`.
     ///
     /// Every stored off-diagonal block `B_ij` is read once and applied twice.
+    /// With more than one rayon thread and a large matrix, the rows are
+    /// split into one part per thread ([`par`](crate::par)): see
+    /// [`spmv_rows`](Self::spmv_rows) for the conflict-free scheme.
     #[inline]
     pub(crate) fn spmv_dot(&self, x: &[f64], y: &mut [f64]) -> f64 {
-        let n = self.pattern.n;
-        let (x3, _) = x.as_chunks::<3>();
-        let (y3, _) = y.as_chunks_mut::<3>();
-        let x3 = &x3[..n];
-        let y3 = &mut y3[..n];
-        y3.fill([0.0; 3]);
-        let row_ptr = &self.pattern.row_ptr;
-        let cols = &self.pattern.col_idx;
+        let parts = crate::par::parts_for(self.pattern.n);
+        if parts > 1 {
+            let n = self.pattern.n;
+            let (x3, _) = x.as_chunks::<3>();
+            let (y3, _) = y.as_chunks_mut::<3>();
+            return self.spmv_parts(&x3[..n], &mut y3[..n], 0, parts, parts);
+        }
+        self.spmv_dot_serial(x, y)
+    }
+
+    /// Parts `p0..p1` of the row split, `y` holding exactly their rows:
+    /// halves run under [`rayon::join`] and their dot products are added in
+    /// a fixed tree order, so the result does not depend on scheduling.
+    fn spmv_parts(
+        &self,
+        x3: &[[f64; 3]],
+        y3: &mut [[f64; 3]],
+        p0: usize,
+        p1: usize,
+        parts: usize,
+    ) -> f64 {
+        if p1 - p0 == 1 {
+            let s = self.pattern.part_start(p0, parts);
+            return self.spmv_rows(x3, y3, s);
+        }
+        let mid = (p0 + p1) / 2;
+        let split = self.pattern.part_start(mid, parts) - self.pattern.part_start(p0, parts);
+        let (ya, yb) = y3.split_at_mut(split);
+        let (a, b) = rayon::join(
+            || self.spmv_parts(x3, ya, p0, mid, parts),
+            || self.spmv_parts(x3, yb, mid, p1, parts),
+        );
+        a + b
+    }
+
+    /// Rows `s..s + y3.len()` of `y = A x`, writing only those rows; returns
+    /// their part of `x . y`.
+    ///
+    /// The conflict-free scheme for upper-triangle storage: a row's own
+    /// blocks scatter `B_ij^T x_i` only to rows `j` of this part; the
+    /// contributions of rows before the part (`i < s`) are gathered first
+    /// through the transposed index. Every `y_j` thus sums the same terms
+    /// in the same order as the serial kernel (rows `i < j` ascending, then
+    /// row `j`'s own sum), so `y` is bitwise the serial one for any split;
+    /// only the dot product's summation order depends on the number of parts.
+    fn spmv_rows(&self, x3: &[[f64; 3]], y3: &mut [[f64; 3]], s: usize) -> f64 {
+        let e = s + y3.len();
+        let p = &*self.pattern;
         let vals = &self.values;
+        if s == 0 {
+            // The first part (or the serial kernel): no earlier rows.
+            y3.fill([0.0; 3]);
+        } else {
+            for (j, yj) in (s..e).zip(y3.iter_mut()) {
+                let mut acc = [0.0; 3];
+                for k in p.lower_ptr[j]..p.lower_ptr[j + 1] {
+                    let i = p.lower_row[k] as usize;
+                    if i >= s {
+                        break;
+                    }
+                    let u = block::mul_transpose_vec(&vals[p.lower_slot[k]], &x3[i]);
+                    acc[0] += u[0];
+                    acc[1] += u[1];
+                    acc[2] += u[2];
+                }
+                *yj = acc;
+            }
+        }
         let mut dot = 0.0;
-        for i in 0..n {
-            let start = row_ptr[i];
-            let end = row_ptr[i + 1];
+        for i in s..e {
+            let start = p.row_ptr[i];
+            let end = p.row_ptr[i + 1];
             let xi = x3[i];
             let mut yi = block::mul_vec(&vals[start], &xi);
-            for (&j, b) in cols[start + 1..end].iter().zip(&vals[start + 1..end]) {
+            for (&j, b) in p.col_idx[start + 1..end].iter().zip(&vals[start + 1..end]) {
                 let j = j as usize;
-                let xj = &x3[j];
-                let t = block::mul_vec(b, xj);
+                let t = block::mul_vec(b, &x3[j]);
                 yi[0] += t[0];
                 yi[1] += t[1];
                 yi[2] += t[2];
-                let u = block::mul_transpose_vec(b, &xi);
-                let yj = &mut y3[j];
-                yj[0] += u[0];
-                yj[1] += u[1];
-                yj[2] += u[2];
+                if j < e {
+                    let u = block::mul_transpose_vec(b, &xi);
+                    let yj = &mut y3[j - s];
+                    yj[0] += u[0];
+                    yj[1] += u[1];
+                    yj[2] += u[2];
+                }
             }
-            // Rows < i scattered into y_i already and no later row touches it.
-            let out = &mut y3[i];
+            let out = &mut y3[i - s];
             out[0] += yi[0];
             out[1] += yi[1];
             out[2] += yi[2];
@@ -455,11 +557,24 @@ impl SymBlockMatrix {
         dot
     }
 
+    /// The serial kernel of [`spmv_dot`](Self::spmv_dot): all rows as one part.
+    #[inline]
+    fn spmv_dot_serial(&self, x: &[f64], y: &mut [f64]) -> f64 {
+        let n = self.pattern.n;
+        let (x3, _) = x.as_chunks::<3>();
+        let (y3, _) = y.as_chunks_mut::<3>();
+        self.spmv_rows(&x3[..n], &mut y3[..n], 0)
+    }
+
     /// CG's fused updates and product, in one pass over the matrix:
     /// `x <- x + alpha p` (old `p`), `p <- z + beta p`, `q = A p`; returns
     /// `p . q`. Row `i` stores its new `p_i`; the upper neighbours `j > i`
     /// are not updated yet, so their new values `z_j + beta p_j` are formed
     /// on the fly.
+    ///
+    /// Threaded (as [`spmv_dot`](Self::spmv_dot)), the updates and the
+    /// product are two passes: a part's rows need the new `p` of rows in
+    /// other parts. `x`, `p` and `q` are bitwise those of the serial pass.
     #[inline]
     pub(crate) fn update_spmv_dot(
         &self,
@@ -471,6 +586,15 @@ impl SymBlockMatrix {
         q: &mut [f64],
     ) -> f64 {
         let n = self.pattern.n;
+        if crate::par::parts_for(n) > 1 {
+            crate::par::for_each_chunk3(x, p, z, |xc, pc, zc| {
+                for ((xi, pi), zi) in xc.iter_mut().zip(pc.iter_mut()).zip(zc) {
+                    *xi += alpha * *pi;
+                    *pi = zi + beta * *pi;
+                }
+            });
+            return self.spmv_dot(p, q);
+        }
         let (z3, _) = z.as_chunks::<3>();
         let (x3, _) = x.as_chunks_mut::<3>();
         let (p3, _) = p.as_chunks_mut::<3>();
@@ -745,6 +869,76 @@ mod tests {
             let expected: f64 = (0..15).map(|c| d[r][c] * x[c]).sum();
             approx::assert_abs_diff_eq!(y[r], expected, epsilon = 1e-13);
         }
+    }
+
+    /// A banded matrix big enough for the threaded kernels: block `i`
+    /// coupled to `i + 1` and `i + w` (a cloth-like bandwidth `w`).
+    fn banded(n: usize, w: usize) -> SymBlockMatrix {
+        let pairs = (0..n)
+            .flat_map(|i| [(i, i + 1), (i, i + w)])
+            .filter(|&(_, j)| j < n);
+        let pattern = Arc::new(BlockPattern::new(n, pairs).unwrap());
+        let mut a = SymBlockMatrix::new(pattern.clone());
+        for (k, b) in a.values_mut().iter_mut().enumerate() {
+            for r in 0..3 {
+                for c in 0..3 {
+                    b[r][c] = ((k * 31 + r * 7 + c * 3) % 17) as f64 / 17.0 - 0.5;
+                }
+            }
+        }
+        for i in 0..n {
+            let d = &mut a.values_mut()[pattern.row_ptr()[i]];
+            *d = block::add(d, &block::transpose(d));
+            for c in 0..3 {
+                d[c][c] += 8.0;
+            }
+        }
+        a
+    }
+
+    fn in_pool<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(f)
+    }
+
+    #[test]
+    fn threaded_spmv_gives_the_serial_bits() {
+        // The parts gather the contributions of earlier rows in the serial
+        // order, so y is bitwise the serial product for every split; the
+        // dot product differs by its summation order only.
+        let n = 3 * crate::par::MIN_PARALLEL_BLOCKS + 11;
+        let a = banded(n, 67);
+        let x: Vec<f64> = (0..3 * n).map(|i| (i as f64 * 0.37).sin()).collect();
+        let mut y1 = vec![f64::NAN; 3 * n];
+        let d1 = in_pool(1, || a.spmv_dot(&x, &mut y1));
+        let mut expected = vec![0.0; 3 * n];
+        a.spmv_dot_serial(&x, &mut expected);
+        assert_eq!(y1, expected);
+        for threads in [2, 3, 4] {
+            let mut y = vec![f64::NAN; 3 * n];
+            let d = in_pool(threads, || a.spmv_dot(&x, &mut y));
+            assert_eq!(y, expected, "{threads} threads");
+            approx::assert_relative_eq!(d, d1, max_relative = 1e-12);
+            let mut again = vec![0.0; 3 * n];
+            assert_eq!(
+                in_pool(threads, || a.spmv_dot(&x, &mut again)).to_bits(),
+                d.to_bits()
+            );
+        }
+        // The fused CG update on two threads: the serial bits for x, p, q.
+        let z: Vec<f64> = (0..3 * n).map(|i| (i as f64 * 0.11).cos()).collect();
+        let run = |threads: usize| {
+            let (mut xs, mut p, mut q) = (x.clone(), z.clone(), vec![0.0; 3 * n]);
+            p.reverse();
+            in_pool(threads, || {
+                a.update_spmv_dot(&z, 0.3, 0.7, &mut xs, &mut p, &mut q)
+            });
+            (xs, p, q)
+        };
+        assert_eq!(run(1), run(2));
     }
 
     #[test]

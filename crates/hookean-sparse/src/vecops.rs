@@ -1,8 +1,17 @@
 //! Small dense vector kernels shared by the solvers.
 
-/// `x . y`.
+/// `x . y`. Long vectors are summed by fixed-size leaves on the current
+/// rayon pool's threads, the leaves added in a fixed tree order
+/// (see [`par`](crate::par)): the same bits on every run.
 #[inline]
 pub fn dot(x: &[f64], y: &[f64]) -> f64 {
+    let n = x.len().min(y.len());
+    crate::par::tree_sum(n, &|a, b| dot_serial(&x[a..b], &y[a..b]))
+}
+
+/// The serial kernel of [`dot`].
+#[inline]
+fn dot_serial(x: &[f64], y: &[f64]) -> f64 {
     // Four accumulators: a shorter dependency chain, and the same bits for
     // the same input on every run.
     let mut acc = [0.0; 4];

@@ -114,9 +114,14 @@ fn method<'de, D: Deserializer<'de>>(d: D) -> Result<Method, D::Error> {
     s.parse().map_err(|e| D::Error::custom(format!("{e}")))
 }
 
-fn precond<'de, D: Deserializer<'de>>(d: D) -> Result<PrecondKind, D::Error> {
+fn precond<'de, D: Deserializer<'de>>(d: D) -> Result<Option<PrecondKind>, D::Error> {
     let s = String::deserialize(d)?;
-    s.parse().map_err(|e| D::Error::custom(format!("{e}")))
+    if s == "auto" {
+        return Ok(None);
+    }
+    s.parse()
+        .map(Some)
+        .map_err(|e| D::Error::custom(format!("{e} (or \"auto\")")))
 }
 
 fn omega<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
@@ -140,6 +145,13 @@ fn mic_omega<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
         )))
     }
 }
+
+/// From this many particles on, `preconditioner = "auto"` takes AMG
+/// instead of MIC(0): on the drape AMG's set-up at every Newton iteration
+/// costs more than it saves at 64 x 64 (4 096 particles) and wins 1.35-1.56x
+/// at 128 x 128 (16 384; docs/PERFORMANCE.md, issues 15 and 16). The
+/// crossover between the two was not measured more finely.
+pub const AUTO_AMG_PARTICLES: usize = 10_000;
 
 /// A scene: one model, how to integrate it, for how long, what to write.
 #[derive(Debug, Clone, Deserialize)]
@@ -176,6 +188,15 @@ pub struct Scene {
     /// What to write.
     #[serde(default)]
     pub output: OutputScene,
+    /// Worker threads of the kernels (rayon) when `hookean run` is not
+    /// given `--threads`. Default: `RAYON_NUM_THREADS`, else all cores.
+    /// Results are bitwise reproducible for a given thread count.
+    #[serde(default, deserialize_with = "threads")]
+    pub threads: Option<usize>,
+}
+
+fn threads<'de, D: Deserializer<'de>>(d: D) -> Result<Option<usize>, D::Error> {
+    at_least_one(d).map(Some)
 }
 
 fn d_duration() -> f64 {
@@ -393,6 +414,15 @@ pub struct ModelScene {
     /// Gravity (m/s^2). Default `[0, 0, -9.81]`.
     #[serde(default = "d_gravity", deserialize_with = "finite3")]
     pub gravity: [f64; 3],
+    /// Clamp compressed springs' stiffness blocks (`max(0, 1 - l0/l)`) so the
+    /// step's matrix is SPD. Default `true`; `false` gives Newton the exact
+    /// stiffness Jacobian, which may be indefinite (PCG may then fail).
+    #[serde(default = "d_true")]
+    pub clamp_stiffness: bool,
+}
+
+fn d_true() -> bool {
+    true
 }
 
 impl Default for ModelScene {
@@ -401,6 +431,7 @@ impl Default for ModelScene {
             damping: DampingScene::Projected,
             air_friction: 0.0,
             gravity: d_gravity(),
+            clamp_stiffness: true,
         }
     }
 }
@@ -512,10 +543,12 @@ pub struct SolverScene {
     /// PCG iteration limit. Default 500.
     #[serde(default = "d_cg_max", deserialize_with = "at_least_one")]
     pub max_cg: usize,
-    /// `none`, `jacobi`, `block-jacobi`, `ssor`, `ic0`, `mic0` (default) or
-    /// `amg` (smoothed-aggregation multigrid with default options).
-    #[serde(default = "d_precond", deserialize_with = "precond")]
-    pub preconditioner: PrecondKind,
+    /// `none`, `jacobi`, `block-jacobi`, `ssor`, `ic0`, `mic0`, `amg`
+    /// (smoothed-aggregation multigrid with default options) or `auto`
+    /// (default, `None` here): `amg` from [`AUTO_AMG_PARTICLES`] particles
+    /// on, `mic0` below (measured on the drape, docs/PERFORMANCE.md).
+    #[serde(default, deserialize_with = "precond")]
+    pub preconditioner: Option<PrecondKind>,
     /// SSOR relaxation in (0, 2). Default 1.
     #[serde(default = "one", deserialize_with = "omega")]
     pub omega: f64,
@@ -537,7 +570,7 @@ impl Default for SolverScene {
             max_newton: d_newton_max(),
             cg_rtol: d_cg_rtol(),
             max_cg: d_cg_max(),
-            preconditioner: d_precond(),
+            preconditioner: None,
             omega: 1.0,
             mic_omega: d_mic_omega(),
             warm_start: true,
@@ -559,11 +592,6 @@ fn d_mic_omega() -> f64 {
 }
 fn d_cg_max() -> usize {
     500
-}
-fn d_precond() -> PrecondKind {
-    PrecondKind::Mic0 {
-        omega: PrecondKind::MIC_OMEGA,
-    }
 }
 
 /// The Newton variant.
@@ -877,7 +905,24 @@ impl Scene {
             },
             air_friction: self.model.air_friction,
             gravity: self.model.gravity,
+            clamp_stiffness: self.model.clamp_stiffness,
             ..ModelOptions::default()
+        }
+    }
+
+    /// The scene's preconditioner: `auto` resolved by the model's size,
+    /// SSOR's and MIC(0)'s relaxations from `omega` and `mic_omega`.
+    pub fn preconditioner(&self) -> PrecondKind {
+        let s = &self.solver;
+        let auto_amg = self
+            .particle_count()
+            .0
+            .is_some_and(|p| p >= AUTO_AMG_PARTICLES as u64);
+        match s.preconditioner {
+            None if auto_amg => PrecondKind::Amg,
+            None | Some(PrecondKind::Mic0 { .. }) => PrecondKind::Mic0 { omega: s.mic_omega },
+            Some(PrecondKind::Ssor { .. }) => PrecondKind::Ssor { omega: s.omega },
+            Some(other) => other,
         }
     }
 
@@ -912,11 +957,7 @@ impl Scene {
         };
         solver.newton.linear_max_iter = Some(s.max_cg);
         solver.warm_start = s.warm_start;
-        solver.newton.preconditioner = match s.preconditioner {
-            PrecondKind::Ssor { .. } => PrecondKind::Ssor { omega: s.omega },
-            PrecondKind::Mic0 { .. } => PrecondKind::Mic0 { omega: s.mic_omega },
-            other => other,
-        };
+        solver.newton.preconditioner = self.preconditioner();
         SimulationOptions {
             method: self.integrator.method.clone(),
             solver,
@@ -1123,6 +1164,24 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn auto_preconditioner_follows_the_particle_count_and_names_win() {
+        let kind = |text: &str| {
+            Scene::from_toml_str("s.toml", text)
+                .unwrap()
+                .preconditioner()
+        };
+        let side = (AUTO_AMG_PARTICLES as f64).sqrt().ceil() as usize;
+        let below = format!("[cloth]\nn = {}\n", side - 1);
+        let above = format!("[cloth]\nn = {side}\n");
+        assert!(matches!(kind(&below), PrecondKind::Mic0 { .. }));
+        assert_eq!(kind(&above), PrecondKind::Amg);
+        let named = format!("{above}[solver]\npreconditioner = \"mic0\"\nmic_omega = 0.5\n");
+        assert_eq!(kind(&named), PrecondKind::Mic0 { omega: 0.5 });
+        let auto = format!("{below}[solver]\npreconditioner = \"auto\"\n");
+        assert!(matches!(kind(&auto), PrecondKind::Mic0 { .. }));
+    }
 
     fn err(text: &str) -> (usize, usize, String) {
         match Scene::from_toml_str("s.toml", text) {

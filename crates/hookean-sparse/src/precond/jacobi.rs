@@ -74,39 +74,56 @@ impl Preconditioner for Jacobi {
     }
     #[inline]
     fn update_and_apply(&self, alpha: f64, q: &[f64], r: &mut [f64], z: &mut [f64]) -> (f64, f64) {
-        // Four independent partial sums keep the two reductions from
-        // serialising the pass on floating-point add latency.
-        let n = r.len();
-        let (r4, _) = r.as_chunks_mut::<4>();
-        let (z4, _) = z.as_chunks_mut::<4>();
-        let (q4, _) = q.as_chunks::<4>();
-        let (d4, _) = self.inv_diag.as_chunks::<4>();
-        let mut rr = [0.0; 4];
-        let mut rz = [0.0; 4];
-        for (((r, z), q), d) in r4.iter_mut().zip(z4.iter_mut()).zip(q4).zip(d4) {
-            for l in 0..4 {
-                let ri = r[l] - alpha * q[l];
-                r[l] = ri;
-                let zi = ri * d[l];
-                z[l] = zi;
-                rr[l] += ri * ri;
-                rz[l] += ri * zi;
-            }
-        }
-        let (mut rr, mut rz) = (
-            (rr[0] + rr[1]) + (rr[2] + rr[3]),
-            (rz[0] + rz[1]) + (rz[2] + rz[3]),
-        );
-        for i in n - n % 4..n {
-            let ri = r[i] - alpha * q[i];
-            r[i] = ri;
-            let zi = ri * self.inv_diag[i];
-            z[i] = zi;
-            rr += ri * ri;
-            rz += ri * zi;
-        }
-        (rr, rz)
+        // Long vectors: fixed leaves on the rayon pool, sums in a fixed tree.
+        crate::par::tree_sum2_mut(r, z, &|at, r, z| {
+            let end = at + r.len();
+            jacobi_update(alpha, &q[at..end], &self.inv_diag[at..end], r, z)
+        })
     }
+}
+
+/// Jacobi's fused CG pass on one range: `r -= alpha q`, `z = D^-1 r`;
+/// returns `(r . r, r . z)`.
+#[inline]
+fn jacobi_update(
+    alpha: f64,
+    q: &[f64],
+    inv_diag: &[f64],
+    r: &mut [f64],
+    z: &mut [f64],
+) -> (f64, f64) {
+    // Four independent partial sums keep the two reductions from
+    // serialising the pass on floating-point add latency.
+    let n = r.len();
+    let (r4, _) = r.as_chunks_mut::<4>();
+    let (z4, _) = z.as_chunks_mut::<4>();
+    let (q4, _) = q.as_chunks::<4>();
+    let (d4, _) = inv_diag.as_chunks::<4>();
+    let mut rr = [0.0; 4];
+    let mut rz = [0.0; 4];
+    for (((r, z), q), d) in r4.iter_mut().zip(z4.iter_mut()).zip(q4).zip(d4) {
+        for l in 0..4 {
+            let ri = r[l] - alpha * q[l];
+            r[l] = ri;
+            let zi = ri * d[l];
+            z[l] = zi;
+            rr[l] += ri * ri;
+            rz[l] += ri * zi;
+        }
+    }
+    let (mut rr, mut rz) = (
+        (rr[0] + rr[1]) + (rr[2] + rr[3]),
+        (rz[0] + rz[1]) + (rz[2] + rz[3]),
+    );
+    for i in n - n % 4..n {
+        let ri = r[i] - alpha * q[i];
+        r[i] = ri;
+        let zi = ri * inv_diag[i];
+        z[i] = zi;
+        rr += ri * ri;
+        rz += ri * zi;
+    }
+    (rr, rz)
 }
 
 impl PreconditionerSetup<SymBlockMatrix> for Jacobi {

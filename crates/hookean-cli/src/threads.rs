@@ -1,0 +1,36 @@
+//! The command's thread count, decided in one place: every command runs
+//! inside the rayon pool built here, and the kernels of `hookean-sparse`
+//! and `hookean-massspring` split their work over that pool's threads.
+
+use crate::CliError;
+
+/// Parses `--threads N`: a whole number of at least 1.
+pub fn parse(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err(format!(
+            "expected a whole number of threads >= 1, got '{s}'"
+        )),
+    }
+}
+
+/// Runs `f` in a rayon pool of `threads` threads; `None` means rayon's
+/// default: `RAYON_NUM_THREADS` if set, else one thread per core.
+///
+/// # Errors
+/// [`CliError::Failed`] if the operating system refuses the threads.
+pub fn install<R: Send>(
+    threads: Option<usize>,
+    f: impl FnOnce() -> R + Send,
+) -> Result<R, CliError> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.unwrap_or(0))
+        .build()
+        .map_err(|e| CliError::Failed(format!("cannot start the worker threads: {e}")))?;
+    Ok(pool.install(f))
+}
+
+/// Threads of the pool the caller runs in.
+pub fn current() -> usize {
+    rayon::current_num_threads()
+}
