@@ -9,5 +9,6 @@
 pub mod alloc;
 pub mod cloth;
 pub mod dense;
+pub mod fuzz;
 pub mod random;
 pub mod springs;
