@@ -4,8 +4,9 @@
 //! counting global allocator.
 
 use hookean_sparse::{
-    AnyPreconditioner, CgParams, CgWorkspace, Constraints, InitialGuess, LinearOperator,
-    PrecondKind, Preconditioner, PreconditionerSetup, filtered_pcg, pcg,
+    Amg, AmgOptions, AmgSmoother, AnyPreconditioner, CgParams, CgWorkspace, Constraints,
+    InitialGuess, LinearOperator, PrecondKind, Preconditioner, PreconditionerSetup, filtered_pcg,
+    pcg,
 };
 use hookean_testkit::alloc::{Counting, allocations};
 use hookean_testkit::cloth::{ClothSystemParams, cloth_system};
@@ -52,6 +53,22 @@ fn pcg_solves_and_preconditioner_applies_do_not_allocate() {
             allocations(|| filtered_pcg(&a, &p, &b, &mut x, &constraints, &warm, &mut ws, None));
         assert!(info.unwrap().converged);
         assert_eq!(count, 0, "{kind}: filtered PCG allocated");
+    }
+    // The multigrid's other smoothers: refill and V-cycle.
+    for smoother in [AmgSmoother::SymmetricGaussSeidel, AmgSmoother::BlockIc0] {
+        let mut amg = Amg::with_options(AmgOptions {
+            smoother,
+            coarse_size: 60,
+            ..Default::default()
+        })
+        .unwrap();
+        amg.setup(&a).unwrap();
+        assert!(amg.stats().levels.len() >= 2);
+        let (count, r) = allocations(|| amg.setup(&a));
+        r.unwrap();
+        assert_eq!(count, 0, "{smoother:?}: AMG refill allocated");
+        let (count, _) = allocations(|| amg.apply(&b, &mut z));
+        assert_eq!(count, 0, "{smoother:?}: V-cycle allocated");
     }
     let (count, _) = allocations(|| a.apply(&b, &mut z));
     assert_eq!(count, 0, "SpMV allocated");

@@ -4,6 +4,8 @@ use super::super::testutil::{dense, rhs, spd_block_matrix};
 use super::*;
 use crate::vecops::{dot, norm2};
 use crate::{CgParams, CgWorkspace, LinearOperator, pcg};
+use rand::rngs::SmallRng;
+use rand::{Rng, SeedableRng};
 
 /// Options that force several levels on small test matrices.
 fn small_coarse(smoother: AmgSmoother) -> AmgOptions {
@@ -75,7 +77,12 @@ fn v_cycle_is_symmetric_and_positive() {
     let a = spd_block_matrix(24, 20);
     let n = a.dim();
     let csr = a.to_csr();
-    for smoother in [AmgSmoother::BlockJacobi, AmgSmoother::SymmetricGaussSeidel] {
+    let mut rng = SmallRng::seed_from_u64(15);
+    for smoother in [
+        AmgSmoother::BlockJacobi,
+        AmgSmoother::SymmetricGaussSeidel,
+        AmgSmoother::BlockIc0,
+    ] {
         for scalar in [false, true] {
             let mut amg = Amg::with_options(small_coarse(smoother)).unwrap();
             if scalar {
@@ -86,13 +93,9 @@ fn v_cycle_is_symmetric_and_positive() {
             assert!(amg.stats().levels.len() >= 3, "{:?}", amg.stats());
             let mut bx = vec![0.0; n];
             let mut by = vec![0.0; n];
-            for s in 0..4 {
-                let x: Vec<f64> = (0..n)
-                    .map(|i| ((i * (s + 3)) as f64 * 0.71).sin())
-                    .collect();
-                let y: Vec<f64> = (0..n)
-                    .map(|i| ((i * (s + 5)) as f64 * 0.37).cos())
-                    .collect();
+            for _ in 0..8 {
+                let x: Vec<f64> = (0..n).map(|_| rng.random_range(-1.0..1.0)).collect();
+                let y: Vec<f64> = (0..n).map(|_| rng.random_range(-1.0..1.0)).collect();
                 amg.apply(&x, &mut bx);
                 amg.apply(&y, &mut by);
                 let (bxy, xby) = (dot(&bx, &y), dot(&x, &by));
@@ -295,11 +298,16 @@ fn refill_reuses_the_hierarchy() {
     // With the power method, a refill continues from the last eigenvector
     // estimates for a few steps: its spectral radius estimates are at least
     // a fresh set-up's (more steps of the same iteration), so its weights
-    // are at most those, and close.
-    let mut warm = Amg::with_options(small_coarse(AmgSmoother::BlockJacobi)).unwrap();
+    // are at most those, and close (with enough steps that the estimates
+    // increase monotonically).
+    let power = AmgOptions {
+        power_iterations: 10,
+        ..small_coarse(AmgSmoother::BlockJacobi)
+    };
+    let mut warm = Amg::with_options(power.clone()).unwrap();
     warm.setup(&a).unwrap();
     warm.setup(&a2).unwrap();
-    let mut fresh = Amg::with_options(small_coarse(AmgSmoother::BlockJacobi)).unwrap();
+    let mut fresh = Amg::with_options(power).unwrap();
     fresh.setup(&a2).unwrap();
     for (w, f) in warm.stats().levels.iter().zip(&fresh.stats().levels) {
         for (x, y) in [
