@@ -31,6 +31,29 @@ pub enum AmgSmoother {
     BlockIc0,
 }
 
+/// What [`PreconditionerSetup::setup`] does when the matrix has the sparsity
+/// pattern of the current hierarchy and only its values changed (every
+/// Newton iteration and every time step of a simulation). A new pattern,
+/// block size or near-nullspace length always gets a full set-up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum AmgReuse {
+    /// A full set-up every time: new strength graph, aggregates and patterns.
+    Rebuild,
+    /// Refill the numbers (smoothers, `omega`, `P` unless
+    /// [`AmgOptions::keep_prolongators`], Galerkin operators, coarsest
+    /// factor), keeping aggregates and every pattern. No allocation.
+    #[default]
+    Refill,
+    /// Keep the whole hierarchy (a lagged preconditioner: still symmetric
+    /// positive definite, so PCG stays valid, at the price of more
+    /// iterations when the values drift) for `updates` calls of `setup`;
+    /// the call after them refills. `Keep { updates: 0 }` is `Refill`.
+    Keep {
+        /// Calls of `setup` that leave the hierarchy as it is.
+        updates: usize,
+    },
+}
+
 /// Options of [`Amg`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct AmgOptions {
@@ -68,6 +91,9 @@ pub struct AmgOptions {
     /// values that change slowly (time steps); default `false` (`P` is
     /// smoothed again with the new values).
     pub keep_prolongators: bool,
+    /// What a `setup` with the same pattern does: rebuild, refill (default)
+    /// or keep the hierarchy for some updates.
+    pub reuse: AmgReuse,
     /// Near-nullspace vectors of length `dim`, as many as the block size
     /// (3 for block matrices, [`block_size`](Self::block_size) for CSR ones:
     /// the coarse operators keep the block size). Empty (default): the
@@ -92,6 +118,7 @@ impl Default for AmgOptions {
             power_iterations: 5,
             refill_power_iterations: 3,
             keep_prolongators: false,
+            reuse: AmgReuse::Refill,
             near_nullspace: Vec::new(),
             block_size: 1,
         }
@@ -128,6 +155,8 @@ pub struct AmgStats {
     pub setups: usize,
     /// Refills so far.
     pub refills: usize,
+    /// Calls of `setup` that kept the hierarchy ([`AmgReuse::Keep`]).
+    pub kept: usize,
 }
 
 /// The finest level's storage and where its blocks come from.
@@ -272,20 +301,25 @@ impl<const B: usize> CsrLevels<B> {
 /// # Re-use
 /// [`PreconditionerSetup::setup`] with a matrix of the same sparsity pattern
 /// as the last one (the same `Arc<BlockPattern>`, or equal CSR index arrays)
-/// is a *refill*: strength, aggregates, the tentative prolongator and every
-/// pattern are kept, and only the numbers (smoothers, `omega`, `P`, the
-/// Galerkin products, the coarsest factor) are recomputed, without allocating;
-/// the spectral radius estimates continue the power method from the last
-/// eigenvectors for `refill_power_iterations` steps. With
-/// [`AmgOptions::keep_prolongators`] a refill keeps the prolongators too
-/// and recomputes only the smoothers, the Galerkin operators and the
-/// coarsest factor. On the 128^2 cloth a
-/// refill costs about a third of a full set-up, or 8-10 V-cycles
-/// (docs/PERFORMANCE.md, `cargo bench -p hookean-sparse --bench amg`). A new
-/// pattern (or block size) triggers a full set-up; [`Amg::rebuild`] forces one (e.g. when the values changed so much
-/// that the strong graph of the old aggregates no longer fits). Not calling
-/// `setup` at all keeps the whole hierarchy (a lagged preconditioner, still
-/// SPD, so CG stays valid).
+/// does what [`AmgOptions::reuse`] says ([`AmgReuse`]):
+/// - `Refill` (default): strength, aggregates, the tentative prolongator and
+///   every pattern are kept, and only the numbers (smoothers, `omega`, `P`,
+///   the Galerkin products, the coarsest factor) are recomputed, without
+///   allocating; the spectral radius estimates continue the power method
+///   from the last eigenvectors for `refill_power_iterations` steps. With
+///   [`AmgOptions::keep_prolongators`] a refill keeps the prolongators too
+///   and recomputes only the smoothers, the Galerkin operators and the
+///   coarsest factor.
+/// - `Keep { updates }`: the next `updates` calls leave the whole hierarchy
+///   as it is (a lagged preconditioner, still SPD, so CG stays valid); the
+///   call after them refills.
+/// - `Rebuild`: a full set-up every time.
+///
+/// A full set-up is redone whenever the pattern (or the block size)
+/// changes, when the last set-up failed, on [`Amg::rebuild`] (e.g. when
+/// the values changed so much that the old aggregates no longer fit), and
+/// with `Rebuild`. The measured costs of each choice are in
+/// docs/PERFORMANCE.md (`cargo bench -p hookean-sparse --bench amg`).
 ///
 /// # Example
 /// ```
@@ -316,6 +350,8 @@ pub struct Amg {
     options: AmgOptions,
     inner: Inner,
     stats: AmgStats,
+    /// Calls of `setup` kept since the last set-up or refill.
+    kept_in_a_row: usize,
 }
 
 impl Default for Amg {
@@ -332,6 +368,7 @@ impl Amg {
             options: AmgOptions::default(),
             inner: Inner::Empty,
             stats: AmgStats::default(),
+            kept_in_a_row: 0,
         }
     }
 
@@ -375,6 +412,7 @@ impl Amg {
             options,
             inner: Inner::Empty,
             stats: AmgStats::default(),
+            kept_in_a_row: 0,
         })
     }
 
@@ -399,6 +437,24 @@ impl Amg {
     {
         self.inner = Inner::Empty;
         self.setup(a)
+    }
+
+    /// What `setup` does for a matrix whose pattern is (`same`) or is not
+    /// the hierarchy's: `None` keeps the hierarchy, `Some(true)` refills,
+    /// `Some(false)` builds it afresh.
+    fn plan(&mut self, same: bool) -> Option<bool> {
+        if !same {
+            return Some(false);
+        }
+        match self.options.reuse {
+            AmgReuse::Rebuild => Some(false),
+            AmgReuse::Keep { updates } if self.kept_in_a_row < updates => {
+                self.kept_in_a_row += 1;
+                self.stats.kept += 1;
+                None
+            }
+            AmgReuse::Refill | AmgReuse::Keep { .. } => Some(true),
+        }
     }
 
     /// The near-nullspace as one `B x B` block per node (column `c` is vector `c`).
@@ -461,6 +517,7 @@ impl Amg {
     /// Runs `f` on the hierarchy, dropping it when `f` fails (so the next
     /// set-up starts afresh).
     fn finish(&mut self, start: Instant, refill: bool) {
+        self.kept_in_a_row = 0;
         let seconds = start.elapsed().as_secs_f64();
         match std::mem::replace(&mut self.inner, Inner::Empty) {
             Inner::Block { source, map, h } => {
@@ -551,8 +608,11 @@ fn fill_from_blocks(
 impl PreconditionerSetup<SymBlockMatrix> for Amg {
     fn setup(&mut self, a: &SymBlockMatrix) -> Result<(), SparseError> {
         let start = Instant::now();
-        let refill = matches!(&self.inner, Inner::Block { source, .. }
+        let same = matches!(&self.inner, Inner::Block { source, .. }
             if Arc::ptr_eq(source, a.pattern()) || **source == **a.pattern());
+        let Some(refill) = self.plan(same) else {
+            return Ok(());
+        };
         let result = match &mut self.inner {
             Inner::Block { map, h, .. } if refill => {
                 fill_from_blocks(h.finest_mut(), map, a).and_then(|()| h.compute())
@@ -594,10 +654,19 @@ impl PreconditionerSetup<sprs::CsMat<f64>> for Amg {
                 index: Some(k),
             });
         }
-        let refill = match (&mut self.inner, self.options.block_size) {
-            (Inner::Csr1(c), 1) if c.same_pattern(a) => Some(c.refill(a)),
-            (Inner::Csr2(c), 2) if c.same_pattern(a) => Some(c.refill(a)),
-            (Inner::Csr3(c), 3) if c.same_pattern(a) => Some(c.refill(a)),
+        let same = match (&self.inner, self.options.block_size) {
+            (Inner::Csr1(c), 1) => c.same_pattern(a),
+            (Inner::Csr2(c), 2) => c.same_pattern(a),
+            (Inner::Csr3(c), 3) => c.same_pattern(a),
+            _ => false,
+        };
+        let Some(refill) = self.plan(same) else {
+            return Ok(());
+        };
+        let refill = match &mut self.inner {
+            Inner::Csr1(c) if refill => Some(c.refill(a)),
+            Inner::Csr2(c) if refill => Some(c.refill(a)),
+            Inner::Csr3(c) if refill => Some(c.refill(a)),
             _ => None,
         };
         let refilled = refill.is_some();

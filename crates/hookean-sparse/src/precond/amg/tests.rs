@@ -320,6 +320,52 @@ fn refill_reuses_the_hierarchy() {
 }
 
 #[test]
+fn reuse_policy_keeps_refills_or_rebuilds() {
+    let a = spd_block_matrix(12, 12);
+    let mut a2 = a.clone();
+    a2.scale(2.0);
+    let r = rhs(a.dim());
+    let options = |reuse| AmgOptions {
+        power_iterations: 0,
+        reuse,
+        ..small_coarse(AmgSmoother::BlockJacobi)
+    };
+    let cycle = |amg: &Amg| {
+        let mut z = vec![0.0; r.len()];
+        amg.apply(&r, &mut z);
+        z
+    };
+    // Keep for 2 updates: the cycle of A twice, then the refill's of 2 A
+    // (half of it, as in `refill_reuses_the_hierarchy`).
+    let mut amg = Amg::with_options(options(AmgReuse::Keep { updates: 2 })).unwrap();
+    amg.setup(&a).unwrap();
+    let z1 = cycle(&amg);
+    for kept in 1..=2 {
+        amg.setup(&a2).unwrap();
+        assert_eq!(cycle(&amg), z1);
+        assert_eq!((amg.stats().kept, amg.stats().refills), (kept, 0));
+    }
+    amg.setup(&a2).unwrap();
+    assert_eq!((amg.stats().kept, amg.stats().refills), (2, 1));
+    for (u, v) in z1.iter().zip(&cycle(&amg)) {
+        approx::assert_abs_diff_eq!(*u, 2.0 * v, epsilon = 1e-12 * norm2(&z1));
+    }
+    // Keeping again starts counting after the refill.
+    amg.setup(&a).unwrap();
+    assert_eq!(amg.stats().kept, 3);
+    // Rebuild: every set-up is a full one.
+    let mut amg = Amg::with_options(options(AmgReuse::Rebuild)).unwrap();
+    amg.setup(&a).unwrap();
+    amg.setup(&a2).unwrap();
+    assert_eq!((amg.stats().setups, amg.stats().refills), (2, 0));
+    // A new pattern is a full set-up whatever the policy.
+    let mut amg = Amg::with_options(options(AmgReuse::Keep { updates: 5 })).unwrap();
+    amg.setup(&a).unwrap();
+    amg.setup(&spd_block_matrix(10, 12)).unwrap();
+    assert_eq!((amg.stats().setups, amg.stats().kept), (2, 0));
+}
+
+#[test]
 fn bad_input_gets_typed_errors() {
     let a = spd_block_matrix(4, 4);
     let dim = a.dim();
