@@ -560,6 +560,9 @@ pub struct AmgScene {
     /// Power-method steps of the spectral radius estimates (0: Gershgorin). Default 5.
     #[serde(default = "d_amg_power")]
     pub power_iterations: usize,
+    /// Power steps at a refill (0: keep the last estimates). Default 3.
+    #[serde(default = "d_amg_refill_power")]
+    pub refill_power_iterations: usize,
     /// A refill keeps the prolongators. Default false.
     #[serde(default)]
     pub keep_prolongators: bool,
@@ -615,6 +618,7 @@ impl AmgScene {
             jacobi_weight: self.jacobi_weight,
             prolongation_weight: self.prolongation_weight,
             power_iterations: self.power_iterations,
+            refill_power_iterations: self.refill_power_iterations,
             keep_prolongators: self.keep_prolongators,
             reuse: match self.reuse {
                 AmgReuseScene::Refill => AmgReuse::Refill,
@@ -645,6 +649,9 @@ fn d_amg_weight() -> f64 {
 }
 fn d_amg_power() -> usize {
     AmgOptions::default().power_iterations
+}
+fn d_amg_refill_power() -> usize {
+    AmgOptions::default().refill_power_iterations
 }
 fn d_amg_keep() -> usize {
     4

@@ -666,11 +666,13 @@ fn compute_level<const B: usize>(
     } else {
         num.power_iterations
     };
+    // A refill with no power steps keeps the last estimates of rho.
+    let estimate = !(refill && num.power_iterations > 0 && iterations == 0);
     invert_diagonal(&level.a, &level.diag, &mut level.dinv, l)?;
     if let Some(ic0) = level.ic0.as_mut() {
         ic0.factor(&level.a, &level.diag, l)?;
     }
-    if num.smoother == AmgSmoother::BlockJacobi {
+    if num.smoother == AmgSmoother::BlockJacobi && estimate {
         let rho = spectral_radius(
             &level.a,
             &level.dinv,
@@ -691,7 +693,7 @@ fn compute_level<const B: usize>(
             &level.dinv,
             tr,
             num.prolongation_weight,
-            iterations,
+            estimate.then_some(iterations),
             refill,
             work,
         )?;
@@ -709,7 +711,7 @@ fn smooth_prolongator<const B: usize>(
     a_dinv: &[Blk<B>],
     tr: &mut Transfer<B>,
     prolongation_weight: f64,
-    iterations: usize,
+    iterations: Option<usize>,
     refill: bool,
     work: &mut Work,
 ) -> Result<(), SparseError> {
@@ -738,15 +740,17 @@ fn smooth_prolongator<const B: usize>(
     for ((inv, &d), dinv) in tr.df_inv.iter_mut().zip(&tr.af_diag).zip(a_dinv) {
         *inv = spd_inverse(&tr.af.val[d]).unwrap_or(*dinv);
     }
-    let rho = spectral_radius(
-        &tr.af,
-        &tr.df_inv,
-        iterations,
-        refill,
-        &mut tr.eigenvector,
-        &mut work.t,
-    )?;
-    tr.omega = prolongation_weight / rho;
+    if let Some(iterations) = iterations {
+        let rho = spectral_radius(
+            &tr.af,
+            &tr.df_inv,
+            iterations,
+            refill,
+            &mut tr.eigenvector,
+            &mut work.t,
+        )?;
+        tr.omega = prolongation_weight / rho;
+    }
     // P = T - omega D_F^-1 (A_F T).
     product_values(&tr.af, &tr.t, &mut tr.p);
     for i in 0..a.nrows {

@@ -82,7 +82,9 @@ pub struct AmgOptions {
     pub power_iterations: usize,
     /// Power-method steps at a refill, started from the previous set-up's
     /// eigenvector estimates (which fit the new values if they changed
-    /// little). Default `3`. (Ignored when `power_iterations = 0`.)
+    /// little). Default `3`. `0` keeps the last estimates (and with them
+    /// the weights `omega`): the cheapest refill, fit for values that change
+    /// little between set-ups. (Ignored when `power_iterations = 0`.)
     pub refill_power_iterations: usize,
     /// At a refill, keep every prolongator of the last full set-up and
     /// recompute only the smoothers, the Galerkin operators `P^T A P` and
@@ -387,13 +389,9 @@ impl Amg {
                 format!("{} is outside [0, 1)", o.strength_threshold),
             );
         }
-        if o.coarse_size == 0
-            || o.max_levels == 0
-            || o.sweeps == 0
-            || o.refill_power_iterations == 0
-        {
+        if o.coarse_size == 0 || o.max_levels == 0 || o.sweeps == 0 {
             return bad(
-                "coarse_size, max_levels, sweeps, refill_power_iterations",
+                "coarse_size, max_levels, sweeps",
                 "must all be at least 1".into(),
             );
         }

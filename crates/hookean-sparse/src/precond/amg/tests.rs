@@ -358,6 +358,29 @@ fn reuse_policy_keeps_refills_or_rebuilds() {
     amg.setup(&a).unwrap();
     amg.setup(&a2).unwrap();
     assert_eq!((amg.stats().setups, amg.stats().refills), (2, 0));
+    // A refill without power steps keeps the weights of the last estimates;
+    // one with them follows the new values (a diagonal shift lowers rho).
+    let mut shifted = a.clone();
+    shifted.add_to_diagonal(&vec![5.0; a.dim()]).unwrap();
+    let weights = |amg: &Amg| -> Vec<(f64, f64)> {
+        amg.stats()
+            .levels
+            .iter()
+            .map(|l| (l.smoother_weight, l.prolongation_weight))
+            .collect()
+    };
+    for (steps, kept) in [(0, true), (3, false)] {
+        let mut amg = Amg::with_options(AmgOptions {
+            refill_power_iterations: steps,
+            ..small_coarse(AmgSmoother::BlockJacobi)
+        })
+        .unwrap();
+        amg.setup(&a).unwrap();
+        let before = weights(&amg);
+        amg.setup(&shifted).unwrap();
+        assert_eq!(amg.stats().refills, 1);
+        assert_eq!(weights(&amg) == before, kept, "{steps} steps");
+    }
     // A new pattern is a full set-up whatever the policy.
     let mut amg = Amg::with_options(options(AmgReuse::Keep { updates: 5 })).unwrap();
     amg.setup(&a).unwrap();
