@@ -372,9 +372,7 @@ where
     let mut best_solve = f64::INFINITY;
     for _ in 0..repeat {
         let t0 = Instant::now();
-        let new = match kind {
-            other => AnyPreconditioner::with_amg_options(other, amg),
-        };
+        let new = AnyPreconditioner::with_amg_options(kind, amg);
         let setup = new.and_then(|mut p| p.setup(m).map(|()| p));
         let setup_s = t0.elapsed().as_secs_f64();
         let p = match setup {

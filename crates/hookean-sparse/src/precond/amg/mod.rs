@@ -296,9 +296,11 @@ impl<const B: usize> CsrLevels<B> {
 /// factored if it has at most 3000 unknowns, else only smoothed). Nodes
 /// without strong neighbours join no aggregate and are left to the smoother. [`Amg::apply`](crate::Preconditioner::apply)
 /// is one V-cycle from a zero guess with block damped-Jacobi (or symmetric
-/// block Gauss-Seidel) smoothing; the post-smoother is the adjoint of the
-/// pre-smoother, so the V-cycle is a symmetric positive definite operator and
-/// PCG and filtered PCG stay valid.
+/// block Gauss-Seidel, or block IC(0)) smoothing; the post-smoother is the
+/// adjoint of the pre-smoother, so the V-cycle is a symmetric positive
+/// definite operator and PCG and filtered PCG stay valid. The kernels of
+/// every level run row-parallel on rayon's pool (the Gauss-Seidel and IC(0)
+/// sweeps excepted), with results independent of the thread count.
 ///
 /// # Re-use
 /// [`PreconditionerSetup::setup`] with a matrix of the same sparsity pattern
