@@ -73,3 +73,22 @@ fn pcg_solves_and_preconditioner_applies_do_not_allocate() {
     let (count, _) = allocations(|| a.apply(&b, &mut z));
     assert_eq!(count, 0, "SpMV allocated");
 }
+
+#[test]
+fn threaded_amg_refill_and_v_cycle_do_not_allocate() {
+    // 9216 block rows: the finest level's kernels are split across rayon's
+    // threads (more rows than one task takes), so the hand-over to the pool
+    // and the joins are exercised.
+    let (a, b) = cloth_system(&ClothSystemParams {
+        n: 96,
+        ..Default::default()
+    });
+    let mut z = vec![0.0; b.len()];
+    let mut amg = Amg::new();
+    amg.setup(&a).unwrap();
+    let (count, r) = allocations(|| amg.setup(&a));
+    r.unwrap();
+    assert_eq!(count, 0, "threaded AMG refill allocated");
+    let (count, _) = allocations(|| amg.apply(&b, &mut z));
+    assert_eq!(count, 0, "threaded V-cycle allocated");
+}
