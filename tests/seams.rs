@@ -93,6 +93,27 @@ fn every_driver_lands_exactly_on_an_end_time_that_is_not_a_multiple_of_h() {
     assert_eq!(again.stats.steps, 3);
 }
 
+/// A nominal step far longer than the run (h = 1e300 s for a 0.02 s run)
+/// is shortened to the run, not taken for a sliver to skip: one step of
+/// 0.02 s, then nothing left.
+#[test]
+fn a_step_longer_than_the_run_is_shortened_not_skipped() {
+    let (model, state) = small_cloth();
+    let mut ode = SecondOrderIntegrator::new(
+        model,
+        Method::ImplicitEuler,
+        0.0,
+        &state.x,
+        &state.v,
+        SolverOptions::with_h(1e300),
+    )
+    .unwrap();
+    let report = ode.step_to(0.02).unwrap().expect("one step");
+    assert_eq!((report.t, report.h), (0.02, 0.02));
+    assert!(ode.step_to(0.02).unwrap().is_none());
+    assert_eq!(ode.stats().steps, 1);
+}
+
 /// The Newton options are one type with one validation, whichever layer
 /// receives them: a linear tolerance of 1 is refused by hookean-nonlinear,
 /// by the integrator and by the facade, each naming the field.

@@ -35,6 +35,8 @@ pub struct ExportSystemArgs {
     /// Write into an existing folder, overwriting A.mtx and b.mtx.
     #[arg(long)]
     force: bool,
+    #[command(flatten)]
+    work: crate::work::WorkCap,
 }
 
 #[derive(Debug, Serialize)]
@@ -55,7 +57,7 @@ fn input<E: std::fmt::Display>(e: E) -> CliError {
 pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
     if !(args.at >= 0.0 && args.at.is_finite()) {
         return Err(CliError::Input(format!(
-            "--at must be a non-negative time, got {}",
+            "--at must be a non-negative time, got {:?}",
             args.at
         )));
     }
@@ -66,6 +68,17 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
         )));
     }
     let scene = Scene::from_file(&args.scene, &args.set).map_err(input)?;
+    let (particles, _) = scene.particle_count();
+    args.work.check(
+        args.at / scene.integrator.h,
+        particles.map_or(f64::INFINITY, |p| p as f64),
+        &format!(
+            "--at {:?} s at integrator.h = {:?} s of {}",
+            args.at,
+            scene.integrator.h,
+            args.scene.display()
+        ),
+    )?;
     let mut sim = scene
         .build()
         .map_err(|e| input(format!("{}: {e}", args.scene.display())))?;

@@ -35,14 +35,16 @@ pub struct FilterAnalysisArgs {
     #[arg(long, default_value_t = 16)]
     n: usize,
     /// Simulated seconds of the figure-4 runs.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     t_end: f64,
     /// Step of the figure-4 runs, as a fraction of the unfiltered FB Euler limit dt_max.
-    #[arg(long, default_value_t = 0.9)]
+    #[arg(long, default_value_t = 0.9, allow_negative_numbers = true)]
     step_fraction: f64,
     /// Write into an existing folder.
     #[arg(long)]
     force: bool,
+    #[command(flatten)]
+    work: crate::work::WorkCap,
 }
 
 #[derive(Debug, Serialize)]
@@ -90,20 +92,38 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
     })?;
     if args.n < 4 {
         return Err(CliError::Input(format!(
-            "--n must be at least 4, got {}",
+            "--n must be at least 4, got {:?}",
             args.n
         )));
     }
     if !(args.t_end > 0.0 && args.t_end.is_finite()) {
         return Err(CliError::Input(format!(
-            "--t-end must be positive, got {}",
+            "--t-end must be positive, got {:?}",
             args.t_end
         )));
     }
     if !(args.step_fraction > 0.0 && args.step_fraction <= 2.0) {
         return Err(CliError::Input(format!(
-            "--step-fraction must lie in (0, 2], got {}",
+            "--step-fraction must lie in (0, 2], got {:?}",
             args.step_fraction
+        )));
+    }
+    // The analysed cloth is the scene's at --n particles per side: refuse
+    // one that would not fit in memory before anything is allocated.
+    let mut sized = scene.clone();
+    if let Some(c) = sized.cloth.as_mut() {
+        c.n = args.n;
+    }
+    let (bytes, _) = sized.memory_estimate();
+    if bytes.is_none_or(|b| b > Scene::DEFAULT_MAX_BYTES) {
+        return Err(CliError::Input(format!(
+            "--n {}: {}",
+            args.n,
+            hookean::HookeanError::TooLarge {
+                key: "cloth.n",
+                bytes,
+                max_bytes: Scene::DEFAULT_MAX_BYTES,
+            }
         )));
     }
     if args.plot.exists() && !args.force {
@@ -112,8 +132,6 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
             args.plot.display()
         )));
     }
-    std::fs::create_dir_all(&args.plot)
-        .map_err(|e| input(format!("{}: {e}", args.plot.display())))?;
     let drape = ClothParams {
         nu: args.n,
         nv: args.n,
@@ -129,6 +147,18 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
     )
     .map_err(failed)?;
     let h = args.step_fraction * plain.dt_max;
+    // Three runs of --t-end at h, and figure 6's bisections: 8 settings of
+    // about 12 runs of 0.5 s at steps no shorter than dt_max.
+    args.work.check(
+        3.0 * args.t_end / h + 8.0 * 12.0 * 0.5 / plain.dt_max,
+        (args.n * args.n) as f64,
+        &format!(
+            "--t-end {:?} s at h = {:.3e} s ({} x dt_max) with --n {}",
+            args.t_end, h, args.step_fraction, args.n
+        ),
+    )?;
+    std::fs::create_dir_all(&args.plot)
+        .map_err(|e| input(format!("{}: {e}", args.plot.display())))?;
 
     // Figures 4 and 5 (three runs), then figure 6: a bar on a terminal.
     let bar = ProgressBar::new(4);

@@ -42,6 +42,8 @@ pub struct RunArgs {
         allow_negative_numbers = true
     )]
     max_memory: f64,
+    #[command(flatten)]
+    work: crate::work::WorkCap,
 }
 
 /// `--max-memory` in bytes.
@@ -50,7 +52,7 @@ pub fn max_memory_bytes(gib: f64) -> Result<u64, CliError> {
         Ok((gib * (1u64 << 30) as f64).min(u64::MAX as f64) as u64)
     } else {
         Err(CliError::Input(format!(
-            "--max-memory must be a positive number of GiB, got {gib}"
+            "--max-memory must be a positive number of GiB, got {gib:?}"
         )))
     }
 }
@@ -304,6 +306,9 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     let scene =
         Scene::from_file(&args.scene, &args.set).map_err(|e| CliError::Input(e.to_string()))?;
     let max_bytes = max_memory_bytes(args.max_memory)?;
+    if scene.tutorial.is_some() {
+        check_work(args, &scene, 1)?;
+    }
     let name = args
         .scene
         .file_stem()
@@ -336,6 +341,20 @@ pub fn run(args: &RunArgs) -> Result<(), CliError> {
     }
 }
 
+/// Refuses a run of `particles` particles whose work is above `--max-work`.
+fn check_work(args: &RunArgs, scene: &Scene, particles: usize) -> Result<(), CliError> {
+    args.work.check(
+        scene.duration / scene.integrator.h,
+        particles as f64,
+        &format!(
+            "{}: duration = {:?} s at integrator.h = {:?} s",
+            args.scene.display(),
+            scene.duration,
+            scene.integrator.h
+        ),
+    )
+}
+
 /// Runs a mass-spring scene, writing into `out`; returns the one-line report.
 fn run_model(
     args: &RunArgs,
@@ -350,8 +369,9 @@ fn run_model(
             "{}: {e} (--max-memory raises the cap)",
             args.scene.display()
         )),
-        e => CliError::Input(e.to_string()),
+        e => CliError::Input(format!("{}: {e}", args.scene.display())),
     })?;
+    check_work(args, scene, sim.model().n_particles())?;
 
     let mut csv = StepsCsv::create(out.join("steps.csv")).map_err(failed)?;
     let mut frames = ObjFrames {
@@ -390,11 +410,15 @@ fn run_model(
     let summary = match summary {
         Ok(s) => s,
         Err(e) => {
-            let mut message = format!(
-                "{}: the run stopped at t = {:.4} s: {e}",
-                args.scene.display(),
-                sim.t()
-            );
+            let mut message = if matches!(e, HookeanError::BlowUp { .. }) {
+                format!("{}: {e}", args.scene.display())
+            } else {
+                format!(
+                    "{}: the run stopped at t = {:.4} s: {e}",
+                    args.scene.display(),
+                    sim.t()
+                )
+            };
             // The frames up to the failure show how it went wrong.
             if !frames.view.is_empty() {
                 let stats = sim.stats();

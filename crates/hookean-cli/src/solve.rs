@@ -67,12 +67,12 @@ impl SolverArgs {
         }
         if !(omega > 0.0 && omega < 2.0) {
             return Err(CliError::Input(format!(
-                "--omega must lie in (0, 2), got {omega}"
+                "--omega must lie in (0, 2), got {omega:?}"
             )));
         }
         if !(rtol >= 0.0 && rtol.is_finite()) {
             return Err(CliError::Input(format!(
-                "--rtol must be a non-negative number, got {rtol}"
+                "--rtol must be a non-negative number, got {rtol:?}"
             )));
         }
         let params = CgParams {
@@ -263,7 +263,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     };
     if !(1..=3).contains(&args.block_size) {
         return Err(CliError::Input(format!(
-            "--block-size must be 1, 2 or 3, got {}",
+            "--block-size must be 1, 2 or 3, got {:?}",
             args.block_size
         )));
     }

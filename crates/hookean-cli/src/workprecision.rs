@@ -57,6 +57,8 @@ pub struct WorkPrecisionArgs {
     /// Overwrite existing output files.
     #[arg(long)]
     force: bool,
+    #[command(flatten)]
+    work: crate::work::WorkCap,
 }
 
 /// The problems of the command.
@@ -72,7 +74,7 @@ impl Problem {
             "tutorial1" => {
                 if !lambda.is_finite() {
                     return Err(CliError::Input(format!(
-                        "--lambda must be finite, got {lambda}"
+                        "--lambda must be finite, got {lambda:?}"
                     )));
                 }
                 Problem::Dahlquist(Dahlquist { lambda })
@@ -219,7 +221,7 @@ pub fn run(args: &WorkPrecisionArgs) -> Result<(), CliError> {
     let methods = methods(&args.methods, &problem, &args.problem)?;
     if !(1..=16).contains(&args.levels) {
         return Err(CliError::Input(format!(
-            "--levels must lie in 1..=16, got {}",
+            "--levels must lie in 1..=16, got {:?}",
             args.levels
         )));
     }
@@ -227,6 +229,16 @@ pub fn run(args: &WorkPrecisionArgs) -> Result<(), CliError> {
     if n0 == 0 {
         return Err(CliError::Input("--n0 must be at least 1".into()));
     }
+    // Every fixed-step method runs n0 (2^levels - 1) steps of a scalar problem.
+    let fixed = methods.iter().filter(|m| !m.is_variable_step()).count();
+    args.work.check(
+        fixed as f64 * n0 as f64 * (2f64.powi(args.levels as i32) - 1.0),
+        1.0,
+        &format!(
+            "--n0 {n0} with --levels {} for {fixed} fixed-step methods",
+            args.levels
+        ),
+    )?;
     check_new_file(&args.out, args.force, "--out")?;
     if let Some(p) = &args.plot {
         check_new_file(p, args.force, "--plot")?;
@@ -243,13 +255,21 @@ pub fn run(args: &WorkPrecisionArgs) -> Result<(), CliError> {
         "| method | order | observed order (4 finest) | f evals (finest) | error (finest) |"
     )?;
     crate::outln!("|---|---|---|---|---|")?;
+    // A bar on a terminal: fine sweeps of many methods take a while.
+    let bar = indicatif::ProgressBar::new(methods.len() as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} [{elapsed_precise}]")
+            .expect("valid template"),
+    );
     for m in &methods {
+        bar.set_message(m.to_string());
         let sweep = if m.is_variable_step() {
             Sweep::Tolerances((1..=args.levels).map(|e| 10f64.powi(-(e as i32))).collect())
         } else {
             Sweep::halvings(n0, args.levels)
         };
         let rows = problem.run(m, &sweep)?;
+        bar.inc(1);
         let finite: Vec<WorkPrecisionRow> = rows
             .iter()
             .filter(|r| r.error.is_finite() && r.error > 0.0)
@@ -273,6 +293,7 @@ pub fn run(args: &WorkPrecisionArgs) -> Result<(), CliError> {
         });
         all.extend(rows);
     }
+    bar.finish_and_clear();
     let file = File::create(&args.out)
         .map_err(|e| CliError::Input(format!("cannot create {}: {e}", args.out.display())))?;
     let mut w = BufWriter::new(file);

@@ -10,13 +10,13 @@ use thiserror::Error;
 #[non_exhaustive]
 pub enum FilterError {
     /// The filter parameter lambda must be a positive finite number.
-    #[error("filter parameter lambda must be positive and finite, got {lambda}")]
+    #[error("filter parameter lambda must be positive and finite, got {lambda:?}")]
     InvalidLambda {
         /// The value given.
         lambda: f64,
     },
     /// The neighbourhood radius (rings of the spring graph) must be at least 1.
-    #[error("neighbourhood radius must be at least 1 ring, got {rings}")]
+    #[error("neighbourhood radius must be at least 1 ring, got {rings:?}")]
     InvalidRadius {
         /// The value given.
         rings: usize,
@@ -56,7 +56,7 @@ pub enum FilterError {
         particles: usize,
     },
     /// A parameter out of its range (step size, run length, bisection bracket, ...).
-    #[error("invalid parameter {name} = {value}: {reason}")]
+    #[error("invalid parameter {name} = {value:?}: {reason}")]
     InvalidParameter {
         /// The parameter.
         name: &'static str,

@@ -64,7 +64,7 @@ impl Collider {
         if !(radius > 0.0 && radius.is_finite()) || center.iter().any(|p| !p.is_finite()) {
             return Err(MassSpringError::InvalidParameter {
                 name: "sphere",
-                message: format!("center {center:?} must be finite, radius {radius} positive"),
+                message: format!("center {center:?} must be finite, radius {radius:?} positive"),
             });
         }
         check_margin(margin)?;
@@ -107,7 +107,7 @@ fn check_margin(margin: f64) -> Result<(), MassSpringError> {
     } else {
         Err(MassSpringError::InvalidParameter {
             name: "margin",
-            message: format!("{margin} must be non-negative and finite"),
+            message: format!("{margin:?} must be non-negative and finite"),
         })
     }
 }

@@ -47,7 +47,7 @@ pub enum MassSpringError {
         j: usize,
     },
     /// A spring parameter (rest length, stiffness, damping) is negative or not finite.
-    #[error("spring {spring}: invalid {parameter} {value}")]
+    #[error("spring {spring}: invalid {parameter} {value:?}")]
     InvalidSpring {
         /// Index of the spring.
         spring: usize,
@@ -57,7 +57,7 @@ pub enum MassSpringError {
         value: f64,
     },
     /// A particle mass is zero, negative or not finite.
-    #[error("particle {particle} has invalid mass {mass} (must be positive and finite)")]
+    #[error("particle {particle} has invalid mass {mass:?} (must be positive and finite)")]
     InvalidMass {
         /// The particle.
         particle: usize,

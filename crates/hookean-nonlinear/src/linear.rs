@@ -226,7 +226,7 @@ where
         check_len("right-hand side", rhs, n)?;
         check_len("solution", x, n)?;
         if !(rtol >= 0.0) {
-            return Err(invalid("rtol", format!("must be >= 0, got {rtol}")));
+            return Err(invalid("rtol", format!("must be >= 0, got {rtol:?}")));
         }
         let initial_guess = if std::mem::take(&mut self.use_guess) {
             check_len("armed guess", &self.guess, n)?;

@@ -56,14 +56,14 @@ impl ForcingTerm {
         match *self {
             Self::Constant(eta) if !(eta > 0.0 && eta < 1.0) => Err(invalid(
                 "ForcingTerm::Constant",
-                format!("eta must lie in (0, 1), got {eta}"),
+                format!("eta must lie in (0, 1), got {eta:?}"),
             )),
             Self::EisenstatWalker2 { gamma, alpha }
                 if !(gamma > 0.0 && gamma <= 1.0 && alpha > 1.0 && alpha <= 2.0) =>
             {
                 Err(invalid(
                     "ForcingTerm::EisenstatWalker2",
-                    format!("need gamma in (0, 1] and alpha in (1, 2], got {gamma}, {alpha}"),
+                    format!("need gamma in (0, 1] and alpha in (1, 2], got {gamma:?}, {alpha:?}"),
                 ))
             }
             _ => Ok(()),
@@ -198,7 +198,7 @@ impl NewtonOptions {
             if v >= 0.0 && v.is_finite() {
                 Ok(())
             } else {
-                Err(invalid(name, format!("must be finite and >= 0, got {v}")))
+                Err(invalid(name, format!("must be finite and >= 0, got {v:?}")))
             }
         };
         nonneg("atol", self.atol)?;
@@ -211,24 +211,24 @@ impl NewtonOptions {
         if !(self.linear_rtol >= 0.0 && self.linear_rtol < 1.0) {
             return Err(invalid(
                 "linear_rtol",
-                format!("must lie in [0, 1), got {}", self.linear_rtol),
+                format!("must lie in [0, 1), got {:?}", self.linear_rtol),
             ));
         }
         for (name, v) in [("eta_initial", self.eta_initial), ("eta_max", self.eta_max)] {
             if !(v > 0.0 && v < 1.0) {
-                return Err(invalid(name, format!("must lie in (0, 1), got {v}")));
+                return Err(invalid(name, format!("must lie in (0, 1), got {v:?}")));
             }
         }
         if !(self.refresh_theta > 0.0) {
             return Err(invalid(
                 "refresh_theta",
-                format!("must be > 0, got {}", self.refresh_theta),
+                format!("must be > 0, got {:?}", self.refresh_theta),
             ));
         }
         if !(self.max_residual_growth > 1.0) {
             return Err(invalid(
                 "max_residual_growth",
-                format!("must be > 1, got {}", self.max_residual_growth),
+                format!("must be > 1, got {:?}", self.max_residual_growth),
             ));
         }
         if let Some(f) = self.method.forcing() {

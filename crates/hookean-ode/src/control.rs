@@ -84,7 +84,7 @@ fn check_h(h: f64) -> Result<(), OdeError> {
     } else {
         Err(invalid(
             "h",
-            format!("step size must be finite and > 0, got {h}"),
+            format!("step size must be finite and > 0, got {h:?}"),
         ))
     }
 }
@@ -93,7 +93,7 @@ fn check_bounds(h_min: f64, h_max: f64) -> Result<(), OdeError> {
     if !(h_min > 0.0 && h_min <= h_max && !h_max.is_nan()) {
         return Err(invalid(
             "h_min/h_max",
-            format!("need 0 < h_min <= h_max, got {h_min}, {h_max}"),
+            format!("need 0 < h_min <= h_max, got {h_min:?}, {h_max:?}"),
         ));
     }
     Ok(())
@@ -186,19 +186,19 @@ impl IterationController {
         if !(o.grow_factor >= 1.0 && o.grow_factor.is_finite()) {
             return Err(invalid(
                 "grow_factor",
-                format!("must be finite and >= 1, got {}", o.grow_factor),
+                format!("must be finite and >= 1, got {:?}", o.grow_factor),
             ));
         }
         if !(o.shrink_factor > 0.0 && o.shrink_factor <= 1.0) {
             return Err(invalid(
                 "shrink_factor",
-                format!("must lie in (0, 1], got {}", o.shrink_factor),
+                format!("must lie in (0, 1], got {:?}", o.shrink_factor),
             ));
         }
         if !(o.failure_factor > 0.0 && o.failure_factor < 1.0) {
             return Err(invalid(
                 "failure_factor",
-                format!("must lie in (0, 1), got {}", o.failure_factor),
+                format!("must lie in (0, 1), got {:?}", o.failure_factor),
             ));
         }
         if o.few_iterations >= o.many_iterations {
@@ -351,14 +351,14 @@ impl PiController {
         if !(o.safety > 0.0 && o.safety <= 1.0) {
             return Err(invalid(
                 "safety",
-                format!("must lie in (0, 1], got {}", o.safety),
+                format!("must lie in (0, 1], got {:?}", o.safety),
             ));
         }
         if !(o.beta1 > 0.0 && o.beta1.is_finite() && o.beta2 >= 0.0 && o.beta2.is_finite()) {
             return Err(invalid(
                 "beta1/beta2",
                 format!(
-                    "need beta1 > 0 and beta2 >= 0, got {}, {}",
+                    "need beta1 > 0 and beta2 >= 0, got {:?}, {:?}",
                     o.beta1, o.beta2
                 ),
             ));
@@ -371,7 +371,7 @@ impl PiController {
             return Err(invalid(
                 "min_factor/max_factor",
                 format!(
-                    "need 0 < min_factor < 1 <= max_factor, got {}, {}",
+                    "need 0 < min_factor < 1 <= max_factor, got {:?}, {:?}",
                     o.min_factor, o.max_factor
                 ),
             ));
@@ -379,7 +379,7 @@ impl PiController {
         if !(o.failure_factor > 0.0 && o.failure_factor < 1.0) {
             return Err(invalid(
                 "failure_factor",
-                format!("must lie in (0, 1), got {}", o.failure_factor),
+                format!("must lie in (0, 1), got {:?}", o.failure_factor),
             ));
         }
         if o.newton_max_iter == Some(0) {
@@ -429,7 +429,7 @@ impl PiController {
         if err < 0.0 {
             return Err(invalid(
                 "err",
-                format!("error estimate must be >= 0, got {err}"),
+                format!("error estimate must be >= 0, got {err:?}"),
             ));
         }
         let s = self.safety(newton_iterations);

@@ -61,6 +61,22 @@ pub(crate) struct Core<S> {
     t_base: f64,
     n_fixed: u64,
     controller: Option<Controller>,
+    /// `max_growth * max(1, max |s0|)`: a larger state is a blow-up.
+    growth_bound: f64,
+}
+
+/// `max_growth * max(1, max_i |s_i|)`.
+fn opts_growth_bound(max_growth: f64, s: &[f64]) -> f64 {
+    max_growth * s.iter().fold(1.0f64, |m, x| m.max(x.abs()))
+}
+
+/// A blown-up state is an error: `max_i |s_i| > bound`.
+fn check_growth(s: &[f64], bound: f64, t: f64) -> Result<(), OdeError> {
+    let norm = s.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    if norm > bound {
+        return Err(OdeError::StateGrowth { t, norm, bound });
+    }
+    Ok(())
 }
 
 fn check_finite(v: &[f64], what: &'static str, t: f64) -> Result<(), OdeError> {
@@ -140,6 +156,7 @@ impl<S: System> Core<S> {
         } else {
             None
         };
+        let max_growth = opts.max_growth;
         let mut hist = vec![vec![0.0; m]; hist_n];
         hist[0].copy_from_slice(&s0);
         Ok(Self {
@@ -173,6 +190,7 @@ impl<S: System> Core<S> {
             t_base: t0,
             n_fixed: 0,
             controller,
+            growth_bound: opts_growth_bound(max_growth, &s0),
             s: s0,
         })
     }
@@ -221,6 +239,9 @@ impl<S: System> Core<S> {
         check_time(t)?;
         check_finite(s, "state", t)?;
         self.s.copy_from_slice(s);
+        // A new state from the user sets a new scale; the per-step
+        // `set_state_parts` of post-processing wrappers keeps the old one.
+        self.growth_bound = opts_growth_bound(self.opts.max_growth, s);
         self.restart_at(t);
         Ok(())
     }
@@ -345,6 +366,11 @@ impl<S: System> Core<S> {
             }
         }
         check_finite(&self.s, "state after the step", t)?;
+        // Explicit methods are left to grow: their instability outside the
+        // stability region is what the tutorial demonstrates.
+        if self.method.is_implicit() {
+            check_growth(&self.s, self.growth_bound, t + h)?;
+        }
         if h == self.opts.h {
             self.n_fixed += 1;
             self.t = self.t_base + self.n_fixed as f64 * h;
@@ -735,6 +761,7 @@ impl<S: System> Core<S> {
             // Accept.
             self.s.copy_from_slice(&self.kbuf);
             check_finite(&self.s, "state after the step", t)?;
+            check_growth(&self.s, self.growth_bound, t + h)?;
             self.hist.rotate_right(1);
             self.hist[0].copy_from_slice(&self.s);
             self.hist_len = (self.hist_len + 1).min(2);
@@ -765,9 +792,12 @@ impl<S: System> Core<S> {
     }
 
     /// How close to `t_end` counts as on it: `max(1e-9 h, 8 eps |t_end|)`
-    /// with `h` the next nominal step.
+    /// with `h` the next nominal step, capped at `h <= max(|t_end|, t_end - t)`
+    /// so that a step far longer than the whole run (h = 1e300 for a 0.02 s
+    /// run) does not make the run a sliver to skip.
     fn landing_slack(&self, t_end: f64) -> f64 {
-        (1e-9 * self.h_next()).max(8.0 * f64::EPSILON * t_end.abs())
+        let h = self.h_next().min(t_end.abs().max(t_end - self.t));
+        (1e-9 * h).max(8.0 * f64::EPSILON * t_end.abs())
     }
 
     /// The one rule for landing on an end time, used by every driver: one

@@ -3,6 +3,8 @@
 use hookean_nonlinear::NonlinearError;
 use hookean_sparse::SparseError;
 
+use crate::bdf_solver::BdfStats;
+
 /// Everything that can go wrong in `hookean-ode`. Errors raised during a
 /// run carry the time `t` reached when they happened.
 #[derive(Debug, thiserror::Error)]
@@ -19,7 +21,7 @@ pub enum OdeError {
         found: usize,
     },
     /// A parameter is out of its admissible range.
-    #[error("invalid parameter {name} = {value}: {reason}")]
+    #[error("invalid parameter {name} = {value:?}: {reason}")]
     InvalidParameter {
         /// Name of the parameter.
         name: &'static str,
@@ -119,6 +121,52 @@ pub enum OdeError {
         h: f64,
         /// The lower bound.
         h_min: f64,
+    },
+    /// The maximum number of steps was taken before the end time was reached.
+    #[error("{max_steps} steps taken without reaching the end time (at t = {t})")]
+    TooManySteps {
+        /// The time reached.
+        t: f64,
+        /// The limit.
+        max_steps: usize,
+    },
+    /// The state grew past the admissible bound (the run has blown up):
+    /// `max_i |y_i| > bound`.
+    #[error("the state grew past the bound at t = {t}: max |y_i| = {norm:e} > {bound:e}")]
+    StateGrowth {
+        /// The time reached.
+        t: f64,
+        /// `max_i |y_i|` of the state.
+        norm: f64,
+        /// The bound it passed.
+        bound: f64,
+    },
+    /// The local error test failed too often on one step.
+    #[error(
+        "the local error test failed {failures} times on the step from t = {t} (last h = {h:e})"
+    )]
+    ErrorTestFailed {
+        /// The time reached.
+        t: f64,
+        /// The last step size tried.
+        h: f64,
+        /// Failed attempts on this step.
+        failures: usize,
+    },
+    /// A run of the variable-order [`BdfSolver`](crate::BdfSolver) failed:
+    /// the time reached, the statistics so far and the cause.
+    #[error(
+        "BDF run failed at t = {t} after {} steps ({} Jacobians, {} LU factorisations): {source}",
+        stats.num_steps, stats.num_jac_evals, stats.num_lin_solv_setups
+    )]
+    Run {
+        /// The time reached (the last accepted step).
+        t: f64,
+        /// The solver's statistics up to the failure.
+        stats: Box<BdfStats>,
+        /// What went wrong.
+        #[source]
+        source: Box<OdeError>,
     },
     /// An error of `hookean-sparse` outside a Newton solve (set-up, constraints).
     #[error(transparent)]

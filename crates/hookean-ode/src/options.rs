@@ -6,6 +6,12 @@ use crate::control::{IterationControllerOptions, PiControllerOptions};
 
 use crate::error::OdeError;
 
+/// The default growth bound of a run of an implicit method (relative to
+/// `max(1, max |y0|)`): far above any decaying or oscillating solution,
+/// far below a blown-up run (a fixed-step BDF4 outside its stability region
+/// reached `4e70`).
+pub const DEFAULT_MAX_GROWTH: f64 = 1e30;
+
 /// The starting guess `Y_0` of the Newton iteration of an implicit Euler step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Predictor {
@@ -89,6 +95,11 @@ pub struct SolverOptions {
     /// The Newton iteration of the implicit methods (the tutorial's
     /// section 3) and its linear solver: `hookean-nonlinear`'s options, with
     /// the integrators' defaults (see [`SolverOptions::default_newton`]).
+    /// For second-order problems `M x'' = f` the Newton residual
+    /// `M (V - psi_v) - gh f` is a momentum: its absolute tolerance
+    /// `newton.atol` is read as a velocity and multiplied by the mean
+    /// particle mass, so that the same `k/m` gives the same motion in any
+    /// mass unit.
     pub newton: NewtonOptions,
     /// Starting guess of implicit Euler's Newton iteration. Default
     /// [`Predictor::Previous`].
@@ -100,6 +111,14 @@ pub struct SolverOptions {
     /// are; only PCG begins closer to the answer. Ignored after a change of
     /// step size. Default `false`.
     pub warm_start: bool,
+    /// A run of an implicit method fails with [`OdeError::StateGrowth`] once `max_i |y_i|` of the
+    /// state exceeds `max_growth * max(1, max_i |y0_i|)` (`y0` the state at
+    /// construction or at the last `set_state`; not `set_state_parts`): a blown-up run is an error,
+    /// not `Ok` with a huge state. Default [`DEFAULT_MAX_GROWTH`]` = 1e30`;
+    /// infinite turns the check off. Explicit methods are not checked: their
+    /// growth outside the stability region is the tutorial's demonstration
+    /// (RK4 just outside its interval grows by about `1e73` in 4000 steps).
+    pub max_growth: f64,
 }
 
 impl Default for SolverOptions {
@@ -115,6 +134,7 @@ impl Default for SolverOptions {
             newton: Self::default_newton(),
             predictor: Predictor::Previous,
             warm_start: false,
+            max_growth: DEFAULT_MAX_GROWTH,
         }
     }
 }
@@ -165,6 +185,13 @@ impl SolverOptions {
                 name: "h",
                 value: self.h,
                 reason: "must be finite",
+            });
+        }
+        if !(self.max_growth > 1.0) {
+            return Err(OdeError::InvalidParameter {
+                name: "max_growth",
+                value: self.max_growth,
+                reason: "must exceed 1",
             });
         }
         self.newton.validate()?;

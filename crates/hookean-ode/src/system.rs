@@ -7,7 +7,8 @@
 use std::cell::RefCell;
 
 use hookean_nonlinear::{
-    DenseLu, Newton, NewtonStats, NonlinearError, NonlinearSystem, PcgSolver, SparseLu,
+    DenseLu, Newton, NewtonOptions, NewtonStats, NonlinearError, NonlinearSystem, PcgSolver,
+    SparseLu,
 };
 use hookean_sparse::{AnyPreconditioner, Constraints, SymBlockMatrix};
 
@@ -160,18 +161,17 @@ impl<P: FirstOrderProblem> NonlinearSystem for FirstStage<'_, P> {
     fn jacobian(&mut self, y: &[f64], jac: &mut faer::Mat<f64>) -> Result<(), NonlinearError> {
         let n = y.len();
         if !self.problem.jacobian(self.tau, y, self.jac) {
-            // Forward differences around y.
             self.problem.rhs(self.tau, y, self.f);
-            self.tmp.copy_from_slice(y);
-            for j in 0..n {
-                let eps = f64::EPSILON.sqrt() * y[j].abs().max(1.0);
-                self.tmp[j] = y[j] + eps;
-                self.problem.rhs(self.tau, self.tmp, self.col);
-                for i in 0..n {
-                    self.jac[i * n + j] = (self.col[i] - self.f[i]) / eps;
-                }
-                self.tmp[j] = y[j];
-            }
+            forward_difference_jacobian(
+                self.problem,
+                self.tau,
+                y,
+                self.f,
+                |_, yj| f64::EPSILON.sqrt() * yj.abs().max(1.0),
+                self.tmp,
+                self.col,
+                self.jac,
+            );
             self.fd_evals += n + 1;
         }
         for i in 0..n {
@@ -181,6 +181,33 @@ impl<P: FirstOrderProblem> NonlinearSystem for FirstStage<'_, P> {
             }
         }
         Ok(())
+    }
+}
+
+/// The dense Jacobian `df/dy` at `(t, y)` by forward differences (one
+/// evaluation of `f` per column): `J[:, j] = (f(y + eps_j e_j) - f0) / eps_j`
+/// with `f0 = f(t, y)` given and `eps_j = increment(j, y_j)`; `jac` is
+/// row-major `n x n`, `tmp` and `col` are work vectors of length `n`.
+pub(crate) fn forward_difference_jacobian<P: FirstOrderProblem>(
+    problem: &P,
+    t: f64,
+    y: &[f64],
+    f0: &[f64],
+    increment: impl Fn(usize, f64) -> f64,
+    tmp: &mut [f64],
+    col: &mut [f64],
+    jac: &mut [f64],
+) {
+    let n = y.len();
+    tmp.copy_from_slice(y);
+    for j in 0..n {
+        let eps = increment(j, y[j]);
+        tmp[j] = y[j] + eps;
+        problem.rhs(t, tmp, col);
+        for i in 0..n {
+            jac[i * n + j] = (col[i] - f0[i]) / eps;
+        }
+        tmp[j] = y[j];
     }
 }
 
@@ -231,6 +258,43 @@ impl<P: FirstOrderProblem> NonlinearSystem for SparseFirstStage<'_, P> {
     }
 }
 
+/// The positions in `pattern.data()` of the diagonal entries of an `n x n`
+/// sparse Jacobian pattern (CSR or CSC), to add the identity of `I - gh df/dy`.
+///
+/// # Errors
+/// [`OdeError::DimensionMismatch`] for another shape,
+/// [`OdeError::InvalidParameter`] if a diagonal entry is missing.
+pub(crate) fn diagonal_positions(
+    pattern: &sprs::CsMat<f64>,
+    n: usize,
+) -> Result<Vec<usize>, OdeError> {
+    if pattern.shape() != (n, n) {
+        return Err(OdeError::DimensionMismatch {
+            what: "sparse Jacobian pattern (rows)",
+            expected: n,
+            found: pattern.rows(),
+        });
+    }
+    let mut diag = vec![usize::MAX; pattern.outer_dims()];
+    let mut k = 0;
+    for (outer, vec) in pattern.outer_iterator().enumerate() {
+        for (inner, _) in vec.iter() {
+            if inner == outer {
+                diag[outer] = k;
+            }
+            k += 1;
+        }
+    }
+    if let Some(i) = diag.iter().position(|&d| d == usize::MAX) {
+        return Err(OdeError::InvalidParameter {
+            name: "sparse Jacobian pattern",
+            value: i as f64,
+            reason: "must contain the diagonal (missing at the row given as value)",
+        });
+    }
+    Ok(diag)
+}
+
 /// Newton for first-order stages: dense LU, or sparse LU on the problem's pattern.
 enum FirstNewton {
     Dense(Option<Box<Newton<faer::Mat<f64>, DenseLu>>>),
@@ -263,30 +327,7 @@ impl<P: FirstOrderProblem> FirstSys<P> {
         let newton = match problem.sparse_jacobian_pattern() {
             None => FirstNewton::Dense(None),
             Some(pattern) => {
-                if pattern.shape() != (n, n) {
-                    return Err(OdeError::DimensionMismatch {
-                        what: "sparse Jacobian pattern (rows)",
-                        expected: n,
-                        found: pattern.rows(),
-                    });
-                }
-                let mut diag = vec![usize::MAX; n];
-                let mut k = 0;
-                for (outer, vec) in pattern.outer_iterator().enumerate() {
-                    for (inner, _) in vec.iter() {
-                        if inner == outer {
-                            diag[outer] = k;
-                        }
-                        k += 1;
-                    }
-                }
-                if let Some(i) = diag.iter().position(|&d| d == usize::MAX) {
-                    return Err(OdeError::InvalidParameter {
-                        name: "sparse Jacobian pattern",
-                        value: i as f64,
-                        reason: "must contain the diagonal (missing at the row given as value)",
-                    });
-                }
+                let diag = diagonal_positions(&pattern, n)?;
                 FirstNewton::Sparse(Box::new(SparseNewton {
                     newton: Newton::new(opts.newton.clone(), pattern.clone(), SparseLu::new())?,
                     jsp: pattern,
@@ -506,6 +547,21 @@ pub(crate) struct SecondSys<P> {
     /// warm start of the next stage's first linear solve.
     last_delta: Vec<f64>,
     last_delta_gh: f64,
+    /// The Newton options as the user gave them (`newton` holds them with
+    /// the absolute tolerance in momentum units, see [`momentum_options`]).
+    user_newton: NewtonOptions,
+    /// The mean particle mass.
+    mean_mass: f64,
+}
+
+/// The velocity form's residual `M (V - psi_v) - gh f` is a momentum: its
+/// absolute tolerance is the user's `atol` (a velocity) times the mean mass,
+/// so that the same `k/m` converges alike in any mass unit.
+fn momentum_options(user: &NewtonOptions, mean_mass: f64) -> NewtonOptions {
+    NewtonOptions {
+        atol: user.atol * mean_mass,
+        ..user.clone()
+    }
 }
 
 impl<P: SecondOrderProblem> SecondSys<P> {
@@ -520,13 +576,17 @@ impl<P: SecondOrderProblem> SecondSys<P> {
             });
         }
         let linear = PcgSolver::from_options(&opts.newton)?;
+        let mass = problem.mass();
+        let mean_mass = mass.iter().sum::<f64>() / mass.len().max(1) as f64;
         let newton = Newton::new(
-            opts.newton.clone(),
+            momentum_options(&opts.newton, mean_mass),
             SymBlockMatrix::new(pattern.clone()),
             linear,
         )?;
         Ok(Self {
             n,
+            user_newton: opts.newton.clone(),
+            mean_mass,
             constraints: Constraints::new(n / 3),
             dfdx: SymBlockMatrix::new(pattern.clone()),
             dfdv: SymBlockMatrix::new(pattern),
@@ -608,10 +668,11 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
         stats: &mut Stats,
     ) -> Result<StageInfo, StageFailure> {
         let n = self.n;
-        if self.newton.options() != &opts.newton {
+        if self.user_newton != opts.newton {
             self.newton
-                .set_options(opts.newton.clone())
+                .set_options(momentum_options(&opts.newton, self.mean_mass))
                 .map_err(StageFailure::Other)?;
+            self.user_newton = opts.newton.clone();
         }
         // One copy of the step's constraints per stage solve (they change
         // between steps; none is made while the set is empty).

@@ -260,7 +260,7 @@ where
         return Err(SparseError::InvalidParameter {
             name: "tolerance",
             message: format!(
-                "rtol and atol must be non-negative numbers, got {} and {}",
+                "rtol and atol must be non-negative numbers, got {:?} and {:?}",
                 params.rtol, params.atol
             ),
         });

@@ -89,7 +89,7 @@ pub enum SparseError {
         relative_residual: f64,
     },
     /// A preconditioner needs a positive diagonal and found otherwise.
-    #[error("{preconditioner} needs a positive diagonal, but entry {row} is {value}")]
+    #[error("{preconditioner} needs a positive diagonal, but entry {row} is {value:?}")]
     NonPositiveDiagonal {
         /// The preconditioner that failed.
         preconditioner: &'static str,

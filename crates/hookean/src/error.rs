@@ -30,6 +30,27 @@ pub enum HookeanError {
         /// What is wrong.
         message: String,
     },
+    /// A `--set key=value` override of a scene that is malformed or makes
+    /// the scene invalid.
+    #[error("{file}: --set {arg}: {message}")]
+    Override {
+        /// The scene file.
+        file: String,
+        /// The override as given.
+        arg: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A scene table whose values each parse but do not make a model (a
+    /// jelly of 0 particles, a cloth so large its springs have infinite
+    /// length, a filter on an implicit method): the table and the reason.
+    #[error("[{table}]: {message}")]
+    Build {
+        /// The table (`cloth`, `jelly`, `filter`, `collider 2`, ...).
+        table: String,
+        /// The builder's reason.
+        message: String,
+    },
     /// An option combination that cannot work.
     #[error("invalid option {name}: {message}")]
     InvalidOption {
@@ -54,6 +75,30 @@ pub enum HookeanError {
         /// The cap.
         max_bytes: u64,
     },
+    /// The run blew up: the kinetic plus gravitational energy grew past
+    /// what the scene started with by far more than any valid motion can
+    /// (see [`Simulation`](crate::Simulation)'s blow-up check).
+    #[error(
+        "the run blew up at t = {t:.6} s (step {step}): kinetic + gravitational energy {energy:.3e} J exceeds {bound:.3e} J, the starting energy plus {factor:e} times the scene's energy scale{}",
+        blow_up_hint(*h, *dt_max)
+    )]
+    BlowUp {
+        /// Simulated time of the first state past the bound.
+        t: f64,
+        /// Accepted steps so far.
+        step: usize,
+        /// Kinetic plus gravitational energy of that state (J).
+        energy: f64,
+        /// The bound (J).
+        bound: f64,
+        /// The growth factor of the bound (`SimulationOptions::blow_up_factor`).
+        factor: f64,
+        /// The step size of the last step.
+        h: f64,
+        /// The explicit stability limit `2 / sqrt(k0)` at the starting
+        /// positions (the filtering paper's eq. 11) for explicit methods.
+        dt_max: Option<f64>,
+    },
     /// Writing an output failed.
     #[error("{path}: {message}")]
     Io {
@@ -62,6 +107,21 @@ pub enum HookeanError {
         /// The operating system's message.
         message: String,
     },
+}
+
+/// The advice of [`HookeanError::BlowUp`]: the stable step, where known.
+fn blow_up_hint(h: f64, dt_max: Option<f64>) -> String {
+    match dt_max {
+        Some(d) if h > d => format!(
+            "; the step h = {h:.3e} s is above the stable step dt_max = {d:.3e} s \
+             (eq. 11 of the filtering paper): lower integrator.h, add a filter or use an implicit method"
+        ),
+        Some(d) => format!(
+            "; the step h = {h:.3e} s is below dt_max = {d:.3e} s at the start, \
+             the model may have stiffened as it moved: lower integrator.h or use an implicit method"
+        ),
+        None => String::new(),
+    }
 }
 
 impl HookeanError {

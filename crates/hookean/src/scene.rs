@@ -41,7 +41,7 @@ fn positive<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
         Ok(v)
     } else {
         Err(D::Error::custom(format!(
-            "must be a positive number, got {v}"
+            "must be a positive number, got {v:?}"
         )))
     }
 }
@@ -52,7 +52,7 @@ fn non_negative<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
         Ok(v)
     } else {
         Err(D::Error::custom(format!(
-            "must be a non-negative number, got {v}"
+            "must be a non-negative number, got {v:?}"
         )))
     }
 }
@@ -62,7 +62,7 @@ fn fraction<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
     if v > 0.0 && v < 1.0 {
         Ok(v)
     } else {
-        Err(D::Error::custom(format!("must lie in (0, 1), got {v}")))
+        Err(D::Error::custom(format!("must lie in (0, 1), got {v:?}")))
     }
 }
 
@@ -72,7 +72,7 @@ fn at_least_two<'de, D: Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
         Ok(v)
     } else {
         Err(D::Error::custom(format!(
-            "needs at least 2 particles, got {v}"
+            "needs at least 2 particles, got {v:?}"
         )))
     }
 }
@@ -95,7 +95,7 @@ fn pixels<'de, D: Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
         Ok(v)
     } else {
         Err(D::Error::custom(format!(
-            "must lie in 1..={MAX_PIXELS} pixels, got {v}"
+            "must lie in 1..={MAX_PIXELS} pixels, got {v:?}"
         )))
     }
 }
@@ -125,7 +125,7 @@ fn omega<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
         Ok(v)
     } else {
         Err(D::Error::custom(format!(
-            "SSOR relaxation must lie in (0, 2), got {v}"
+            "SSOR relaxation must lie in (0, 2), got {v:?}"
         )))
     }
 }
@@ -136,7 +136,7 @@ fn mic_omega<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
         Ok(v)
     } else {
         Err(D::Error::custom(format!(
-            "MIC(0) relaxation must lie in [0, 1], got {v}"
+            "MIC(0) relaxation must lie in [0, 1], got {v:?}"
         )))
     }
 }
@@ -366,7 +366,7 @@ fn example_number<'de, D: Deserializer<'de>>(d: D) -> Result<u8, D::Error> {
         Ok(v)
     } else {
         Err(D::Error::custom(format!(
-            "the tutorial scenes are examples 1 and 2 (example 3 is [particle]), got {v}"
+            "the tutorial scenes are examples 1 and 2 (example 3 is [particle]), got {v:?}"
         )))
     }
 }
@@ -757,7 +757,7 @@ impl<'de> Deserialize<'de> for ForcingScene {
         match Raw::deserialize(d)? {
             Raw::Number(v) if v > 0.0 && v < 1.0 => Ok(ForcingScene::Constant(v)),
             Raw::Number(v) => Err(D::Error::custom(format!(
-                "a constant forcing term must lie in (0, 1), got {v}"
+                "a constant forcing term must lie in (0, 1), got {v:?}"
             ))),
             Raw::Name(s) if s == "ew1" => Ok(ForcingScene::Ew1),
             Raw::Name(s) if s == "ew2" => Ok(ForcingScene::Ew2),
@@ -812,32 +812,30 @@ pub enum FormScene {
     Plain,
 }
 
-/// `[[collider]]`: a plane or a sphere.
+/// `[[collider]]`: a plane or a sphere. Its values are checked when the
+/// scene is built (errors name the collider: `[collider 2]: ...`), since the
+/// `kind`-tagged table loses the position of a bad value.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields, tag = "kind", rename_all = "kebab-case")]
 pub enum ColliderScene {
     /// The half-space above a plane.
     Plane {
         /// A point of the plane.
-        #[serde(deserialize_with = "finite3")]
         point: [f64; 3],
         /// Its outward normal (normalised on use).
-        #[serde(deserialize_with = "finite3")]
         normal: [f64; 3],
         /// Contact margin (m). Default 0.
-        #[serde(default, deserialize_with = "non_negative")]
+        #[serde(default)]
         margin: f64,
     },
     /// The outside of a ball.
     Sphere {
         /// Centre.
-        #[serde(deserialize_with = "finite3")]
         center: [f64; 3],
         /// Radius (m).
-        #[serde(deserialize_with = "positive")]
         radius: f64,
         /// Contact margin (m). Default 0.
-        #[serde(default, deserialize_with = "non_negative")]
+        #[serde(default)]
         margin: f64,
     },
 }
@@ -879,10 +877,43 @@ fn d_height() -> usize {
 
 /// 1-based line and column of a byte offset.
 fn line_column(text: &str, offset: usize) -> (usize, usize) {
-    let before = &text[..offset.min(text.len())];
+    let mut offset = offset.min(text.len());
+    while !text.is_char_boundary(offset) {
+        offset -= 1;
+    }
+    let before = &text[..offset];
     let line = before.matches('\n').count() + 1;
     let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
     (line, column)
+}
+
+/// Sets `key` (dotted) of `table` to `value` for the override `key=value`.
+fn apply_override(table: &mut toml::Table, o: &str) -> Result<(), String> {
+    let (key, value) = o
+        .split_once('=')
+        .ok_or_else(|| "not key=value".to_string())?;
+    let value: toml::Value = match toml::from_str::<toml::Table>(&format!("v = {value}")) {
+        Ok(mut t) => t
+            .remove("v")
+            .unwrap_or_else(|| toml::Value::String(value.trim().to_string())),
+        Err(_) => toml::Value::String(value.trim().to_string()),
+    };
+    let parts: Vec<&str> = key.trim().split('.').map(str::trim).collect();
+    if parts.iter().any(|p| p.is_empty()) {
+        return Err(format!("'{key}' is not a key (e.g. cloth.n)"));
+    }
+    let (last, tables) = parts.split_last().ok_or("empty key")?;
+    let mut cursor = table;
+    for part in tables {
+        let entry = cursor
+            .entry(part.to_string())
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        cursor = entry
+            .as_table_mut()
+            .ok_or_else(|| format!("'{part}' is a value, not a table"))?;
+    }
+    cursor.insert(last.to_string(), value);
+    Ok(())
 }
 
 fn scene_error(file: &str, text: &str, e: &toml::de::Error) -> HookeanError {
@@ -916,13 +947,15 @@ impl Scene {
 
     /// Parses a scene and applies `key=value` overrides (`cloth.n=32`,
     /// `integrator.method="fb-euler"`; the value is TOML, a bare word is
-    /// taken as a string). Each override is appended to the text as a
-    /// dotted-key assignment in the root table, so its errors also name a
-    /// line and column (past the file's end: `<file> + --set`).
+    /// taken as a string) in order, each replacing the key's value in the
+    /// file. An error an override causes names that override (`--set
+    /// cloth.k=1: unknown field ...`), not a position in the merged text.
     ///
     /// # Errors
-    /// As [`from_toml_str`](Self::from_toml_str); [`HookeanError::InvalidOption`]
-    /// for an override without `=`, or one that sets a key twice.
+    /// As [`from_toml_str`](Self::from_toml_str) for the file itself;
+    /// [`HookeanError::Override`] for an override that is not `key=value`,
+    /// names a key below a value, or makes the scene invalid (the first
+    /// override after which the scene no longer parses is named).
     pub fn with_overrides(
         file: &str,
         text: &str,
@@ -930,48 +963,41 @@ impl Scene {
     ) -> Result<Self, HookeanError> {
         let scene: Scene = toml::from_str(text).map_err(|e| scene_error(file, text, &e))?;
         if overrides.is_empty() {
-            scene.check(file)?;
+            scene.check().map_err(|message| HookeanError::Scene {
+                file: file.to_string(),
+                line: 1,
+                column: 1,
+                message,
+            })?;
             return Ok(scene);
         }
         let mut table: toml::Table =
             toml::from_str(text).map_err(|e| scene_error(file, text, &e))?;
+        let mut scene = scene;
         for o in overrides {
-            let (key, value) = o
-                .split_once('=')
-                .ok_or_else(|| HookeanError::InvalidOption {
-                    name: "--set".into(),
-                    message: format!("'{o}' is not key=value"),
-                })?;
-            let value: toml::Value = match toml::from_str::<toml::Table>(&format!("v = {value}")) {
-                Ok(mut t) => t.remove("v").expect("just parsed"),
-                Err(_) => toml::Value::String(value.trim().to_string()),
+            let blame = |message: String| HookeanError::Override {
+                file: file.to_string(),
+                arg: o.clone(),
+                message,
             };
-            let mut cursor = &mut table;
-            let parts: Vec<&str> = key.trim().split('.').collect();
-            for part in &parts[..parts.len() - 1] {
-                let entry = cursor
-                    .entry(part.to_string())
-                    .or_insert_with(|| toml::Value::Table(toml::Table::new()));
-                cursor = entry
-                    .as_table_mut()
-                    .ok_or_else(|| HookeanError::InvalidOption {
-                        name: "--set".into(),
-                        message: format!("'{key}': '{part}' is not a table"),
-                    })?;
-            }
-            cursor.insert(parts[parts.len() - 1].to_string(), value);
+            apply_override(&mut table, o).map_err(blame)?;
+            // Parsing after each override names the one that breaks the scene.
+            scene = toml::Value::Table(table.clone())
+                .try_into()
+                .map_err(|e: toml::de::Error| blame(e.message().trim().to_string()))?;
         }
-        let merged = toml::to_string(&table).map_err(|e| HookeanError::InvalidOption {
-            name: "--set".into(),
-            message: e.to_string(),
+        // The model-table rule holds for the result, not each intermediate.
+        scene.check().map_err(|message| HookeanError::Override {
+            file: file.to_string(),
+            arg: overrides.join(" --set "),
+            message,
         })?;
-        let label = format!("{file} (after --set {})", overrides.join(" "));
-        let scene: Scene = toml::from_str(&merged).map_err(|e| scene_error(&label, &merged, &e))?;
-        scene.check(&label)?;
         Ok(scene)
     }
 
-    fn check(&self, file: &str) -> Result<(), HookeanError> {
+    /// Whole-scene rules serde cannot express: exactly one model table, and
+    /// `[solver.amg]` only with the multigrid preconditioner.
+    fn check(&self) -> Result<(), String> {
         let models = [
             self.cloth.is_some(),
             self.rope.is_some(),
@@ -983,23 +1009,15 @@ impl Scene {
         .filter(|&&b| b)
         .count();
         if self.solver.amg.is_some() && self.solver.preconditioner != PrecondKind::Amg {
-            return Err(HookeanError::InvalidOption {
-                name: "solver.amg".into(),
-                message: format!(
-                    "[solver.amg] is given but solver.preconditioner is \"{}\", not \"amg\"",
-                    self.solver.preconditioner
-                ),
-            });
+            return Err(format!(
+                "solver.amg: [solver.amg] is given but solver.preconditioner is \"{}\", not \"amg\"",
+                self.solver.preconditioner
+            ));
         }
         if models != 1 {
-            return Err(HookeanError::Scene {
-                file: file.to_string(),
-                line: 1,
-                column: 1,
-                message: format!(
-                    "a scene needs exactly one model table ([cloth], [rope], [jelly], [particle] or [tutorial]), found {models}"
-                ),
-            });
+            return Err(format!(
+                "a scene needs exactly one model table ([cloth], [rope], [jelly], [particle] or [tutorial]), found {models}"
+            ));
         }
         Ok(())
     }
@@ -1069,6 +1087,7 @@ impl Scene {
                 },
                 rings: f.rings,
             }),
+            ..SimulationOptions::default()
         }
     }
 
@@ -1102,6 +1121,24 @@ impl Scene {
         })
     }
 
+    /// The number of particles (unknowns for a `[tutorial]` scene) the
+    /// scene's model has, and the key that sets it; `None` for a count that
+    /// overflows 64 bits.
+    pub fn particle_count(&self) -> (Option<u64>, &'static str) {
+        if let Some(c) = &self.cloth {
+            ((c.n as u64).checked_mul(c.n as u64), "cloth.n")
+        } else if let Some(r) = &self.rope {
+            (Some(r.n as u64), "rope.n")
+        } else if let Some(j) = &self.jelly {
+            let [a, b, c] = j.n.map(|k| k as u64);
+            (a.checked_mul(b).and_then(|ab| ab.checked_mul(c)), "jelly.n")
+        } else if self.particle.is_some() {
+            (Some(1), "particle")
+        } else {
+            (Some(1), "tutorial")
+        }
+    }
+
     /// An upper estimate of the memory the scene's model and its implicit
     /// solver need, in bytes, and the key that sets the size: about
     /// 1 KiB per particle (state, forces, solver vectors) and 0.5 KiB per
@@ -1112,20 +1149,16 @@ impl Scene {
         const PER_SPRING: u64 = 1 << 9;
         // Springs per particle: cloth 6 (structural, shear, bend), rope 2,
         // 3D lattice at most 13 (half of the 26 neighbours).
-        let (particles, springs_per, key) = if let Some(c) = &self.cloth {
-            ((c.n as u64).checked_mul(c.n as u64), 6, "cloth.n")
-        } else if let Some(r) = &self.rope {
-            (Some(r.n as u64), 2, "rope.n")
-        } else if let Some(j) = &self.jelly {
-            let [a, b, c] = j.n.map(|k| k as u64);
-            (
-                a.checked_mul(b).and_then(|ab| ab.checked_mul(c)),
-                13,
-                "jelly.n",
-            )
+        let springs_per = if self.cloth.is_some() {
+            6
+        } else if self.rope.is_some() {
+            2
+        } else if self.jelly.is_some() {
+            13
         } else {
-            (Some(1), 1, "particle")
+            1
         };
+        let (particles, key) = self.particle_count();
         let bytes = particles.and_then(|p| {
             p.checked_mul(PER_PARTICLE)?
                 .checked_add(p.checked_mul(springs_per)?.checked_mul(PER_SPRING)?)
@@ -1170,8 +1203,15 @@ impl Scene {
             });
         }
         let options = self.model_options();
+        let in_table = |table: &str| {
+            let table = table.to_string();
+            move |e: hookean_massspring::MassSpringError| HookeanError::Build {
+                table,
+                message: e.to_string(),
+            }
+        };
         let (mut model, state) = if let Some(params) = self.cloth_params() {
-            hookean_massspring::cloth(&params)?
+            hookean_massspring::cloth(&params).map_err(in_table("cloth"))?
         } else if let Some(r) = &self.rope {
             hookean_massspring::rope(&RopeParams {
                 n: r.n,
@@ -1183,7 +1223,8 @@ impl Scene {
                 pin_end: r.pin_end,
                 options,
                 ..RopeParams::default()
-            })?
+            })
+            .map_err(in_table("rope"))?
         } else if let Some(j) = &self.jelly {
             let m = SpringMaterial::new(j.stiffness, j.damping);
             hookean_massspring::jelly_block(&BlockParams {
@@ -1195,32 +1236,43 @@ impl Scene {
                 face: m,
                 body: m,
                 options,
-            })?
+            })
+            .map_err(in_table("jelly"))?
         } else {
-            let (mut model, state) = hookean_massspring::tutorial_example3()?;
+            let (mut model, state) =
+                hookean_massspring::tutorial_example3().map_err(in_table("particle"))?;
             if self.model.damping != DampingScene::Projected
                 || self.model.air_friction != 0.0
                 || self.model.gravity != d_gravity()
             {
-                model.set_options(options)?;
+                model.set_options(options).map_err(in_table("model"))?;
             }
             (model, state)
         };
-        for c in &self.colliders {
+        for (i, c) in self.colliders.iter().enumerate() {
+            let collider = in_table(&format!("collider {}", i + 1));
             model.add_collider(match *c {
                 ColliderScene::Plane {
                     point,
                     normal,
                     margin,
-                } => Collider::plane(point, normal, margin)?,
+                } => Collider::plane(point, normal, margin).map_err(collider)?,
                 ColliderScene::Sphere {
                     center,
                     radius,
                     margin,
-                } => Collider::sphere(center, radius, margin)?,
+                } => Collider::sphere(center, radius, margin).map_err(collider)?,
             });
         }
-        Simulation::new(model, state, self.simulation_options())
+        Simulation::new(model, state, self.simulation_options()).map_err(|e| match e {
+            HookeanError::InvalidOption { name, message } if name == "filter" => {
+                HookeanError::Build {
+                    table: name,
+                    message,
+                }
+            }
+            e => e,
+        })
     }
 }
 
@@ -1326,10 +1378,8 @@ mod tests {
             assert!(m.contains(key), "{bad}: {m}");
         }
         // The table needs the preconditioner it configures.
-        match Scene::from_toml_str("s.toml", "[cloth]\n[solver.amg]\nsweeps = 2\n") {
-            Err(HookeanError::InvalidOption { name, .. }) => assert_eq!(name, "solver.amg"),
-            other => panic!("{other:?}"),
-        }
+        let (_, _, m) = err("[cloth]\n[solver.amg]\nsweeps = 2\n");
+        assert!(m.starts_with("solver.amg:"), "{m}");
     }
 
     #[test]
@@ -1342,13 +1392,23 @@ mod tests {
         .unwrap();
         assert_eq!(s.cloth.unwrap().n, 5);
         assert_eq!(s.integrator.method, Method::FbEuler);
-        match Scene::with_overrides("s.toml", "[cloth]\n", &["cloth.n=1".into()]) {
-            Err(HookeanError::Scene { message, .. }) => assert!(message.contains("at least 2")),
+        // The error names the override that broke the scene, not a
+        // position in a merged text.
+        let overrides = ["cloth.n=4".into(), "cloth.n=1".into(), "cloth.n=3".into()];
+        match Scene::with_overrides("s.toml", "[cloth]\n", &overrides) {
+            Err(e @ HookeanError::Override { .. }) => {
+                let m = e.to_string();
+                assert!(m.starts_with("s.toml: --set cloth.n=1: "), "{m}");
+                assert!(m.contains("at least 2"), "{m}");
+            }
             other => panic!("{other:?}"),
         }
-        assert!(matches!(
-            Scene::with_overrides("s.toml", "[cloth]\n", &["cloth.n".into()]),
-            Err(HookeanError::InvalidOption { .. })
-        ));
+        match Scene::with_overrides("s.toml", "[cloth]\n", &["cloth.n".into()]) {
+            Err(HookeanError::Override { arg, message, .. }) => {
+                assert_eq!(arg, "cloth.n");
+                assert!(message.contains("key=value"), "{message}");
+            }
+            other => panic!("{other:?}"),
+        }
     }
 }

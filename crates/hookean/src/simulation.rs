@@ -10,7 +10,7 @@ use hookean_massspring::{Energies, MassSpringModel, State};
 use hookean_ode::{
     ForcingTerm, Method, NewtonMethod, NewtonOptions, Predictor, SolverOptions, Stats, StepReport,
 };
-use hookean_sparse::PrecondKind;
+use hookean_sparse::{PowerParams, PrecondKind};
 
 use crate::error::HookeanError;
 
@@ -26,6 +26,11 @@ pub struct SimulationOptions {
     /// (the filtering paper), with `hookean-filter`'s default coupling (the
     /// step's velocity change is filtered). Default `None`.
     pub filter: Option<FilterOptions>,
+    /// The blow-up check: a run stops with [`HookeanError::BlowUp`] once
+    /// its kinetic plus gravitational energy exceeds the starting total
+    /// energy by more than this factor times the scene's energy scale (see
+    /// [`Simulation`]). Default `1e3`; `f64::INFINITY` turns it off.
+    pub blow_up_factor: f64,
 }
 
 impl SimulationOptions {
@@ -79,6 +84,7 @@ impl Default for SimulationOptions {
             method: Method::ImplicitEuler,
             solver: Self::drape_solver(),
             filter: None,
+            blow_up_factor: 1e3,
         }
     }
 }
@@ -124,6 +130,14 @@ pub trait Sink {
 
 /// A mass-spring model in motion.
 ///
+/// Every step is checked for a blow-up: an unstable run (an explicit step
+/// above the stability limit, say) stops with [`HookeanError::BlowUp`],
+/// naming the time, the step and, for explicit methods, the stable step
+/// `dt_max`, as soon as its kinetic plus gravitational energy exceeds the
+/// starting total energy by more than [`SimulationOptions::blow_up_factor`]
+/// times the scene's energy scale (springs, damping and colliders only
+/// take energy out, so no valid motion comes near the bound).
+///
 /// ```
 /// use hookean::prelude::*;
 ///
@@ -138,6 +152,72 @@ pub trait Sink {
 pub struct Simulation {
     integrator: ModelIntegrator,
     wall: Duration,
+    guard: EnergyGuard,
+}
+
+/// The blow-up check of a [`Simulation`].
+///
+/// Springs, damping, air friction and colliders only take energy out and
+/// pins do no work, so along any valid motion `K + G <= E_0` (kinetic plus
+/// gravitational energy never exceeds the starting total `E_0 = K_0 + G_0 +
+/// S_0`, spring energy being non-negative). An unstable integrator breaks
+/// this by orders of magnitude within a few steps, so the check allows
+/// `K + G <= E_0 + factor * scale` with the energy scale
+/// `scale = K_0 + S_0 + M |g| D + 1e-6 M D^2 / (1 s)^2` (`M` the total mass, `D` the
+/// diagonal of the starting bounding box; the last term keeps a scene at
+/// rest without gravity from tripping on round-off). It costs one pass over
+/// the particles per step.
+#[derive(Debug, Clone)]
+struct EnergyGuard {
+    factor: f64,
+    /// `E_0 + factor * scale`; `None` until the baseline is taken.
+    bound: Option<f64>,
+    /// Positions at the baseline, for the stable-step hint.
+    x0: Vec<f64>,
+}
+
+impl EnergyGuard {
+    /// Takes `E_0` and the scale from the current state.
+    fn baseline(
+        &mut self,
+        model: &MassSpringModel,
+        x: &[f64],
+        v: &[f64],
+    ) -> Result<f64, HookeanError> {
+        let e = model.energies(x, v)?;
+        let total_mass: f64 = model.particle_masses().iter().sum();
+        let g = model.options().gravity;
+        let g_norm = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for p in x.chunks_exact(3) {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let d2: f64 = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum();
+        let scale = e.kinetic + e.spring + total_mass * (g_norm * d2.sqrt() + 1e-6 * d2);
+        let bound = e.total() + self.factor * scale;
+        self.bound = Some(bound);
+        self.x0.clear();
+        self.x0.extend_from_slice(x);
+        Ok(bound)
+    }
+
+    /// `K + G` of the state (no allocation, one pass over the particles).
+    fn mechanical(model: &MassSpringModel, x: &[f64], v: &[f64]) -> f64 {
+        let g = model.options().gravity;
+        model
+            .particle_masses()
+            .iter()
+            .zip(x.chunks_exact(3).zip(v.chunks_exact(3)))
+            .map(|(m, (xp, vp))| {
+                m * (0.5 * (vp[0] * vp[0] + vp[1] * vp[1] + vp[2] * vp[2])
+                    - (g[0] * xp[0] + g[1] * xp[1] + g[2] * xp[2]))
+            })
+            .sum()
+    }
 }
 
 impl Simulation {
@@ -160,12 +240,26 @@ impl Simulation {
                 ),
             });
         }
+        if !(options.blow_up_factor > 0.0) {
+            return Err(HookeanError::InvalidOption {
+                name: "blow_up_factor".into(),
+                message: format!(
+                    "must be positive (f64::INFINITY turns the check off), got {:?}",
+                    options.blow_up_factor
+                ),
+            });
+        }
         let filter = options.filter.map(|f| (f, FilterCoupling::default()));
         let integrator =
             ModelIntegrator::new(model, &state, options.method, options.solver, filter)?;
         Ok(Self {
             integrator,
             wall: Duration::ZERO,
+            guard: EnergyGuard {
+                factor: options.blow_up_factor,
+                bound: None,
+                x0: Vec::new(),
+            },
         })
     }
 
@@ -174,10 +268,56 @@ impl Simulation {
     /// # Errors
     /// The integrator's typed errors (they carry the time reached).
     pub fn step(&mut self) -> Result<StepReport, HookeanError> {
+        self.take_baseline()?;
         let t0 = Instant::now();
         let report = self.integrator.step()?;
         self.wall += t0.elapsed();
+        self.check_blow_up(&report)?;
         Ok(report)
+    }
+
+    /// Takes the blow-up check's baseline from the current state, unless it
+    /// is taken (it is dropped by [`model_mut`](Self::model_mut)).
+    fn take_baseline(&mut self) -> Result<(), HookeanError> {
+        if self.guard.bound.is_none() && self.guard.factor.is_finite() {
+            let (model, x, v) = (
+                self.integrator.model(),
+                self.integrator.x(),
+                self.integrator.v(),
+            );
+            self.guard.baseline(model, x, v)?;
+        }
+        Ok(())
+    }
+
+    /// [`HookeanError::BlowUp`] if the state after `report` is past the
+    /// energy bound (see [`Simulation`]).
+    fn check_blow_up(&self, report: &StepReport) -> Result<(), HookeanError> {
+        let Some(bound) = self.guard.bound else {
+            return Ok(());
+        };
+        let energy = EnergyGuard::mechanical(self.model(), self.x(), self.v());
+        // `!(<=)` also stops a NaN energy.
+        if !(energy <= bound) {
+            let dt_max = if self.method().is_implicit() {
+                None
+            } else {
+                self.model()
+                    .stability(&self.guard.x0, &PowerParams::default(), None)
+                    .ok()
+                    .map(|s| s.dt_max)
+            };
+            return Err(HookeanError::BlowUp {
+                t: self.t(),
+                step: self.stats().steps,
+                energy,
+                bound,
+                factor: self.guard.factor,
+                h: report.h,
+                dt_max,
+            });
+        }
+        Ok(())
     }
 
     /// Steps until `t_end` with the integrators' landing rule (the last step
@@ -194,11 +334,13 @@ impl Simulation {
     ) -> Result<RunSummary, HookeanError> {
         let (t_start, wall_start) = (self.t(), self.wall);
         let mut stopped = false;
+        self.take_baseline()?;
         loop {
             let t0 = Instant::now();
             let report = self.integrator.step_to(t_end)?;
             self.wall += t0.elapsed();
             let Some(report) = report else { break };
+            self.check_blow_up(&report)?;
             if on_step(self, &report).is_break() {
                 stopped = true;
                 break;
@@ -265,7 +407,10 @@ impl Simulation {
     /// A velocity filter reads the pins from the model at every step, so a
     /// particle pinned (or released) here is kept out of (or back in) the
     /// filter from the next step on.
+    /// The blow-up check takes a new baseline from the state at the next
+    /// step (a changed model may hold more energy).
     pub fn model_mut(&mut self) -> &mut MassSpringModel {
+        self.guard.bound = None;
         self.integrator.model_mut()
     }
 

@@ -4,6 +4,7 @@
 use std::ops::ControlFlow;
 
 use hookean::prelude::*;
+use hookean::sparse::PowerParams;
 use hookean::{RunSummary, Sink};
 
 fn small_cloth(n: usize) -> (MassSpringModel, State) {
@@ -50,6 +51,7 @@ fn filtered_fb_euler_runs_and_a_filter_on_an_implicit_method_is_refused() {
         method: Method::FbEuler,
         solver: SolverOptions::with_h(1e-4),
         filter: Some(FilterOptions::default()),
+        ..Default::default()
     };
     let mut sim = Simulation::new(model, state, options).unwrap();
     sim.run_until(0.01, |_, _| ControlFlow::Continue(()))
@@ -78,6 +80,7 @@ fn a_particle_pinned_through_model_mut_stays_put_in_a_filtered_run() {
         method: Method::FbEuler,
         solver: SolverOptions::with_h(1e-4),
         filter: Some(FilterOptions::default()),
+        ..Default::default()
     };
     let mut sim = Simulation::new(model, state, options).unwrap();
     sim.run_until(0.005, |_, _| ControlFlow::Continue(()))
@@ -142,4 +145,98 @@ fn a_callback_can_stop_the_run() {
         .unwrap();
     assert!(summary.stopped);
     assert_eq!(summary.stats.steps, 3);
+}
+
+/// An explicit step above the stability limit blows up; the run stops with
+/// a typed error naming the time, the step and the stable step, well before
+/// the state turns non-finite. Half the stable step runs to the end: the
+/// bound does not trip on valid motion (the cloth falls and swings, its
+/// kinetic energy rising from zero).
+#[test]
+fn an_unstable_explicit_run_stops_with_a_blow_up_error_and_a_stable_one_does_not() {
+    let (model, state) = small_cloth(8);
+    let dt_max = model
+        .stability(&state.x, &PowerParams::default(), None)
+        .unwrap()
+        .dt_max;
+    let run = |h: f64, t_end: f64| {
+        let (model, state) = small_cloth(8);
+        let options = SimulationOptions {
+            method: Method::FbEuler,
+            solver: SolverOptions::with_h(h),
+            ..Default::default()
+        };
+        let mut sim = Simulation::new(model, state, options).unwrap();
+        let result = sim.run_until(t_end, |_, _| ControlFlow::Continue(()));
+        (result, sim)
+    };
+    let (result, sim) = run(3.0 * dt_max, 0.5);
+    match result {
+        Err(HookeanError::BlowUp {
+            t,
+            step,
+            h,
+            dt_max: Some(d),
+            energy,
+            bound,
+            ..
+        }) => {
+            assert!(energy > bound && energy.is_finite());
+            assert_eq!(step, sim.stats().steps);
+            assert!((t - sim.t()).abs() < 1e-15 && t < 0.5);
+            assert!((d - dt_max).abs() <= 1e-6 * dt_max, "{d} vs {dt_max}");
+            assert!(h > d);
+            assert!(sim.x().iter().all(|x| x.is_finite()), "caught before NaN");
+        }
+        other => panic!("expected a blow-up, got {:?}", other.map(|s| s.stats)),
+    }
+    let (result, sim) = run(0.5 * dt_max, 0.5);
+    result.unwrap();
+    assert!(sim.energies().unwrap().kinetic > 0.0);
+}
+
+#[test]
+fn a_blow_up_factor_that_is_not_positive_is_refused() {
+    let (model, state) = small_cloth(4);
+    let options = SimulationOptions {
+        blow_up_factor: 0.0,
+        ..Default::default()
+    };
+    match Simulation::new(model, state, options) {
+        Err(HookeanError::InvalidOption { name, .. }) => assert_eq!(name, "blow_up_factor"),
+        other => panic!("{:?}", other.err()),
+    }
+}
+
+/// The same `k/m` moves alike in any mass unit: a cloth with masses,
+/// stiffnesses and damping all scaled by 2^-40 (a power of two, so every
+/// product is exact) follows bit for bit the path of the unscaled one. The
+/// Newton test once used an absolute residual tolerance that froze such a
+/// cloth with zero iterations.
+#[test]
+fn the_motion_does_not_depend_on_the_mass_unit() {
+    let run = |scale: f64| {
+        let base = ClothParams {
+            nu: 8,
+            nv: 8,
+            ..Default::default()
+        };
+        let k = base.structural.stiffness;
+        let d = base.structural.damping;
+        let params = ClothParams {
+            total_mass: base.total_mass * scale,
+            ..base.with_stiffness(k * scale, d * scale)
+        };
+        let (model, state) = cloth(&params).unwrap();
+        let mut sim = Simulation::new(model, state, SimulationOptions::default()).unwrap();
+        sim.run_until(0.2, |_, _| ControlFlow::Continue(()))
+            .unwrap();
+        (sim.x().to_vec(), sim.stats())
+    };
+    let (x1, s1) = run(1.0);
+    let (x2, s2) = run(2f64.powi(-40));
+    assert!(s2.newton_iterations >= s2.steps, "{s2:?}");
+    assert_eq!(s1.newton_iterations, s2.newton_iterations);
+    assert_eq!(s1.linear_iterations, s2.linear_iterations);
+    assert_eq!(x1, x2);
 }

@@ -118,7 +118,7 @@ impl IncompleteCholesky {
         if !(0.0..=1.0).contains(&omega) {
             return Err(SparseError::InvalidParameter {
                 name: "omega",
-                message: format!("the MIC(0) relaxation must lie in [0, 1], got {omega}"),
+                message: format!("the MIC(0) relaxation must lie in [0, 1], got {omega:?}"),
             });
         }
         Ok(Self {

@@ -36,7 +36,7 @@ impl Ssor {
         if !(omega > 0.0 && omega < 2.0) {
             return Err(SparseError::InvalidParameter {
                 name: "omega",
-                message: format!("SSOR relaxation must lie in (0, 2), got {omega}"),
+                message: format!("SSOR relaxation must lie in (0, 2), got {omega:?}"),
             });
         }
         Ok(Self {

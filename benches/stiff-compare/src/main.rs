@@ -1,0 +1,192 @@
+//! Wall time to reach a mixed error <= 1e-4 at t_end on the stiff test set,
+//! for hookean-ode's BdfSolver and diffsol's BDF (dense nalgebra matrices and
+//! LU, the Jacobian from analytic Jacobian-vector products), with the
+//! statistics of that run. For each solver and problem the loosest `rtol`
+//! of the ladder 1e-3, 3e-4, 1e-4, ..., 1e-10 whose error is <= 1e-4 is
+//! taken and timed (median of `repeats` runs), and the time at exactly
+//! 1e-4 is interpolated on the work-precision curve (see `compare`).
+//!
+//! usage: stiff-compare [repeats]
+//! CSV columns: problem,solver,rtol,error,steps,jac_evals,lu_setups,rhs_evals,wall_s,wall_s_at_1e-4
+//! (the statistics and `wall_s` of the first rung meeting the target; the last column interpolated).
+
+use std::cell::RefCell;
+use std::time::Instant;
+
+use diffsol::{NalgebraLU, NalgebraMat, OdeBuilder, OdeSolverMethod, OdeSolverStopReason, Vector};
+use hookean_ode::BdfSolver;
+use hookean_ode::testset::{
+    E5, Hires, Orego, Robertson, SpringChain, TestProblem, VanDerPol, mixed_error, options,
+};
+
+/// One run's result: the final state and (steps, jac_evals, lu_setups, rhs_evals).
+type Run = Option<(Vec<f64>, [usize; 4])>;
+
+fn ours<P: TestProblem + Clone>(p: &P, rtol: f64) -> Run {
+    let opts = options(p, rtol);
+    let mut s = BdfSolver::new(p.clone(), 0.0, &p.y0(), opts).ok()?;
+    let st = s.solve_to(p.t_end()).ok()?;
+    Some((
+        s.y().to_vec(),
+        [
+            st.num_steps,
+            st.num_jac_evals,
+            st.num_lin_solv_setups,
+            st.num_rhs_evals,
+        ],
+    ))
+}
+
+fn diffsol_bdf<P: TestProblem + Clone + 'static>(p: &P, rtol: f64) -> Run {
+    let n = p.dim();
+    let y0 = p.y0();
+    let atol: Vec<f64> = p.floor().iter().map(|f| f * rtol).collect();
+    let (pr, pj) = (p.clone(), p.clone());
+    let jac = RefCell::new(vec![0.0; n * n]);
+    let problem = OdeBuilder::<NalgebraMat<f64>>::new()
+        .rtol(rtol)
+        .atol(atol)
+        .rhs_implicit(
+            move |x: &[f64], _p: &[f64], t: f64, y: &mut [f64]| pr.rhs(t, x, y),
+            move |x: &[f64], _p: &[f64], t: f64, v: &[f64], y: &mut [f64]| {
+                let mut j = jac.borrow_mut();
+                pj.jacobian(t, x, &mut j);
+                for i in 0..n {
+                    y[i] = (0..n).map(|k| j[i * n + k] * v[k]).sum();
+                }
+            },
+        )
+        .init(
+            move |_p: &[f64], _t: f64, y: &mut [f64]| y.copy_from_slice(&y0),
+            n,
+        )
+        .build()
+        .ok()?;
+    let mut solver = problem.bdf::<NalgebraLU<f64>>().ok()?;
+    solver.set_stop_time(p.t_end()).ok()?;
+    loop {
+        match solver.step() {
+            Ok(OdeSolverStopReason::TstopReached) => break,
+            Ok(_) => {}
+            Err(_) => return None,
+        }
+    }
+    let y = solver.state().y.clone_as_vec();
+    let st = solver.get_statistics();
+    Some((
+        y,
+        [
+            st.number_of_steps,
+            st.number_of_linear_solver_setups,
+            st.number_of_linear_solver_setups,
+            0,
+        ],
+    ))
+}
+
+fn ladder() -> Vec<f64> {
+    let mut r = Vec::new();
+    for e in 3..=10 {
+        let d = 10f64.powi(-e);
+        r.push(d);
+        if e < 10 {
+            r.push(d * 0.3);
+        }
+    }
+    r
+}
+
+/// Times `solve` at `rtol` (median of `repeats` runs).
+fn time<P>(solve: fn(&P, f64) -> Run, p: &P, rtol: f64, repeats: usize) -> f64 {
+    let mut times: Vec<f64> = (0..repeats.max(1))
+        .map(|_| {
+            let start = Instant::now();
+            let r = solve(p, rtol);
+            let dt = start.elapsed().as_secs_f64();
+            assert!(r.is_some());
+            dt
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+/// Runs the rtol ladder until the error is below the target; prints the
+/// first rung that meets it, and the work-precision estimate of the time
+/// at error 1e-4 (log time interpolated linearly in log error between the
+/// last rung above the target and the first one below it).
+fn compare<P: TestProblem + Clone + 'static>(p: &P, repeats: usize) {
+    compare_with(
+        p,
+        repeats,
+        &[("hookean-ode", ours::<P>), ("diffsol", diffsol_bdf::<P>)],
+    );
+}
+
+fn compare_ours_only<P: TestProblem + Clone + 'static>(p: &P, repeats: usize) {
+    compare_with(p, repeats, &[("hookean-ode", ours::<P>)]);
+}
+
+type Solver<P> = fn(&P, f64) -> Run;
+
+fn compare_with<P: TestProblem + Clone + 'static>(
+    p: &P,
+    repeats: usize,
+    solvers: &[(&str, Solver<P>)],
+) {
+    const TARGET: f64 = 1e-4;
+    let reference = p.reference();
+    let floor = p.floor();
+    for &(name, solve) in solvers {
+        let mut above: Option<(f64, f64)> = None;
+        let mut found = false;
+        for rtol in ladder() {
+            let Some((y, stats)) = solve(p, rtol) else {
+                continue;
+            };
+            let err = mixed_error(&y, &reference, &floor);
+            let t = time(solve, p, rtol, repeats);
+            if !(err <= TARGET) {
+                above = Some((err, t));
+                continue;
+            }
+            let at_target = match above {
+                Some((e0, t0)) if e0.is_finite() && err > 0.0 => {
+                    let w = (TARGET.ln() - e0.ln()) / (err.ln() - e0.ln());
+                    (t0.ln() + w * (t.ln() - t0.ln())).exp()
+                }
+                _ => t,
+            };
+            println!(
+                "{},{name},{rtol:e},{err:.3e},{},{},{},{},{t:.6e},{at_target:.6e}",
+                p.name(),
+                stats[0],
+                stats[1],
+                stats[2],
+                stats[3],
+            );
+            found = true;
+            break;
+        }
+        if !found {
+            println!("{},{name},,,,,,,,failed at every rtol", p.name());
+        }
+    }
+}
+
+fn main() {
+    let repeats = std::env::args()
+        .nth(1)
+        .and_then(|a| a.parse().ok())
+        .unwrap_or(11);
+    println!("problem,solver,rtol,error,steps,jac_evals,lu_setups,rhs_evals,wall_s,wall_s_at_1e-4");
+    compare(&Robertson { t_end: 40.0 }, repeats);
+    compare(&Robertson { t_end: 1e5 }, repeats);
+    compare(&VanDerPol, repeats);
+    compare(&Hires, repeats);
+    compare(&Orego, repeats);
+    compare(&E5, repeats);
+    compare(&SpringChain::new(false), repeats);
+    // Ours with the sparse LU on the chain's pattern (diffsol's row above is dense).
+    compare_ours_only(&SpringChain::new(true), repeats);
+}

@@ -1,0 +1,140 @@
+//! `hookean`: the command-line front end of the Hookean crates.
+//!
+//! ```text
+//! hookean run SCENE [--out DIR] [--set key=value]... [--force]
+//! hookean solve A.mtx [--rhs b.mtx] [--precond all|amg|mic0,amg|...] [--format auto|block|csr] [--block-size 1|2|3] [--omega 1.0] [--rtol 1e-8] [--max-iter N] [--repeat K]
+//! hookean workprecision --problem tutorial1|tutorial2|tutorial3|wave [--methods a,b] --out wp.csv [--plot wp.svg] [--force]
+//! hookean stability [--methods a,b] --plot regions.svg [--re -5,3] [--im -4,4] [--force]
+//! hookean bench-precond [--n 32,64,128] [--k 1e2,1e4,1e6] [--rtol 1e-8] [--repeat K]
+//! hookean export-system SCENE --at T --out DIR [--force]
+//! hookean filter-analysis SCENE --plot DIR [--n 16] [--t-end 1.0] [--force]
+//! hookean view OUT_DIR [--force]
+//! ```
+//!
+//! Bad input (missing or malformed files, wrong sizes, unknown names) is a
+//! one-line message on stderr and exit code 2; a solver that fails on a
+//! valid input (e.g. a matrix that is not positive definite, or a direct
+//! solve of a nonsymmetric matrix) or does not reach its tolerance is
+//! reported in its JSON line and the command exits with 1.
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+mod bench_precond;
+mod export_system;
+mod filter_analysis;
+mod lineplot;
+mod output;
+mod plot;
+mod regions;
+mod render;
+mod run;
+mod solve;
+mod stability;
+mod tutorial_run;
+mod view;
+mod work;
+mod workprecision;
+
+/// Soft-object simulation with mass-spring systems: solvers, scenes, plots.
+#[derive(Debug, Parser)]
+#[command(name = "hookean", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Simulate a scene file: summary.json, steps.csv, OBJ frames, final.png and view.html in the output folder.
+    Run(run::RunArgs),
+    /// Solve A x = b from Matrix Market files with PCG (every preconditioner) or sparse Cholesky,
+    /// printing one JSON object per line and per solver.
+    Solve(solve::SolveArgs),
+    /// Work-precision diagrams of the tutorial's examples (figures 3, 5, 7): CSV and SVG.
+    Workprecision(workprecision::WorkPrecisionArgs),
+    /// Stability regions of the methods in the complex plane (the tutorial's figure 4): SVG.
+    Stability(stability::StabilityArgs),
+    /// Preconditioner comparison on cloth implicit-Euler systems: JSON lines on stdout, a table on stderr.
+    BenchPrecond(bench_precond::BenchPrecondArgs),
+    /// The filtering paper's figures 4, 5 and 6 for a cloth scene: PNGs, an SVG and analysis.json.
+    FilterAnalysis(filter_analysis::FilterAnalysisArgs),
+    /// Write view.html (a self-contained WebGL player) for the output folder of an earlier `hookean run`.
+    View(view::ViewArgs),
+    /// Write the linearised implicit-Euler system (A.mtx, b.mtx) of a scene's state at time T.
+    ExportSystem(export_system::ExportSystemArgs),
+}
+
+/// How a command failed.
+#[derive(Debug)]
+pub enum CliError {
+    /// The user's input is wrong (exit code 2).
+    Input(String),
+    /// A solver failed on valid input (exit code 1); details were printed.
+    SolverFailed,
+    /// A run failed on valid input (exit code 1), with the reason.
+    Failed(String),
+    /// Standard output was closed by its reader (`hookean solve ... | head`):
+    /// the command stops quietly with exit code 141, as a tool killed by
+    /// SIGPIPE does.
+    OutputClosed,
+}
+
+/// Writes one line to standard output; a closed pipe is
+/// [`CliError::OutputClosed`] instead of a panic.
+pub fn write_line(line: std::fmt::Arguments<'_>) -> Result<(), CliError> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_fmt(line).and_then(|()| out.write_all(b"\n")) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(CliError::OutputClosed),
+        Err(e) => Err(CliError::Failed(format!("standard output: {e}"))),
+    }
+}
+
+/// `println!` for command output: `outln!(...)?` (see [`write_line`]).
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        $crate::write_line(format_args!($($arg)*))
+    };
+}
+pub(crate) use outln;
+
+impl From<hookean_sparse::SparseError> for CliError {
+    fn from(e: hookean_sparse::SparseError) -> Self {
+        CliError::Input(e.to_string())
+    }
+}
+
+/// The `hookean` command: parses the process's arguments, runs the
+/// subcommand and returns its exit code (0 success, 1 a failed run, 2 bad
+/// input, 141 a closed standard output). The `hookean` binary is this
+/// function; the workspace's catalogue of bad inputs (tests/catalogue.rs)
+/// builds a binary of its own from it.
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Run(args) => run::run(&args),
+        Command::Solve(args) => solve::run(&args),
+        Command::Workprecision(args) => workprecision::run(&args),
+        Command::Stability(args) => stability::run(&args),
+        Command::BenchPrecond(args) => bench_precond::run(&args),
+        Command::ExportSystem(args) => export_system::run(&args),
+        Command::FilterAnalysis(args) => filter_analysis::run(&args),
+        Command::View(args) => view::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(CliError::Input(message)) => {
+            eprintln!("hookean: error: {message}");
+            ExitCode::from(2)
+        }
+        Err(CliError::SolverFailed) => ExitCode::from(1),
+        Err(CliError::Failed(message)) => {
+            eprintln!("hookean: error: {message}");
+            ExitCode::from(1)
+        }
+        Err(CliError::OutputClosed) => ExitCode::from(141),
+    }
+}
