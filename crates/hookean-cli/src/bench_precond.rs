@@ -138,7 +138,7 @@ pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
             let nnz = csr.nnz();
             let matrix = Matrix::Block(a);
             for solver in &solvers {
-                let record = run_solver(solver, &matrix, &csr, &b, &params, args.solver.repeat);
+                let record = run_solver(solver, &matrix, &csr, &b, &params, &args.solver);
                 let record = SolveRecord {
                     matrix: format!("cloth{n}-k{k:e}"),
                     rows,

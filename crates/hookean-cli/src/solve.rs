@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use clap::Args;
 use hookean_sparse::{
-    Amg, AmgOptions, AmgStats, AnyPreconditioner, CgParams, CgWorkspace, DirectCholesky,
+    AmgOptions, AmgSmoother, AmgStats, AnyPreconditioner, CgParams, CgWorkspace, DirectCholesky,
     LinearOperator, PrecondKind, PreconditionerSetup, SymBlockMatrix, pcg, read_matrix_market_file,
     vecops::norm2,
 };
@@ -53,6 +53,9 @@ pub struct SolverArgs {
     /// Run each solver this many times and report the best times.
     #[arg(long, default_value_t = 1)]
     pub repeat: usize,
+    /// The smoother of `amg`: block-jacobi, gauss-seidel (symmetric) or ic0 (block IC(0)).
+    #[arg(long, default_value = "block-jacobi")]
+    pub amg_smoother: String,
 }
 
 impl SolverArgs {
@@ -77,7 +80,20 @@ impl SolverArgs {
             max_iter: self.max_iter,
             ..Default::default()
         };
+        self.smoother()?;
         Ok((parse_solvers(&self.precond, omega)?, params))
+    }
+
+    /// The multigrid's smoother from `--amg-smoother`.
+    fn smoother(&self) -> Result<AmgSmoother, CliError> {
+        match self.amg_smoother.as_str() {
+            "block-jacobi" => Ok(AmgSmoother::BlockJacobi),
+            "gauss-seidel" => Ok(AmgSmoother::SymmetricGaussSeidel),
+            "ic0" => Ok(AmgSmoother::BlockIc0),
+            other => Err(CliError::Input(format!(
+                "--amg-smoother: unknown smoother '{other}' (expected block-jacobi, gauss-seidel or ic0)"
+            ))),
+        }
     }
 }
 
@@ -186,17 +202,30 @@ pub fn run_solver(
     original: &sprs::CsMat<f64>,
     b: &[f64],
     params: &CgParams,
-    repeat: usize,
+    args: &SolverArgs,
 ) -> SolveRecord {
+    let repeat = args.repeat;
+    let amg = |block_size| AmgOptions {
+        block_size,
+        smoother: args.smoother().unwrap_or_default(),
+        ..Default::default()
+    };
     match solver {
         Solver::Pcg(kind) => match matrix {
             Matrix::Block(m) => {
                 let format = "sym-block-3x3";
-                run_pcg(m, original, b, *kind, 3, params, repeat, format)
+                run_pcg(m, original, b, *kind, &amg(3), params, repeat, format)
             }
-            Matrix::Csr { a, block_size } => {
-                run_pcg(a, original, b, *kind, *block_size, params, repeat, "csr")
-            }
+            Matrix::Csr { a, block_size } => run_pcg(
+                a,
+                original,
+                b,
+                *kind,
+                &amg(*block_size),
+                params,
+                repeat,
+                "csr",
+            ),
         },
         Solver::Direct => run_direct(original, b, params.rtol, repeat),
     }
@@ -274,7 +303,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let name = args.matrix.display().to_string();
     let mut failed = false;
     for solver in &solvers {
-        let record = run_solver(solver, &matrix, &a, &b, &params, args.solver.repeat);
+        let record = run_solver(solver, &matrix, &a, &b, &params, &args.solver);
         let record = SolveRecord {
             matrix: name.clone(),
             rows,
@@ -326,7 +355,7 @@ fn run_pcg<M>(
     original: &sprs::CsMat<f64>,
     b: &[f64],
     kind: PrecondKind,
-    block_size: usize,
+    amg: &AmgOptions,
     params: &CgParams,
     repeat: usize,
     format: &'static str,
@@ -343,14 +372,7 @@ where
     let mut best_solve = f64::INFINITY;
     for _ in 0..repeat {
         let t0 = Instant::now();
-        let new = match kind {
-            PrecondKind::Amg => Amg::with_options(AmgOptions {
-                block_size,
-                ..Default::default()
-            })
-            .map(AnyPreconditioner::Amg),
-            other => AnyPreconditioner::new(other),
-        };
+        let new = AnyPreconditioner::with_amg_options(kind, amg);
         let setup = new.and_then(|mut p| p.setup(m).map(|()| p));
         let setup_s = t0.elapsed().as_secs_f64();
         let p = match setup {

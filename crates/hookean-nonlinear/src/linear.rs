@@ -184,7 +184,10 @@ impl PcgSolver<AnyPreconditioner> {
     /// # Errors
     /// [`NonlinearError::Linear`] for an invalid preconditioner parameter.
     pub fn from_options(options: &NewtonOptions) -> Result<Self, NonlinearError> {
-        let mut solver = Self::new(AnyPreconditioner::new(options.preconditioner)?);
+        let mut solver = Self::new(AnyPreconditioner::with_amg_options(
+            options.preconditioner,
+            &options.amg,
+        )?);
         solver.max_iter = options.linear_max_iter;
         Ok(solver)
     }
@@ -199,9 +202,10 @@ where
         self.max_iter = options.linear_max_iter;
         let precond: &mut dyn Any = &mut self.precond;
         if let Some(any) = precond.downcast_mut::<AnyPreconditioner>()
-            && any.kind() != options.preconditioner
+            && (any.kind() != options.preconditioner
+                || matches!(any, AnyPreconditioner::Amg(amg) if *amg.options() != options.amg))
         {
-            *any = AnyPreconditioner::new(options.preconditioner)?;
+            *any = AnyPreconditioner::with_amg_options(options.preconditioner, &options.amg)?;
         }
         Ok(())
     }

@@ -2,8 +2,8 @@
 //! Algorithm 2 (inexact Newton with residual control, section 3.2) and
 //! Algorithm 3 (inexact simplified Newton, section 3.3).
 
-use hookean_sparse::PrecondKind;
 use hookean_sparse::vecops::norm2;
+use hookean_sparse::{AmgOptions, PrecondKind};
 
 use crate::error::{DivergenceReason, NonlinearError, check_len, invalid};
 use crate::linear::LinearSolver;
@@ -153,6 +153,10 @@ pub struct NewtonOptions {
     /// [`AnyPreconditioner`](hookean_sparse::AnyPreconditioner) (the integrators of `hookean-ode` use one);
     /// solvers with a fixed preconditioner type ignore it. Default block-Jacobi.
     pub preconditioner: PrecondKind,
+    /// The multigrid's options when `preconditioner` is [`PrecondKind::Amg`]
+    /// (including what every `setup` of a new Jacobian does: refill, keep,
+    /// rebuild). Default [`AmgOptions::default`].
+    pub amg: AmgOptions,
 }
 
 impl Default for NewtonOptions {
@@ -171,6 +175,7 @@ impl Default for NewtonOptions {
             max_residual_growth: 1e6,
             linear_max_iter: None,
             preconditioner: PrecondKind::BlockJacobi,
+            amg: AmgOptions::default(),
         }
     }
 }

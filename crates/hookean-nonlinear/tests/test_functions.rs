@@ -601,7 +601,7 @@ fn bratu_simplified_newton_is_linear_with_one_jacobian() {
         NewtonOptions {
             rtol: 1e-9,
             atol: 0.0,
-            ..options
+            ..options.clone()
         },
         j,
         SparseLu::new(),

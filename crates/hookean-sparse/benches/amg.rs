@@ -1,7 +1,8 @@
 //! The costs of re-using a multigrid hierarchy on the testkit's cloth
 //! (N = 128, k = 1e4, h = 0.01, 49 152 unknowns), next to MIC(0):
 //! a full AMG set-up (`rebuild`), a refill of the values on the same
-//! pattern (`setup` again; also keeping the prolongators), one V-cycle, and PCG to `|r| <= 1e-8 |b|` with
+//! pattern (`setup` again; also keeping the prolongators, or the spectral
+//! radius estimates), one V-cycle, and PCG to `|r| <= 1e-8 |b|` with
 //! each preconditioner. Re-using the hierarchy for several steps costs
 //! nothing at set-up (only the extra PCG iterations of a lagged preconditioner).
 //!
@@ -42,6 +43,15 @@ fn bench(c: &mut Criterion) {
     keep.setup(&a).unwrap();
     group.bench_function("amg_refill_keep_prolongators", |bench| {
         bench.iter(|| keep.setup(&a).unwrap())
+    });
+    let mut keep_rho = Amg::with_options(AmgOptions {
+        refill_power_iterations: 0,
+        ..Default::default()
+    })
+    .unwrap();
+    keep_rho.setup(&a).unwrap();
+    group.bench_function("amg_refill_no_power_steps", |bench| {
+        bench.iter(|| keep_rho.setup(&a).unwrap())
     });
     let mut z = vec![0.0; n];
     group.bench_function("amg_vcycle", |bench| bench.iter(|| amg.apply(&b, &mut z)));

@@ -44,7 +44,11 @@ fn iterations(n: usize, k: f64, options: &AmgOptions) -> usize {
 
 #[test]
 fn amg_pcg_iterations_on_cloth_are_bounded() {
-    for smoother in [AmgSmoother::BlockJacobi, AmgSmoother::SymmetricGaussSeidel] {
+    for smoother in [
+        AmgSmoother::BlockJacobi,
+        AmgSmoother::SymmetricGaussSeidel,
+        AmgSmoother::BlockIc0,
+    ] {
         let options = AmgOptions {
             smoother,
             ..Default::default()

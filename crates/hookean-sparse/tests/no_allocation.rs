@@ -4,8 +4,9 @@
 //! counting global allocator.
 
 use hookean_sparse::{
-    AnyPreconditioner, CgParams, CgWorkspace, Constraints, InitialGuess, LinearOperator,
-    PrecondKind, Preconditioner, PreconditionerSetup, filtered_pcg, pcg,
+    Amg, AmgOptions, AmgSmoother, AnyPreconditioner, CgParams, CgWorkspace, Constraints,
+    InitialGuess, LinearOperator, PrecondKind, Preconditioner, PreconditionerSetup, filtered_pcg,
+    pcg,
 };
 use hookean_testkit::alloc::{Counting, allocations};
 use hookean_testkit::cloth::{ClothSystemParams, cloth_system};
@@ -53,6 +54,41 @@ fn pcg_solves_and_preconditioner_applies_do_not_allocate() {
         assert!(info.unwrap().converged);
         assert_eq!(count, 0, "{kind}: filtered PCG allocated");
     }
+    // The multigrid's other smoothers: refill and V-cycle.
+    for smoother in [AmgSmoother::SymmetricGaussSeidel, AmgSmoother::BlockIc0] {
+        let mut amg = Amg::with_options(AmgOptions {
+            smoother,
+            coarse_size: 60,
+            ..Default::default()
+        })
+        .unwrap();
+        amg.setup(&a).unwrap();
+        assert!(amg.stats().levels.len() >= 2);
+        let (count, r) = allocations(|| amg.setup(&a));
+        r.unwrap();
+        assert_eq!(count, 0, "{smoother:?}: AMG refill allocated");
+        let (count, _) = allocations(|| amg.apply(&b, &mut z));
+        assert_eq!(count, 0, "{smoother:?}: V-cycle allocated");
+    }
     let (count, _) = allocations(|| a.apply(&b, &mut z));
     assert_eq!(count, 0, "SpMV allocated");
+}
+
+#[test]
+fn threaded_amg_refill_and_v_cycle_do_not_allocate() {
+    // 9216 block rows: the finest level's kernels are split across rayon's
+    // threads (more rows than one task takes), so the hand-over to the pool
+    // and the joins are exercised.
+    let (a, b) = cloth_system(&ClothSystemParams {
+        n: 96,
+        ..Default::default()
+    });
+    let mut z = vec![0.0; b.len()];
+    let mut amg = Amg::new();
+    amg.setup(&a).unwrap();
+    let (count, r) = allocations(|| amg.setup(&a));
+    r.unwrap();
+    assert_eq!(count, 0, "threaded AMG refill allocated");
+    let (count, _) = allocations(|| amg.apply(&b, &mut z));
+    assert_eq!(count, 0, "threaded V-cycle allocated");
 }

@@ -28,7 +28,7 @@ use hookean_massspring::{
     SpringMaterial,
 };
 use hookean_ode::{ForcingTerm, Method, NewtonMethod, SolverOptions, StepControl};
-use hookean_sparse::PrecondKind;
+use hookean_sparse::{AmgOptions, AmgReuse, AmgSmoother, PrecondKind};
 use serde::Deserialize;
 use serde::de::{Deserializer, Error as _};
 
@@ -559,6 +559,153 @@ pub struct SolverScene {
     /// change. Default true.
     #[serde(default = "yes")]
     pub warm_start: bool,
+    /// `[solver.amg]`: the multigrid's options (only with
+    /// `preconditioner = "amg"`).
+    pub amg: Option<AmgScene>,
+}
+
+/// `[solver.amg]`: options of the smoothed-aggregation multigrid
+/// (`hookean_sparse::AmgOptions`, whose defaults these are).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AmgScene {
+    /// `"block-jacobi"` (default), `"gauss-seidel"` (symmetric) or `"ic0"`.
+    #[serde(default)]
+    pub smoother: AmgSmootherScene,
+    /// Pre- and post-smoothing steps per level. Default 1.
+    #[serde(default = "one_usize", deserialize_with = "at_least_one")]
+    pub sweeps: usize,
+    /// Strength threshold on the finest level, in [0, 1). Default 0.08.
+    #[serde(default = "d_amg_theta", deserialize_with = "strength")]
+    pub strength_threshold: f64,
+    /// Unknowns of the coarsest level (solved directly). Default 500.
+    #[serde(default = "d_amg_coarse", deserialize_with = "at_least_one")]
+    pub coarse_size: usize,
+    /// At most this many levels. Default 10.
+    #[serde(default = "d_amg_levels", deserialize_with = "at_least_one")]
+    pub max_levels: usize,
+    /// Block-Jacobi weight times rho(D^-1 A), in (0, 2). Default 4/3.
+    #[serde(default = "d_amg_weight", deserialize_with = "amg_weight")]
+    pub jacobi_weight: f64,
+    /// Prolongator-smoothing weight times rho(D^-1 A), in (0, 2). Default 4/3.
+    #[serde(default = "d_amg_weight", deserialize_with = "amg_weight")]
+    pub prolongation_weight: f64,
+    /// Power-method steps of the spectral radius estimates (0: Gershgorin). Default 5.
+    #[serde(default = "d_amg_power")]
+    pub power_iterations: usize,
+    /// Power steps at a refill (0: keep the last estimates). Default 3.
+    #[serde(default = "d_amg_refill_power")]
+    pub refill_power_iterations: usize,
+    /// A refill keeps the prolongators. Default false.
+    #[serde(default)]
+    pub keep_prolongators: bool,
+    /// What a new Jacobian (same pattern) does to the hierarchy: `"refill"`
+    /// (default), `"rebuild"` or `"keep"` (for `keep_updates` Newton
+    /// iterations, then refill).
+    #[serde(default)]
+    pub reuse: AmgReuseScene,
+    /// Set-ups that keep the hierarchy with `reuse = "keep"`. Default 4.
+    #[serde(default = "d_amg_keep", deserialize_with = "at_least_one")]
+    pub keep_updates: usize,
+}
+
+/// The multigrid's smoother.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AmgSmootherScene {
+    /// Block damped Jacobi.
+    #[default]
+    BlockJacobi,
+    /// Symmetric block Gauss-Seidel.
+    GaussSeidel,
+    /// Block IC(0).
+    Ic0,
+}
+
+/// The multigrid's re-use of its hierarchy.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AmgReuseScene {
+    /// Refill the numbers, keep aggregates and patterns.
+    #[default]
+    Refill,
+    /// A full set-up every time.
+    Rebuild,
+    /// Keep the whole hierarchy for `keep_updates` set-ups.
+    Keep,
+}
+
+impl AmgScene {
+    /// The library's options.
+    pub fn options(&self) -> AmgOptions {
+        AmgOptions {
+            strength_threshold: self.strength_threshold,
+            coarse_size: self.coarse_size,
+            max_levels: self.max_levels,
+            smoother: match self.smoother {
+                AmgSmootherScene::BlockJacobi => AmgSmoother::BlockJacobi,
+                AmgSmootherScene::GaussSeidel => AmgSmoother::SymmetricGaussSeidel,
+                AmgSmootherScene::Ic0 => AmgSmoother::BlockIc0,
+            },
+            sweeps: self.sweeps,
+            jacobi_weight: self.jacobi_weight,
+            prolongation_weight: self.prolongation_weight,
+            power_iterations: self.power_iterations,
+            refill_power_iterations: self.refill_power_iterations,
+            keep_prolongators: self.keep_prolongators,
+            reuse: match self.reuse {
+                AmgReuseScene::Refill => AmgReuse::Refill,
+                AmgReuseScene::Rebuild => AmgReuse::Rebuild,
+                AmgReuseScene::Keep => AmgReuse::Keep {
+                    updates: self.keep_updates,
+                },
+            },
+            ..AmgOptions::default()
+        }
+    }
+}
+
+fn one_usize() -> usize {
+    1
+}
+fn d_amg_theta() -> f64 {
+    AmgOptions::default().strength_threshold
+}
+fn d_amg_coarse() -> usize {
+    AmgOptions::default().coarse_size
+}
+fn d_amg_levels() -> usize {
+    AmgOptions::default().max_levels
+}
+fn d_amg_weight() -> f64 {
+    AmgOptions::default().jacobi_weight
+}
+fn d_amg_power() -> usize {
+    AmgOptions::default().power_iterations
+}
+fn d_amg_refill_power() -> usize {
+    AmgOptions::default().refill_power_iterations
+}
+fn d_amg_keep() -> usize {
+    4
+}
+
+fn strength<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let v = f64::deserialize(d)?;
+    if (0.0..1.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err(D::Error::custom(format!("must lie in [0, 1), got {v}")))
+    }
+}
+
+fn amg_weight<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let v = f64::deserialize(d)?;
+    if v > 0.0 && v < 2.0 {
+        Ok(v)
+    } else {
+        Err(D::Error::custom(format!("must lie in (0, 2), got {v}")))
+    }
 }
 
 impl Default for SolverScene {
@@ -574,6 +721,7 @@ impl Default for SolverScene {
             omega: 1.0,
             mic_omega: d_mic_omega(),
             warm_start: true,
+            amg: None,
         }
     }
 }
@@ -875,7 +1023,9 @@ impl Scene {
         Ok(scene)
     }
 
-    /// Whole-scene rules serde cannot express: exactly one model table.
+    /// Whole-scene rules serde cannot express: exactly one model table, and
+    /// `[solver.amg]` only with the multigrid preconditioner (`"amg"`, or
+    /// `"auto"`, which picks it for large models).
     fn check(&self) -> Result<(), String> {
         let models = [
             self.cloth.is_some(),
@@ -887,6 +1037,13 @@ impl Scene {
         .iter()
         .filter(|&&b| b)
         .count();
+        if let (Some(_), Some(p)) = (&self.solver.amg, self.solver.preconditioner)
+            && p != PrecondKind::Amg
+        {
+            return Err(format!(
+                "solver.amg: [solver.amg] is given but solver.preconditioner is \"{p}\", not \"amg\" or \"auto\""
+            ));
+        }
         if models != 1 {
             return Err(format!(
                 "a scene needs exactly one model table ([cloth], [rope], [jelly], [particle] or [tutorial]), found {models}"
@@ -958,6 +1115,7 @@ impl Scene {
         solver.newton.linear_max_iter = Some(s.max_cg);
         solver.warm_start = s.warm_start;
         solver.newton.preconditioner = self.preconditioner();
+        solver.newton.amg = s.amg.as_ref().map(AmgScene::options).unwrap_or_default();
         SimulationOptions {
             method: self.integrator.method.clone(),
             solver,
@@ -1244,6 +1402,45 @@ mod tests {
         assert!(m.contains("exactly one model"), "{m}");
         let (l, _, _) = err("[cloth]\n[[collider]]\nkind = \"cube\"\n");
         assert!(l >= 2);
+    }
+
+    #[test]
+    fn solver_amg_table_sets_the_multigrid_options_and_bad_values_name_the_key() {
+        let s = Scene::from_toml_str(
+            "s.toml",
+            "[cloth]\n[solver]\npreconditioner = \"amg\"\n[solver.amg]\nsmoother = \"ic0\"\n\
+             sweeps = 2\nreuse = \"keep\"\nkeep_updates = 3\n",
+        )
+        .unwrap();
+        let newton = s.simulation_options().solver.newton;
+        assert_eq!(newton.preconditioner, PrecondKind::Amg);
+        assert_eq!(newton.amg.smoother, AmgSmoother::BlockIc0);
+        assert_eq!(newton.amg.sweeps, 2);
+        assert_eq!(newton.amg.reuse, AmgReuse::Keep { updates: 3 });
+        assert_eq!(newton.amg.coarse_size, AmgOptions::default().coarse_size);
+        // Without the table: the library's defaults.
+        let s = Scene::from_toml_str("s.toml", "[cloth]\n[solver]\npreconditioner = \"amg\"\n")
+            .unwrap();
+        assert_eq!(
+            s.simulation_options().solver.newton.amg,
+            AmgOptions::default()
+        );
+        let text = "[cloth]\n[solver]\npreconditioner = \"amg\"\n[solver.amg]\n";
+        for (bad, key) in [
+            ("strength_threshold = 1.5", "[0, 1)"),
+            ("jacobi_weight = 2.0", "(0, 2)"),
+            ("sweeps = 0", "at least 1"),
+            ("smoother = \"sor\"", "sor"),
+            ("reuse = \"sometimes\"", "sometimes"),
+            ("levels = 3", "levels"),
+        ] {
+            let (l, _, m) = err(&format!("{text}{bad}\n"));
+            assert_eq!(l, 5, "{bad}: {m}");
+            assert!(m.contains(key), "{bad}: {m}");
+        }
+        // The table needs the preconditioner it configures.
+        let (_, _, m) = err("[cloth]\n[solver.amg]\nsweeps = 2\n");
+        assert!(m.starts_with("solver.amg:"), "{m}");
     }
 
     #[test]

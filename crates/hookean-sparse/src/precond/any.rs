@@ -4,8 +4,8 @@ use std::fmt;
 use std::str::FromStr;
 
 use super::{
-    Amg, BlockJacobi, Identity, IncompleteCholesky, Jacobi, Preconditioner, PreconditionerSetup,
-    Ssor,
+    Amg, AmgOptions, BlockJacobi, Identity, IncompleteCholesky, Jacobi, Preconditioner,
+    PreconditionerSetup, Ssor,
 };
 use crate::error::SparseError;
 
@@ -138,6 +138,18 @@ impl AnyPreconditioner {
             }
             PrecondKind::Amg => AnyPreconditioner::Amg(Amg::new()),
         })
+    }
+
+    /// As [`new`](Self::new), with `amg` the options of [`PrecondKind::Amg`]
+    /// (ignored by the other kinds).
+    ///
+    /// # Errors
+    /// As [`new`](Self::new), and as [`Amg::with_options`].
+    pub fn with_amg_options(kind: PrecondKind, amg: &AmgOptions) -> Result<Self, SparseError> {
+        match kind {
+            PrecondKind::Amg => Ok(AnyPreconditioner::Amg(Amg::with_options(amg.clone())?)),
+            other => Self::new(other),
+        }
     }
 
     /// Its kind.

@@ -6,7 +6,9 @@
 //! [`SymBlockMatrix`](crate::SymBlockMatrix)) makes every kernel of the
 //! V-cycle a loop over rows that only writes its own row: smoothing,
 //! residual, restriction (with `R = P^T` stored explicitly) and
-//! prolongation can later be split by row ranges across threads.
+//! prolongation are split by row ranges across threads ([`super::par`]).
+
+use super::par;
 
 /// A dense `B x B` block, row-major.
 pub(crate) type Blk<const B: usize> = [[f64; B]; B];
@@ -220,38 +222,26 @@ impl<const B: usize> Bsr<B> {
         acc
     }
 
-    /// `y = A x`.
+    /// `y = A x` (rows split across threads).
     pub fn spmv(&self, x: &[f64], y: &mut [f64]) {
         let (x3, _) = x.as_chunks::<B>();
         let (y3, _) = y.as_chunks_mut::<B>();
-        for (i, yi) in y3[..self.nrows].iter_mut().enumerate() {
+        par::rows(&mut y3[..self.nrows], &|i, yi: &mut [f64; B]| {
             *yi = self.row_times(i, x3);
-        }
+        });
     }
 
-    /// `r = b - A x`.
+    /// `r = b - A x` (rows split across threads).
     pub fn residual(&self, b: &[f64], x: &[f64], r: &mut [f64]) {
         let (x3, _) = x.as_chunks::<B>();
         let (b3, _) = b.as_chunks::<B>();
         let (r3, _) = r.as_chunks_mut::<B>();
-        for (i, (ri, bi)) in r3[..self.nrows].iter_mut().zip(b3).enumerate() {
+        par::rows(&mut r3[..self.nrows], &|i, ri: &mut [f64; B]| {
             let acc = self.row_times(i, x3);
             for c in 0..B {
-                ri[c] = bi[c] - acc[c];
+                ri[c] = b3[i][c] - acc[c];
             }
-        }
-    }
-
-    /// `y += A x`.
-    pub fn spmv_add(&self, x: &[f64], y: &mut [f64]) {
-        let (x3, _) = x.as_chunks::<B>();
-        let (y3, _) = y.as_chunks_mut::<B>();
-        for (i, yi) in y3[..self.nrows].iter_mut().enumerate() {
-            let acc = self.row_times(i, x3);
-            for c in 0..B {
-                yi[c] += acc[c];
-            }
-        }
+        });
     }
 
     /// The pattern of `A^T` (values zero) and, for every slot of it, the
@@ -291,14 +281,15 @@ impl<const B: usize> Bsr<B> {
     /// Refills `t` (built by [`transpose_pattern`](Self::transpose_pattern))
     /// with the transposed values of `self`.
     pub fn fill_transpose(&self, t: &mut Self, map: &[u32]) {
-        for (v, &k) in t.val.iter_mut().zip(map) {
-            *v = transpose(&self.val[k as usize]);
-        }
+        par::row_slices(&t.row_ptr, &mut t.val, &|i, vals: &mut [Blk<B>]| {
+            for (v, &k) in vals.iter_mut().zip(&map[t.row_ptr[i]..]) {
+                *v = transpose(&self.val[k as usize]);
+            }
+        });
     }
 }
 
 /// The pattern of the product `C = X Y` (values zero), columns sorted.
-/// `marker` is scratch of length `y.ncols`.
 pub(crate) fn product_pattern<const B: usize>(x: &Bsr<B>, y: &Bsr<B>) -> Bsr<B> {
     let mut marker = vec![usize::MAX; y.ncols];
     let mut row_ptr = Vec::with_capacity(x.nrows + 1);
@@ -330,30 +321,28 @@ pub(crate) fn product_pattern<const B: usize>(x: &Bsr<B>, y: &Bsr<B>) -> Bsr<B> 
 }
 
 /// The numbers of `C = X Y` on the pattern from [`product_pattern`]
-/// (Gustavson's row-by-row product). `marker` (length `c.ncols`) maps a
-/// column to its slot in the current row; entries left from other rows are
-/// never read, because every column the row produces is in its pattern.
-pub(crate) fn product_values<const B: usize>(
-    x: &Bsr<B>,
-    y: &Bsr<B>,
-    c: &mut Bsr<B>,
-    marker: &mut [usize],
-) {
-    for i in 0..x.nrows {
-        let row = c.row(i);
-        for p in row.clone() {
-            marker[c.col[p] as usize] = p;
-        }
-        c.val[row].fill(zero::<B>());
+/// (Gustavson's row-by-row product, rows split across threads). The slot
+/// of every product term in row `i` of `C` is found by a forward scan of
+/// the row's sorted columns (the columns of a row of `Y` are sorted too),
+/// so no scatter array is needed and rows are independent.
+pub(crate) fn product_values<const B: usize>(x: &Bsr<B>, y: &Bsr<B>, c: &mut Bsr<B>) {
+    let (c_ptr, c_col) = (&c.row_ptr, &c.col);
+    par::row_slices(c_ptr, &mut c.val, &|i, vals: &mut [Blk<B>]| {
+        let cols = &c_col[c_ptr[i]..c_ptr[i + 1]];
+        vals.fill(zero::<B>());
         for k in x.row(i) {
             let xk = &x.val[k];
             let m = x.col[k] as usize;
+            let mut p = 0;
             for q in y.row(m) {
-                let p = marker[y.col[q] as usize];
-                mul_mat_add(xk, &y.val[q], &mut c.val[p]);
+                let j = y.col[q];
+                while cols[p] != j {
+                    p += 1;
+                }
+                mul_mat_add(xk, &y.val[q], &mut vals[p]);
             }
         }
-    }
+    });
 }
 
 #[cfg(test)]
@@ -398,8 +387,7 @@ mod tests {
         let (mut xt, map) = x.transpose_pattern();
         x.fill_transpose(&mut xt, &map);
         let mut c = product_pattern(&xt, &x);
-        let mut marker = vec![0; c.ncols];
-        product_values(&xt, &x, &mut c, &mut marker);
+        product_values(&xt, &x, &mut c);
         let dense = |m: &Bsr<2>| {
             let mut d = vec![vec![0.0; 2 * m.ncols]; 2 * m.nrows];
             for i in 0..m.nrows {

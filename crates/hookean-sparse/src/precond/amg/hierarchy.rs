@@ -8,6 +8,8 @@ use super::bsr::{
     Blk, Bsr, determinant, frobenius2, mul_add, mul_mat_add, mul_vec, product_pattern,
     product_values, spd_inverse, zero,
 };
+use super::ic0::BlockIc0;
+use super::par;
 use super::{AmgLevelStats, AmgOptions, AmgSmoother};
 use crate::error::SparseError;
 use crate::operator::MatrixFree;
@@ -51,8 +53,6 @@ struct Transfer<const B: usize> {
     omega: f64,
     /// The power method's eigenvector estimate of `D_F^-1 A_F`.
     eigenvector: Vec<f64>,
-    /// Scratch of the sparse products (one entry per coarse node).
-    marker: Vec<usize>,
 }
 
 /// One level: its operator, the smoother's data and the transfer to the
@@ -68,6 +68,8 @@ struct Level<const B: usize> {
     /// The power method's eigenvector estimate of `D^-1 A` (warm start of refills).
     eigenvector: Vec<f64>,
     transfer: Option<Transfer<B>>,
+    /// The block IC(0) factor of `a`, for [`AmgSmoother::BlockIc0`].
+    ic0: Option<BlockIc0<B>>,
 }
 
 /// The dense Cholesky factor `L` (row-major, lower triangle) of the coarsest operator.
@@ -233,9 +235,9 @@ fn spectral_radius<const B: usize>(
     let op = MatrixFree::new(B * a.nrows, |x: &[f64], y: &mut [f64]| {
         let (x3, _) = x.as_chunks::<B>();
         let (y3, _) = y.as_chunks_mut::<B>();
-        for (i, (yi, d)) in y3.iter_mut().zip(dinv).enumerate() {
-            *yi = mul_vec(d, &a.row_times(i, x3));
-        }
+        par::rows(y3, &|i, yi: &mut [f64; B]| {
+            *yi = mul_vec(&dinv[i], &a.row_times(i, x3));
+        });
     });
     let params = PowerParams {
         rtol: 1e-3,
@@ -286,6 +288,10 @@ impl<const B: usize> Hierarchy<B> {
         nullspace: Vec<Blk<B>>,
         options: &AmgOptions,
     ) -> Result<Self, SparseError> {
+        par::install(|| Self::build(a, nullspace, options))
+    }
+
+    fn build(a: Bsr<B>, nullspace: Vec<Blk<B>>, options: &AmgOptions) -> Result<Self, SparseError> {
         let numeric = Numeric {
             smoother: options.smoother,
             sweeps: options.sweeps,
@@ -331,11 +337,12 @@ impl<const B: usize> Hierarchy<B> {
             let mut next = transfer.as_ref().map(|t| product_pattern(&t.r, &t.ap));
             let mut w = Work::new(B * n, next.as_ref().map_or(0, |c| B * c.nrows));
             let mut level = Level {
-                a,
-                diag,
                 dinv: vec![zero::<B>(); n],
                 omega: 0.0,
                 eigenvector: vec![0.0; B * n],
+                ic0: (options.smoother == AmgSmoother::BlockIc0).then(|| BlockIc0::new(&a, &diag)),
+                a,
+                diag,
                 transfer,
             };
             compute_level(&mut level, next.as_mut(), l, &numeric, false, &mut w)?;
@@ -432,7 +439,6 @@ impl<const B: usize> Hierarchy<B> {
                 ap,
                 omega: 0.0,
                 eigenvector: vec![0.0; B * n],
-                marker: vec![usize::MAX; n_agg],
             },
             coarse_nullspace,
         )))
@@ -447,13 +453,15 @@ impl<const B: usize> Hierarchy<B> {
     /// values: smoothers, `A_F`, `omega`, `P`, `R`, the Galerkin operators
     /// and the coarsest factor. Allocates nothing.
     pub fn compute(&mut self) -> Result<(), SparseError> {
-        let work = self.work.get_mut().unwrap_or_else(|e| e.into_inner());
-        for l in 0..self.levels.len() {
-            let (head, tail) = self.levels.split_at_mut(l + 1);
-            let next = tail.first_mut().map(|n| &mut n.a);
-            compute_level(&mut head[l], next, l, &self.numeric, true, &mut work[l])?;
-        }
-        self.factor_coarsest()
+        par::install(|| {
+            let work = self.work.get_mut().unwrap_or_else(|e| e.into_inner());
+            for l in 0..self.levels.len() {
+                let (head, tail) = self.levels.split_at_mut(l + 1);
+                let next = tail.first_mut().map(|n| &mut n.a);
+                compute_level(&mut head[l], next, l, &self.numeric, true, &mut work[l])?;
+            }
+            self.factor_coarsest()
+        })
     }
 
     fn factor_coarsest(&mut self) -> Result<(), SparseError> {
@@ -487,13 +495,19 @@ impl<const B: usize> Hierarchy<B> {
 
     /// One V-cycle from a zero initial guess: `z = M^-1 r`.
     pub fn apply(&self, r: &[f64], z: &mut [f64]) {
-        let mut work = self.work.lock().unwrap_or_else(|e| e.into_inner());
-        self.cycle(0, r, z, &mut work);
+        let mut guard = self.work.lock().unwrap_or_else(|e| e.into_inner());
+        let work: &mut [Work] = &mut guard;
+        par::install(|| self.cycle(0, r, z, work));
     }
 
     /// The V-cycle on level `l` for `A_l x = b` from `x = 0`: pre-smoothing,
     /// coarse-grid correction `x += P V_{l+1}(R (b - A x))`, post-smoothing
     /// (the adjoint of the pre-smoother, so the cycle is symmetric).
+    ///
+    /// The residual after the correction is `t - (A P) x_c`, with `t` the
+    /// residual before it and `A P` kept from the Galerkin product: cheaper
+    /// than `A` again (fewer blocks per row), and fused with the
+    /// prolongation and the first post-smoothing step into one pass.
     fn cycle(&self, l: usize, b: &[f64], x: &mut [f64], work: &mut [Work]) {
         let level = &self.levels[l];
         let (w, rest) = work.split_first_mut().expect("one work entry per level");
@@ -502,6 +516,7 @@ impl<const B: usize> Hierarchy<B> {
                 Some(chol) => chol.solve(b, x),
                 None => {
                     self.pre_smooth(level, b, x, &mut w.t);
+                    level.a.residual(b, x, &mut w.t);
                     self.post_smooth(level, b, x, &mut w.t);
                 }
             },
@@ -510,8 +525,36 @@ impl<const B: usize> Hierarchy<B> {
                 level.a.residual(b, x, &mut w.t);
                 tr.r.spmv(&w.t, &mut w.bc);
                 self.cycle(l + 1, &w.bc, &mut w.xc, rest);
-                tr.p.spmv_add(&w.xc, x);
-                self.post_smooth(level, b, x, &mut w.t);
+                let smoother = self.numeric.smoother;
+                let (x3, _) = x.as_chunks_mut::<B>();
+                let (t3, _) = w.t.as_chunks_mut::<B>();
+                let (xc3, _) = w.xc.as_chunks::<B>();
+                // x += P x_c; t -= (A P) x_c; and for Jacobi x += omega D^-1 t.
+                par::rows(x3, &|i, xi: &mut [f64; B]| {
+                    let px = tr.p.row_times(i, xc3);
+                    for c in 0..B {
+                        xi[c] += px[c];
+                    }
+                });
+                let jacobi = smoother == AmgSmoother::BlockJacobi;
+                let omega = level.omega;
+                par::rows(t3, &|i, ti: &mut [f64; B]| {
+                    let apx = tr.ap.row_times(i, xc3);
+                    for c in 0..B {
+                        ti[c] -= apx[c];
+                    }
+                });
+                if jacobi {
+                    let (t3, _) = w.t.as_chunks::<B>();
+                    par::rows(x3, &|i, xi: &mut [f64; B]| {
+                        mul_add_scaled(&level.dinv[i], omega, &t3[i], xi);
+                    });
+                    for _ in 1..self.numeric.sweeps {
+                        jacobi_step(level, b, x, &mut w.t);
+                    }
+                } else {
+                    self.post_smooth(level, b, x, &mut w.t);
+                }
             }
         }
     }
@@ -523,12 +566,11 @@ impl<const B: usize> Hierarchy<B> {
                 // The first step from zero: x = omega D^-1 b.
                 let (b3, _) = b.as_chunks::<B>();
                 let (x3, _) = x.as_chunks_mut::<B>();
-                for ((xi, bi), d) in x3.iter_mut().zip(b3).zip(&level.dinv) {
-                    let y = mul_vec(d, bi);
-                    for c in 0..B {
-                        xi[c] = level.omega * y[c];
-                    }
-                }
+                let omega = level.omega;
+                par::rows(x3, &|i, xi: &mut [f64; B]| {
+                    *xi = [0.0; B];
+                    mul_add_scaled(&level.dinv[i], omega, &b3[i], xi);
+                });
                 for _ in 1..self.numeric.sweeps {
                     jacobi_step(level, b, x, t);
                 }
@@ -539,17 +581,69 @@ impl<const B: usize> Hierarchy<B> {
                     gauss_seidel(level, b, x, false);
                 }
             }
+            AmgSmoother::BlockIc0 => {
+                // The first step from zero: x = M^-1 b.
+                x.copy_from_slice(b);
+                level.ic0_solve(x);
+                for _ in 1..self.numeric.sweeps {
+                    level.a.residual(b, x, t);
+                    level.ic0_solve(t);
+                    add_assign(x, t);
+                }
+            }
         }
     }
 
-    /// `sweeps` smoothing steps, the adjoint of [`pre_smooth`](Self::pre_smooth).
+    /// `sweeps` smoothing steps, the adjoint of [`pre_smooth`](Self::pre_smooth),
+    /// given the residual `t = b - A x` of the current `x`.
     fn post_smooth(&self, level: &Level<B>, b: &[f64], x: &mut [f64], t: &mut [f64]) {
-        for _ in 0..self.numeric.sweeps {
+        for s in 0..self.numeric.sweeps {
             match self.numeric.smoother {
-                AmgSmoother::BlockJacobi => jacobi_step(level, b, x, t),
+                AmgSmoother::BlockJacobi => {
+                    if s > 0 {
+                        level.a.residual(b, x, t);
+                    }
+                    let (t3, _) = t.as_chunks::<B>();
+                    let (x3, _) = x.as_chunks_mut::<B>();
+                    par::rows(x3, &|i, xi: &mut [f64; B]| {
+                        mul_add_scaled(&level.dinv[i], level.omega, &t3[i], xi);
+                    });
+                }
                 AmgSmoother::SymmetricGaussSeidel => gauss_seidel(level, b, x, true),
+                AmgSmoother::BlockIc0 => {
+                    if s > 0 {
+                        level.a.residual(b, x, t);
+                    }
+                    level.ic0_solve(t);
+                    add_assign(x, t);
+                }
             }
         }
+    }
+}
+
+impl<const B: usize> Level<B> {
+    /// `z = M^-1 z` with the block IC(0) factor.
+    fn ic0_solve(&self, z: &mut [f64]) {
+        let ic0 = self
+            .ic0
+            .as_ref()
+            .expect("the IC(0) smoother has its factor");
+        ic0.solve_in_place(&self.a, &self.diag, z);
+    }
+}
+
+/// `x += t` (rows split across threads).
+fn add_assign(x: &mut [f64], t: &[f64]) {
+    par::rows(x, &|i, xi: &mut f64| *xi += t[i]);
+}
+
+/// `y += omega m x`.
+#[inline(always)]
+fn mul_add_scaled<const B: usize>(m: &Blk<B>, omega: f64, x: &[f64; B], y: &mut [f64; B]) {
+    let mx = mul_vec(m, x);
+    for c in 0..B {
+        y[c] += omega * mx[c];
     }
 }
 
@@ -572,8 +666,13 @@ fn compute_level<const B: usize>(
     } else {
         num.power_iterations
     };
+    // A refill with no power steps keeps the last estimates of rho.
+    let estimate = !(refill && num.power_iterations > 0 && iterations == 0);
     invert_diagonal(&level.a, &level.diag, &mut level.dinv, l)?;
-    if num.smoother == AmgSmoother::BlockJacobi {
+    if let Some(ic0) = level.ic0.as_mut() {
+        ic0.factor(&level.a, &level.diag, l)?;
+    }
+    if num.smoother == AmgSmoother::BlockJacobi && estimate {
         let rho = spectral_radius(
             &level.a,
             &level.dinv,
@@ -594,13 +693,13 @@ fn compute_level<const B: usize>(
             &level.dinv,
             tr,
             num.prolongation_weight,
-            iterations,
+            estimate.then_some(iterations),
             refill,
             work,
         )?;
     }
-    product_values(&level.a, &tr.p, &mut tr.ap, &mut tr.marker);
-    product_values(&tr.r, &tr.ap, next, &mut tr.marker);
+    product_values(&level.a, &tr.p, &mut tr.ap);
+    product_values(&tr.r, &tr.ap, next);
     Ok(())
 }
 
@@ -612,7 +711,7 @@ fn smooth_prolongator<const B: usize>(
     a_dinv: &[Blk<B>],
     tr: &mut Transfer<B>,
     prolongation_weight: f64,
-    iterations: usize,
+    iterations: Option<usize>,
     refill: bool,
     work: &mut Work,
 ) -> Result<(), SparseError> {
@@ -641,17 +740,19 @@ fn smooth_prolongator<const B: usize>(
     for ((inv, &d), dinv) in tr.df_inv.iter_mut().zip(&tr.af_diag).zip(a_dinv) {
         *inv = spd_inverse(&tr.af.val[d]).unwrap_or(*dinv);
     }
-    let rho = spectral_radius(
-        &tr.af,
-        &tr.df_inv,
-        iterations,
-        refill,
-        &mut tr.eigenvector,
-        &mut work.t,
-    )?;
-    tr.omega = prolongation_weight / rho;
+    if let Some(iterations) = iterations {
+        let rho = spectral_radius(
+            &tr.af,
+            &tr.df_inv,
+            iterations,
+            refill,
+            &mut tr.eigenvector,
+            &mut work.t,
+        )?;
+        tr.omega = prolongation_weight / rho;
+    }
     // P = T - omega D_F^-1 (A_F T).
-    product_values(&tr.af, &tr.t, &mut tr.p, &mut tr.marker);
+    product_values(&tr.af, &tr.t, &mut tr.p);
     for i in 0..a.nrows {
         let dinv = &tr.df_inv[i];
         for k in tr.p.row(i) {
@@ -682,12 +783,9 @@ fn jacobi_step<const B: usize>(level: &Level<B>, b: &[f64], x: &mut [f64], t: &m
     level.a.residual(b, x, t);
     let (t3, _) = t.as_chunks::<B>();
     let (x3, _) = x.as_chunks_mut::<B>();
-    for ((xi, ti), d) in x3.iter_mut().zip(t3).zip(&level.dinv) {
-        let y = mul_vec(d, ti);
-        for c in 0..B {
-            xi[c] += level.omega * y[c];
-        }
-    }
+    par::rows(x3, &|i, xi: &mut [f64; B]| {
+        mul_add_scaled(&level.dinv[i], level.omega, &t3[i], xi);
+    });
 }
 
 /// One block Gauss-Seidel sweep `x_i += D_i^-1 (b_i - sum_j A_ij x_j)`,

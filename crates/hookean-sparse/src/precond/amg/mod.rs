@@ -4,6 +4,8 @@
 mod aggregate;
 mod bsr;
 mod hierarchy;
+mod ic0;
+mod par;
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -23,6 +25,33 @@ pub enum AmgSmoother {
     BlockJacobi,
     /// Forward block Gauss-Seidel before the coarse correction, backward after.
     SymmetricGaussSeidel,
+    /// Block IC(0) (block ILU(0) of a symmetric matrix) `x += M^-1 (b - A x)`
+    /// with `M = (D + W)^T D^-1 (D + W)` on each level's block pattern:
+    /// the strongest smoother per step, sequential (triangular solves).
+    BlockIc0,
+}
+
+/// What [`PreconditionerSetup::setup`] does when the matrix has the sparsity
+/// pattern of the current hierarchy and only its values changed (every
+/// Newton iteration and every time step of a simulation). A new pattern,
+/// block size or near-nullspace length always gets a full set-up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum AmgReuse {
+    /// A full set-up every time: new strength graph, aggregates and patterns.
+    Rebuild,
+    /// Refill the numbers (smoothers, `omega`, `P` unless
+    /// [`AmgOptions::keep_prolongators`], Galerkin operators, coarsest
+    /// factor), keeping aggregates and every pattern. No allocation.
+    #[default]
+    Refill,
+    /// Keep the whole hierarchy (a lagged preconditioner: still symmetric
+    /// positive definite, so PCG stays valid, at the price of more
+    /// iterations when the values drift) for `updates` calls of `setup`;
+    /// the call after them refills. `Keep { updates: 0 }` is `Refill`.
+    Keep {
+        /// Calls of `setup` that leave the hierarchy as it is.
+        updates: usize,
+    },
 }
 
 /// Options of [`Amg`].
@@ -44,7 +73,8 @@ pub struct AmgOptions {
     /// Prolongator-smoothing weight times `rho(D_F^-1 A_F)`, in (0, 2). Default `4/3`.
     pub prolongation_weight: f64,
     /// Power-method steps estimating the spectral radii `rho(D^-1 A)`
-    /// (allocation-free, on the V-cycle's vectors). Default `10`. `0` uses
+    /// (allocation-free, on the V-cycle's vectors). Default `5` (on the cloth
+    /// systems 4 and 10 steps give the same PCG iteration counts). `0` uses
     /// Gershgorin's bound `max_i sum_j |D_i^-1 A_ij|_inf` instead: an upper
     /// bound (the smoother then surely converges), but loose for 3x3 blocks
     /// whose conditioning is poor (cloth: a tiny out-of-plane stiffness),
@@ -52,7 +82,9 @@ pub struct AmgOptions {
     pub power_iterations: usize,
     /// Power-method steps at a refill, started from the previous set-up's
     /// eigenvector estimates (which fit the new values if they changed
-    /// little). Default `3`. (Ignored when `power_iterations = 0`.)
+    /// little). Default `3`. `0` keeps the last estimates (and with them
+    /// the weights `omega`): the cheapest refill, fit for values that change
+    /// little between set-ups. (Ignored when `power_iterations = 0`.)
     pub refill_power_iterations: usize,
     /// At a refill, keep every prolongator of the last full set-up and
     /// recompute only the smoothers, the Galerkin operators `P^T A P` and
@@ -61,6 +93,9 @@ pub struct AmgOptions {
     /// values that change slowly (time steps); default `false` (`P` is
     /// smoothed again with the new values).
     pub keep_prolongators: bool,
+    /// What a `setup` with the same pattern does: rebuild, refill (default)
+    /// or keep the hierarchy for some updates.
+    pub reuse: AmgReuse,
     /// Near-nullspace vectors of length `dim`, as many as the block size
     /// (3 for block matrices, [`block_size`](Self::block_size) for CSR ones:
     /// the coarse operators keep the block size). Empty (default): the
@@ -82,9 +117,10 @@ impl Default for AmgOptions {
             sweeps: 1,
             jacobi_weight: 4.0 / 3.0,
             prolongation_weight: 4.0 / 3.0,
-            power_iterations: 10,
+            power_iterations: 5,
             refill_power_iterations: 3,
             keep_prolongators: false,
+            reuse: AmgReuse::Refill,
             near_nullspace: Vec::new(),
             block_size: 1,
         }
@@ -98,7 +134,7 @@ pub struct AmgLevelStats {
     pub rows: usize,
     /// Scalar nonzeros of the operator (every stored block counted dense).
     pub nonzeros: usize,
-    /// Damped-Jacobi weight `omega` (0 for Gauss-Seidel).
+    /// Damped-Jacobi weight `omega` (0 for Gauss-Seidel and IC(0)).
     pub smoother_weight: f64,
     /// Prolongator-smoothing weight (0 on the coarsest level).
     pub prolongation_weight: f64,
@@ -121,6 +157,8 @@ pub struct AmgStats {
     pub setups: usize,
     /// Refills so far.
     pub refills: usize,
+    /// Calls of `setup` that kept the hierarchy ([`AmgReuse::Keep`]).
+    pub kept: usize,
 }
 
 /// The finest level's storage and where its blocks come from.
@@ -258,27 +296,34 @@ impl<const B: usize> CsrLevels<B> {
 /// factored if it has at most 3000 unknowns, else only smoothed). Nodes
 /// without strong neighbours join no aggregate and are left to the smoother. [`Amg::apply`](crate::Preconditioner::apply)
 /// is one V-cycle from a zero guess with block damped-Jacobi (or symmetric
-/// block Gauss-Seidel) smoothing; the post-smoother is the adjoint of the
-/// pre-smoother, so the V-cycle is a symmetric positive definite operator and
-/// PCG and filtered PCG stay valid.
+/// block Gauss-Seidel, or block IC(0)) smoothing; the post-smoother is the
+/// adjoint of the pre-smoother, so the V-cycle is a symmetric positive
+/// definite operator and PCG and filtered PCG stay valid. The kernels of
+/// every level run row-parallel on rayon's pool (the Gauss-Seidel and IC(0)
+/// sweeps excepted), with results independent of the thread count.
 ///
 /// # Re-use
 /// [`PreconditionerSetup::setup`] with a matrix of the same sparsity pattern
 /// as the last one (the same `Arc<BlockPattern>`, or equal CSR index arrays)
-/// is a *refill*: strength, aggregates, the tentative prolongator and every
-/// pattern are kept, and only the numbers (smoothers, `omega`, `P`, the
-/// Galerkin products, the coarsest factor) are recomputed, without allocating;
-/// the spectral radius estimates continue the power method from the last
-/// eigenvectors for `refill_power_iterations` steps. With
-/// [`AmgOptions::keep_prolongators`] a refill keeps the prolongators too
-/// and recomputes only the smoothers, the Galerkin operators and the
-/// coarsest factor. On the 128^2 cloth a
-/// refill costs about a third of a full set-up, or 8-10 V-cycles
-/// (docs/PERFORMANCE.md, `cargo bench -p hookean-sparse --bench amg`). A new
-/// pattern (or block size) triggers a full set-up; [`Amg::rebuild`] forces one (e.g. when the values changed so much
-/// that the strong graph of the old aggregates no longer fits). Not calling
-/// `setup` at all keeps the whole hierarchy (a lagged preconditioner, still
-/// SPD, so CG stays valid).
+/// does what [`AmgOptions::reuse`] says ([`AmgReuse`]):
+/// - `Refill` (default): strength, aggregates, the tentative prolongator and
+///   every pattern are kept, and only the numbers (smoothers, `omega`, `P`,
+///   the Galerkin products, the coarsest factor) are recomputed, without
+///   allocating; the spectral radius estimates continue the power method
+///   from the last eigenvectors for `refill_power_iterations` steps. With
+///   [`AmgOptions::keep_prolongators`] a refill keeps the prolongators too
+///   and recomputes only the smoothers, the Galerkin operators and the
+///   coarsest factor.
+/// - `Keep { updates }`: the next `updates` calls leave the whole hierarchy
+///   as it is (a lagged preconditioner, still SPD, so CG stays valid); the
+///   call after them refills.
+/// - `Rebuild`: a full set-up every time.
+///
+/// A full set-up is redone whenever the pattern (or the block size)
+/// changes, when the last set-up failed, on [`Amg::rebuild`] (e.g. when
+/// the values changed so much that the old aggregates no longer fit), and
+/// with `Rebuild`. The measured costs of each choice are in
+/// docs/PERFORMANCE.md (`cargo bench -p hookean-sparse --bench amg`).
 ///
 /// # Example
 /// ```
@@ -309,6 +354,8 @@ pub struct Amg {
     options: AmgOptions,
     inner: Inner,
     stats: AmgStats,
+    /// Calls of `setup` kept since the last set-up or refill.
+    kept_in_a_row: usize,
 }
 
 impl Default for Amg {
@@ -325,6 +372,7 @@ impl Amg {
             options: AmgOptions::default(),
             inner: Inner::Empty,
             stats: AmgStats::default(),
+            kept_in_a_row: 0,
         }
     }
 
@@ -343,13 +391,9 @@ impl Amg {
                 format!("{} is outside [0, 1)", o.strength_threshold),
             );
         }
-        if o.coarse_size == 0
-            || o.max_levels == 0
-            || o.sweeps == 0
-            || o.refill_power_iterations == 0
-        {
+        if o.coarse_size == 0 || o.max_levels == 0 || o.sweeps == 0 {
             return bad(
-                "coarse_size, max_levels, sweeps, refill_power_iterations",
+                "coarse_size, max_levels, sweeps",
                 "must all be at least 1".into(),
             );
         }
@@ -368,6 +412,7 @@ impl Amg {
             options,
             inner: Inner::Empty,
             stats: AmgStats::default(),
+            kept_in_a_row: 0,
         })
     }
 
@@ -392,6 +437,24 @@ impl Amg {
     {
         self.inner = Inner::Empty;
         self.setup(a)
+    }
+
+    /// What `setup` does for a matrix whose pattern is (`same`) or is not
+    /// the hierarchy's: `None` keeps the hierarchy, `Some(true)` refills,
+    /// `Some(false)` builds it afresh.
+    fn plan(&mut self, same: bool) -> Option<bool> {
+        if !same {
+            return Some(false);
+        }
+        match self.options.reuse {
+            AmgReuse::Rebuild => Some(false),
+            AmgReuse::Keep { updates } if self.kept_in_a_row < updates => {
+                self.kept_in_a_row += 1;
+                self.stats.kept += 1;
+                None
+            }
+            AmgReuse::Refill | AmgReuse::Keep { .. } => Some(true),
+        }
     }
 
     /// The near-nullspace as one `B x B` block per node (column `c` is vector `c`).
@@ -454,6 +517,7 @@ impl Amg {
     /// Runs `f` on the hierarchy, dropping it when `f` fails (so the next
     /// set-up starts afresh).
     fn finish(&mut self, start: Instant, refill: bool) {
+        self.kept_in_a_row = 0;
         let seconds = start.elapsed().as_secs_f64();
         match std::mem::replace(&mut self.inner, Inner::Empty) {
             Inner::Block { source, map, h } => {
@@ -544,8 +608,11 @@ fn fill_from_blocks(
 impl PreconditionerSetup<SymBlockMatrix> for Amg {
     fn setup(&mut self, a: &SymBlockMatrix) -> Result<(), SparseError> {
         let start = Instant::now();
-        let refill = matches!(&self.inner, Inner::Block { source, .. }
+        let same = matches!(&self.inner, Inner::Block { source, .. }
             if Arc::ptr_eq(source, a.pattern()) || **source == **a.pattern());
+        let Some(refill) = self.plan(same) else {
+            return Ok(());
+        };
         let result = match &mut self.inner {
             Inner::Block { map, h, .. } if refill => {
                 fill_from_blocks(h.finest_mut(), map, a).and_then(|()| h.compute())
@@ -587,10 +654,19 @@ impl PreconditionerSetup<sprs::CsMat<f64>> for Amg {
                 index: Some(k),
             });
         }
-        let refill = match (&mut self.inner, self.options.block_size) {
-            (Inner::Csr1(c), 1) if c.same_pattern(a) => Some(c.refill(a)),
-            (Inner::Csr2(c), 2) if c.same_pattern(a) => Some(c.refill(a)),
-            (Inner::Csr3(c), 3) if c.same_pattern(a) => Some(c.refill(a)),
+        let same = match (&self.inner, self.options.block_size) {
+            (Inner::Csr1(c), 1) => c.same_pattern(a),
+            (Inner::Csr2(c), 2) => c.same_pattern(a),
+            (Inner::Csr3(c), 3) => c.same_pattern(a),
+            _ => false,
+        };
+        let Some(refill) = self.plan(same) else {
+            return Ok(());
+        };
+        let refill = match &mut self.inner {
+            Inner::Csr1(c) if refill => Some(c.refill(a)),
+            Inner::Csr2(c) if refill => Some(c.refill(a)),
+            Inner::Csr3(c) if refill => Some(c.refill(a)),
             _ => None,
         };
         let refilled = refill.is_some();

@@ -4,6 +4,8 @@ use super::super::testutil::{dense, rhs, spd_block_matrix};
 use super::*;
 use crate::vecops::{dot, norm2};
 use crate::{CgParams, CgWorkspace, LinearOperator, pcg};
+use rand::rngs::SmallRng;
+use rand::{Rng, SeedableRng};
 
 /// Options that force several levels on small test matrices.
 fn small_coarse(smoother: AmgSmoother) -> AmgOptions {
@@ -75,7 +77,12 @@ fn v_cycle_is_symmetric_and_positive() {
     let a = spd_block_matrix(24, 20);
     let n = a.dim();
     let csr = a.to_csr();
-    for smoother in [AmgSmoother::BlockJacobi, AmgSmoother::SymmetricGaussSeidel] {
+    let mut rng = SmallRng::seed_from_u64(15);
+    for smoother in [
+        AmgSmoother::BlockJacobi,
+        AmgSmoother::SymmetricGaussSeidel,
+        AmgSmoother::BlockIc0,
+    ] {
         for scalar in [false, true] {
             let mut amg = Amg::with_options(small_coarse(smoother)).unwrap();
             if scalar {
@@ -86,13 +93,9 @@ fn v_cycle_is_symmetric_and_positive() {
             assert!(amg.stats().levels.len() >= 3, "{:?}", amg.stats());
             let mut bx = vec![0.0; n];
             let mut by = vec![0.0; n];
-            for s in 0..4 {
-                let x: Vec<f64> = (0..n)
-                    .map(|i| ((i * (s + 3)) as f64 * 0.71).sin())
-                    .collect();
-                let y: Vec<f64> = (0..n)
-                    .map(|i| ((i * (s + 5)) as f64 * 0.37).cos())
-                    .collect();
+            for _ in 0..8 {
+                let x: Vec<f64> = (0..n).map(|_| rng.random_range(-1.0..1.0)).collect();
+                let y: Vec<f64> = (0..n).map(|_| rng.random_range(-1.0..1.0)).collect();
                 amg.apply(&x, &mut bx);
                 amg.apply(&y, &mut by);
                 let (bxy, xby) = (dot(&bx, &y), dot(&x, &by));
@@ -295,11 +298,16 @@ fn refill_reuses_the_hierarchy() {
     // With the power method, a refill continues from the last eigenvector
     // estimates for a few steps: its spectral radius estimates are at least
     // a fresh set-up's (more steps of the same iteration), so its weights
-    // are at most those, and close.
-    let mut warm = Amg::with_options(small_coarse(AmgSmoother::BlockJacobi)).unwrap();
+    // are at most those, and close (with enough steps that the estimates
+    // increase monotonically).
+    let power = AmgOptions {
+        power_iterations: 10,
+        ..small_coarse(AmgSmoother::BlockJacobi)
+    };
+    let mut warm = Amg::with_options(power.clone()).unwrap();
     warm.setup(&a).unwrap();
     warm.setup(&a2).unwrap();
-    let mut fresh = Amg::with_options(small_coarse(AmgSmoother::BlockJacobi)).unwrap();
+    let mut fresh = Amg::with_options(power).unwrap();
     fresh.setup(&a2).unwrap();
     for (w, f) in warm.stats().levels.iter().zip(&fresh.stats().levels) {
         for (x, y) in [
@@ -309,6 +317,75 @@ fn refill_reuses_the_hierarchy() {
             assert!(x <= y * (1.0 + 1e-9) && x >= 0.85 * y, "{x} vs {y}");
         }
     }
+}
+
+#[test]
+fn reuse_policy_keeps_refills_or_rebuilds() {
+    let a = spd_block_matrix(12, 12);
+    let mut a2 = a.clone();
+    a2.scale(2.0);
+    let r = rhs(a.dim());
+    let options = |reuse| AmgOptions {
+        power_iterations: 0,
+        reuse,
+        ..small_coarse(AmgSmoother::BlockJacobi)
+    };
+    let cycle = |amg: &Amg| {
+        let mut z = vec![0.0; r.len()];
+        amg.apply(&r, &mut z);
+        z
+    };
+    // Keep for 2 updates: the cycle of A twice, then the refill's of 2 A
+    // (half of it, as in `refill_reuses_the_hierarchy`).
+    let mut amg = Amg::with_options(options(AmgReuse::Keep { updates: 2 })).unwrap();
+    amg.setup(&a).unwrap();
+    let z1 = cycle(&amg);
+    for kept in 1..=2 {
+        amg.setup(&a2).unwrap();
+        assert_eq!(cycle(&amg), z1);
+        assert_eq!((amg.stats().kept, amg.stats().refills), (kept, 0));
+    }
+    amg.setup(&a2).unwrap();
+    assert_eq!((amg.stats().kept, amg.stats().refills), (2, 1));
+    for (u, v) in z1.iter().zip(&cycle(&amg)) {
+        approx::assert_abs_diff_eq!(*u, 2.0 * v, epsilon = 1e-12 * norm2(&z1));
+    }
+    // Keeping again starts counting after the refill.
+    amg.setup(&a).unwrap();
+    assert_eq!(amg.stats().kept, 3);
+    // Rebuild: every set-up is a full one.
+    let mut amg = Amg::with_options(options(AmgReuse::Rebuild)).unwrap();
+    amg.setup(&a).unwrap();
+    amg.setup(&a2).unwrap();
+    assert_eq!((amg.stats().setups, amg.stats().refills), (2, 0));
+    // A refill without power steps keeps the weights of the last estimates;
+    // one with them follows the new values (a diagonal shift lowers rho).
+    let mut shifted = a.clone();
+    shifted.add_to_diagonal(&vec![5.0; a.dim()]).unwrap();
+    let weights = |amg: &Amg| -> Vec<(f64, f64)> {
+        amg.stats()
+            .levels
+            .iter()
+            .map(|l| (l.smoother_weight, l.prolongation_weight))
+            .collect()
+    };
+    for (steps, kept) in [(0, true), (3, false)] {
+        let mut amg = Amg::with_options(AmgOptions {
+            refill_power_iterations: steps,
+            ..small_coarse(AmgSmoother::BlockJacobi)
+        })
+        .unwrap();
+        amg.setup(&a).unwrap();
+        let before = weights(&amg);
+        amg.setup(&shifted).unwrap();
+        assert_eq!(amg.stats().refills, 1);
+        assert_eq!(weights(&amg) == before, kept, "{steps} steps");
+    }
+    // A new pattern is a full set-up whatever the policy.
+    let mut amg = Amg::with_options(options(AmgReuse::Keep { updates: 5 })).unwrap();
+    amg.setup(&a).unwrap();
+    amg.setup(&spd_block_matrix(10, 12)).unwrap();
+    assert_eq!((amg.stats().setups, amg.stats().kept), (2, 0));
 }
 
 #[test]

@@ -1,0 +1,81 @@
+//! Row-parallel loops of the multigrid kernels (rayon).
+//!
+//! Every kernel of the hierarchy writes only its own rows and computes each
+//! row with the same sequential arithmetic whatever the split, so results
+//! are bit-for-bit identical for any thread count (1 included). Work is split
+//! by [`rayon::join`] down to [`ROWS_PER_TASK`] rows (no heap allocation);
+//! smaller matrices, and every matrix when rayon has one thread, run on the
+//! calling thread. [`install`] enters the thread pool once for a whole
+//! V-cycle or set-up, so the kernels inside do not each pay the hand-over
+//! from a thread outside the pool.
+
+use rayon::{current_num_threads, join};
+
+/// Runs `f` inside rayon's pool (one hand-over for all the kernels `f`
+/// calls), or directly when the pool has one thread or we are already in it.
+pub(crate) fn install<R: Send, F: FnOnce() -> R + Send>(f: F) -> R {
+    if current_num_threads() == 1 || rayon::current_thread_index().is_some() {
+        f()
+    } else {
+        let mut out = None;
+        rayon::scope(|_| out = Some(f()));
+        out.expect("the scope ran f")
+    }
+}
+
+fn sequential(rows: usize) -> bool {
+    rows <= ROWS_PER_TASK || current_num_threads() == 1
+}
+
+/// Rows per rayon task: below this a level's kernel runs sequentially (the
+/// coarse levels, whose work is smaller than a task's overhead).
+pub(crate) const ROWS_PER_TASK: usize = 4096;
+
+/// `f(i, &mut out[i])` for every row `i`, split across threads.
+pub(crate) fn rows<T: Send, F: Fn(usize, &mut T) + Sync>(out: &mut [T], f: &F) {
+    rows_from(0, out, f);
+}
+
+fn rows_from<T: Send, F: Fn(usize, &mut T) + Sync>(first: usize, out: &mut [T], f: &F) {
+    if sequential(out.len()) {
+        for (i, y) in out.iter_mut().enumerate() {
+            f(first + i, y);
+        }
+    } else {
+        let mid = out.len() / 2;
+        let (lo, hi) = out.split_at_mut(mid);
+        join(|| rows_from(first, lo, f), || rows_from(first + mid, hi, f));
+    }
+}
+
+/// `f(i, &mut data[row_ptr[i]..row_ptr[i + 1]])` for every row `i` of a
+/// compressed-row array (`data.len() == row_ptr[n]`), split across threads.
+pub(crate) fn row_slices<T: Send, F: Fn(usize, &mut [T]) + Sync>(
+    row_ptr: &[usize],
+    data: &mut [T],
+    f: &F,
+) {
+    row_slices_in(row_ptr, 0, row_ptr.len() - 1, data, f);
+}
+
+fn row_slices_in<T: Send, F: Fn(usize, &mut [T]) + Sync>(
+    row_ptr: &[usize],
+    start: usize,
+    end: usize,
+    data: &mut [T],
+    f: &F,
+) {
+    if sequential(end - start) {
+        let base = row_ptr[start];
+        for i in start..end {
+            f(i, &mut data[row_ptr[i] - base..row_ptr[i + 1] - base]);
+        }
+    } else {
+        let mid = start + (end - start) / 2;
+        let (lo, hi) = data.split_at_mut(row_ptr[mid] - row_ptr[start]);
+        join(
+            || row_slices_in(row_ptr, start, mid, lo, f),
+            || row_slices_in(row_ptr, mid, end, hi, f),
+        );
+    }
+}
