@@ -1438,9 +1438,12 @@ mod tests {
             assert_eq!(l, 5, "{bad}: {m}");
             assert!(m.contains(key), "{bad}: {m}");
         }
-        // The table needs the preconditioner it configures.
-        let (_, _, m) = err("[cloth]\n[solver.amg]\nsweeps = 2\n");
+        // The table needs the preconditioner it configures (or "auto",
+        // the default, which picks it for large models).
+        let (_, _, m) =
+            err("[cloth]\n[solver]\npreconditioner = \"mic0\"\n[solver.amg]\nsweeps = 2\n");
         assert!(m.starts_with("solver.amg:"), "{m}");
+        assert!(Scene::from_toml_str("s.toml", "[cloth]\n[solver.amg]\nsweeps = 2\n").is_ok());
     }
 
     #[test]
