@@ -319,7 +319,7 @@ pub fn run(args: &RunArgs, threads: Option<usize>) -> Result<(), CliError> {
 fn run_scene(args: &RunArgs, scene: &Scene) -> Result<(), CliError> {
     let max_bytes = max_memory_bytes(args.max_memory)?;
     if scene.tutorial.is_some() {
-        check_work(args, &scene, 1)?;
+        check_work(args, scene, 1)?;
     }
     let name = args
         .scene
