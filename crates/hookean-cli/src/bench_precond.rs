@@ -16,7 +16,7 @@
 
 use clap::Args;
 use hookean_massspring::{ClothParams, SpringMaterial, State};
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::ProgressBar;
 use serde::Serialize;
 
 use crate::CliError;
@@ -125,10 +125,9 @@ pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
     let mut failed = false;
     // A bar on a terminal (large N and many solvers take minutes).
     let bar = ProgressBar::new((args.n.len() * args.k.len() * solvers.len()) as u64);
-    bar.set_style(
-        ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} [{elapsed_precise}]")
-            .expect("valid template"),
-    );
+    bar.set_style(crate::bar_style(
+        "{bar:30} {pos}/{len} {msg} [{elapsed_precise}]",
+    ));
     for &n in &args.n {
         for &k in &args.k {
             bar.set_message(format!("N = {n}, k = {k:e}"));
@@ -158,11 +157,7 @@ pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
                         .as_deref()
                         .map_or(String::new(), |e| format!(" error: {e}"))
                 ));
-                crate::outln!(
-                    "{}",
-                    serde_json::to_string(&BenchRecord { n, k, record })
-                        .expect("records serialise")
-                )?;
+                crate::outln!("{}", crate::to_json(&BenchRecord { n, k, record }, false)?)?;
                 bar.inc(1);
             }
         }

@@ -117,9 +117,6 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
         matrix: a_path.display().to_string(),
         rhs: b_path.display().to_string(),
     };
-    crate::outln!(
-        "{}",
-        serde_json::to_string(&record).expect("records serialise")
-    )?;
+    crate::outln!("{}", crate::to_json(&record, false)?)?;
     Ok(())
 }

@@ -16,7 +16,7 @@ use hookean_massspring::{ClothParams, cloth as cloth_model};
 use hookean_ode::Method;
 use serde::Serialize;
 
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::ProgressBar;
 use plotters::prelude::*;
 
 use crate::CliError;
@@ -162,10 +162,9 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
 
     // Figures 4 and 5 (three runs), then figure 6: a bar on a terminal.
     let bar = ProgressBar::new(4);
-    bar.set_style(
-        ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} [{elapsed_precise}]")
-            .expect("valid template"),
-    );
+    bar.set_style(crate::bar_style(
+        "{bar:30} {pos}/{len} {msg} [{elapsed_precise}]",
+    ));
     bar.enable_steady_tick(std::time::Duration::from_millis(200));
     let methods: [(&'static str, DrapeMethod); 3] = [
         ("fb-euler", DrapeMethod::FbEuler),
@@ -265,12 +264,9 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
             .collect(),
     };
     let json_path = args.plot.join("analysis.json");
-    std::fs::write(
-        &json_path,
-        serde_json::to_string_pretty(&analysis).expect("serialises") + "\n",
-    )
-    .map_err(|e| failed(format!("{}: {e}", json_path.display())))?;
-    crate::outln!("{}", serde_json::to_string(&analysis).expect("serialises"))?;
+    std::fs::write(&json_path, crate::to_json(&analysis, true)? + "\n")
+        .map_err(|e| failed(format!("{}: {e}", json_path.display())))?;
+    crate::outln!("{}", crate::to_json(&analysis, false)?)?;
     Ok(())
 }
 

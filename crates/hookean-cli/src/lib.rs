@@ -20,6 +20,9 @@
 //! solve of a nonsymmetric matrix) or does not reach its tolerance is
 //! reported in its JSON line and the command exits with 1.
 
+// No panic reachable from user input: failures are `CliError`s.
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used))]
+
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
@@ -109,6 +112,23 @@ macro_rules! outln {
     };
 }
 pub(crate) use outln;
+
+/// A record as JSON (`pretty`: indented, for files).
+pub fn to_json<T: serde::Serialize>(record: &T, pretty: bool) -> Result<String, CliError> {
+    let json = if pretty {
+        serde_json::to_string_pretty(record)
+    } else {
+        serde_json::to_string(record)
+    };
+    json.map_err(|e| CliError::Failed(format!("cannot write a record as JSON: {e}")))
+}
+
+/// A progress bar's style from an indicatif template (the default bar if
+/// the template does not parse).
+pub fn bar_style(template: &str) -> indicatif::ProgressStyle {
+    indicatif::ProgressStyle::with_template(template)
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+}
 
 impl From<hookean_sparse::SparseError> for CliError {
     fn from(e: hookean_sparse::SparseError) -> Self {

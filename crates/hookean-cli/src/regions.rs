@@ -78,16 +78,18 @@ fn clip_curve(curve: &[(f64, f64)], re: (f64, f64), im: (f64, f64)) -> Vec<Vec<(
         if !open || t0 > 0.0 {
             runs.push(vec![at(t0)]);
         }
-        runs.last_mut().expect("a run is open").push(at(t1));
+        if let Some(run) = runs.last_mut() {
+            run.push(at(t1));
+        }
         open = t1 >= 1.0;
     }
     // A closed curve that starts inside and is inside again at the end:
     // the last run continues into the first.
     if open && starts_inside == Some(true) && runs.len() > 1 {
         let first = runs.remove(0);
-        runs.last_mut()
-            .expect("more than one run")
-            .extend_from_slice(&first[1..]);
+        if let Some(last) = runs.last_mut() {
+            last.extend_from_slice(&first[1..]);
+        }
     }
     runs
 }

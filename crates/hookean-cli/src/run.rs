@@ -11,7 +11,7 @@ use hookean::scene::Scene;
 use hookean::{HookeanError, RunSummary, Simulation, Sink};
 use hookean_ode::StepReport;
 use hookean_ode::tutorial::LinearOscillator;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use indicatif::{ProgressBar, ProgressDrawTarget};
 use serde::Serialize;
 
 use crate::CliError;
@@ -251,10 +251,9 @@ impl Progress {
         } else {
             ProgressDrawTarget::stderr()
         });
-        bar.set_style(
-            ProgressStyle::with_template("{bar:40} {percent:>3}% {msg} [{elapsed_precise}]")
-                .expect("valid template"),
-        );
+        bar.set_style(crate::bar_style(
+            "{bar:40} {percent:>3}% {msg} [{elapsed_precise}]",
+        ));
         Self {
             bar,
             start: Instant::now(),
@@ -478,7 +477,7 @@ fn run_model(
         frame_times: frames.view.iter().map(|f| f.t).collect(),
         colliders: colliders(&sim),
     };
-    let json = serde_json::to_string_pretty(&record).expect("records serialise");
+    let json = crate::to_json(&record, true)?;
     let summary_path = out.join("summary.json");
     std::fs::write(&summary_path, json + "\n")
         .map_err(|e| failed(format!("{}: {e}", summary_path.display())))?;
@@ -492,7 +491,7 @@ fn run_model(
     }
     let view = view_of(
         &sim,
-        serde_json::to_value(&record).expect("records serialise"),
+        serde_json::to_value(&record).map_err(failed)?,
         view_frames,
     );
 

@@ -312,10 +312,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         };
         // A failed solver, or one that did not reach the tolerance, fails the command.
         failed |= record.error.is_some() || !record.converged;
-        crate::outln!(
-            "{}",
-            serde_json::to_string(&record).expect("records serialise")
-        )?;
+        crate::outln!("{}", crate::to_json(&record, false)?)?;
     }
     if failed {
         return Err(CliError::SolverFailed);

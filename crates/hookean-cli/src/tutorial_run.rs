@@ -136,10 +136,7 @@ fn integrate<P: FirstOrderProblem>(
         exact_final: e,
         error_final: (y - e).abs(),
     };
-    write(
-        "summary.json",
-        serde_json::to_string_pretty(&record).expect("serialises") + "\n",
-    )?;
+    write("summary.json", crate::to_json(&record, true)? + "\n")?;
     let title = match example {
         1 => format!(
             "Tutorial example 1: y' = {} y, y(0) = 1",

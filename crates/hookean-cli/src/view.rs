@@ -171,7 +171,7 @@ impl ViewRun {
     }
 
     /// The page: the template with this run filled in.
-    pub fn html(&self) -> String {
+    pub fn html(&self) -> Result<String, CliError> {
         let n = self.frames.first().map_or(0, |f| f.x.len() / 3);
         let (lo, hi) = self.bounds();
         let speed_max = self.speed_max();
@@ -210,8 +210,9 @@ impl ViewRun {
             }));
         }
         let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
-        z.write_all(&bin).expect("writing to memory");
-        let compressed = z.finish().expect("writing to memory");
+        let memory = |e: std::io::Error| CliError::Failed(format!("compressing view.html: {e}"));
+        z.write_all(&bin).map_err(memory)?;
+        let compressed = z.finish().map_err(memory)?;
         let data = base64::engine::general_purpose::STANDARD.encode(compressed);
         let meta = Meta {
             summary: &self.summary,
@@ -228,17 +229,15 @@ impl ViewRun {
             colliders: &self.colliders,
         };
         // `</` may not appear inside a script element; `<\/` is the same JSON string.
-        let meta = serde_json::to_string(&meta)
-            .expect("metadata serialises")
-            .replace("</", "<\\/");
-        TEMPLATE
+        let meta = crate::to_json(&meta, false)?.replace("</", "<\\/");
+        Ok(TEMPLATE
             .replacen("{{META}}", &meta, 1)
-            .replacen("{{DATA}}", &data, 1)
+            .replacen("{{DATA}}", &data, 1))
     }
 
     /// Writes the page to `path`.
     pub fn write(&self, path: &Path) -> Result<(), CliError> {
-        std::fs::write(path, self.html())
+        std::fs::write(path, self.html()?)
             .map_err(|e| CliError::Failed(format!("{}: {e}", path.display())))
     }
 }

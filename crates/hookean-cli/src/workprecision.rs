@@ -257,10 +257,9 @@ pub fn run(args: &WorkPrecisionArgs) -> Result<(), CliError> {
     crate::outln!("|---|---|---|---|---|")?;
     // A bar on a terminal: fine sweeps of many methods take a while.
     let bar = indicatif::ProgressBar::new(methods.len() as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {msg} [{elapsed_precise}]")
-            .expect("valid template"),
-    );
+    bar.set_style(crate::bar_style(
+        "{bar:30} {pos}/{len} {msg} [{elapsed_precise}]",
+    ));
     for m in &methods {
         bar.set_message(m.to_string());
         let sweep = if m.is_variable_step() {
@@ -276,7 +275,9 @@ pub fn run(args: &WorkPrecisionArgs) -> Result<(), CliError> {
             .cloned()
             .collect();
         let tail = &finite[finite.len().saturating_sub(4)..];
-        let last = rows.last().expect("at least one level");
+        let Some(last) = rows.last() else {
+            return Err(CliError::Failed(format!("{m}: the sweep produced no rows")));
+        };
         crate::outln!(
             "| {m} | {} | {} | {} | {:.3e} |",
             m.order(),

@@ -2,6 +2,9 @@
 //! frames (positions, optional per-vertex colours, faces) that Blender and
 //! MeshLab open.
 
+// A parser of user files: no panic on any input (tests/fuzz_obj.rs).
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used))]
+
 use std::io::{BufRead, Write};
 use std::path::Path;
 

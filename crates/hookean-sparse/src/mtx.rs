@@ -9,6 +9,9 @@
 //! a file whose matrix would need more memory than [`ReadOptions::max_bytes`]
 //! is refused before anything that large is allocated.
 
+// A parser of user files: no panic on any input (tests/fuzz_mtx.rs).
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used))]
+
 use std::io::{BufRead, Write};
 
 use crate::error::SparseError;

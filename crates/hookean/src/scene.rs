@@ -20,6 +20,9 @@
 //! # Ok::<(), hookean::HookeanError>(())
 //! ```
 
+// A parser of user files: no panic on any input (tests/fuzz_scene.rs).
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used))]
+
 use std::path::Path;
 
 use hookean_filter::{FilterOptions, Form, Kernel};
