@@ -885,6 +885,39 @@ const BENCH_PRECOND: &[Case] = &[
     ),
 ];
 
+const GLOBAL: &[Case] = &[
+    case(
+        "--threads 0",
+        &[],
+        &["--threads", "0", "scene-keys"],
+        2,
+        "threads",
+    ),
+    case(
+        "--threads 10^8",
+        &[],
+        &["--threads", "100000000", "scene-keys"],
+        2,
+        "1024",
+    ),
+    case(
+        "run: a scene asking for 10^8 threads",
+        &[("s.toml", "threads = 100000000\n[cloth]\nn = 4\n")],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "at most 1024 threads",
+    )
+    .absent(&["out"]),
+    case(
+        "scene-keys lists every key",
+        &[],
+        &["scene-keys"],
+        0,
+        "solver.amg.sweeps",
+    ),
+    case("an unknown subcommand", &[], &["simulate"], 2, "simulate"),
+];
+
 const VIEW: &[Case] = &[
     case(
         "view: a folder without a run",
@@ -1042,6 +1075,7 @@ fn every_case_of_the_catalogue_exits_as_promised_and_keeps_the_user_files() {
         FILTER_ANALYSIS,
         BENCH_PRECOND,
         VIEW,
+        GLOBAL,
     ]
     .iter()
     .flat_map(|cases| cases.iter())

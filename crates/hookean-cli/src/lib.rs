@@ -9,6 +9,7 @@
 //! hookean export-system SCENE --at T --out DIR [--force]
 //! hookean filter-analysis SCENE --plot DIR [--n 16] [--t-end 1.0] [--force]
 //! hookean view OUT_DIR [--force]
+//! hookean scene-keys
 //! ```
 //!
 //! Every command takes `--threads N` (default: the scene's `threads` key
@@ -59,7 +60,8 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Simulate a scene file: summary.json, steps.csv, OBJ frames, final.png and view.html in the output folder.
+    /// Simulate a scene file: summary.json, steps.csv, OBJ frames, final.png and view.html in the output folder
+    /// (docs/OUTPUTS.md); `hookean scene-keys` lists the scene keys.
     Run(run::RunArgs),
     /// Solve A x = b from Matrix Market files with PCG (every preconditioner) or sparse Cholesky,
     /// printing one JSON object per line and per solver.
@@ -76,6 +78,8 @@ enum Command {
     View(view::ViewArgs),
     /// Write the linearised implicit-Euler system (A.mtx, b.mtx) of a scene's state at time T.
     ExportSystem(export_system::ExportSystemArgs),
+    /// List every scene key (TOML) with its units and default.
+    SceneKeys,
 }
 
 /// How a command failed.
@@ -136,13 +140,43 @@ impl From<hookean_sparse::SparseError> for CliError {
     }
 }
 
+/// Help and version as clap prints them; a bad argument as every other bad
+/// input: one `hookean: error:` line, exit code 2.
+fn argument_error(e: &clap::Error) -> ExitCode {
+    use clap::error::ErrorKind;
+    match e.kind() {
+        ErrorKind::DisplayHelp
+        | ErrorKind::DisplayVersion
+        | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            let _ = e.print();
+            ExitCode::from(e.exit_code().clamp(0, 255) as u8)
+        }
+        _ => {
+            // The first paragraph of clap's message, on one line.
+            let text = e.to_string();
+            let paragraph: Vec<&str> = text
+                .lines()
+                .map(str::trim)
+                .take_while(|l| !l.is_empty())
+                .collect();
+            let joined = paragraph.join(" ");
+            let message = joined.strip_prefix("error: ").unwrap_or(&joined);
+            eprintln!("hookean: error: {message} (see hookean --help)");
+            ExitCode::from(2)
+        }
+    }
+}
+
 /// The `hookean` command: parses the process's arguments, runs the
 /// subcommand and returns its exit code (0 success, 1 a failed run, 2 bad
 /// input, 141 a closed standard output). The `hookean` binary is this
 /// function; the workspace's catalogue of bad inputs (tests/catalogue.rs)
 /// builds a binary of its own from it.
 pub fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => return argument_error(&e),
+    };
     let threads = cli.threads;
     let result = threads::install(threads, || dispatch(cli.command, threads)).and_then(|r| r);
     match result {
@@ -171,5 +205,6 @@ fn dispatch(command: Command, threads: Option<usize>) -> Result<(), CliError> {
         Command::ExportSystem(args) => export_system::run(&args),
         Command::FilterAnalysis(args) => filter_analysis::run(&args),
         Command::View(args) => view::run(&args),
+        Command::SceneKeys => outln!("{}", hookean::scene::KEYS.trim_end()),
     }
 }

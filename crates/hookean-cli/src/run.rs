@@ -25,7 +25,8 @@ pub struct RunArgs {
     /// Output folder (default: out/<scene name>). It must not exist unless --force.
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Override a scene value: --set cloth.n=32 --set integrator.method=fb-euler.
+    /// Override a scene value: --set cloth.n=32 --set integrator.method=fb-euler
+    /// (`hookean scene-keys` lists every key with its units and default).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     set: Vec<String>,
     /// Replace an existing output folder of an earlier run (once this run succeeds).

@@ -4,12 +4,14 @@
 
 use crate::CliError;
 
-/// Parses `--threads N`: a whole number of at least 1.
+/// Parses `--threads N`: a whole number from 1 to
+/// [`MAX_THREADS`](hookean::scene::MAX_THREADS).
 pub fn parse(s: &str) -> Result<usize, String> {
+    let max = hookean::scene::MAX_THREADS;
     match s.parse::<usize>() {
-        Ok(n) if n >= 1 => Ok(n),
+        Ok(n) if (1..=max).contains(&n) => Ok(n),
         _ => Err(format!(
-            "expected a whole number of threads >= 1, got '{s}'"
+            "expected a whole number of threads from 1 to {max}, got '{s}'"
         )),
     }
 }

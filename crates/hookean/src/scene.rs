@@ -156,6 +156,11 @@ fn mic_omega<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
 /// crossover between the two was not measured more finely.
 pub const AUTO_AMG_PARTICLES: usize = 10_000;
 
+/// Every scene key with its units and default, as `hookean scene-keys`
+/// prints it: generated from the field docs below by
+/// `scripts/scene-keys.py` (a test checks that it names every key).
+pub const KEYS: &str = include_str!("scene_keys.txt");
+
 /// A scene: one model, how to integrate it, for how long, what to write.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -198,8 +203,18 @@ pub struct Scene {
     pub threads: Option<usize>,
 }
 
+/// The most worker threads a scene or `--threads` may ask for (a typo of
+/// 10^8 threads would otherwise spawn until the system refuses).
+pub const MAX_THREADS: usize = 1024;
+
 fn threads<'de, D: Deserializer<'de>>(d: D) -> Result<Option<usize>, D::Error> {
-    at_least_one(d).map(Some)
+    let n = at_least_one(d)?;
+    if n > MAX_THREADS {
+        return Err(D::Error::custom(format!(
+            "at most {MAX_THREADS} threads, got {n}"
+        )));
+    }
+    Ok(Some(n))
 }
 
 fn d_duration() -> f64 {
@@ -1325,6 +1340,49 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `KEYS` (scene_keys.txt) names every field of every scene table, as
+    /// the source declares them: rerun scripts/scene-keys.py after adding one.
+    #[test]
+    fn the_key_listing_names_every_key() {
+        let src = include_str!("scene.rs");
+        let tables = [
+            ("Scene", ""),
+            ("ClothScene", "cloth."),
+            ("RopeScene", "rope."),
+            ("JellyScene", "jelly."),
+            ("TutorialScene", "tutorial."),
+            ("ModelScene", "model."),
+            ("IntegratorScene", "integrator."),
+            ("SolverScene", "solver."),
+            ("AmgScene", "solver.amg."),
+            ("FilterScene", "filter."),
+            ("OutputScene", "output."),
+        ];
+        let mut count = 0;
+        for (name, prefix) in tables {
+            let start = src.find(&format!("pub struct {name} {{")).unwrap();
+            let body = &src[start..start + src[start..].find("\n}").unwrap()];
+            let mut rename = None;
+            for line in body.lines().skip(1).map(str::trim) {
+                if line.starts_with("#[serde(") && line.contains("rename = \"") {
+                    let r = line.split("rename = \"").nth(1).unwrap();
+                    rename = Some(r[..r.find('"').unwrap()].to_string());
+                } else if let Some(field) = line.strip_prefix("pub ") {
+                    let field = rename
+                        .take()
+                        .unwrap_or_else(|| field[..field.find(':').unwrap()].to_string());
+                    let key = format!("  {prefix}{field}\n");
+                    assert!(
+                        KEYS.contains(&key),
+                        "scene_keys.txt lacks {key:?}: run scripts/scene-keys.py"
+                    );
+                    count += 1;
+                }
+            }
+        }
+        assert!(count > 60, "{count} keys");
+    }
 
     #[test]
     fn auto_preconditioner_follows_the_particle_count_and_names_win() {

@@ -1,0 +1,43 @@
+#!/usr/bin/env python3
+"""Writes crates/hookean/src/scene_keys.txt, the listing `hookean scene-keys`
+prints, from the field docs of the scene tables in crates/hookean/src/scene.rs
+(their one owner). Run it after changing a scene key; the test
+`scene::tests::the_key_listing_names_every_key` fails until you do."""
+import re, pathlib, textwrap
+root = pathlib.Path(__file__).resolve().parent.parent
+src = (root / "crates/hookean/src/scene.rs").read_text()
+tables = {"Scene": "", "ClothScene": "cloth", "RopeScene": "rope", "JellyScene": "jelly",
+          "TutorialScene": "tutorial", "ModelScene": "model", "IntegratorScene": "integrator",
+          "SolverScene": "solver", "AmgScene": "solver.amg", "FilterScene": "filter",
+          "OutputScene": "output"}
+auto_amg = re.search(r"AUTO_AMG_PARTICLES: usize = ([0-9_]+);", src).group(1).replace("_", " ")
+lines = ["Scene keys (TOML; `hookean run SCENE --set key=value` overrides one).",
+         "A scene has exactly one model table: [cloth], [rope], [jelly], [particle] or [tutorial].",
+         "[[collider]] tables: kind = \"plane\" (point, normal, margin) or \"sphere\" (center, radius, margin).",
+         "Units are SI (m, kg, s, N/m, N s/m). Generated from crates/hookean/src/scene.rs by scripts/scene-keys.py.",
+         ""]
+for name, table in tables.items():
+    body = re.search(r"pub struct " + name + r" \{(.*?)\n\}", src, re.S).group(1)
+    doc, rename = [], None
+    if table:
+        lines.append(f"[{table}]")
+    for raw in body.split("\n"):
+        l = raw.strip()
+        if l.startswith("///"):
+            doc.append(l[3:].strip())
+        elif l.startswith("#[serde(") and "rename = " in l:
+            rename = re.search(r'rename = "([^"]+)"', l).group(1)
+        elif l.startswith("pub ") and ":" in l:
+            key = (table + "." if table else "") + (rename or l[4:].split(":")[0])
+            rename = None
+            text = " ".join(doc).replace("`", "")
+            text = re.sub(r"\[([^\]]+)\]\([^)]*\)", r"\1", text)
+            text = text.replace("[AUTO_AMG_PARTICLES]", auto_amg)
+            wrapped = textwrap.wrap(text, 78) or [""]
+            lines.append(f"  {key}")
+            lines += ["      " + w for w in wrapped]
+            doc = []
+        elif not l.startswith("#"):
+            doc = []
+    lines.append("")
+(root / "crates/hookean/src/scene_keys.txt").write_text("\n".join(lines))
