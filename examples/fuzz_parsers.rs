@@ -1,12 +1,14 @@
 //! The parsers' long fuzz run (docs/RELIABILITY.md): `N` mutated files
 //! (`hookean_testkit::fuzz`, seeds 0..N) for each of the Matrix Market
-//! reader, the OBJ reader with the mesh builder, and scene files (parsed,
-//! built within 64 MiB, two steps for models of at most 400 particles).
+//! reader, the OBJ reader with the mesh builder and the scene parser, and
+//! `M` (default N / 100) scenes also built within 64 MiB and stepped twice
+//! when they have at most 400 particles (a build and two steps cost
+//! milliseconds, a parse microseconds).
 //! Counts accepted and refused inputs, panics (caught, each one a failure)
 //! and the slowest case; exits 1 on any panic or a case over 10 s.
 //!
 //! ```text
-//! cargo run --release -p hookean-suite --example fuzz_parsers -- 1000000
+//! cargo run --release -p hookean-suite --example fuzz_parsers -- 1000000 [M]
 //! ```
 
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -81,11 +83,13 @@ fn fuzz(name: &str, valid: &[&str], n: u64, parse: impl Fn(&[u8]) -> bool) -> Ta
 }
 
 fn main() -> ExitCode {
-    let n: u64 = match std::env::args().nth(1).map(|a| a.parse()) {
-        None => 1_000_000,
-        Some(Ok(n)) => n,
-        Some(Err(_)) => {
-            eprintln!("usage: fuzz_parsers [CASES_PER_PARSER]");
+    let arg = |i: usize| std::env::args().nth(i).map(|a| a.parse::<u64>());
+    let (n, m) = match (arg(1), arg(2)) {
+        (None, None) => (1_000_000, 10_000),
+        (Some(Ok(n)), None) => (n, n / 100),
+        (Some(Ok(n)), Some(Ok(m))) => (n, m),
+        _ => {
+            eprintln!("usage: fuzz_parsers [CASES_PER_PARSER [SCENES_BUILT]]");
             return ExitCode::from(2);
         }
     };
@@ -106,7 +110,10 @@ fn main() -> ExitCode {
         fuzz("OBJ + mesh builder", OBJ, n, |b| {
             parse_obj(b).is_ok_and(|mesh| from_mesh(&mesh, &MeshParams::default()).is_ok())
         }),
-        fuzz("scene TOML + build + 2 steps", SCENES, n, |b| {
+        fuzz("scene TOML (parse)", SCENES, n, |b| {
+            std::str::from_utf8(b).is_ok_and(|text| Scene::from_toml_str("s.toml", text).is_ok())
+        }),
+        fuzz("scene TOML + build + 2 steps", SCENES, m, |b| {
             let Ok(text) = std::str::from_utf8(b) else {
                 return false;
             };
