@@ -35,8 +35,9 @@ pub struct SimulationOptions {
 
 impl SimulationOptions {
     /// The solver settings of the reference drape: `h = 0.01`; Newton
-    /// starts from the current velocity and stops at `|G| <= 0.1 |G_0|` (at
-    /// most 8 iterations); inexact Newton with a constant forcing term
+    /// starts from the current velocity and stops at `|G| <= 0.1 |G_0|` or
+    /// when `|G|` is below 1e-8 m/s times the mean mass (at most 8
+    /// iterations); inexact Newton with a constant forcing term
     /// `eta = 0.01` (PCG stops at `|r| <= 0.01 |G|`); PCG with MIC(0)
     /// (`omega = 0.99`), warm-started from the previous step's velocity
     /// change.
@@ -63,7 +64,11 @@ impl SimulationOptions {
                 method: NewtonMethod::Inexact(ForcingTerm::Constant(0.01)),
                 max_iter: 8,
                 rtol: 0.1,
-                atol: 1e-12,
+                // A velocity (m/s; the integrator multiplies it by the mean
+                // mass): it ends Newton at round-off once the model is at
+                // rest, where `rtol` relative to a round-off `|G_0|`
+                // cannot be met.
+                atol: 1e-8,
                 linear_rtol: 0.1,
                 linear_max_iter: Some(500),
                 preconditioner: PrecondKind::Mic0 {
