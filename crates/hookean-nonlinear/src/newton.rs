@@ -3,7 +3,7 @@
 //! Algorithm 3 (inexact simplified Newton, section 3.3).
 
 use hookean_sparse::vecops::norm2;
-use hookean_sparse::{AmgOptions, PrecondKind};
+use hookean_sparse::{AmgOptions, NegativeCurvature, PrecondKind};
 
 use crate::error::{DivergenceReason, NonlinearError, check_len, invalid};
 use crate::linear::LinearSolver;
@@ -157,6 +157,13 @@ pub struct NewtonOptions {
     /// (including what every `setup` of a new Jacobian does: refill, keep,
     /// rebuild). Default [`AmgOptions::default`].
     pub amg: AmgOptions,
+    /// What a [`PcgSolver`](crate::PcgSolver) does on a direction of
+    /// non-positive curvature: fail the solve (the Newton iteration stops,
+    /// default), or truncate it and take the iterate so far as the Newton
+    /// correction ([`NegativeCurvature::Truncate`], Newton-CG), which lets
+    /// Newton use an exact Jacobian that is indefinite away from the
+    /// solution (compressed springs: `model.clamp_stiffness = false`).
+    pub negative_curvature: NegativeCurvature,
 }
 
 impl Default for NewtonOptions {
@@ -176,6 +183,7 @@ impl Default for NewtonOptions {
             linear_max_iter: None,
             preconditioner: PrecondKind::BlockJacobi,
             amg: AmgOptions::default(),
+            negative_curvature: NegativeCurvature::Error,
         }
     }
 }
@@ -280,6 +288,14 @@ pub struct NewtonStats {
     pub jacobian_reused: bool,
     /// Restarts from `Y_0` with a fresh Jacobian after a failure with a kept one.
     pub restarts: usize,
+    /// Linear solves truncated on a direction of non-positive curvature
+    /// ([`NewtonOptions::negative_curvature`]) whose iterate so far was
+    /// taken as the correction (the system had no positive definite
+    /// Jacobian to fall back on), with a backtracking line search on `|G|`.
+    pub truncated_solves: usize,
+    /// Iterations that met negative curvature and solved with the system's
+    /// [`definite_jacobian`](crate::NonlinearSystem::definite_jacobian) instead.
+    pub definite_fallbacks: usize,
 }
 
 impl NewtonStats {
@@ -616,14 +632,34 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
                 *r = -g;
             }
             self.s.fill(0.0);
-            let lin = self
+            let mut lin = self
                 .linear
                 .solve(&self.jacobian, &self.rhs, &mut self.s, eta)?;
+            if lin.truncated && system.definite_jacobian(y, &mut self.jacobian)? {
+                // Negative curvature in the exact Jacobian: this iteration
+                // solves with the system's positive definite modification
+                // (the next one evaluates the exact Jacobian again).
+                stats.linear_iterations += lin.iterations;
+                stats.definite_fallbacks += 1;
+                stats.jacobian_evaluations += 1;
+                self.linear.setup(&self.jacobian)?;
+                stats.linear_setups += 1;
+                self.s.fill(0.0);
+                lin = self
+                    .linear
+                    .solve(&self.jacobian, &self.rhs, &mut self.s, eta)?;
+                if !matches!(opts.method, NewtonMethod::Exact | NewtonMethod::Inexact(_)) {
+                    // A kept Jacobian must be the exact one.
+                    self.evaluate_jacobian(system, y, stats, false)?;
+                }
+            }
             stats.linear_iterations += lin.iterations;
             if !direct {
                 stats.forcing_terms.push(eta);
             }
-            if !lin.converged {
+            if lin.truncated {
+                stats.truncated_solves += 1;
+            } else if !lin.converged {
                 return Err(Stop::LinearNotConverged {
                     iterations: lin.iterations,
                     tolerance: eta,
@@ -639,13 +675,6 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
             }
             stats.iterations += 1;
             stats.step_norms.push(snorm);
-            let theta = match snorm_prev {
-                Some(p) if p > 0.0 => Some(snorm / p),
-                _ => None,
-            };
-            if theta.is_some() {
-                stats.contraction_rate = theta;
-            }
 
             gnorm_prev = gnorm;
             linres_prev = if direct { 0.0 } else { lin.residual_norm };
@@ -654,6 +683,34 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
             system.residual(y, &mut self.g)?;
             stats.residual_evaluations += 1;
             gnorm = norm2(&self.g);
+            // A truncated solve's correction is a descent direction of the
+            // local quadratic model, not a Newton step: backtrack (halve it)
+            // until the residual decreases (Armijo on |G|).
+            let mut lambda = 1.0;
+            if lin.truncated {
+                while !(gnorm <= (1.0 - 1e-4 * lambda) * gnorm_prev) && lambda > 1.0 / 64.0 {
+                    lambda *= 0.5;
+                    for (yi, si) in y.iter_mut().zip(&self.s) {
+                        *yi -= lambda * si;
+                    }
+                    system.residual(y, &mut self.g)?;
+                    stats.residual_evaluations += 1;
+                    gnorm = norm2(&self.g);
+                }
+                if lambda < 1.0
+                    && let Some(last) = stats.step_norms.last_mut()
+                {
+                    *last *= lambda;
+                }
+            }
+            let snorm = lambda * snorm;
+            let theta = match snorm_prev {
+                Some(p) if p > 0.0 => Some(snorm / p),
+                _ => None,
+            };
+            if theta.is_some() {
+                stats.contraction_rate = theta;
+            }
             stats.residual_norms.push(gnorm);
             if !gnorm.is_finite() {
                 return Err(Stop::NonFinite);

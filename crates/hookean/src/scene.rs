@@ -31,7 +31,7 @@ use hookean_massspring::{
     SpringMaterial,
 };
 use hookean_ode::{ForcingTerm, Method, NewtonMethod, SolverOptions, StepControl};
-use hookean_sparse::{AmgOptions, AmgReuse, AmgSmoother, PrecondKind};
+use hookean_sparse::{AmgOptions, AmgReuse, AmgSmoother, NegativeCurvature, PrecondKind};
 use serde::Deserialize;
 use serde::de::{Deserializer, Error as _};
 
@@ -434,7 +434,9 @@ pub struct ModelScene {
     pub gravity: [f64; 3],
     /// Clamp compressed springs' stiffness blocks (`max(0, 1 - l0/l)`) so the
     /// step's matrix is SPD. Default `true`; `false` gives Newton the exact
-    /// stiffness Jacobian, which may be indefinite (PCG may then fail).
+    /// stiffness Jacobian, which may be indefinite where springs are
+    /// compressed: PCG then stops at a direction of negative curvature and
+    /// Newton takes the iterate so far (truncated CG, Newton-CG).
     #[serde(default = "d_true")]
     pub clamp_stiffness: bool,
 }
@@ -1134,6 +1136,13 @@ impl Scene {
         solver.warm_start = s.warm_start;
         solver.newton.preconditioner = self.preconditioner();
         solver.newton.amg = s.amg.as_ref().map(AmgScene::options).unwrap_or_default();
+        // The exact stiffness Jacobian may be indefinite where springs are
+        // compressed: PCG then truncates (Newton-CG) instead of failing.
+        solver.newton.negative_curvature = if self.model.clamp_stiffness {
+            NegativeCurvature::Error
+        } else {
+            NegativeCurvature::Truncate
+        };
         SimulationOptions {
             method: self.integrator.method.clone(),
             solver,
