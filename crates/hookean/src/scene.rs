@@ -1213,8 +1213,41 @@ impl Scene {
     /// solver need, in bytes, and the key that sets the size: about
     /// 1 KiB per particle (state, forces, solver vectors) and 0.5 KiB per
     /// spring (its Jacobian blocks in `df/dx`, `df/dv`, the system matrix
-    /// and its preconditioner). `None` for a size that overflows 64 bits.
+    /// and its preconditioner), plus, with a `[filter]`, 32 bytes per
+    /// neighbour of every particle's `rings`-ring neighbourhood (at most
+    /// `(2 rings + 1)^d` particles on a `d`-dimensional lattice, and never
+    /// more than the model has; the key is then `filter.rings` if the
+    /// neighbourhoods are the larger part). `None` for a size that
+    /// overflows 64 bits.
     pub fn memory_estimate(&self) -> (Option<u64>, &'static str) {
+        let (bytes, key) = self.model_memory_estimate();
+        let Some(filter) = &self.filter else {
+            return (bytes, key);
+        };
+        const PER_NEIGHBOUR: u64 = 32;
+        let dimension = if self.cloth.is_some() {
+            2
+        } else if self.jelly.is_some() {
+            3
+        } else {
+            1
+        };
+        let (particles, _) = self.particle_count();
+        let neighbours = particles.and_then(|p| {
+            let side = (filter.rings as u64).checked_mul(2)?.checked_add(1)?;
+            let ring = side.checked_pow(dimension).unwrap_or(u64::MAX).min(p);
+            p.checked_mul(ring)?.checked_mul(PER_NEIGHBOUR)
+        });
+        match (bytes, neighbours) {
+            (Some(b), Some(f)) if f > b => (b.checked_add(f), "filter.rings"),
+            (Some(b), Some(f)) => (b.checked_add(f), key),
+            (Some(_), None) => (None, "filter.rings"),
+            (None, _) => (None, key),
+        }
+    }
+
+    /// [`memory_estimate`](Self::memory_estimate) without the filter.
+    fn model_memory_estimate(&self) -> (Option<u64>, &'static str) {
         const PER_PARTICLE: u64 = 1 << 10;
         const PER_SPRING: u64 = 1 << 9;
         // Springs per particle: cloth 6 (structural, shear, bend), rope 2,
