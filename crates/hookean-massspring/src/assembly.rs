@@ -1154,31 +1154,6 @@ impl SecondOrderProblem for MassSpringModel {
         );
     }
 
-    /// The Jacobians with the stiffness clamped (`max(0, 1 - l0/l)`, see
-    /// [`ModelOptions::clamp_stiffness`](crate::ModelOptions::clamp_stiffness)),
-    /// whatever the model's own setting: `-df/dx` is then positive
-    /// semi-definite.
-    fn definite_force_jacobians(
-        &self,
-        _t: f64,
-        x: &[f64],
-        v: &[f64],
-        dfdx: &mut SymBlockMatrix,
-        dfdv: &mut SymBlockMatrix,
-    ) -> bool {
-        self.assemble_jacobians(
-            x,
-            v,
-            dfdx,
-            Some(dfdv),
-            AssemblyMode {
-                clamp: true,
-                damping_in_dfdx: self.options.damping_in_dfdx,
-            },
-        );
-        true
-    }
-
     /// The tutorial's eq. 50 (see [`MassSpringModel::assemble_linearized`]).
     fn linearized_jacobians(&self, dfdx: &mut SymBlockMatrix, dfdv: &mut SymBlockMatrix) -> bool {
         self.assemble_linearized(dfdx, dfdv);

@@ -160,9 +160,11 @@ pub struct NewtonOptions {
     /// What a [`PcgSolver`](crate::PcgSolver) does on a direction of
     /// non-positive curvature: fail the solve (the Newton iteration stops,
     /// default), or truncate it and take the iterate so far as the Newton
-    /// correction ([`NegativeCurvature::Truncate`], Newton-CG), which lets
-    /// Newton use an exact Jacobian that is indefinite away from the
-    /// solution (compressed springs: `model.clamp_stiffness = false`).
+    /// correction, shortened by a backtracking line search until `|G|`
+    /// falls ([`NegativeCurvature::Truncate`], Newton-CG), which lets Newton
+    /// use an exact Jacobian that is indefinite (compressed springs:
+    /// `model.clamp_stiffness = false`). The preconditioner must stay
+    /// positive definite (MIC(0)'s shift keeps it so).
     pub negative_curvature: NegativeCurvature,
 }
 
@@ -290,12 +292,8 @@ pub struct NewtonStats {
     pub restarts: usize,
     /// Linear solves truncated on a direction of non-positive curvature
     /// ([`NewtonOptions::negative_curvature`]) whose iterate so far was
-    /// taken as the correction (the system had no positive definite
-    /// Jacobian to fall back on), with a backtracking line search on `|G|`.
+    /// taken as the correction, with a backtracking line search on `|G|`.
     pub truncated_solves: usize,
-    /// Iterations that met negative curvature and solved with the system's
-    /// [`definite_jacobian`](crate::NonlinearSystem::definite_jacobian) instead.
-    pub definite_fallbacks: usize,
 }
 
 impl NewtonStats {
@@ -632,27 +630,9 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
                 *r = -g;
             }
             self.s.fill(0.0);
-            let mut lin = self
+            let lin = self
                 .linear
                 .solve(&self.jacobian, &self.rhs, &mut self.s, eta)?;
-            if lin.truncated && system.definite_jacobian(y, &mut self.jacobian)? {
-                // Negative curvature in the exact Jacobian: this iteration
-                // solves with the system's positive definite modification
-                // (the next one evaluates the exact Jacobian again).
-                stats.linear_iterations += lin.iterations;
-                stats.definite_fallbacks += 1;
-                stats.jacobian_evaluations += 1;
-                self.linear.setup(&self.jacobian)?;
-                stats.linear_setups += 1;
-                self.s.fill(0.0);
-                lin = self
-                    .linear
-                    .solve(&self.jacobian, &self.rhs, &mut self.s, eta)?;
-                if !matches!(opts.method, NewtonMethod::Exact | NewtonMethod::Inexact(_)) {
-                    // A kept Jacobian must be the exact one.
-                    self.evaluate_jacobian(system, y, stats, false)?;
-                }
-            }
             stats.linear_iterations += lin.iterations;
             if !direct {
                 stats.forcing_terms.push(eta);

@@ -55,25 +55,6 @@ pub trait NonlinearSystem {
         let _ = (y, jac);
         Ok(false)
     }
-
-    /// Refills `jac` with a positive definite modification of the Jacobian
-    /// at `y` and returns `true`, or returns `false` (the default) if the
-    /// system has none. Newton solves with it instead when a truncating
-    /// iterative solver met negative curvature in the exact Jacobian
-    /// ([`NewtonOptions::negative_curvature`](crate::NewtonOptions::negative_curvature));
-    /// for cloth it is the Jacobian with the compressed springs' stiffness
-    /// clamped, the linearly implicit step of Baraff and Witkin.
-    ///
-    /// # Errors
-    /// As [`jacobian`](Self::jacobian).
-    fn definite_jacobian(
-        &mut self,
-        y: &[f64],
-        jac: &mut Self::Jacobian,
-    ) -> Result<bool, NonlinearError> {
-        let _ = (y, jac);
-        Ok(false)
-    }
 }
 
 impl<S: NonlinearSystem + ?Sized> NonlinearSystem for &mut S {
@@ -93,12 +74,5 @@ impl<S: NonlinearSystem + ?Sized> NonlinearSystem for &mut S {
         jac: &mut Self::Jacobian,
     ) -> Result<bool, NonlinearError> {
         (**self).approximate_jacobian(y, jac)
-    }
-    fn definite_jacobian(
-        &mut self,
-        y: &[f64],
-        jac: &mut Self::Jacobian,
-    ) -> Result<bool, NonlinearError> {
-        (**self).definite_jacobian(y, jac)
     }
 }

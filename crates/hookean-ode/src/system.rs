@@ -515,22 +515,6 @@ impl<P: SecondOrderProblem> NonlinearSystem for ReducedStage<'_, P> {
         self.assemble(a)
     }
 
-    fn definite_jacobian(
-        &mut self,
-        v: &[f64],
-        a: &mut SymBlockMatrix,
-    ) -> Result<bool, NonlinearError> {
-        self.positions(v);
-        if !self
-            .problem
-            .definite_force_jacobians(self.tau, self.x, v, self.dfdx, self.dfdv)
-        {
-            return Ok(false);
-        }
-        self.assemble(a)?;
-        Ok(true)
-    }
-
     fn approximate_jacobian(
         &mut self,
         _v: &[f64],

@@ -99,23 +99,6 @@ pub trait SecondOrderProblem {
         dfdv: &mut SymBlockMatrix,
     );
 
-    /// `df/dx` and `df/dv` at `(t, x, v)` with the parts that can make the
-    /// step matrix `M - h df/dv - h^2 df/dx` indefinite removed (for a mass-
-    /// spring model: the compressed springs' transverse stiffness clamped to
-    /// zero), for a Newton iteration whose exact Jacobian met negative
-    /// curvature: writes them and returns `true`, or returns `false` (the
-    /// default) if the problem has no such form. Never allocates.
-    fn definite_force_jacobians(
-        &self,
-        _t: f64,
-        _x: &[f64],
-        _v: &[f64],
-        _dfdx: &mut SymBlockMatrix,
-        _dfdv: &mut SymBlockMatrix,
-    ) -> bool {
-        false
-    }
-
     /// The tutorial's constant linearised Jacobians (eq. 50), for simplified
     /// Newton: writes them and returns `true`, or returns `false` if the
     /// model has none. They change only when the material changes.

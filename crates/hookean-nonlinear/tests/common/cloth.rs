@@ -134,28 +134,6 @@ impl NonlinearSystem for ClothStep {
         self.combine(jac)
     }
 
-    /// The clamped Jacobian (SPD), for a Newton iteration that met
-    /// negative curvature in the unclamped one.
-    fn definite_jacobian(
-        &mut self,
-        dv: &[f64],
-        jac: &mut SymBlockMatrix,
-    ) -> Result<bool, NonlinearError> {
-        self.state(dv);
-        self.dfdx.set_zero();
-        self.dfdv.set_zero();
-        add_spring_jacobians(
-            &self.springs,
-            self.d,
-            &self.xt,
-            true,
-            &mut self.dfdx,
-            &mut self.dfdv,
-        );
-        self.combine(jac)?;
-        Ok(true)
-    }
-
     fn approximate_jacobian(
         &mut self,
         _dv: &[f64],
