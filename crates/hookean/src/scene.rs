@@ -613,7 +613,7 @@ pub struct AmgScene {
     /// Power-method steps of the spectral radius estimates (0: Gershgorin). Default 5.
     #[serde(default = "d_amg_power")]
     pub power_iterations: usize,
-    /// Power steps at a refill (0: keep the last estimates). Default 3.
+    /// Power steps at a refill (0: keep the last estimates). Default 0.
     #[serde(default = "d_amg_refill_power")]
     pub refill_power_iterations: usize,
     /// A refill keeps the prolongators. Default false.
