@@ -257,8 +257,22 @@ fn invert_diagonal<const B: usize>(
     dinv: &mut [Blk<B>],
     level: usize,
 ) -> Result<(), SparseError> {
-    for (i, (&d, inv)) in diag.iter().zip(dinv.iter_mut()).enumerate() {
-        *inv = spd_inverse(&a.val[d]).ok_or_else(|| {
+    // Rows split across threads; a failure is reported for the first row
+    // that fails (searched again serially, so the error does not depend on
+    // the schedule).
+    let failed = std::sync::atomic::AtomicBool::new(false);
+    par::rows(
+        dinv,
+        &|i, inv: &mut Blk<B>| match spd_inverse(&a.val[diag[i]]) {
+            Some(m) => *inv = m,
+            None => failed.store(true, std::sync::atomic::Ordering::Relaxed),
+        },
+    );
+    if !failed.into_inner() {
+        return Ok(());
+    }
+    for (i, &d) in diag.iter().enumerate() {
+        spd_inverse(&a.val[d]).ok_or_else(|| {
             let determinant = determinant(&a.val[d]);
             let scale = frobenius2(&a.val[d]).sqrt().powi(B as i32);
             if level == 0 && determinant.abs() <= 1e-14 * scale {
@@ -715,11 +729,21 @@ fn smooth_prolongator<const B: usize>(
     refill: bool,
     work: &mut Work,
 ) -> Result<(), SparseError> {
-    // A_F: strong blocks copied, weak ones lumped onto the diagonal.
-    for i in 0..a.nrows {
+    // A_F: strong blocks copied, weak ones lumped onto the diagonal (rows
+    // split across threads).
+    let (af_src, af_diag, strong) = (&tr.af_src, &tr.af_diag, &tr.strong);
+    let af_ptr = &tr.af.row_ptr;
+    par::row_slices(af_ptr, &mut tr.af.val, &|i, vals: &mut [Blk<B>]| {
+        let row = af_ptr[i];
+        for (slot, v) in (row..).zip(vals.iter_mut()) {
+            let s = af_src[slot];
+            if s != u32::MAX {
+                *v = a.val[s as usize];
+            }
+        }
         let mut d = a.val[diag[i]];
         for k in a.row(i) {
-            if k != diag[i] && !tr.strong[k] {
+            if k != diag[i] && !strong[k] {
                 for r in 0..B {
                     for c in 0..B {
                         d[r][c] += a.val[k][r][c];
@@ -727,19 +751,15 @@ fn smooth_prolongator<const B: usize>(
                 }
             }
         }
-        tr.af.val[tr.af_diag[i]] = d;
-    }
-    for (v, &s) in tr.af.val.iter_mut().zip(&tr.af_src) {
-        if s != u32::MAX {
-            *v = a.val[s as usize];
-        }
-    }
+        vals[af_diag[i] - row] = d;
+    });
     // D_F^-1; where lumping made a diagonal block indefinite (a matrix that
     // is not an M-matrix, e.g. a scalar elasticity operator with positive
     // off-diagonal entries), D^-1 of A instead: any SPD scaling smooths T.
-    for ((inv, &d), dinv) in tr.df_inv.iter_mut().zip(&tr.af_diag).zip(a_dinv) {
-        *inv = spd_inverse(&tr.af.val[d]).unwrap_or(*dinv);
-    }
+    let af = &tr.af;
+    par::rows(&mut tr.df_inv, &|i, inv: &mut Blk<B>| {
+        *inv = spd_inverse(&af.val[af_diag[i]]).unwrap_or(a_dinv[i]);
+    });
     if let Some(iterations) = iterations {
         let rho = spectral_radius(
             &tr.af,
@@ -753,27 +773,29 @@ fn smooth_prolongator<const B: usize>(
     }
     // P = T - omega D_F^-1 (A_F T).
     product_values(&tr.af, &tr.t, &mut tr.p);
-    for i in 0..a.nrows {
-        let dinv = &tr.df_inv[i];
-        for k in tr.p.row(i) {
+    let (df_inv, t, t_in_p, omega) = (&tr.df_inv, &tr.t, &tr.t_in_p, tr.omega);
+    let p_ptr = &tr.p.row_ptr;
+    par::row_slices(p_ptr, &mut tr.p.val, &|i, vals: &mut [Blk<B>]| {
+        let dinv = &df_inv[i];
+        for v in vals.iter_mut() {
             let mut m = zero::<B>();
-            mul_mat_add(dinv, &tr.p.val[k], &mut m);
+            mul_mat_add(dinv, v, &mut m);
             for row in m.iter_mut() {
-                for v in row.iter_mut() {
-                    *v *= -tr.omega;
+                for x in row.iter_mut() {
+                    *x *= -omega;
                 }
             }
-            tr.p.val[k] = m;
+            *v = m;
         }
-        if let Some(k) = tr.t.row(i).next() {
-            let s = tr.t_in_p[i];
+        if let Some(k) = t.row(i).next() {
+            let s = t_in_p[i] - p_ptr[i];
             for r in 0..B {
                 for c in 0..B {
-                    tr.p.val[s][r][c] += tr.t.val[k][r][c];
+                    vals[s][r][c] += t.val[k][r][c];
                 }
             }
         }
-    }
+    });
     tr.p.fill_transpose(&mut tr.r, &tr.r_map);
     Ok(())
 }

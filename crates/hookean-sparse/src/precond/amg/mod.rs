@@ -597,17 +597,32 @@ fn fill_from_blocks(
     src: &SymBlockMatrix,
 ) -> Result<(), SparseError> {
     let v = src.values();
-    for (k, (dst, &(s, t))) in a.val.iter_mut().zip(map).enumerate() {
-        let b = &v[s as usize];
-        if b.iter().flatten().any(|x| !x.is_finite()) {
-            return Err(SparseError::NonFinite {
-                what: "matrix",
-                index: Some(k),
-            });
+    // Rows split across threads; a non-finite entry is reported by its
+    // first slot (searched again serially, independent of the schedule).
+    let non_finite = std::sync::atomic::AtomicBool::new(false);
+    let row_ptr = &a.row_ptr;
+    par::row_slices(row_ptr, &mut a.val, &|i, row: &mut [Blk<3>]| {
+        for (dst, &(s, t)) in row.iter_mut().zip(&map[row_ptr[i]..row_ptr[i + 1]]) {
+            let b = &v[s as usize];
+            if b.iter().flatten().any(|x| !x.is_finite()) {
+                non_finite.store(true, std::sync::atomic::Ordering::Relaxed);
+            }
+            *dst = if t { transpose(b) } else { *b };
         }
-        *dst = if t { transpose(b) } else { *b };
+    });
+    if !non_finite.into_inner() {
+        return Ok(());
     }
-    Ok(())
+    match map
+        .iter()
+        .position(|&(s, _)| v[s as usize].iter().flatten().any(|x| !x.is_finite()))
+    {
+        Some(k) => Err(SparseError::NonFinite {
+            what: "matrix",
+            index: Some(k),
+        }),
+        None => Ok(()),
+    }
 }
 
 impl PreconditionerSetup<SymBlockMatrix> for Amg {
