@@ -6,7 +6,7 @@ use std::sync::Mutex;
 use super::aggregate::{NO_AGGREGATE, aggregate, strong_connections, tentative_prolongator};
 use super::bsr::{
     Blk, Bsr, determinant, frobenius2, mul_add, mul_mat_add, mul_vec, product_pattern,
-    product_values, spd_inverse, zero,
+    product_values, product_values_symmetric, spd_inverse, zero,
 };
 use super::ic0::BlockIc0;
 use super::par;
@@ -49,6 +49,9 @@ struct Transfer<const B: usize> {
     r_map: Vec<u32>,
     /// `A P`, the intermediate of the Galerkin product `R (A P)`.
     ap: Bsr<B>,
+    /// For every slot of the next level's operator `R (A P)` (structurally
+    /// symmetric), the slot of its transposed block.
+    galerkin_mirror: Vec<u32>,
     /// `omega = prolongation_weight / rho(D_F^-1 A_F)`.
     omega: f64,
     /// The power method's eigenvector estimate of `D_F^-1 A_F`.
@@ -348,7 +351,17 @@ impl<const B: usize> Hierarchy<B> {
                 Some((t, ns)) => (Some(t), Some(ns)),
                 None => (None, None),
             };
-            let mut next = transfer.as_ref().map(|t| product_pattern(&t.r, &t.ap));
+            let mut transfer = transfer;
+            let mut next = transfer.as_mut().map(|t| {
+                let c = product_pattern(&t.r, &t.ap);
+                let (ct, mirror) = c.transpose_pattern();
+                debug_assert!(
+                    ct.row_ptr == c.row_ptr && ct.col == c.col,
+                    "R A P is symmetric"
+                );
+                t.galerkin_mirror = mirror;
+                c
+            });
             let mut w = Work::new(B * n, next.as_ref().map_or(0, |c| B * c.nrows));
             let mut level = Level {
                 dinv: vec![zero::<B>(); n],
@@ -451,6 +464,7 @@ impl<const B: usize> Hierarchy<B> {
                 r,
                 r_map,
                 ap,
+                galerkin_mirror: Vec::new(),
                 omega: 0.0,
                 eigenvector: vec![0.0; B * n],
             },
@@ -713,7 +727,7 @@ fn compute_level<const B: usize>(
         )?;
     }
     product_values(&level.a, &tr.p, &mut tr.ap);
-    product_values(&tr.r, &tr.ap, next);
+    product_values_symmetric(&tr.r, &tr.ap, next, &tr.galerkin_mirror);
     Ok(())
 }
 
