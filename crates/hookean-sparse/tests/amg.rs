@@ -121,7 +121,7 @@ fn filtered_pcg_with_amg_honours_constraints_in_few_iterations() {
 /// Every kernel of the set-up, the refill and the V-cycle writes only its
 /// own rows with the same sequential arithmetic whatever the split: on a
 /// cloth of 72 x 72 particles (5 184 block rows, more than one rayon task's
-/// 4 096) one thread and two threads give the same bits.
+/// 1 024) one thread and two threads give the same bits.
 #[test]
 fn amg_gives_the_same_bits_for_one_and_two_threads() {
     let (mut a, b) = cloth_system(&ClothSystemParams {
