@@ -6,7 +6,7 @@
 # physics check (the 64^2 frame at t = 1 s and the final energy against the
 # baseline's).
 #
-# usage: scripts/drape-ab.sh [ROUNDS] [BASELINE] [OUTDIR]
+# usage: [BASE_BIN=... HEAD_BIN=...] scripts/drape-ab.sh [ROUNDS] [BASELINE] [OUTDIR]
 #
 # Each round runs, in this order, for 64^2 x 5 s and 128^2 x 1 s: the
 # baseline (its own scenes/drape.toml), this checkout with --threads 1, and
@@ -21,15 +21,21 @@ OUT="${3:-target/drape-ab}"
 mkdir -p "$OUT"
 
 # Builds: the baseline in a worktree of its own (target/drape-ab-base), this
-# checkout in its usual target directory.
-if [ ! -d target/drape-ab-base ]; then
-    git worktree add --detach target/drape-ab-base "$BASE"
+# checkout in its usual target directory. BASE_BIN and HEAD_BIN, when set,
+# name binaries already built (the baseline's scene is then read from git).
+if [ -z "${BASE_BIN:-}" ]; then
+    if [ ! -d target/drape-ab-base ]; then
+        git worktree add --detach target/drape-ab-base "$BASE"
+    fi
+    (cd target/drape-ab-base && git checkout --quiet --detach "$BASE" && cargo build --release --locked -p hookean-cli --quiet)
+    BASE_BIN=target/drape-ab-base/target/release/hookean
 fi
-(cd target/drape-ab-base && git checkout --quiet --detach "$BASE" && cargo build --release --locked -p hookean-cli --quiet)
-cargo build --release --locked -p hookean-cli --quiet
-BASE_BIN=target/drape-ab-base/target/release/hookean
-HEAD_BIN=target/release/hookean
-BASE_SCENE=target/drape-ab-base/scenes/drape.toml
+if [ -z "${HEAD_BIN:-}" ]; then
+    cargo build --release --locked -p hookean-cli --quiet
+    HEAD_BIN=target/release/hookean
+fi
+BASE_SCENE="$OUT/base-drape.toml"
+git show "$BASE:scenes/drape.toml" > "$BASE_SCENE"
 
 run() { # label bin scene threads-args n duration frame-rate
     local label=$1 bin=$2 scene=$3 threads=$4 n=$5 t=$6 fr=$7
