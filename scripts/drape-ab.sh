@@ -46,7 +46,7 @@ run() { # label bin scene threads-args n duration frame-rate
     # shellcheck disable=SC2086
     $bin $threads run "$scene" --set cloth.n="$n" --set duration="$t" \
         --set output.frame_rate="$fr" --set output.width=1 --set output.height=1 \
-        --out "$dir" --quiet > /dev/null
+        --out "$dir" --quiet > "$dir.log" 2>&1
     end=$(date +%s.%N)
     python3 - "$dir/summary.json" "$label" "$n" "$t" "$start" "$end" <<'EOF'
 import json, sys
