@@ -93,7 +93,8 @@ pub mod workprecision;
 
 pub use bdf::BdfCoefficients;
 pub use bdf_solver::{
-    BdfOptions, BdfSolver, BdfStats, Direction, EventHit, Events, Formula, Solution, Tolerance,
+    BdfOptions, BdfSolver, BdfStats, Direction, EventHit, Events, Formula, Solution,
+    TOLERANCE_EXPONENT, Tolerance,
 };
 pub use control::{
     IterationController, IterationControllerOptions, NewtonOutcome, PiController,

@@ -21,15 +21,14 @@ fn solve<P: TestProblem + Clone>(p: &P, rtol: f64) -> Result<(f64, BdfStats), Od
     Ok((mixed_error(s.y(), &p.reference(), &p.floor()), stats))
 }
 
-fn check_problem<P: TestProblem + Clone>(p: &P) {
+/// The achieved error follows rtol: at most `10 rtol` (issue 17's bar),
+/// plus the accuracy of the problem's reference in the mixed error measure.
+fn check_problem<P: TestProblem + Clone>(p: &P, reference_accuracy: f64) {
     let mut errors = Vec::new();
     for rtol in [1e-4, 1e-6, 1e-8] {
         let (err, st) = solve(p, rtol).unwrap_or_else(|e| panic!("{} at {rtol:e}: {e}", p.name()));
-        // The achieved error follows rtol (the table of docs/PERFORMANCE.md
-        // has the exact factors; the NDF's global error grows like
-        // rtol^(k/(k+1)) with the number of steps: up to ~40x measured).
         assert!(
-            err <= 200.0 * rtol,
+            err <= 10.0 * rtol + reference_accuracy,
             "{}: error {err:e} at rtol {rtol:e}",
             p.name()
         );
@@ -47,9 +46,9 @@ fn check_problem<P: TestProblem + Clone>(p: &P) {
         errors.push(err);
     }
     // A tighter tolerance buys accuracy (by how much depends on how far the
-    // error at 1e-4 already is below the tolerance: E5's is 25x below).
+    // error at 1e-4 already is below the tolerance: E5's is 100x below).
     assert!(
-        errors[2] < errors[1] && errors[1] < errors[0],
+        errors[2] < errors[1].max(reference_accuracy) && errors[1] < errors[0],
         "{}: {errors:?}",
         p.name()
     );
@@ -57,34 +56,59 @@ fn check_problem<P: TestProblem + Clone>(p: &P) {
 
 #[test]
 fn robertson_to_40_and_to_1e5() {
-    check_problem(&Robertson { t_end: 40.0 });
-    check_problem(&Robertson { t_end: 1e5 });
+    check_problem(&Robertson { t_end: 40.0 }, 0.0);
+    check_problem(&Robertson { t_end: 1e5 }, 0.0);
 }
 
 #[test]
 fn van_der_pol_mu_1000() {
-    check_problem(&VanDerPol);
+    check_problem(&VanDerPol, 0.0);
+}
+
+#[test]
+fn a_jacobian_from_a_fast_transient_is_not_kept_for_much_longer_steps() {
+    // Without the refresh on a 100-fold growth of c = h / alpha_k, this run
+    // (plain error-per-step tolerances) kept the Jacobian of Van der Pol's
+    // jump at t = 1.614 (h ~ 1e-7) for steps up to 0.13 after it: the
+    // simplified Newton took tiny updates that passed its test without
+    // solving the corrector (y2 stayed at -2/3 instead of following
+    // y1 / (1 - y1^2)), and the run ended 3800 rtol off.
+    let p = VanDerPol;
+    let rtol = 10f64.powf(-4.5);
+    let opts = BdfOptions {
+        tolerance_exponent: 1.0,
+        ..testset::options(&p, rtol)
+    };
+    let mut s = BdfSolver::new(p, 0.0, &p.y0(), opts).unwrap();
+    s.solve_to(p.t_end()).unwrap();
+    let err = mixed_error(s.y(), &p.reference(), &p.floor());
+    assert!(err < 20.0 * rtol, "error {err:e}");
 }
 
 #[test]
 fn hires() {
-    check_problem(&Hires);
+    check_problem(&Hires, 0.0);
 }
 
 #[test]
 fn orego() {
-    check_problem(&Orego);
+    check_problem(&Orego, 0.0);
 }
 
 #[test]
 fn e5() {
-    check_problem(&E5);
+    // E5's reference is good to about 1.3e-25 (1.3e-7 of its floor 1e-18):
+    // y2 - y3 - y4 is conserved (f2 - f3 - f4 = 0) and 0 at t = 0, yet the
+    // published y2 - y3 is 1.28e-25 with y4 = 0.
+    let r = E5.reference();
+    assert!((r[1] - r[2] - r[3] - 1.284e-25).abs() < 1e-28);
+    check_problem(&E5, 1.3e-7);
 }
 
 #[test]
 fn spring_chain_dense_and_sparse() {
-    check_problem(&SpringChain::new(false));
-    check_problem(&SpringChain::new(true));
+    check_problem(&SpringChain::new(false), 0.0);
+    check_problem(&SpringChain::new(true), 0.0);
     // The two linear solvers solve the same systems: the same steps.
     let (e_dense, s_dense) = solve(&SpringChain::new(false), 1e-6).unwrap();
     let (e_sparse, s_sparse) = solve(&SpringChain::new(true), 1e-6).unwrap();
@@ -383,6 +407,10 @@ fn bad_input_is_refused() {
     }));
     assert!(bad(BdfOptions {
         max_order: 6,
+        ..BdfOptions::default()
+    }));
+    assert!(bad(BdfOptions {
+        tolerance_exponent: 0.9,
         ..BdfOptions::default()
     }));
     assert!(BdfSolver::new(Decay, 0.0, &[f64::NAN], BdfOptions::default()).is_err());
