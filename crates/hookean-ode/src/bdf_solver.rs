@@ -47,6 +47,12 @@
 //! factorisation was made with `c_old != c`, the Newton update is scaled by
 //! `2 / (1 + c / c_old)` (CVODE's correction for a stale `gamma`).
 //!
+//! **Linear solvers** ([`BdfOptions::linear_solver`]): faer's dense LU,
+//! faer's sparse LU on the pattern the problem gives, or matrix-free GMRES
+//! ([`BdfLinearSolver::Gmres`]) with products `J v` by difference quotients
+//! of `f` and, on the problem's sparse pattern, a hookean-sparse
+//! preconditioner of `I - c J` kept as the LU would be.
+//!
 //! **Order and step size.** After `k + 1` steps of equal size, the errors of
 //! orders `k - 1`, `k`, `k + 1` are estimated from `D_k`, `d` and
 //! `d - D_{k+1}`; the order with the largest admissible step is taken
@@ -89,8 +95,10 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::lu::partial_pivoting::factor::lu_in_place;
 use hookean_nonlinear::{LinearSolver, NonlinearError, SparseLu};
 use hookean_problem::FirstOrderProblem;
+use hookean_sparse::{AnyPreconditioner, PrecondKind, Preconditioner, PreconditionerSetup};
 
 use crate::error::OdeError;
+use crate::krylov::Gmres;
 use crate::system::{diagonal_positions, forward_difference_jacobian};
 
 /// The highest order of the solver.
@@ -136,6 +144,48 @@ const JACOBIAN_C_GROWTH: f64 = 100.0;
 
 /// A rate beyond which the Newton iteration counts as diverging.
 const MAX_RATE: f64 = 1.0;
+
+/// The linear solver of the Newton systems `(I - c J) x = r`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum BdfLinearSolver {
+    /// LU factors kept across steps: faer's dense LU, or faer's sparse LU
+    /// on the problem's pattern when it gives one
+    /// ([`FirstOrderProblem::sparse_jacobian_pattern`]). The default.
+    #[default]
+    Direct,
+    /// Matrix-free GMRES(`krylov_dim`) ([Saad-Schultz 1986]): each product
+    /// `J v` is one evaluation of `f`, `(f(y + s v) - f(y)) / s` with
+    /// `s = 1 / ||v||` (CVODE's difference-quotient `jtimes`); right
+    /// preconditioned by a hookean-sparse preconditioner set up on the
+    /// sparse `I - c J` when it is kept (the problem must give its sparse
+    /// pattern and values unless `preconditioner` is
+    /// [`PrecondKind::None`]); run on the system scaled by the error
+    /// weights and stopped at 0.05 of the Newton tolerance (CVODE's
+    /// `eplifac`). Newton then uses the current `J` in every product (an
+    /// inexact Newton rather than the simplified one).
+    Gmres {
+        /// Krylov dimension per cycle (CVODE's `maxl`, 5 there).
+        krylov_dim: usize,
+        /// Restarts after the first cycle (CVODE's `maxrs`, 0 there).
+        restarts: usize,
+        /// The preconditioner, set up on `I - c J`.
+        preconditioner: PrecondKind,
+    },
+}
+
+impl BdfLinearSolver {
+    /// GMRES with Krylov dimension 10, two restarts and `preconditioner`.
+    pub fn gmres(preconditioner: PrecondKind) -> Self {
+        BdfLinearSolver::Gmres {
+            krylov_dim: 10,
+            restarts: 2,
+            preconditioner,
+        }
+    }
+}
+
+/// GMRES stops at this fraction of the Newton tolerance (CVODE's `eplifac`).
+const KRYLOV_TOL_FACTOR: f64 = 0.05;
 
 /// The absolute tolerance: one value for every component or one per component.
 #[derive(Debug, Clone, PartialEq)]
@@ -222,6 +272,8 @@ pub struct BdfOptions {
     /// docs/PERFORMANCE.md); 1 gives the plain error-per-step
     /// control of SciPy and CVODE.
     pub tolerance_exponent: f64,
+    /// The linear solver of the Newton systems. Default [`BdfLinearSolver::Direct`].
+    pub linear_solver: BdfLinearSolver,
 }
 
 impl Default for BdfOptions {
@@ -243,6 +295,7 @@ impl Default for BdfOptions {
             steps_per_jacobian: None,
             max_growth: crate::options::DEFAULT_MAX_GROWTH,
             tolerance_exponent: TOLERANCE_EXPONENT,
+            linear_solver: BdfLinearSolver::Direct,
         }
     }
 }
@@ -274,6 +327,16 @@ pub struct BdfStats {
     pub last_order: usize,
     /// The size of the last step (`CVodeGetLastStep`).
     pub last_step: f64,
+    /// Krylov iterations of [`BdfLinearSolver::Gmres`] (`CVodeGetNumLinIters`).
+    pub num_lin_iters: usize,
+    /// GMRES solves that stopped short of their tolerance (`CVodeGetNumLinConvFails`).
+    pub num_lin_conv_fails: usize,
+    /// Jacobian-vector products by difference quotients (`CVodeGetNumJtimesEvals`).
+    pub num_jtimes_evals: usize,
+    /// Preconditioner set-ups (`CVodeGetNumPrecEvals`).
+    pub num_prec_evals: usize,
+    /// Preconditioner applications (`CVodeGetNumPrecSolves`).
+    pub num_prec_solves: usize,
 }
 
 /// The fixed coefficients of order `k = 0..=5`: `gamma_k`, `alpha_k` and the
@@ -338,6 +401,23 @@ enum Matrices {
         mem: MemBuffer,
     },
     Sparse(Box<SparseMatrices>),
+    Krylov(Box<KrylovMatrices>),
+}
+
+/// The GMRES branch of [`Matrices`]: the workspace, and for a
+/// preconditioner the sparse `J`, `I - c J` and the preconditioner itself.
+struct KrylovMatrices {
+    gmres: Gmres,
+    restarts: usize,
+    /// `(J, I - c J, positions of the diagonal)`; `None` without a preconditioner.
+    sparse: Option<(sprs::CsMat<f64>, sprs::CsMat<f64>, Vec<usize>)>,
+    precond: AnyPreconditioner,
+    /// The scaled right-hand side and solution, and the scratch of a product.
+    b: Vec<f64>,
+    x: Vec<f64>,
+    y_pert: Vec<f64>,
+    f_pert: Vec<f64>,
+    unscaled: Vec<f64>,
 }
 
 /// The sparse branch of [`Matrices`].
@@ -346,6 +426,132 @@ struct SparseMatrices {
     m: sprs::CsMat<f64>,
     diag: Vec<usize>,
     lu: SparseLu,
+}
+
+/// The Newton system `(I - c J(t, y)) x = r` of a GMRES solve, with `f = f(t, y)`
+/// and the error weights `w`.
+struct KrylovSystem<'a, P> {
+    problem: &'a P,
+    y: &'a [f64],
+    f: &'a [f64],
+    w: &'a [f64],
+    t: f64,
+    c: f64,
+}
+
+impl<P: FirstOrderProblem> KrylovSystem<'_, P> {
+    /// Solves for `x` by GMRES on the system scaled by the weights
+    /// (`S (I - c J) S^-1 (S x) = S r`, `S = diag(1 / w)`), so that its
+    /// 2-norm is `sqrt(n)` times the weighted RMS norm of Newton's test.
+    fn solve(
+        &self,
+        kr: &mut KrylovMatrices,
+        r: &[f64],
+        x: &mut [f64],
+        newton_tol: f64,
+        stats: &mut BdfStats,
+    ) {
+        let n = r.len();
+        let KrylovMatrices {
+            gmres,
+            restarts,
+            sparse,
+            precond,
+            b,
+            x: xs,
+            y_pert,
+            f_pert,
+            unscaled,
+        } = kr;
+        for ((bi, ri), wi) in b.iter_mut().zip(r).zip(self.w) {
+            *bi = ri / wi;
+        }
+        let tol = KRYLOV_TOL_FACTOR * newton_tol * (n as f64).sqrt();
+        let preconditioned = sparse.is_some();
+        let mut products = 0;
+        let apply_a = |u: &[f64], out: &mut [f64]| {
+            // out = S (I - c J) S^-1 u, J v by a difference quotient with
+            // the step s = 1 / ||v|| (one weight unit along v = S^-1 u).
+            let norm = (u.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
+            if norm == 0.0 {
+                out.fill(0.0);
+                return;
+            }
+            let sigma = 1.0 / norm;
+            for (((yp, yi), ui), wi) in y_pert.iter_mut().zip(self.y).zip(u).zip(self.w) {
+                *yp = yi + sigma * wi * ui;
+            }
+            self.problem.rhs(self.t, y_pert, f_pert);
+            products += 1;
+            for ((((o, ui), fp), fi), wi) in
+                out.iter_mut().zip(u).zip(&*f_pert).zip(self.f).zip(self.w)
+            {
+                *o = ui - self.c * (fp - fi) / (sigma * wi);
+            }
+        };
+        let apply_pinv = |u: &[f64], out: &mut [f64]| {
+            if preconditioned {
+                for ((z, ui), wi) in unscaled.iter_mut().zip(u).zip(self.w) {
+                    *z = ui * wi;
+                }
+                precond.apply(unscaled, out);
+                for (o, wi) in out.iter_mut().zip(self.w) {
+                    *o /= wi;
+                }
+            } else {
+                out.copy_from_slice(u);
+            }
+        };
+        let outcome = gmres.solve(b, xs, tol, *restarts, apply_a, apply_pinv);
+        for ((xi, si), wi) in x.iter_mut().zip(&*xs).zip(self.w) {
+            *xi = si * wi;
+        }
+        stats.num_lin_iters += outcome.iterations;
+        stats.num_jtimes_evals += products;
+        stats.num_lin_rhs_evals += products;
+        if preconditioned {
+            stats.num_prec_solves += outcome.preconditioner_solves;
+        }
+        if !outcome.converged {
+            stats.num_lin_conv_fails += 1;
+        }
+    }
+}
+
+/// Refills the sparse Jacobian `jac` (of `nnz` entries) at `(t, y)`;
+/// `Ok(false)` if it is not finite.
+fn sparse_jacobian<P: FirstOrderProblem>(
+    problem: &P,
+    t: f64,
+    y: &[f64],
+    jac: &mut sprs::CsMat<f64>,
+    nnz: usize,
+) -> Result<bool, OdeError> {
+    if !problem.jacobian_sparse(t, y, jac) {
+        return Err(invalid(
+            "jacobian_sparse",
+            t,
+            "the problem gave a sparse Jacobian pattern but no values",
+        ));
+    }
+    if jac.nnz() != nnz {
+        return Err(OdeError::DimensionMismatch {
+            what: "sparse Jacobian entries (jacobian_sparse changed the pattern)",
+            expected: nnz,
+            found: jac.nnz(),
+        });
+    }
+    Ok(jac.data().iter().all(|v| v.is_finite()))
+}
+
+/// `m = I - c jac` on the pattern of `jac` (`diag`: positions of the diagonal).
+fn fill_newton_matrix(jac: &sprs::CsMat<f64>, m: &mut sprs::CsMat<f64>, diag: &[usize], c: f64) {
+    for (dst, src) in m.data_mut().iter_mut().zip(jac.data()) {
+        *dst = -c * src;
+    }
+    for &k in diag {
+        m.data_mut()[k] += 1.0;
+    }
 }
 
 /// Solves `A x = b` with faer's partial-pivoting factors `P A = L U` held in
@@ -597,6 +803,11 @@ impl BdfOptions {
                 "must be in [1, 2]",
             ));
         }
+        if let BdfLinearSolver::Gmres { krylov_dim, .. } = self.linear_solver
+            && krylov_dim == 0
+        {
+            return Err(invalid("krylov_dim", 0.0, "must be at least 1"));
+        }
         if !(self.max_growth > 1.0) {
             return Err(invalid("max_growth", self.max_growth, "must exceed 1"));
         }
@@ -646,8 +857,42 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
                 t: t0,
             });
         }
-        let mats = match problem.sparse_jacobian_pattern() {
-            None => {
+        let mats = match (opts.linear_solver, problem.sparse_jacobian_pattern()) {
+            (
+                BdfLinearSolver::Gmres {
+                    krylov_dim,
+                    restarts,
+                    preconditioner,
+                },
+                pattern,
+            ) => {
+                let sparse = match (preconditioner, pattern) {
+                    (PrecondKind::None, _) => None,
+                    (_, None) => {
+                        return Err(invalid(
+                            "linear_solver",
+                            f64::NAN,
+                            "a GMRES preconditioner needs the problem's sparse Jacobian pattern",
+                        ));
+                    }
+                    (_, Some(pattern)) => {
+                        let diag = diagonal_positions(&pattern, n)?;
+                        Some((pattern.clone(), pattern, diag))
+                    }
+                };
+                Matrices::Krylov(Box::new(KrylovMatrices {
+                    gmres: Gmres::new(n, krylov_dim),
+                    restarts,
+                    sparse,
+                    precond: AnyPreconditioner::new(preconditioner)?,
+                    b: vec![0.0; n],
+                    x: vec![0.0; n],
+                    y_pert: vec![0.0; n],
+                    f_pert: vec![0.0; n],
+                    unscaled: vec![0.0; n],
+                }))
+            }
+            (BdfLinearSolver::Direct, None) => {
                 let par = faer::Par::Seq;
                 let req = faer::linalg::lu::partial_pivoting::factor::lu_in_place_scratch::<
                     usize,
@@ -661,7 +906,7 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
                     mem: MemBuffer::new(req),
                 }
             }
-            Some(pattern) => {
+            (BdfLinearSolver::Direct, Some(pattern)) => {
                 let diag = diagonal_positions(&pattern, n)?;
                 Matrices::Sparse(Box::new(SparseMatrices {
                     m: pattern.clone(),
@@ -854,6 +1099,15 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
     /// finite (a recoverable failure: the step is retried smaller, and the
     /// next attempt evaluates the Jacobian again).
     fn eval_jacobian(&mut self, t: f64) -> Result<bool, OdeError> {
+        if let Matrices::Krylov(kr) = &self.mats
+            && kr.sparse.is_none()
+        {
+            // Matrix-free and unpreconditioned: no Jacobian to keep.
+            self.jac_age = 0;
+            self.jac_evaluated = true;
+            self.jac_current = true;
+            return Ok(true);
+        }
         self.stats.num_jac_evals += 1;
         let n = self.n;
         match &mut self.mats {
@@ -884,21 +1138,15 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
             }
             Matrices::Sparse(sp) => {
                 let SparseMatrices { jac, m, .. } = &mut **sp;
-                if !self.problem.jacobian_sparse(t, &self.y_pred, jac) {
-                    return Err(invalid(
-                        "jacobian_sparse",
-                        t,
-                        "the problem gave a sparse Jacobian pattern but no values",
-                    ));
+                if !sparse_jacobian(&self.problem, t, &self.y_pred, jac, m.nnz())? {
+                    self.jac_evaluated = false;
+                    return Ok(false);
                 }
-                if jac.nnz() != m.nnz() {
-                    return Err(OdeError::DimensionMismatch {
-                        what: "sparse Jacobian entries (jacobian_sparse changed the pattern)",
-                        expected: m.nnz(),
-                        found: jac.nnz(),
-                    });
-                }
-                if jac.data().iter().any(|v| !v.is_finite()) {
+            }
+            Matrices::Krylov(kr) => {
+                if let Some((jac, m, _)) = &mut kr.sparse
+                    && !sparse_jacobian(&self.problem, t, &self.y_pred, jac, m.nnz())?
+                {
                     self.jac_evaluated = false;
                     return Ok(false);
                 }
@@ -957,13 +1205,29 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
             }
             Matrices::Sparse(sp) => {
                 let SparseMatrices { jac, m, diag, lu } = &mut **sp;
-                for (dst, src) in m.data_mut().iter_mut().zip(jac.data()) {
-                    *dst = -c * src;
-                }
-                for &k in diag.iter() {
-                    m.data_mut()[k] += 1.0;
-                }
+                fill_newton_matrix(jac, m, diag, c);
                 lu.setup(m)
+            }
+            Matrices::Krylov(kr) => {
+                let KrylovMatrices {
+                    sparse, precond, ..
+                } = &mut **kr;
+                match sparse {
+                    Some((jac, m, diag)) => {
+                        fill_newton_matrix(jac, m, diag, c);
+                        self.stats.num_prec_evals += 1;
+                        // A preconditioner that cannot be set up (e.g. a
+                        // non-positive pivot of IC(0)) fails the attempt:
+                        // the step is retried smaller, as for a singular LU.
+                        precond
+                            .setup(&*m)
+                            .map_err(|_| NonlinearError::SingularJacobian {
+                                pivot: 0,
+                                value: 0.0,
+                            })
+                    }
+                    None => Ok(()),
+                }
             }
         };
         match result {
@@ -981,14 +1245,35 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
         }
     }
 
-    /// Solves `M x = rhs` into `dy` with the kept LU.
-    fn solve_linear(&mut self) -> Result<(), OdeError> {
+    /// Solves `M x = rhs` into `dy`: with the kept LU, or by GMRES on
+    /// `I - c J(t, y_new)` (products by difference quotients around
+    /// `(y_new, f)`, the current Newton iterate and its `f`).
+    fn solve_linear(&mut self, t: f64, c: f64) -> Result<(), OdeError> {
+        if let Matrices::Krylov(kr) = &mut self.mats {
+            let x = KrylovSystem {
+                problem: &self.problem,
+                y: &self.y_new,
+                f: &self.f,
+                w: &self.w,
+                t,
+                c,
+            };
+            x.solve(
+                kr,
+                &self.rhs,
+                &mut self.dy,
+                self.newton_tol,
+                &mut self.stats,
+            );
+            return Ok(());
+        }
         let result = match &mut self.mats {
             Matrices::Dense { lu, perm, .. } => {
                 lu_solve(lu, perm, &self.rhs, &mut self.dy);
                 Ok(Default::default())
             }
             Matrices::Sparse(sp) => sp.lu.solve(&sp.m, &self.rhs, &mut self.dy, 0.0),
+            Matrices::Krylov(_) => unreachable!("handled above"),
         };
         match result {
             Ok(_) | Err(NonlinearError::SingularJacobian { .. }) => Ok(()),
@@ -1008,7 +1293,7 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
         let tol = self.newton_tol;
         // CVODE's correction for an LU made with another c.
         let gamrat = c / self.lu_c;
-        let scale = if gamrat != 1.0 {
+        let scale = if gamrat != 1.0 && !matches!(self.mats, Matrices::Krylov(_)) {
             2.0 / (1.0 + gamrat)
         } else {
             1.0
@@ -1026,7 +1311,7 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
             for i in 0..self.n {
                 self.rhs[i] = c * self.f[i] - self.psi[i] - self.dcor[i];
             }
-            self.solve_linear()?;
+            self.solve_linear(t_new, c)?;
             if scale != 1.0 {
                 for v in &mut self.dy {
                     *v *= scale;
@@ -1693,7 +1978,7 @@ mod tests {
         assert!(perm.iter().enumerate().any(|(i, &p)| i != p), "pivoting");
         let b = [1.0, -2.0, 0.5, 3.0, -1.5];
         s.rhs.copy_from_slice(&b);
-        s.solve_linear().unwrap();
+        s.solve_linear(0.0, c).unwrap();
         for i in 0..5 {
             let mx: f64 = (0..5)
                 .map(|j| (if i == j { 1.0 } else { 0.0 } - c * A5[i][j]) * s.dy[j])

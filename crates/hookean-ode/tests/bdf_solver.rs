@@ -6,8 +6,9 @@ use hookean_ode::testset::{
     self, E5, Hires, Orego, Robertson, SpringChain, TestProblem, VanDerPol, mixed_error,
 };
 use hookean_ode::{
-    BdfCoefficients, BdfOptions, BdfSolver, BdfStats, Direction, Events, FirstOrderIntegrator,
-    FirstOrderProblem, Method, OdeError, SolverOptions, Tolerance,
+    BdfCoefficients, BdfLinearSolver, BdfOptions, BdfSolver, BdfStats, Direction, Events,
+    FirstOrderIntegrator, FirstOrderProblem, Method, OdeError, PrecondKind, SolverOptions,
+    Tolerance,
 };
 use num_complex::Complex64;
 
@@ -471,4 +472,87 @@ fn a_blown_up_fixed_step_bdf4_run_is_an_error() {
         Err(OdeError::StateGrowth { norm, bound, .. }) => assert!(norm > bound && bound == 1e30),
         other => panic!("BDF4 with h = {unstable} should blow up: {other:?}"),
     }
+}
+
+/// Solves `p` at `rtol` with `linear_solver`; the mixed error and the statistics.
+fn solve_with<P: TestProblem + Clone>(
+    p: &P,
+    rtol: f64,
+    linear_solver: BdfLinearSolver,
+) -> (f64, BdfStats) {
+    let opts = BdfOptions {
+        linear_solver,
+        ..testset::options(p, rtol)
+    };
+    let mut s = BdfSolver::new(p.clone(), 0.0, &p.y0(), opts).unwrap();
+    let st = s
+        .solve_to(p.t_end())
+        .unwrap_or_else(|e| panic!("{}: {e}", p.name()));
+    (mixed_error(s.y(), &p.reference(), &p.floor()), st)
+}
+
+#[test]
+fn matrix_free_gmres_solves_the_stiff_problems_without_a_jacobian() {
+    let rtol = 1e-6;
+    let gmres = BdfLinearSolver::gmres(PrecondKind::None);
+    for (err, st) in [
+        solve_with(&Robertson { t_end: 40.0 }, rtol, gmres),
+        solve_with(&VanDerPol, rtol, gmres),
+        solve_with(&Hires, rtol, gmres),
+    ] {
+        // As accurate as with the LU (the same bar), with no Jacobian at
+        // all: every product J v is one difference quotient of f.
+        assert!(err <= 10.0 * rtol, "{err:e} {st:?}");
+        assert_eq!(st.num_jac_evals, 0);
+        assert!(st.num_lin_iters > 0 && st.num_jtimes_evals == st.num_lin_iters);
+        assert_eq!(st.num_lin_rhs_evals, st.num_jtimes_evals);
+        assert_eq!(st.num_prec_evals + st.num_prec_solves, 0);
+    }
+}
+
+#[test]
+fn preconditioned_gmres_on_the_sparse_chain() {
+    let rtol = 1e-6;
+    let chain = SpringChain::new(true);
+    let (_, plain) = solve_with(&chain, rtol, BdfLinearSolver::gmres(PrecondKind::None));
+    for kind in [PrecondKind::Jacobi, PrecondKind::Ssor { omega: 1.0 }] {
+        let (err, st) = solve_with(&chain, rtol, BdfLinearSolver::gmres(kind));
+        assert!(err <= 10.0 * rtol, "{kind:?}: {err:e}");
+        // One preconditioner set-up per kept Newton matrix, from the
+        // problem's sparse Jacobian; at least one application per
+        // Krylov iteration that ran.
+        assert_eq!(st.num_prec_evals, st.num_lin_solv_setups, "{kind:?}");
+        assert!(st.num_jac_evals > 0 && st.num_prec_solves >= st.num_lin_iters);
+        assert_eq!(st.num_lin_conv_fails, 0, "{kind:?}");
+        if let PrecondKind::Ssor { .. } = kind {
+            // SSOR (of the lower and diagonal part) cuts the Krylov
+            // iterations per Newton iteration of the unpreconditioned run.
+            let per = |s: &BdfStats| s.num_lin_iters as f64 / s.num_nonlin_solv_iters as f64;
+            assert!(per(&st) < per(&plain), "{} vs {}", per(&st), per(&plain));
+        }
+    }
+}
+
+#[test]
+fn a_gmres_preconditioner_needs_a_sparse_pattern() {
+    let opts = BdfOptions {
+        linear_solver: BdfLinearSolver::gmres(PrecondKind::Jacobi),
+        ..BdfOptions::default()
+    };
+    assert!(matches!(
+        BdfSolver::new(Decay, 0.0, &[1.0], opts),
+        Err(OdeError::InvalidParameter {
+            name: "linear_solver",
+            ..
+        })
+    ));
+    let opts = BdfOptions {
+        linear_solver: BdfLinearSolver::Gmres {
+            krylov_dim: 0,
+            restarts: 0,
+            preconditioner: PrecondKind::None,
+        },
+        ..BdfOptions::default()
+    };
+    assert!(BdfSolver::new(Decay, 0.0, &[1.0], opts).is_err());
 }
