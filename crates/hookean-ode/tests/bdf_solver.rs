@@ -556,3 +556,59 @@ fn a_gmres_preconditioner_needs_a_sparse_pattern() {
     };
     assert!(BdfSolver::new(Decay, 0.0, &[1.0], opts).is_err());
 }
+
+/// `y' = lambda y`, `y(0) = 1`, with its Jacobian.
+#[derive(Clone)]
+struct Exponential(f64);
+impl FirstOrderProblem for Exponential {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) {
+        dy[0] = self.0 * y[0];
+    }
+    fn jacobian(&self, _t: f64, _y: &[f64], j: &mut [f64]) -> bool {
+        j[0] = self.0;
+        true
+    }
+}
+
+#[test]
+fn the_automatic_initial_step_follows_the_time_scale() {
+    // Hairer-Wanner's estimate uses only ||y0||, ||f0|| and a difference
+    // quotient of f: for y' = lambda y every term scales with 1 / |lambda|,
+    // so a problem 100 times faster starts with a step 100 times shorter,
+    // and the step is accepted as it is.
+    let first_step = |lambda: f64| {
+        let mut s =
+            BdfSolver::new(Exponential(lambda), 0.0, &[1.0], BdfOptions::default()).unwrap();
+        s.step(1e3).unwrap();
+        assert_eq!(s.stats().num_err_test_fails, 0);
+        assert_eq!(s.stats().num_nonlin_solv_conv_fails, 0);
+        s.stats().last_step
+    };
+    let (slow, fast) = (first_step(-10.0), first_step(-1000.0));
+    assert!(
+        (slow / fast / 100.0 - 1.0).abs() < 1e-12,
+        "{slow:e} {fast:e}"
+    );
+    // Far below the time scale, above round-off.
+    assert!(slow < 1e-2 / 10.0 && slow > 1e-10, "{slow:e}");
+}
+
+#[test]
+fn no_step_exceeds_h_max() {
+    let opts = BdfOptions {
+        h_max: 0.01,
+        ..BdfOptions::default()
+    };
+    let mut s = BdfSolver::new(Decay, 0.0, &[1.0], opts).unwrap();
+    let mut largest = 0.0f64;
+    while s.t() < 2.0 {
+        s.step(2.0).unwrap();
+        largest = largest.max(s.stats().last_step);
+    }
+    assert!(largest <= 0.01 * (1.0 + 1e-12), "{largest}");
+    assert!(s.stats().num_steps >= 200);
+    assert!((s.y()[0] - (-2.0f64).exp()).abs() < 1e-5);
+}
