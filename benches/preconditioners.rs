@@ -308,25 +308,25 @@ fn bandwidth() {
         let (a, b) = system(n, 1e4);
         let mut y = vec![0.0; b.len()];
         let bytes = spmv_bytes(&a);
-        let t = best_of(50, || a.apply(black_box(&b), &mut y));
-        println!(
-            "| SpMV, N = {n} | {:.1} | {:.1} ({:.3} ms) |",
-            bytes / (1 << 20) as f64,
-            bytes / t / 1e9,
-            t * 1e3
+        let row = |what: &str, bytes: f64, t: f64| {
+            println!(
+                "| {what}, N = {n} | {:.1} | {:.1} ({:.3} ms) |",
+                bytes / (1 << 20) as f64,
+                bytes / t / 1e9,
+                t * 1e3
+            );
+        };
+        row(
+            "SpMV",
+            bytes,
+            best_of(50, || a.apply(black_box(&b), &mut y)),
         );
         let mut mic = AnyPreconditioner::new(PrecondKind::Mic0 { omega: 0.99 }).unwrap();
         mic.setup(&a).unwrap();
         // Forward and backward sweeps each stream the factor (the matrix's
         // layout) and read r or write z.
-        let bytes = 2.0 * spmv_bytes(&a);
         let t = best_of(50, || mic.apply(black_box(&b), &mut y));
-        println!(
-            "| MIC(0) apply, N = {n} | {:.1} | {:.1} ({:.3} ms) |",
-            bytes / (1 << 20) as f64,
-            bytes / t / 1e9,
-            t * 1e3
-        );
+        row("MIC(0) apply", 2.0 * bytes, t);
     }
 }
 
