@@ -10,7 +10,7 @@ use hookean_nonlinear::{
     DenseLu, Newton, NewtonOptions, NewtonStats, NonlinearError, NonlinearSystem, PcgSolver,
     SparseLu,
 };
-use hookean_sparse::{AnyPreconditioner, Constraints, SymBlockMatrix};
+use hookean_sparse::{AnyPreconditioner, Constraints, SparseError, SymBlockMatrix};
 
 use crate::error::OdeError;
 use crate::options::{SolverOptions, Stats};
@@ -69,6 +69,40 @@ pub(crate) trait System {
         acc: &mut [f64],
         stats: &mut Stats,
     ) -> bool;
+    /// One step of the IMEX scheme ([`crate::imex`]) on the state `s`
+    /// (second-order systems with a linear part only; the integrator
+    /// checks that at construction).
+    fn imex_step(
+        &mut self,
+        t: f64,
+        h: f64,
+        s: &mut [f64],
+        stats: &mut Stats,
+    ) -> Result<StageInfo, StageFailure>;
+}
+
+/// The failure of an IMEX step as a stage failure (a linear-solver failure:
+/// the step is retried with substeps).
+fn imex_failure(e: crate::imex::ImexFailure) -> StageFailure {
+    use crate::imex::ImexFailure;
+    match e {
+        ImexFailure::Sparse(e) => StageFailure::Linear(NonlinearError::Linear(e)),
+        ImexFailure::NotConverged {
+            iterations,
+            relative_residual,
+        } => StageFailure::Linear(NonlinearError::LinearNotConverged {
+            iterations,
+            tolerance: 1e-10,
+            relative_residual,
+            stats: Box::default(),
+        }),
+        ImexFailure::NoLinearPart => {
+            StageFailure::Other(NonlinearError::Linear(SparseError::InvalidParameter {
+                name: "method",
+                message: "imex needs the problem's linear part (eq. 50)".into(),
+            }))
+        }
+    }
 }
 
 /// Books a Newton run (successful or not) into the counters and maps the result.
@@ -377,6 +411,17 @@ impl<P: FirstOrderProblem> System for FirstSys<P> {
         false
     }
 
+    fn imex_step(
+        &mut self,
+        _t: f64,
+        _h: f64,
+        _s: &mut [f64],
+        _stats: &mut Stats,
+    ) -> Result<StageInfo, StageFailure> {
+        // Core::new refuses second-order-only methods on first-order problems.
+        Err(imex_failure(crate::imex::ImexFailure::NoLinearPart))
+    }
+
     fn solve_stage(
         &mut self,
         tau: f64,
@@ -552,6 +597,8 @@ pub(crate) struct SecondSys<P> {
     user_newton: NewtonOptions,
     /// The mean particle mass.
     mean_mass: f64,
+    /// The IMEX scheme's matrices and factor (built at its first step).
+    imex: Option<Box<crate::imex::Imex>>,
 }
 
 /// The velocity form's residual `M (V - psi_v) - gh f` is a momentum: its
@@ -596,6 +643,7 @@ impl<P: SecondOrderProblem> SecondSys<P> {
             xs: vec![0.0; n],
             last_delta: vec![0.0; n],
             last_delta_gh: f64::NAN,
+            imex: None,
             problem,
         })
     }
@@ -656,6 +704,36 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
             self.constraints.project(acc);
         }
         true
+    }
+
+    fn imex_step(
+        &mut self,
+        t: f64,
+        h: f64,
+        s: &mut [f64],
+        stats: &mut Stats,
+    ) -> Result<StageInfo, StageFailure> {
+        use crate::imex::{Imex, ImexFailure};
+        if self.imex.is_none() {
+            let imex = Imex::new(&self.problem).ok_or(ImexFailure::NoLinearPart);
+            self.imex = Some(Box::new(imex.map_err(imex_failure)?));
+        }
+        let Some(imex) = self.imex.as_mut() else {
+            return Err(imex_failure(ImexFailure::NoLinearPart));
+        };
+        let (x, v) = s.split_at_mut(self.n);
+        imex.step(
+            &self.problem,
+            &self.constraints,
+            t,
+            h,
+            x,
+            v,
+            &mut self.force,
+            stats,
+        )
+        .map_err(imex_failure)?;
+        Ok(StageInfo::default())
     }
 
     fn solve_stage(
