@@ -198,6 +198,8 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
         // their velocity.
         self.filter
             .pin_fully_constrained(self.inner.constraints())?;
+        // Time-dependent weights (if asked for): the distances of x_{n+1}.
+        self.filter.update_distances(self.inner.x())?;
         let coupling = self.coupling;
         let h = match coupling {
             FilterCoupling::VelocityOnly => 0.0,

@@ -919,6 +919,23 @@ pub struct FilterScene {
     /// velocities are replaced and the positions moved by the change).
     #[serde(default)]
     pub coupling: CouplingScene,
+    /// The distances of the weights: `"rest"` (default: path lengths of the
+    /// rest state, weights computed once) or `"current"` (the particles'
+    /// distances after each step, the paper's time-dependent weights;
+    /// slower, docs/perf/filter.md).
+    #[serde(default)]
+    pub distances: DistancesScene,
+}
+
+/// `filter.distances`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DistancesScene {
+    /// Rest lengths, weights computed once.
+    #[default]
+    Rest,
+    /// Current distances, weights recomputed every step.
+    Current,
 }
 
 /// How the filtered velocities go back into the step
@@ -1257,6 +1274,7 @@ impl Scene {
                     FormScene::Plain => Form::Plain,
                 },
                 rings: f.rings,
+                current_distances: f.distances == DistancesScene::Current,
             }),
             filter_coupling: match self.filter.as_ref().map(|f| f.coupling) {
                 Some(CouplingScene::Velocity) => FilterCoupling::VelocityOnly,
