@@ -5,7 +5,7 @@
 //!
 //! As the paper sets it up: collisions off; backward Euler as Baraff and
 //! Witkin (one Newton iteration per step, the linearised system solved by
-//! CG to a relative `epsilon = 0.01`) and the IMEX scheme of Eberhardt,
+//! block-Jacobi CG to a relative `epsilon = 0.01`) and the IMEX scheme of Eberhardt,
 //! Etzmuss and Hauth at a fixed 0.01 s; FB Euler, Verlet and RK4 at their
 //! precomputed maximum steps, `min(0.01, c / sqrt(k0))` (eq. 11, `c = 2`;
 //! RK4 `sqrt(8.75)`), filtered runs at 1.25 times that (section 7.1). Two
@@ -50,7 +50,8 @@ pub enum Figure8Method {
     /// RK4 filtered, at 1.25 times RK4's step.
     FilteredRk4,
     /// Backward Euler as Baraff and Witkin: h = 0.01, one Newton
-    /// iteration, block-Jacobi CG to 0.01.
+    /// iteration, block-Jacobi CG to 0.01 (a step whose iteration did not
+    /// lower the residual by 10% is retried in halves).
     BackwardEuler,
     /// The IMEX scheme of EEH00, h = 0.01.
     Imex,
@@ -82,7 +83,7 @@ impl Figure8Method {
             Figure8Method::FilteredVerlet => "filtered Verlet",
             Figure8Method::Rk4 => "RK4",
             Figure8Method::FilteredRk4 => "filtered RK4",
-            Figure8Method::BackwardEuler => "backward Euler (BW98, CG 0.01)",
+            Figure8Method::BackwardEuler => "backward Euler (BW98)",
             Figure8Method::Imex => "IMEX (EEH00)",
             Figure8Method::BackwardEulerBest => "backward Euler (best settings)",
         }
@@ -271,13 +272,15 @@ pub fn figure8_runs(
 }
 
 /// Baraff and Witkin's linearised backward Euler as the paper ran it: one
-/// Newton iteration per step (accepted whatever its residual), block-Jacobi
-/// CG to a relative `epsilon = 0.01`.
+/// Newton iteration per step, block-Jacobi CG to a relative
+/// `epsilon = 0.01`. The iteration is accepted when it lowered the
+/// nonlinear residual by 10% (a step where it did not is retried as two
+/// half steps, counted as a rejection).
 fn bw98_options() -> SolverOptions {
     SolverOptions {
         newton: NewtonOptions {
             max_iter: 1,
-            rtol: 1e6,
+            rtol: 0.9,
             linear_rtol: 1e-2,
             linear_max_iter: Some(10_000),
             preconditioner: PrecondKind::BlockJacobi,
