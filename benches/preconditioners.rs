@@ -4,6 +4,7 @@
 //! cargo bench --bench preconditioners                # criterion groups + tables
 //! cargo bench --bench preconditioners -- --table-only # just the tables and bars
 //! cargo bench --bench preconditioners -- --table-only --bars-only
+//! cargo bench --bench preconditioners -- --bandwidth  # kernels against the memory bound
 //! ```
 //!
 //! Criterion groups: SpMV of the symmetric block matrix against sprs and
@@ -256,7 +257,84 @@ fn bars() {
     );
 }
 
+/// Bytes one symmetric block SpMV streams: every stored block (72 bytes of
+/// values, a 4-byte column index), the row pointers, `x` read and `y`
+/// written (the transposed index of the threaded kernel adds 8 bytes per
+/// off-diagonal block; counted).
+fn spmv_bytes(a: &SymBlockMatrix) -> f64 {
+    let blocks = a.pattern().stored_blocks() as f64;
+    let n = a.n_blocks() as f64;
+    blocks * 76.0 + (blocks - n) * 8.0 + n * 8.0 + 2.0 * a.dim() as f64 * 8.0
+}
+
+/// STREAM's triad `a = b + s c` on vectors of `len` doubles in the current
+/// rayon pool (fixed chunks), best of `reps`: GB/s counting 24 bytes per
+/// entry as STREAM does.
+fn triad_gbs(len: usize, reps: usize) -> f64 {
+    use rayon::prelude::*;
+    let mut a = vec![0.0f64; len];
+    let b = vec![1.0f64; len];
+    let c = vec![2.0f64; len];
+    let chunk = len.div_ceil(rayon::current_num_threads()).max(1);
+    let t = best_of(reps, || {
+        a.par_chunks_mut(chunk)
+            .zip(b.par_chunks(chunk))
+            .zip(c.par_chunks(chunk))
+            .for_each(|((a, b), c)| {
+                for i in 0..a.len() {
+                    a[i] = b[i] + 3.0 * c[i];
+                }
+            });
+        black_box(&mut a);
+    });
+    24.0 * len as f64 / t / 1e9
+}
+
+/// How far the SpMV and the MIC(0) application are from the machine's
+/// memory bandwidth: STREAM triad on 2 MiB (L2), 24 MiB (L3) and 768 MiB
+/// (DRAM) of vectors, then the kernels' effective bandwidth (bytes they must
+/// stream / time) at N = 64, 128, 256, in the current pool (run with
+/// `RAYON_NUM_THREADS=1` and `=2`).
+fn bandwidth() {
+    let threads = rayon::current_num_threads();
+    println!("\n## Memory bandwidth, {threads} thread(s)\n");
+    println!("| what | working set (MiB) | GB/s |");
+    println!("|---|---|---|");
+    for (mib, reps) in [(2usize, 2000), (24, 200), (768, 10)] {
+        let len = mib * (1 << 20) / 24;
+        println!("| STREAM triad | {mib} | {:.1} |", triad_gbs(len, reps));
+    }
+    for n in [64usize, 128, 256] {
+        let (a, b) = system(n, 1e4);
+        let mut y = vec![0.0; b.len()];
+        let bytes = spmv_bytes(&a);
+        let t = best_of(50, || a.apply(black_box(&b), &mut y));
+        println!(
+            "| SpMV, N = {n} | {:.1} | {:.1} ({:.3} ms) |",
+            bytes / (1 << 20) as f64,
+            bytes / t / 1e9,
+            t * 1e3
+        );
+        let mut mic = AnyPreconditioner::new(PrecondKind::Mic0 { omega: 0.99 }).unwrap();
+        mic.setup(&a).unwrap();
+        // Forward and backward sweeps each stream the factor (the matrix's
+        // layout) and read r or write z.
+        let bytes = 2.0 * spmv_bytes(&a);
+        let t = best_of(50, || mic.apply(black_box(&b), &mut y));
+        println!(
+            "| MIC(0) apply, N = {n} | {:.1} | {:.1} ({:.3} ms) |",
+            bytes / (1 << 20) as f64,
+            bytes / t / 1e9,
+            t * 1e3
+        );
+    }
+}
+
 fn main() {
+    if std::env::args().any(|a| a == "--bandwidth") {
+        bandwidth();
+        return;
+    }
     let table_only = std::env::args().any(|a| a == "--table-only");
     if !table_only {
         let mut c = Criterion::default().configure_from_args();

@@ -439,6 +439,14 @@ const RUN: &[Case] = &[
     )
     .absent(&["out"]),
     case(
+        "run: a filter whose neighbourhoods would fill 137 GB",
+        &[("s.toml", "[cloth]\nn = 256\n[integrator]\nmethod = \"fb-euler\"\nh = 1e-4\n[filter]\nlambda = 1\nrings = 1000000000\n")],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "filter.rings",
+    )
+    .absent(&["out"]),
+    case(
         "run: a sphere of negative radius",
         &[("s.toml", "duration = 0.05\n[cloth]\nn = 4\n[[collider]]\nkind = \"sphere\"\ncenter = [0, 0, -1]\nradius = -1\n")],
         &["run", "{}/s.toml", "--out", "{}/out"],

@@ -174,9 +174,21 @@ fn view_html_plays_the_run_in_headless_chromium() {
     );
 
     // Without a fragment the page plays: after some seconds of page time the
-    // animation has moved on from frame 0 at least once.
-    let (s, _, _) = dump_status(&browser, &out, &page, "");
-    assert_eq!(s["state"], "ready", "{s}");
+    // animation has moved on from frame 0 at least once. Headless Chromium
+    // on a loaded machine has been seen to deliver no animation frame within
+    // the virtual time budget (the page was ready, `played` absent), so a
+    // page that did not play gets two more tries, each in a fresh profile.
+    let mut s = serde_json::Value::Null;
+    for attempt in 0..3 {
+        let dir = out.join(format!("play-{attempt}"));
+        std::fs::create_dir_all(&dir).unwrap();
+        s = dump_status(&browser, &dir, &page, "").0;
+        assert_eq!(s["state"], "ready", "{s}");
+        if s["played"].as_u64().unwrap_or(0) >= 1 {
+            break;
+        }
+        eprintln!("view.html did not play in attempt {attempt}: {s}");
+    }
     assert!(s["played"].as_u64().unwrap_or(0) >= 1, "{s}");
 
     // Frame 0: a screenshot that shows the cloth.

@@ -551,6 +551,9 @@ impl VelocityFilter {
                     }
                 }
                 std::mem::swap(&mut frontier, &mut next);
+                if frontier.is_empty() {
+                    break; // the whole connected component is in the ring
+                }
             }
             // Relax distances inside the ring until stable (paths may revisit
             // ring members through shorter chains).

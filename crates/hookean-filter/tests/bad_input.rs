@@ -197,3 +197,38 @@ fn filtering_velocities_without_moving_positions_shrinks_the_step() {
     assert!(velocity_only < 0.97 * plain, "{velocity_only} vs {plain}");
     assert!(corrected > 1.05 * plain && increment > corrected);
 }
+
+/// A radius past the spring graph's diameter gives every particle its whole
+/// connected component, at no more cost: `rings = usize::MAX` on a chain of
+/// 30 particles builds at once (the ring search stops when no particle is
+/// left to reach) and equals `rings = 29`, the chain's diameter.
+#[test]
+fn rings_past_the_diameter_stop_at_the_component() {
+    use hookean_filter::{Edge, VelocityFilter};
+    let n = 30;
+    let edges: Vec<Edge> = (0..n - 1)
+        .map(|i| Edge {
+            i,
+            j: i + 1,
+            rest_length: 0.1,
+        })
+        .collect();
+    let build = |rings| {
+        VelocityFilter::new(
+            n,
+            &edges,
+            None,
+            FilterOptions {
+                rings,
+                ..Default::default()
+            },
+        )
+        .unwrap()
+    };
+    let huge = build(usize::MAX);
+    let diameter = build(n - 1);
+    for i in 0..n {
+        assert_eq!(huge.neighbourhood(i), diameter.neighbourhood(i));
+        assert_eq!(huge.neighbourhood(i).0.len(), n);
+    }
+}

@@ -133,15 +133,25 @@ impl MassSpringModel {
     /// # Errors
     /// As [`check_state`](Self::check_state).
     pub fn energies(&self, x: &[f64], v: &[f64]) -> Result<Energies, MassSpringError> {
-        self.check_state(x, v)?;
+        // check_state's checks, with the spring lengths computed once.
+        let dim = 3 * self.n_particles();
+        crate::error::check_vec("x", x, dim)?;
+        crate::error::check_vec("v", v, dim)?;
         let g = nalgebra::Vector3::from(self.options.gravity);
         let mut e = Energies::default();
         for (p, &m) in self.particle_mass.iter().enumerate() {
             e.kinetic += 0.5 * m * point(v, p).norm_squared();
             e.gravitational -= m * g.dot(&point(x, p));
         }
-        for s in &self.springs {
+        for (k, s) in self.springs.iter().enumerate() {
             let l = (point(x, s.j) - point(x, s.i)).norm();
+            if l == 0.0 {
+                return Err(MassSpringError::ZeroLengthSpring {
+                    spring: k,
+                    i: s.i,
+                    j: s.j,
+                });
+            }
             e.spring += 0.5 * s.stiffness * (l - s.rest_length).powi(2);
         }
         Ok(e)

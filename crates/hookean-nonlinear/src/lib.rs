@@ -113,6 +113,7 @@ mod newton;
 mod system;
 
 pub use error::{DivergenceReason, NonlinearError};
+pub use hookean_sparse::NegativeCurvature;
 pub use linear::{DenseLu, LinearSolveStats, LinearSolver, PcgSolver, SparseLu};
 pub use newton::{ConvergedBy, ForcingTerm, Newton, NewtonMethod, NewtonOptions, NewtonStats};
 pub use system::NonlinearSystem;

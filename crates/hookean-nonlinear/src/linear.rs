@@ -10,7 +10,7 @@ use std::any::Any;
 
 use hookean_sparse::{
     AnyPreconditioner, CgParams, CgWorkspace, Constraints, InitialGuess, LinearOperator,
-    PreconditionerSetup, SparseError, filtered_pcg, pcg,
+    NegativeCurvature, PreconditionerSetup, SparseError, filtered_pcg, pcg,
 };
 
 use crate::NewtonOptions;
@@ -28,6 +28,11 @@ pub struct LinearSolveStats {
     pub relative_residual: f64,
     /// Whether the requested tolerance was met (always `true` for direct solvers).
     pub converged: bool,
+    /// Whether an iterative solve stopped early on a direction of
+    /// non-positive curvature and returned its iterate so far (a descent
+    /// direction; [`NewtonOptions::negative_curvature`]). Newton takes it as
+    /// its correction.
+    pub truncated: bool,
 }
 
 /// A solver for `J x = rhs` with the Jacobian type `J`.
@@ -109,6 +114,8 @@ pub struct PcgSolver<P> {
     /// Iteration limit per solve; `None` means `2 n`. Set from
     /// [`NewtonOptions::linear_max_iter`] by [`Newton`](crate::Newton).
     max_iter: Option<usize>,
+    /// From [`NewtonOptions::negative_curvature`].
+    negative_curvature: NegativeCurvature,
     constraints: Option<Constraints>,
     workspace: CgWorkspace,
     /// The prescribed values `z` and the shifted right-hand side `rhs + A z`.
@@ -125,6 +132,7 @@ impl<P> PcgSolver<P> {
         Self {
             precond,
             max_iter: None,
+            negative_curvature: NegativeCurvature::Error,
             constraints: None,
             workspace: CgWorkspace::default(),
             z: Vec::new(),
@@ -189,6 +197,7 @@ impl PcgSolver<AnyPreconditioner> {
             &options.amg,
         )?);
         solver.max_iter = options.linear_max_iter;
+        solver.negative_curvature = options.negative_curvature;
         Ok(solver)
     }
 }
@@ -200,6 +209,7 @@ where
 {
     fn configure(&mut self, options: &NewtonOptions) -> Result<(), NonlinearError> {
         self.max_iter = options.linear_max_iter;
+        self.negative_curvature = options.negative_curvature;
         let precond: &mut dyn Any = &mut self.precond;
         if let Some(any) = precond.downcast_mut::<AnyPreconditioner>()
             && (any.kind() != options.preconditioner
@@ -241,6 +251,7 @@ where
             max_iter: self.max_iter,
             initial_guess,
             record_history: false,
+            negative_curvature: self.negative_curvature,
         };
         let info = match &self.constraints {
             Some(c) if !c.is_empty() => {
@@ -289,6 +300,7 @@ where
             residual_norm: info.residual_norm,
             relative_residual: info.relative_residual,
             converged: info.converged,
+            truncated: info.truncated,
         })
     }
 }

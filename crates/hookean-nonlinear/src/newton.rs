@@ -3,7 +3,7 @@
 //! Algorithm 3 (inexact simplified Newton, section 3.3).
 
 use hookean_sparse::vecops::norm2;
-use hookean_sparse::{AmgOptions, PrecondKind};
+use hookean_sparse::{AmgOptions, NegativeCurvature, PrecondKind};
 
 use crate::error::{DivergenceReason, NonlinearError, check_len, invalid};
 use crate::linear::LinearSolver;
@@ -157,6 +157,15 @@ pub struct NewtonOptions {
     /// (including what every `setup` of a new Jacobian does: refill, keep,
     /// rebuild). Default [`AmgOptions::default`].
     pub amg: AmgOptions,
+    /// What a [`PcgSolver`](crate::PcgSolver) does on a direction of
+    /// non-positive curvature: fail the solve (the Newton iteration stops,
+    /// default), or truncate it and take the iterate so far as the Newton
+    /// correction, shortened by a backtracking line search until `|G|`
+    /// falls ([`NegativeCurvature::Truncate`], Newton-CG), which lets Newton
+    /// use an exact Jacobian that is indefinite (compressed springs:
+    /// `model.clamp_stiffness = false`). The preconditioner must stay
+    /// positive definite (MIC(0)'s shift keeps it so).
+    pub negative_curvature: NegativeCurvature,
 }
 
 impl Default for NewtonOptions {
@@ -176,6 +185,7 @@ impl Default for NewtonOptions {
             linear_max_iter: None,
             preconditioner: PrecondKind::BlockJacobi,
             amg: AmgOptions::default(),
+            negative_curvature: NegativeCurvature::Error,
         }
     }
 }
@@ -280,6 +290,10 @@ pub struct NewtonStats {
     pub jacobian_reused: bool,
     /// Restarts from `Y_0` with a fresh Jacobian after a failure with a kept one.
     pub restarts: usize,
+    /// Linear solves truncated on a direction of non-positive curvature
+    /// ([`NewtonOptions::negative_curvature`]) whose iterate so far was
+    /// taken as the correction, with a backtracking line search on `|G|`.
+    pub truncated_solves: usize,
 }
 
 impl NewtonStats {
@@ -623,7 +637,9 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
             if !direct {
                 stats.forcing_terms.push(eta);
             }
-            if !lin.converged {
+            if lin.truncated {
+                stats.truncated_solves += 1;
+            } else if !lin.converged {
                 return Err(Stop::LinearNotConverged {
                     iterations: lin.iterations,
                     tolerance: eta,
@@ -639,13 +655,6 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
             }
             stats.iterations += 1;
             stats.step_norms.push(snorm);
-            let theta = match snorm_prev {
-                Some(p) if p > 0.0 => Some(snorm / p),
-                _ => None,
-            };
-            if theta.is_some() {
-                stats.contraction_rate = theta;
-            }
 
             gnorm_prev = gnorm;
             linres_prev = if direct { 0.0 } else { lin.residual_norm };
@@ -654,6 +663,34 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
             system.residual(y, &mut self.g)?;
             stats.residual_evaluations += 1;
             gnorm = norm2(&self.g);
+            // A truncated solve's correction is a descent direction of the
+            // local quadratic model, not a Newton step: backtrack (halve it)
+            // until the residual decreases (Armijo on |G|).
+            let mut lambda = 1.0;
+            if lin.truncated {
+                while !(gnorm <= (1.0 - 1e-4 * lambda) * gnorm_prev) && lambda > 1.0 / 64.0 {
+                    lambda *= 0.5;
+                    for (yi, si) in y.iter_mut().zip(&self.s) {
+                        *yi -= lambda * si;
+                    }
+                    system.residual(y, &mut self.g)?;
+                    stats.residual_evaluations += 1;
+                    gnorm = norm2(&self.g);
+                }
+                if lambda < 1.0
+                    && let Some(last) = stats.step_norms.last_mut()
+                {
+                    *last *= lambda;
+                }
+            }
+            let snorm = lambda * snorm;
+            let theta = match snorm_prev {
+                Some(p) if p > 0.0 => Some(snorm / p),
+                _ => None,
+            };
+            if theta.is_some() {
+                stats.contraction_rate = theta;
+            }
             stats.residual_norms.push(gnorm);
             if !gnorm.is_finite() {
                 return Err(Stop::NonFinite);

@@ -154,3 +154,76 @@ fn isotropic_storage_of_the_linearised_jacobian_gives_the_same_iteration() {
     let scale = dv1.iter().map(|a| a.abs()).fold(0.0, f64::max);
     assert!(diff <= 1e-8 * scale, "{diff} vs {scale}");
 }
+
+/// The exact (unclamped) Jacobian of a cloth with compressed springs is
+/// indefinite: PCG fails on it, unless it truncates at the negative
+/// curvature (Newton-CG) and Newton backtracks the truncated step until the
+/// residual falls. That reaches the root the clamped Newton reaches.
+#[test]
+fn an_indefinite_exact_jacobian_is_solved_by_truncating_cg() {
+    let (n, k, h, jitter) = (10, 1e4, 0.01, 0.03);
+    let newton = |negative_curvature| {
+        let step = ClothStep::new(n, k, 0.1, h, jitter, 3);
+        // MIC(0) stays positive definite on an indefinite matrix (its
+        // shift), so truncated CG has a usable first direction.
+        let mic = hookean_sparse::IncompleteCholesky::modified(0.99).unwrap();
+        let pcg = PcgSolver::new(mic).with_constraints(step.correction_constraints());
+        let options = NewtonOptions {
+            method: NewtonMethod::Inexact(ForcingTerm::Constant(1e-3)),
+            rtol: 1e-9,
+            atol: 0.0,
+            max_iter: 200,
+            negative_curvature,
+            ..Default::default()
+        };
+        let storage = step.jacobian_storage();
+        (step, Newton::new(options, storage, pcg).unwrap())
+    };
+    let residual = |sys: &mut ClothStep, dv: &[f64]| {
+        let mut g = vec![0.0; dv.len()];
+        sys.residual(dv, &mut g).unwrap();
+        g.iter().map(|x| x * x).sum::<f64>().sqrt()
+    };
+    let dim = 3 * n * n;
+
+    // The clamped Jacobian: SPD.
+    let (mut clamped, mut solver) = newton(NegativeCurvature::Error);
+    let mut dv_clamped = vec![0.0; dim];
+    let s_clamped = solver.solve(&mut clamped, &mut dv_clamped).unwrap();
+    assert_eq!(s_clamped.truncated_solves, 0);
+
+    // The exact Jacobian with PCG that fails on negative curvature.
+    let (mut exact, mut solver) = newton(NegativeCurvature::Error);
+    exact.clamp = false;
+    let mut dv = vec![0.0; dim];
+    match solver.solve(&mut exact, &mut dv) {
+        Err(NonlinearError::Linear(hookean_sparse::SparseError::NotPositiveDefinite {
+            ..
+        })) => {}
+        other => panic!("expected a negative curvature failure, got {other:?}"),
+    }
+
+    // Truncated PCG and the line search.
+    let (mut exact, mut solver) = newton(NegativeCurvature::Truncate);
+    exact.clamp = false;
+    let mut dv_exact = vec![0.0; dim];
+    let s_exact = solver.solve(&mut exact, &mut dv_exact).unwrap();
+    assert!(s_exact.truncated_solves >= 1, "{s_exact:?}");
+    assert!(residual(&mut exact, &dv_exact) <= 1e-9 * s_exact.initial_residual());
+
+    // One root: the answers agree to what the tolerance allows. Near the
+    // root G changes like J = M + h^2 K (the clamped stiffness only adds),
+    // so |dv - dv*| <= |G(dv)| / m with m the particle mass; each answer is
+    // within 1e-9 |G_0| / m, two of them within twice that.
+    let m = 1.0 / (n * n) as f64;
+    let bound = 2.0 * 1e-9 * s_clamped.initial_residual() / m;
+    let diff = dv_exact
+        .iter()
+        .zip(&dv_clamped)
+        .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(diff <= bound, "{diff} vs {bound}");
+    eprintln!(
+        "Newton iterations: clamped {}, exact with truncated PCG {} ({} truncated)",
+        s_clamped.iterations, s_exact.iterations, s_exact.truncated_solves
+    );
+}

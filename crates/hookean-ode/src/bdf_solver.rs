@@ -22,7 +22,10 @@
 //!
 //! **Error control and Newton in one norm.** Both use the weighted RMS norm
 //! `||v|| = sqrt(1/n sum (v_i / w_i)^2)` with `w_i = atol_i + rtol |y_i|`
-//! (`atol` scalar or per component). The local error estimate is
+//! (`atol` scalar or per component), where the user's tolerances are first
+//! mapped to `rtol^p`, `atol rtol^(p - 1)` with `p = 1.2`
+//! ([`BdfOptions::tolerance_exponent`]) so that the global error, not only
+//! the error per step, follows `rtol`. The local error estimate is
 //! `(kappa_k gamma_k + 1/(k+1)) d` and a step is accepted when its norm is
 //! `<= 1`. Newton stops when the update `delta` of an iteration, scaled by
 //! the estimated contraction rate `rho` (CVODE's `crate`, carried across
@@ -37,9 +40,18 @@
 //! [`BdfOptions::max_gamma_change`] (30 %) since the factorisation, after
 //! [`BdfOptions::steps_per_factorization`] steps, or when Newton fails; the
 //! Jacobian is re-evaluated when Newton fails with a Jacobian from an earlier
-//! step (or, optionally, after [`BdfOptions::steps_per_jacobian`] steps). While the kept
+//! step, when `c` grew more than 100-fold since it was evaluated (the error
+//! `c (J_old - J)` of the Newton matrix grows with `c`; a stale Jacobian
+//! can let the simplified Newton iteration stop without solving the
+//! corrector), or, optionally, after [`BdfOptions::steps_per_jacobian`] steps. While the kept
 //! factorisation was made with `c_old != c`, the Newton update is scaled by
 //! `2 / (1 + c / c_old)` (CVODE's correction for a stale `gamma`).
+//!
+//! **Linear solvers** ([`BdfOptions::linear_solver`]): faer's dense LU,
+//! faer's sparse LU on the pattern the problem gives, or matrix-free GMRES
+//! ([`BdfLinearSolver::Gmres`]) with products `J v` by difference quotients
+//! of `f` and, on the problem's sparse pattern, a hookean-sparse
+//! preconditioner of `I - c J` kept as the LU would be.
 //!
 //! **Order and step size.** After `k + 1` steps of equal size, the errors of
 //! orders `k - 1`, `k`, `k + 1` are estimated from `D_k`, `d` and
@@ -79,12 +91,14 @@
 //! # Ok::<(), hookean_ode::OdeError>(())
 //! ```
 
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::linalg::lu::partial_pivoting::{factor::lu_in_place, solve::solve_in_place};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::lu::partial_pivoting::factor::lu_in_place;
 use hookean_nonlinear::{LinearSolver, NonlinearError, SparseLu};
 use hookean_problem::FirstOrderProblem;
+use hookean_sparse::{AnyPreconditioner, PrecondKind, Preconditioner, PreconditionerSetup};
 
 use crate::error::OdeError;
+use crate::krylov::Gmres;
 use crate::system::{diagonal_positions, forward_difference_jacobian};
 
 /// The highest order of the solver.
@@ -109,8 +123,70 @@ const MIN_FACTOR: f64 = 0.2;
 /// measurable gain in accuracy (docs/PERFORMANCE.md).
 const NEWTON_TOL: f64 = 0.03;
 
+/// The default [`BdfOptions::tolerance_exponent`]: the local error test runs
+/// at `rtol^1.2`. With error per step `tol`, order `k` takes steps
+/// `h ~ tol^(1/(k+1))`, so the global error, the sum of the local errors,
+/// grows like `tol^(k/(k+1))`; `tol = rtol^((k+1)/k)` makes it follow
+/// `rtol`. The steps of the stiff test set are mostly of order 5: `6/5`.
+/// (Measured with exponent 1: the error grows like `rtol^0.84..rtol^1.03`
+/// and is 2.6 to 45 times `rtol` at `rtol = 1e-8`; with 1.2 at most 4.9
+/// times over 25 tolerances from 1e-4 to 1e-8, E5's reference-limited 12.8
+/// apart; docs/PERFORMANCE.md, issue 17.)
+pub const TOLERANCE_EXPONENT: f64 = 1.2;
+
+/// The Jacobian is re-evaluated before a step whose `c = h / alpha_k`
+/// exceeds this multiple of the `c` at which it was evaluated. The Newton
+/// matrix `I - c J` errs by `c (J_old - J)`: a Jacobian kept from a fast
+/// transient (a Van der Pol jump, `h ~ 1e-7`) and used at steps 1e6 times
+/// longer can make the simplified Newton iteration take tiny updates that
+/// pass the convergence test without solving the corrector, and the error
+/// estimate, built from those updates, then accepts a wrong solution.
+const JACOBIAN_C_GROWTH: f64 = 100.0;
+
 /// A rate beyond which the Newton iteration counts as diverging.
 const MAX_RATE: f64 = 1.0;
+
+/// The linear solver of the Newton systems `(I - c J) x = r`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum BdfLinearSolver {
+    /// LU factors kept across steps: faer's dense LU, or faer's sparse LU
+    /// on the problem's pattern when it gives one
+    /// ([`FirstOrderProblem::sparse_jacobian_pattern`]). The default.
+    #[default]
+    Direct,
+    /// Matrix-free GMRES(`krylov_dim`) ([Saad-Schultz 1986]): each product
+    /// `J v` is one evaluation of `f`, `(f(y + s v) - f(y)) / s` with
+    /// `s = 1 / ||v||` (CVODE's difference-quotient `jtimes`); right
+    /// preconditioned by a hookean-sparse preconditioner set up on the
+    /// sparse `I - c J` when it is kept (the problem must give its sparse
+    /// pattern and values unless `preconditioner` is
+    /// [`PrecondKind::None`]); run on the system scaled by the error
+    /// weights and stopped at 0.05 of the Newton tolerance (CVODE's
+    /// `eplifac`). Newton then uses the current `J` in every product (an
+    /// inexact Newton rather than the simplified one).
+    Gmres {
+        /// Krylov dimension per cycle (CVODE's `maxl`, 5 there).
+        krylov_dim: usize,
+        /// Restarts after the first cycle (CVODE's `maxrs`, 0 there).
+        restarts: usize,
+        /// The preconditioner, set up on `I - c J`.
+        preconditioner: PrecondKind,
+    },
+}
+
+impl BdfLinearSolver {
+    /// GMRES with Krylov dimension 10, two restarts and `preconditioner`.
+    pub fn gmres(preconditioner: PrecondKind) -> Self {
+        BdfLinearSolver::Gmres {
+            krylov_dim: 10,
+            restarts: 2,
+            preconditioner,
+        }
+    }
+}
+
+/// GMRES stops at this fraction of the Newton tolerance (CVODE's `eplifac`).
+const KRYLOV_TOL_FACTOR: f64 = 0.05;
 
 /// The absolute tolerance: one value for every component or one per component.
 #[derive(Debug, Clone, PartialEq)]
@@ -187,6 +263,18 @@ pub struct BdfOptions {
     /// `max_growth * max(1, max_i |y0_i|)` (a blown-up solution). Default
     /// [`DEFAULT_MAX_GROWTH`](crate::options::DEFAULT_MAX_GROWTH).
     pub max_growth: f64,
+    /// The local error test runs with the tolerances
+    /// `rtol_local = rtol^p` and `atol_local = atol rtol^(p - 1)` for this
+    /// exponent `p` (a tolerance-proportional mapping, as RADAU5 maps its
+    /// tolerances): with a local error per step of `rtol_local`, the global
+    /// error of order `k` grows like `rtol_local^(k/(k+1))` (times the number
+    /// of steps), so `p = (k+1)/k` makes the achieved error follow `rtol`
+    /// itself. Default [`TOLERANCE_EXPONENT`] (1.2, for order 5; see
+    /// docs/PERFORMANCE.md); 1 gives the plain error-per-step
+    /// control of SciPy and CVODE.
+    pub tolerance_exponent: f64,
+    /// The linear solver of the Newton systems. Default [`BdfLinearSolver::Direct`].
+    pub linear_solver: BdfLinearSolver,
 }
 
 impl Default for BdfOptions {
@@ -207,6 +295,8 @@ impl Default for BdfOptions {
             steps_per_factorization: 20,
             steps_per_jacobian: None,
             max_growth: crate::options::DEFAULT_MAX_GROWTH,
+            tolerance_exponent: TOLERANCE_EXPONENT,
+            linear_solver: BdfLinearSolver::Direct,
         }
     }
 }
@@ -238,6 +328,16 @@ pub struct BdfStats {
     pub last_order: usize,
     /// The size of the last step (`CVodeGetLastStep`).
     pub last_step: f64,
+    /// Krylov iterations of [`BdfLinearSolver::Gmres`] (`CVodeGetNumLinIters`).
+    pub num_lin_iters: usize,
+    /// GMRES solves that stopped short of their tolerance (`CVodeGetNumLinConvFails`).
+    pub num_lin_conv_fails: usize,
+    /// Jacobian-vector products by difference quotients (`CVodeGetNumJtimesEvals`).
+    pub num_jtimes_evals: usize,
+    /// Preconditioner set-ups (`CVodeGetNumPrecEvals`).
+    pub num_prec_evals: usize,
+    /// Preconditioner applications (`CVodeGetNumPrecSolves`).
+    pub num_prec_solves: usize,
 }
 
 /// The fixed coefficients of order `k = 0..=5`: `gamma_k`, `alpha_k` and the
@@ -302,6 +402,23 @@ enum Matrices {
         mem: MemBuffer,
     },
     Sparse(Box<SparseMatrices>),
+    Krylov(Box<KrylovMatrices>),
+}
+
+/// The GMRES branch of [`Matrices`]: the workspace, and for a
+/// preconditioner the sparse `J`, `I - c J` and the preconditioner itself.
+struct KrylovMatrices {
+    gmres: Gmres,
+    restarts: usize,
+    /// `(J, I - c J, positions of the diagonal)`; `None` without a preconditioner.
+    sparse: Option<(sprs::CsMat<f64>, sprs::CsMat<f64>, Vec<usize>)>,
+    precond: AnyPreconditioner,
+    /// The scaled right-hand side and solution, and the scratch of a product.
+    b: Vec<f64>,
+    x: Vec<f64>,
+    y_pert: Vec<f64>,
+    f_pert: Vec<f64>,
+    unscaled: Vec<f64>,
 }
 
 /// The sparse branch of [`Matrices`].
@@ -310,6 +427,164 @@ struct SparseMatrices {
     m: sprs::CsMat<f64>,
     diag: Vec<usize>,
     lu: SparseLu,
+}
+
+/// The Newton system `(I - c J(t, y)) x = r` of a GMRES solve, with `f = f(t, y)`
+/// and the error weights `w`.
+struct KrylovSystem<'a, P> {
+    problem: &'a P,
+    y: &'a [f64],
+    f: &'a [f64],
+    w: &'a [f64],
+    t: f64,
+    c: f64,
+}
+
+impl<P: FirstOrderProblem> KrylovSystem<'_, P> {
+    /// Solves for `x` by GMRES on the system scaled by the weights
+    /// (`S (I - c J) S^-1 (S x) = S r`, `S = diag(1 / w)`), so that its
+    /// 2-norm is `sqrt(n)` times the weighted RMS norm of Newton's test.
+    fn solve(
+        &self,
+        kr: &mut KrylovMatrices,
+        r: &[f64],
+        x: &mut [f64],
+        newton_tol: f64,
+        stats: &mut BdfStats,
+    ) {
+        let n = r.len();
+        let KrylovMatrices {
+            gmres,
+            restarts,
+            sparse,
+            precond,
+            b,
+            x: xs,
+            y_pert,
+            f_pert,
+            unscaled,
+        } = kr;
+        for ((bi, ri), wi) in b.iter_mut().zip(r).zip(self.w) {
+            *bi = ri / wi;
+        }
+        let tol = KRYLOV_TOL_FACTOR * newton_tol * (n as f64).sqrt();
+        let preconditioned = sparse.is_some();
+        let mut products = 0;
+        let apply_a = |u: &[f64], out: &mut [f64]| {
+            // out = S (I - c J) S^-1 u, J v by a difference quotient with
+            // the step s = 1 / ||v|| (one weight unit along v = S^-1 u).
+            let norm = (u.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
+            if norm == 0.0 {
+                out.fill(0.0);
+                return;
+            }
+            let sigma = 1.0 / norm;
+            for (((yp, yi), ui), wi) in y_pert.iter_mut().zip(self.y).zip(u).zip(self.w) {
+                *yp = yi + sigma * wi * ui;
+            }
+            self.problem.rhs(self.t, y_pert, f_pert);
+            products += 1;
+            for ((((o, ui), fp), fi), wi) in
+                out.iter_mut().zip(u).zip(&*f_pert).zip(self.f).zip(self.w)
+            {
+                *o = ui - self.c * (fp - fi) / (sigma * wi);
+            }
+        };
+        let apply_pinv = |u: &[f64], out: &mut [f64]| {
+            if preconditioned {
+                for ((z, ui), wi) in unscaled.iter_mut().zip(u).zip(self.w) {
+                    *z = ui * wi;
+                }
+                precond.apply(unscaled, out);
+                for (o, wi) in out.iter_mut().zip(self.w) {
+                    *o /= wi;
+                }
+            } else {
+                out.copy_from_slice(u);
+            }
+        };
+        let outcome = gmres.solve(b, xs, tol, *restarts, apply_a, apply_pinv);
+        for ((xi, si), wi) in x.iter_mut().zip(&*xs).zip(self.w) {
+            *xi = si * wi;
+        }
+        stats.num_lin_iters += outcome.iterations;
+        stats.num_jtimes_evals += products;
+        stats.num_lin_rhs_evals += products;
+        if preconditioned {
+            stats.num_prec_solves += outcome.preconditioner_solves;
+        }
+        if !outcome.converged {
+            stats.num_lin_conv_fails += 1;
+        }
+    }
+}
+
+/// Refills the sparse Jacobian `jac` (of `nnz` entries) at `(t, y)`;
+/// `Ok(false)` if it is not finite.
+fn sparse_jacobian<P: FirstOrderProblem>(
+    problem: &P,
+    t: f64,
+    y: &[f64],
+    jac: &mut sprs::CsMat<f64>,
+    nnz: usize,
+) -> Result<bool, OdeError> {
+    if !problem.jacobian_sparse(t, y, jac) {
+        return Err(invalid(
+            "jacobian_sparse",
+            t,
+            "the problem gave a sparse Jacobian pattern but no values",
+        ));
+    }
+    if jac.nnz() != nnz {
+        return Err(OdeError::DimensionMismatch {
+            what: "sparse Jacobian entries (jacobian_sparse changed the pattern)",
+            expected: nnz,
+            found: jac.nnz(),
+        });
+    }
+    Ok(jac.data().iter().all(|v| v.is_finite()))
+}
+
+/// `m = I - c jac` on the pattern of `jac` (`diag`: positions of the diagonal).
+fn fill_newton_matrix(jac: &sprs::CsMat<f64>, m: &mut sprs::CsMat<f64>, diag: &[usize], c: f64) {
+    for (dst, src) in m.data_mut().iter_mut().zip(jac.data()) {
+        *dst = -c * src;
+    }
+    for &k in diag {
+        m.data_mut()[k] += 1.0;
+    }
+}
+
+/// Solves `A x = b` with faer's partial-pivoting factors `P A = L U` held in
+/// `lu` (unit `L` below the diagonal, `U` on and above it; `perm` the
+/// forward row permutation, `(P b)_i = b_perm[i]`): the permutation, then
+/// forward and back substitution by columns. The same operations as faer's
+/// `solve_in_place`, without its dispatch, which cost 900 instructions per
+/// solve of a 2 x 2 system, 30 % of a Van der Pol run (callgrind).
+fn lu_solve(lu: &faer::Mat<f64>, perm: &[usize], b: &[f64], x: &mut [f64]) {
+    let n = x.len();
+    for (xi, &p) in x.iter_mut().zip(perm) {
+        *xi = b[p];
+    }
+    for j in 0..n {
+        let xj = x[j];
+        if xj != 0.0 {
+            let col = &lu.col_as_slice(j)[j + 1..n];
+            for (xi, lij) in x[j + 1..].iter_mut().zip(col) {
+                *xi -= lij * xj;
+            }
+        }
+    }
+    for j in (0..n).rev() {
+        let col = lu.col_as_slice(j);
+        x[j] /= col[j];
+        let xj = x[j];
+        if xj != 0.0 {
+            for (xi, uij) in x[..j].iter_mut().zip(&col[..j]) {
+                *xi -= uij * xj;
+            }
+        }
+    }
 }
 
 /// Why one attempt at a step failed without ending the run.
@@ -444,6 +719,11 @@ pub struct BdfSolver<P> {
     jac_age: usize,
     jac_evaluated: bool,
     jac_current: bool,
+    /// `c` of the step at which the kept Jacobian was evaluated.
+    jac_c: f64,
+    /// The relative tolerance of the local error test (`rtol^p`, see
+    /// [`BdfOptions::tolerance_exponent`]); `atol` holds the mapped `atol_i`.
+    rtol: f64,
     /// CVODE's `crate`: the contraction rate estimate of the kept LU.
     rate: f64,
     /// Fixed order and step (no error test, no order or step change): for
@@ -517,6 +797,18 @@ impl BdfOptions {
                 "must be non-negative",
             ));
         }
+        if !(1.0..=2.0).contains(&self.tolerance_exponent) {
+            return Err(invalid(
+                "tolerance_exponent",
+                self.tolerance_exponent,
+                "must be in [1, 2]",
+            ));
+        }
+        if let BdfLinearSolver::Gmres { krylov_dim, .. } = self.linear_solver
+            && krylov_dim == 0
+        {
+            return Err(invalid("krylov_dim", 0.0, "must be at least 1"));
+        }
         if !(self.max_growth > 1.0) {
             return Err(invalid("max_growth", self.max_growth, "must exceed 1"));
         }
@@ -552,7 +844,7 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
     /// [`OdeError::NonFinite`] for a non-finite `t0` or `y0`.
     pub fn new(problem: P, t0: f64, y0: &[f64], opts: BdfOptions) -> Result<Self, OdeError> {
         let n = problem.dim();
-        let atol = opts.check(n)?;
+        let mut atol = opts.check(n)?;
         if y0.len() != n {
             return Err(OdeError::DimensionMismatch {
                 what: "initial state",
@@ -566,20 +858,47 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
                 t: t0,
             });
         }
-        let mats = match problem.sparse_jacobian_pattern() {
-            None => {
+        let mats = match (opts.linear_solver, problem.sparse_jacobian_pattern()) {
+            (
+                BdfLinearSolver::Gmres {
+                    krylov_dim,
+                    restarts,
+                    preconditioner,
+                },
+                pattern,
+            ) => {
+                let sparse = match (preconditioner, pattern) {
+                    (PrecondKind::None, _) => None,
+                    (_, None) => {
+                        return Err(invalid(
+                            "linear_solver",
+                            f64::NAN,
+                            "a GMRES preconditioner needs the problem's sparse Jacobian pattern",
+                        ));
+                    }
+                    (_, Some(pattern)) => {
+                        let diag = diagonal_positions(&pattern, n)?;
+                        Some((pattern.clone(), pattern, diag))
+                    }
+                };
+                Matrices::Krylov(Box::new(KrylovMatrices {
+                    gmres: Gmres::new(n, krylov_dim),
+                    restarts,
+                    sparse,
+                    precond: AnyPreconditioner::new(preconditioner)?,
+                    b: vec![0.0; n],
+                    x: vec![0.0; n],
+                    y_pert: vec![0.0; n],
+                    f_pert: vec![0.0; n],
+                    unscaled: vec![0.0; n],
+                }))
+            }
+            (BdfLinearSolver::Direct, None) => {
                 let par = faer::Par::Seq;
-                let req = StackReq::any_of(&[
-                    faer::linalg::lu::partial_pivoting::factor::lu_in_place_scratch::<usize, f64>(
-                        n,
-                        n,
-                        par,
-                        Default::default(),
-                    ),
-                    faer::linalg::lu::partial_pivoting::solve::solve_in_place_scratch::<usize, f64>(
-                        n, 1, par,
-                    ),
-                ]);
+                let req = faer::linalg::lu::partial_pivoting::factor::lu_in_place_scratch::<
+                    usize,
+                    f64,
+                >(n, n, par, Default::default());
                 Matrices::Dense {
                     jac: vec![0.0; n * n],
                     lu: faer::Mat::zeros(n, n),
@@ -588,7 +907,7 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
                     mem: MemBuffer::new(req),
                 }
             }
-            Some(pattern) => {
+            (BdfLinearSolver::Direct, Some(pattern)) => {
                 let diag = diagonal_positions(&pattern, n)?;
                 Matrices::Sparse(Box::new(SparseMatrices {
                     m: pattern.clone(),
@@ -598,7 +917,11 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
                 }))
             }
         };
-        let rtol = opts.rtol;
+        let rtol = opts.rtol.powf(opts.tolerance_exponent);
+        let atol_scale = rtol / opts.rtol;
+        for a in &mut atol {
+            *a *= atol_scale;
+        }
         let mut d = vec![vec![0.0; n]; MAX_ORDER + 3];
         d[0].copy_from_slice(y0);
         Ok(Self {
@@ -622,6 +945,8 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
             jac_age: 0,
             jac_evaluated: false,
             jac_current: false,
+            jac_c: f64::NAN,
+            rtol,
             rate: 1.0,
             frozen: false,
             stats: BdfStats::default(),
@@ -715,7 +1040,7 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
     /// `h0 = 0.01 ||y0|| / ||f0||`, then `h1 = (0.01 / max(||f0||, ||f'||))^(1/2)`
     /// with `f'` a difference quotient along `f0`; the result `min(100 h0, h1)`.
     fn initial_step(&mut self, span: f64) -> f64 {
-        let rtol = self.opts.rtol;
+        let rtol = self.rtol;
         for i in 0..self.n {
             self.w[i] = self.atol[i] + rtol * self.d[0][i].abs();
         }
@@ -775,13 +1100,22 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
     /// finite (a recoverable failure: the step is retried smaller, and the
     /// next attempt evaluates the Jacobian again).
     fn eval_jacobian(&mut self, t: f64) -> Result<bool, OdeError> {
+        if let Matrices::Krylov(kr) = &self.mats
+            && kr.sparse.is_none()
+        {
+            // Matrix-free and unpreconditioned: no Jacobian to keep.
+            self.jac_age = 0;
+            self.jac_evaluated = true;
+            self.jac_current = true;
+            return Ok(true);
+        }
         self.stats.num_jac_evals += 1;
         let n = self.n;
         match &mut self.mats {
             Matrices::Dense { jac, .. } => {
                 if !self.problem.jacobian(t, &self.y_pred, jac) {
                     self.problem.rhs(t, &self.y_pred, &mut self.rhs);
-                    let rtol = self.opts.rtol;
+                    let rtol = self.rtol;
                     let atol = &self.atol;
                     forward_difference_jacobian(
                         &self.problem,
@@ -805,21 +1139,15 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
             }
             Matrices::Sparse(sp) => {
                 let SparseMatrices { jac, m, .. } = &mut **sp;
-                if !self.problem.jacobian_sparse(t, &self.y_pred, jac) {
-                    return Err(invalid(
-                        "jacobian_sparse",
-                        t,
-                        "the problem gave a sparse Jacobian pattern but no values",
-                    ));
+                if !sparse_jacobian(&self.problem, t, &self.y_pred, jac, m.nnz())? {
+                    self.jac_evaluated = false;
+                    return Ok(false);
                 }
-                if jac.nnz() != m.nnz() {
-                    return Err(OdeError::DimensionMismatch {
-                        what: "sparse Jacobian entries (jacobian_sparse changed the pattern)",
-                        expected: m.nnz(),
-                        found: jac.nnz(),
-                    });
-                }
-                if jac.data().iter().any(|v| !v.is_finite()) {
+            }
+            Matrices::Krylov(kr) => {
+                if let Some((jac, m, _)) = &mut kr.sparse
+                    && !sparse_jacobian(&self.problem, t, &self.y_pred, jac, m.nnz())?
+                {
                     self.jac_evaluated = false;
                     return Ok(false);
                 }
@@ -878,13 +1206,29 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
             }
             Matrices::Sparse(sp) => {
                 let SparseMatrices { jac, m, diag, lu } = &mut **sp;
-                for (dst, src) in m.data_mut().iter_mut().zip(jac.data()) {
-                    *dst = -c * src;
-                }
-                for &k in diag.iter() {
-                    m.data_mut()[k] += 1.0;
-                }
+                fill_newton_matrix(jac, m, diag, c);
                 lu.setup(m)
+            }
+            Matrices::Krylov(kr) => {
+                let KrylovMatrices {
+                    sparse, precond, ..
+                } = &mut **kr;
+                match sparse {
+                    Some((jac, m, diag)) => {
+                        fill_newton_matrix(jac, m, diag, c);
+                        self.stats.num_prec_evals += 1;
+                        // A preconditioner that cannot be set up (e.g. a
+                        // non-positive pivot of IC(0)) fails the attempt:
+                        // the step is retried smaller, as for a singular LU.
+                        precond
+                            .setup(&*m)
+                            .map_err(|_| NonlinearError::SingularJacobian {
+                                pivot: 0,
+                                value: 0.0,
+                            })
+                    }
+                    None => Ok(()),
+                }
             }
         };
         match result {
@@ -902,31 +1246,35 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
         }
     }
 
-    /// Solves `M x = rhs` into `dy` with the kept LU.
-    fn solve_linear(&mut self) -> Result<(), OdeError> {
+    /// Solves `M x = rhs` into `dy`: with the kept LU, or by GMRES on
+    /// `I - c J(t, y_new)` (products by difference quotients around
+    /// `(y_new, f)`, the current Newton iterate and its `f`).
+    fn solve_linear(&mut self, t: f64, c: f64) -> Result<(), OdeError> {
+        if let Matrices::Krylov(kr) = &mut self.mats {
+            let x = KrylovSystem {
+                problem: &self.problem,
+                y: &self.y_new,
+                f: &self.f,
+                w: &self.w,
+                t,
+                c,
+            };
+            x.solve(
+                kr,
+                &self.rhs,
+                &mut self.dy,
+                self.newton_tol,
+                &mut self.stats,
+            );
+            return Ok(());
+        }
         let result = match &mut self.mats {
-            Matrices::Dense {
-                lu,
-                perm,
-                perm_inv,
-                mem,
-                ..
-            } => {
-                self.dy.copy_from_slice(&self.rhs);
-                let n = self.n;
-                let rhs = faer::MatMut::from_column_major_slice_mut(&mut self.dy, n, 1);
-                let p = faer::perm::PermRef::new_checked(perm, perm_inv, n);
-                solve_in_place(
-                    lu.as_ref(),
-                    lu.as_ref(),
-                    p,
-                    rhs,
-                    faer::Par::Seq,
-                    MemStack::new(mem),
-                );
+            Matrices::Dense { lu, perm, .. } => {
+                lu_solve(lu, perm, &self.rhs, &mut self.dy);
                 Ok(Default::default())
             }
             Matrices::Sparse(sp) => sp.lu.solve(&sp.m, &self.rhs, &mut self.dy, 0.0),
+            Matrices::Krylov(_) => unreachable!("handled above"),
         };
         match result {
             Ok(_) | Err(NonlinearError::SingularJacobian { .. }) => Ok(()),
@@ -946,7 +1294,7 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
         let tol = self.newton_tol;
         // CVODE's correction for an LU made with another c.
         let gamrat = c / self.lu_c;
-        let scale = if gamrat != 1.0 {
+        let scale = if gamrat != 1.0 && !matches!(self.mats, Matrices::Krylov(_)) {
             2.0 / (1.0 + gamrat)
         } else {
             1.0
@@ -964,7 +1312,7 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
             for i in 0..self.n {
                 self.rhs[i] = c * self.f[i] - self.psi[i] - self.dcor[i];
             }
-            self.solve_linear()?;
+            self.solve_linear(t_new, c)?;
             if scale != 1.0 {
                 for v in &mut self.dy {
                     *v *= scale;
@@ -1078,7 +1426,7 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
         }
         let mut conv_fails = 0;
         let mut err_fails = 0;
-        let rtol = self.opts.rtol;
+        let rtol = self.rtol;
         loop {
             if self.h < h_floor {
                 return Err(OdeError::StepSizeUnderflow { t, h: self.h });
@@ -1111,10 +1459,12 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
                 let jac_old = self
                     .opts
                     .steps_per_jacobian
-                    .is_some_and(|n| self.jac_age >= n);
+                    .is_some_and(|n| self.jac_age >= n)
+                    || c > JACOBIAN_C_GROWTH * self.jac_c;
                 let mut usable = true;
                 if !self.jac_evaluated || jac_old {
                     usable = self.eval_jacobian(t_new)?;
+                    self.jac_c = c;
                     refactor = true;
                 }
                 let factored = usable && (!refactor || self.factor(c)?);
@@ -1137,6 +1487,7 @@ impl<P: FirstOrderProblem> BdfSolver<P> {
                 if !self.eval_jacobian(t_new)? {
                     break attempt;
                 }
+                self.jac_c = c;
                 self.lu_c = f64::NAN;
             };
             let iterations = match attempt {
@@ -1584,6 +1935,56 @@ mod tests {
                     "{formula:?} order {k}: dense output {q}"
                 );
             }
+        }
+    }
+
+    /// `y' = A y` with a fixed non-symmetric `A` whose LU needs pivoting.
+    struct Linear5;
+    const A5: [[f64; 5]; 5] = [
+        [0.0, 2.0, -1.0, 0.5, 3.0],
+        [4.0, -1.0, 0.0, 2.0, 1.0],
+        [-2.0, 3.0, 1.0, 0.0, -4.0],
+        [1.0, 0.0, 5.0, -3.0, 2.0],
+        [0.5, -2.0, 1.5, 1.0, 0.0],
+    ];
+    impl FirstOrderProblem for Linear5 {
+        fn dim(&self) -> usize {
+            5
+        }
+        fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) {
+            for i in 0..5 {
+                dy[i] = (0..5).map(|j| A5[i][j] * y[j]).sum();
+            }
+        }
+        fn jacobian(&self, _t: f64, _y: &[f64], j: &mut [f64]) -> bool {
+            for r in 0..5 {
+                j[r * 5..r * 5 + 5].copy_from_slice(&A5[r]);
+            }
+            true
+        }
+    }
+
+    #[test]
+    fn the_dense_lu_solve_solves_the_newton_system() {
+        // M = I - c A with c = 0.7 has a zero in no pivot position of A's
+        // first column but needs row exchanges; the residual of the solve
+        // of M x = b is at round-off.
+        let mut s = BdfSolver::new(Linear5, 0.0, &[1.0; 5], BdfOptions::default()).unwrap();
+        let c = 0.7;
+        assert!(s.eval_jacobian(0.0).unwrap());
+        assert!(s.factor(c).unwrap());
+        let Matrices::Dense { perm, .. } = &s.mats else {
+            panic!("dense")
+        };
+        assert!(perm.iter().enumerate().any(|(i, &p)| i != p), "pivoting");
+        let b = [1.0, -2.0, 0.5, 3.0, -1.5];
+        s.rhs.copy_from_slice(&b);
+        s.solve_linear(0.0, c).unwrap();
+        for i in 0..5 {
+            let mx: f64 = (0..5)
+                .map(|j| (if i == j { 1.0 } else { 0.0 } - c * A5[i][j]) * s.dy[j])
+                .sum();
+            assert!((mx - b[i]).abs() < 1e-13, "row {i}: {mx} vs {}", b[i]);
         }
     }
 

@@ -83,6 +83,7 @@ mod core;
 pub mod error;
 pub mod imex;
 pub mod integrator;
+mod krylov;
 pub mod method;
 pub mod options;
 pub mod stability;
@@ -94,7 +95,8 @@ pub mod workprecision;
 
 pub use bdf::BdfCoefficients;
 pub use bdf_solver::{
-    BdfOptions, BdfSolver, BdfStats, Direction, EventHit, Events, Formula, Solution, Tolerance,
+    BdfLinearSolver, BdfOptions, BdfSolver, BdfStats, Direction, EventHit, Events, Formula,
+    Solution, TOLERANCE_EXPONENT, Tolerance,
 };
 pub use control::{
     IterationController, IterationControllerOptions, NewtonOutcome, PiController,
@@ -105,6 +107,8 @@ pub use error::OdeError;
 pub use faer;
 pub use hookean_nonlinear::{ForcingTerm, NewtonMethod, NewtonOptions};
 pub use hookean_problem::{FirstOrderProblem, SecondOrderProblem};
+/// The preconditioners of [`BdfLinearSolver::Gmres`].
+pub use hookean_sparse::PrecondKind;
 pub use integrator::{FirstOrderIntegrator, SecondOrderIntegrator};
 pub use method::Method;
 pub use options::{IntegrateInfo, Predictor, SolverOptions, Stats, StepControl, StepReport};

@@ -6,8 +6,9 @@ use hookean_ode::testset::{
     self, E5, Hires, Orego, Robertson, SpringChain, TestProblem, VanDerPol, mixed_error,
 };
 use hookean_ode::{
-    BdfCoefficients, BdfOptions, BdfSolver, BdfStats, Direction, Events, FirstOrderIntegrator,
-    FirstOrderProblem, Method, OdeError, SolverOptions, Tolerance,
+    BdfCoefficients, BdfLinearSolver, BdfOptions, BdfSolver, BdfStats, Direction, Events,
+    FirstOrderIntegrator, FirstOrderProblem, Method, OdeError, PrecondKind, SolverOptions,
+    Tolerance,
 };
 use num_complex::Complex64;
 
@@ -21,15 +22,14 @@ fn solve<P: TestProblem + Clone>(p: &P, rtol: f64) -> Result<(f64, BdfStats), Od
     Ok((mixed_error(s.y(), &p.reference(), &p.floor()), stats))
 }
 
-fn check_problem<P: TestProblem + Clone>(p: &P) {
+/// The achieved error follows rtol: at most `10 rtol` (issue 17's bar),
+/// plus the accuracy of the problem's reference in the mixed error measure.
+fn check_problem<P: TestProblem + Clone>(p: &P, reference_accuracy: f64) {
     let mut errors = Vec::new();
     for rtol in [1e-4, 1e-6, 1e-8] {
         let (err, st) = solve(p, rtol).unwrap_or_else(|e| panic!("{} at {rtol:e}: {e}", p.name()));
-        // The achieved error follows rtol (the table of docs/PERFORMANCE.md
-        // has the exact factors; the NDF's global error grows like
-        // rtol^(k/(k+1)) with the number of steps: up to ~40x measured).
         assert!(
-            err <= 200.0 * rtol,
+            err <= 10.0 * rtol + reference_accuracy,
             "{}: error {err:e} at rtol {rtol:e}",
             p.name()
         );
@@ -47,9 +47,9 @@ fn check_problem<P: TestProblem + Clone>(p: &P) {
         errors.push(err);
     }
     // A tighter tolerance buys accuracy (by how much depends on how far the
-    // error at 1e-4 already is below the tolerance: E5's is 25x below).
+    // error at 1e-4 already is below the tolerance: E5's is 100x below).
     assert!(
-        errors[2] < errors[1] && errors[1] < errors[0],
+        errors[2] < errors[1].max(reference_accuracy) && errors[1] < errors[0],
         "{}: {errors:?}",
         p.name()
     );
@@ -57,34 +57,59 @@ fn check_problem<P: TestProblem + Clone>(p: &P) {
 
 #[test]
 fn robertson_to_40_and_to_1e5() {
-    check_problem(&Robertson { t_end: 40.0 });
-    check_problem(&Robertson { t_end: 1e5 });
+    check_problem(&Robertson { t_end: 40.0 }, 0.0);
+    check_problem(&Robertson { t_end: 1e5 }, 0.0);
 }
 
 #[test]
 fn van_der_pol_mu_1000() {
-    check_problem(&VanDerPol);
+    check_problem(&VanDerPol, 0.0);
+}
+
+#[test]
+fn a_jacobian_from_a_fast_transient_is_not_kept_for_much_longer_steps() {
+    // Without the refresh on a 100-fold growth of c = h / alpha_k, this run
+    // (plain error-per-step tolerances) kept the Jacobian of Van der Pol's
+    // jump at t = 1.614 (h ~ 1e-7) for steps up to 0.13 after it: the
+    // simplified Newton took tiny updates that passed its test without
+    // solving the corrector (y2 stayed at -2/3 instead of following
+    // y1 / (1 - y1^2)), and the run ended 3800 rtol off.
+    let p = VanDerPol;
+    let rtol = 10f64.powf(-4.5);
+    let opts = BdfOptions {
+        tolerance_exponent: 1.0,
+        ..testset::options(&p, rtol)
+    };
+    let mut s = BdfSolver::new(p, 0.0, &p.y0(), opts).unwrap();
+    s.solve_to(p.t_end()).unwrap();
+    let err = mixed_error(s.y(), &p.reference(), &p.floor());
+    assert!(err < 20.0 * rtol, "error {err:e}");
 }
 
 #[test]
 fn hires() {
-    check_problem(&Hires);
+    check_problem(&Hires, 0.0);
 }
 
 #[test]
 fn orego() {
-    check_problem(&Orego);
+    check_problem(&Orego, 0.0);
 }
 
 #[test]
 fn e5() {
-    check_problem(&E5);
+    // E5's reference is good to about 1.3e-25 (1.3e-7 of its floor 1e-18):
+    // y2 - y3 - y4 is conserved (f2 - f3 - f4 = 0) and 0 at t = 0, yet the
+    // published y2 - y3 is 1.28e-25 with y4 = 0.
+    let r = E5.reference();
+    assert!((r[1] - r[2] - r[3] - 1.284e-25).abs() < 1e-28);
+    check_problem(&E5, 1.3e-7);
 }
 
 #[test]
 fn spring_chain_dense_and_sparse() {
-    check_problem(&SpringChain::new(false));
-    check_problem(&SpringChain::new(true));
+    check_problem(&SpringChain::new(false), 0.0);
+    check_problem(&SpringChain::new(true), 0.0);
     // The two linear solvers solve the same systems: the same steps.
     let (e_dense, s_dense) = solve(&SpringChain::new(false), 1e-6).unwrap();
     let (e_sparse, s_sparse) = solve(&SpringChain::new(true), 1e-6).unwrap();
@@ -385,6 +410,10 @@ fn bad_input_is_refused() {
         max_order: 6,
         ..BdfOptions::default()
     }));
+    assert!(bad(BdfOptions {
+        tolerance_exponent: 0.9,
+        ..BdfOptions::default()
+    }));
     assert!(BdfSolver::new(Decay, 0.0, &[f64::NAN], BdfOptions::default()).is_err());
     let mut s = BdfSolver::new(Decay, 0.0, &[1.0], BdfOptions::default()).unwrap();
     assert!(s.solve_at(&[1.0, 0.5]).is_err());
@@ -443,4 +472,143 @@ fn a_blown_up_fixed_step_bdf4_run_is_an_error() {
         Err(OdeError::StateGrowth { norm, bound, .. }) => assert!(norm > bound && bound == 1e30),
         other => panic!("BDF4 with h = {unstable} should blow up: {other:?}"),
     }
+}
+
+/// Solves `p` at `rtol` with `linear_solver`; the mixed error and the statistics.
+fn solve_with<P: TestProblem + Clone>(
+    p: &P,
+    rtol: f64,
+    linear_solver: BdfLinearSolver,
+) -> (f64, BdfStats) {
+    let opts = BdfOptions {
+        linear_solver,
+        ..testset::options(p, rtol)
+    };
+    let mut s = BdfSolver::new(p.clone(), 0.0, &p.y0(), opts).unwrap();
+    let st = s
+        .solve_to(p.t_end())
+        .unwrap_or_else(|e| panic!("{}: {e}", p.name()));
+    (mixed_error(s.y(), &p.reference(), &p.floor()), st)
+}
+
+#[test]
+fn matrix_free_gmres_solves_the_stiff_problems_without_a_jacobian() {
+    let rtol = 1e-6;
+    let gmres = BdfLinearSolver::gmres(PrecondKind::None);
+    for (err, st) in [
+        solve_with(&Robertson { t_end: 40.0 }, rtol, gmres),
+        solve_with(&VanDerPol, rtol, gmres),
+        solve_with(&Hires, rtol, gmres),
+    ] {
+        // As accurate as with the LU (the same bar), with no Jacobian at
+        // all: every product J v is one difference quotient of f.
+        assert!(err <= 10.0 * rtol, "{err:e} {st:?}");
+        assert_eq!(st.num_jac_evals, 0);
+        assert!(st.num_lin_iters > 0 && st.num_jtimes_evals == st.num_lin_iters);
+        assert_eq!(st.num_lin_rhs_evals, st.num_jtimes_evals);
+        assert_eq!(st.num_prec_evals + st.num_prec_solves, 0);
+    }
+}
+
+#[test]
+fn preconditioned_gmres_on_the_sparse_chain() {
+    let rtol = 1e-6;
+    let chain = SpringChain::new(true);
+    let (_, plain) = solve_with(&chain, rtol, BdfLinearSolver::gmres(PrecondKind::None));
+    for kind in [PrecondKind::Jacobi, PrecondKind::Ssor { omega: 1.0 }] {
+        let (err, st) = solve_with(&chain, rtol, BdfLinearSolver::gmres(kind));
+        assert!(err <= 10.0 * rtol, "{kind:?}: {err:e}");
+        // One preconditioner set-up per kept Newton matrix, from the
+        // problem's sparse Jacobian; at least one application per
+        // Krylov iteration that ran.
+        assert_eq!(st.num_prec_evals, st.num_lin_solv_setups, "{kind:?}");
+        assert!(st.num_jac_evals > 0 && st.num_prec_solves >= st.num_lin_iters);
+        assert_eq!(st.num_lin_conv_fails, 0, "{kind:?}");
+        if let PrecondKind::Ssor { .. } = kind {
+            // SSOR (of the lower and diagonal part) cuts the Krylov
+            // iterations per Newton iteration of the unpreconditioned run.
+            let per = |s: &BdfStats| s.num_lin_iters as f64 / s.num_nonlin_solv_iters as f64;
+            assert!(per(&st) < per(&plain), "{} vs {}", per(&st), per(&plain));
+        }
+    }
+}
+
+#[test]
+fn a_gmres_preconditioner_needs_a_sparse_pattern() {
+    let opts = BdfOptions {
+        linear_solver: BdfLinearSolver::gmres(PrecondKind::Jacobi),
+        ..BdfOptions::default()
+    };
+    assert!(matches!(
+        BdfSolver::new(Decay, 0.0, &[1.0], opts),
+        Err(OdeError::InvalidParameter {
+            name: "linear_solver",
+            ..
+        })
+    ));
+    let opts = BdfOptions {
+        linear_solver: BdfLinearSolver::Gmres {
+            krylov_dim: 0,
+            restarts: 0,
+            preconditioner: PrecondKind::None,
+        },
+        ..BdfOptions::default()
+    };
+    assert!(BdfSolver::new(Decay, 0.0, &[1.0], opts).is_err());
+}
+
+/// `y' = lambda y`, `y(0) = 1`, with its Jacobian.
+#[derive(Clone)]
+struct Exponential(f64);
+impl FirstOrderProblem for Exponential {
+    fn dim(&self) -> usize {
+        1
+    }
+    fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) {
+        dy[0] = self.0 * y[0];
+    }
+    fn jacobian(&self, _t: f64, _y: &[f64], j: &mut [f64]) -> bool {
+        j[0] = self.0;
+        true
+    }
+}
+
+#[test]
+fn the_automatic_initial_step_follows_the_time_scale() {
+    // Hairer-Wanner's estimate uses only ||y0||, ||f0|| and a difference
+    // quotient of f: for y' = lambda y every term scales with 1 / |lambda|,
+    // so a problem 100 times faster starts with a step 100 times shorter,
+    // and the step is accepted as it is.
+    let first_step = |lambda: f64| {
+        let mut s =
+            BdfSolver::new(Exponential(lambda), 0.0, &[1.0], BdfOptions::default()).unwrap();
+        s.step(1e3).unwrap();
+        assert_eq!(s.stats().num_err_test_fails, 0);
+        assert_eq!(s.stats().num_nonlin_solv_conv_fails, 0);
+        s.stats().last_step
+    };
+    let (slow, fast) = (first_step(-10.0), first_step(-1000.0));
+    assert!(
+        (slow / fast / 100.0 - 1.0).abs() < 1e-12,
+        "{slow:e} {fast:e}"
+    );
+    // Far below the time scale, above round-off.
+    assert!(slow < 1e-2 / 10.0 && slow > 1e-10, "{slow:e}");
+}
+
+#[test]
+fn no_step_exceeds_h_max() {
+    let opts = BdfOptions {
+        h_max: 0.01,
+        ..BdfOptions::default()
+    };
+    let mut s = BdfSolver::new(Decay, 0.0, &[1.0], opts).unwrap();
+    let mut largest = 0.0f64;
+    while s.t() < 2.0 {
+        s.step(2.0).unwrap();
+        largest = largest.max(s.stats().last_step);
+    }
+    assert!(largest <= 0.01 * (1.0 + 1e-12), "{largest}");
+    assert!(s.stats().num_steps >= 200);
+    assert!((s.y()[0] - (-2.0f64).exp()).abs() < 1e-5);
 }

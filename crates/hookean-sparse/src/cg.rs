@@ -33,6 +33,28 @@ pub struct CgParams {
     /// Record `|r_k| / |b|` of every iteration in [`CgInfo::residual_history`]
     /// (this allocates). Default `false`.
     pub record_history: bool,
+    /// What a direction of non-positive curvature `p . A p <= 0` does (the
+    /// matrix is not positive definite there). Default
+    /// [`NegativeCurvature::Error`].
+    pub negative_curvature: NegativeCurvature,
+}
+
+/// What CG does on meeting a direction `p` with `p . A p <= 0`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum NegativeCurvature {
+    /// Return [`SparseError::NotPositiveDefinite`].
+    #[default]
+    Error,
+    /// Truncated CG (the Newton-CG of Nocedal and Wright, Algorithm 7.1):
+    /// stop and return the current iterate, which every earlier direction
+    /// of positive curvature improved: a descent direction of the quadratic
+    /// model `x . A x / 2 - b . x`; at the first iteration, the
+    /// preconditioned residual step `x + M^-1 r`. A preconditioner that is
+    /// not positive definite (`r . M^-1 r <= 0`) stops the run the same way,
+    /// with the iterate so far. [`CgInfo::truncated`] is set and `converged`
+    /// is not. For Newton on an indefinite Jacobian (the exact stiffness of
+    /// compressed springs).
+    Truncate,
 }
 
 impl Default for CgParams {
@@ -43,6 +65,7 @@ impl Default for CgParams {
             max_iter: None,
             initial_guess: InitialGuess::Zero,
             record_history: false,
+            negative_curvature: NegativeCurvature::Error,
         }
     }
 }
@@ -61,6 +84,11 @@ pub struct CgInfo {
     pub converged: bool,
     /// Whether the callback stopped the run.
     pub stopped_by_callback: bool,
+    /// Whether the run stopped on a direction of non-positive curvature
+    /// ([`NegativeCurvature::Truncate`]); `residual_norm` is then the one of
+    /// the last iterate of positive curvature (at the first iteration, of the
+    /// starting guess).
+    pub truncated: bool,
     /// `|r_k| / |b|` for k = 0, 1, ... when [`CgParams::record_history`] is set.
     pub residual_history: Vec<f64>,
 }
@@ -338,6 +366,12 @@ where
         if k >= max_iter {
             break;
         }
+        if params.negative_curvature == NegativeCurvature::Truncate && rz <= 0.0 {
+            // An indefinite preconditioner (e.g. block Jacobi of an
+            // indefinite diagonal block): no direction to go on.
+            info.truncated = true;
+            break;
+        }
         check_preconditioned(rz, k)?;
         // x += pending p; p = z + beta p; q = P A p; p . q (p lies in range(P):
         // p . A p = p . P A p).
@@ -350,6 +384,18 @@ where
             });
         }
         if pq <= 0.0 {
+            if params.negative_curvature == NegativeCurvature::Truncate {
+                // x already holds the last iterate (the fused product applied
+                // `pending`); at k = 0, p = P M^-1 r.
+                if k == 0 {
+                    for (xi, pi) in x.iter_mut().zip(p.iter()) {
+                        *xi += pi;
+                    }
+                }
+                info.iterations = k;
+                info.truncated = true;
+                break;
+            }
             return Err(SparseError::NotPositiveDefinite {
                 iteration: k,
                 curvature: pq,
@@ -794,5 +840,51 @@ mod tests {
             ),
             Err(SparseError::DimensionMismatch { .. })
         ));
+    }
+
+    /// On an indefinite matrix CG either fails (the default) or, truncated,
+    /// returns an iterate that lowers the quadratic model
+    /// `q(x) = x . A x / 2 - b . x` below `q(0) = 0` (Newton-CG's descent
+    /// property: every step taken had positive curvature).
+    #[test]
+    fn truncated_cg_stops_at_negative_curvature_with_a_descent_iterate() {
+        use std::sync::Arc;
+        // Two particles, A = diag(4, 3, 2, 1, 0.5, -1) plus a coupling.
+        let pattern = Arc::new(crate::BlockPattern::new(2, [(0, 1)]).unwrap());
+        let mut a = crate::SymBlockMatrix::new(pattern);
+        a.add_to_diagonal(&[4.0, 3.0, 2.0, 1.0, 0.5, -1.0]).unwrap();
+        a.add_to_block(0, 1, &[[0.3, 0.0, 0.0], [0.0, 0.2, 0.0], [0.0, 0.0, 0.1]])
+            .unwrap();
+        let b = [1.0, -1.0, 1.0, 1.0, -1.0, 1.0];
+        let mut ws = CgWorkspace::new(6);
+        let mut x = [0.0; 6];
+        let strict = CgParams {
+            rtol: 1e-12,
+            ..Default::default()
+        };
+        assert!(matches!(
+            pcg(&a, &Identity, &b, &mut x, &strict, &mut ws, None),
+            Err(SparseError::NotPositiveDefinite { .. })
+        ));
+        let truncate = CgParams {
+            negative_curvature: NegativeCurvature::Truncate,
+            ..strict
+        };
+        let info = pcg(&a, &Identity, &b, &mut x, &truncate, &mut ws, None).unwrap();
+        assert!(info.truncated && !info.converged);
+        assert!(
+            info.iterations >= 1,
+            "positive curvature came first: {info:?}"
+        );
+        let mut ax = [0.0; 6];
+        a.mul_vec(&x, &mut ax).unwrap();
+        let q: f64 = (0..6).map(|i| 0.5 * x[i] * ax[i] - b[i] * x[i]).sum();
+        assert!(q < 0.0, "q(x) = {q}");
+        // An SPD matrix never truncates.
+        let mut spd = a.clone();
+        spd.add_to_diagonal(&[0.0, 0.0, 0.0, 0.0, 0.0, 2.0])
+            .unwrap();
+        let info = pcg(&spd, &Identity, &b, &mut x, &truncate, &mut ws, None).unwrap();
+        assert!(info.converged && !info.truncated);
     }
 }

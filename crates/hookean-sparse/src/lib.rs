@@ -76,7 +76,8 @@ pub mod vecops;
 
 pub use block::Block3;
 pub use cg::{
-    CgCallback, CgInfo, CgParams, CgProgress, CgWorkspace, InitialGuess, filtered_pcg, pcg,
+    CgCallback, CgInfo, CgParams, CgProgress, CgWorkspace, InitialGuess, NegativeCurvature,
+    filtered_pcg, pcg,
 };
 pub use constraints::Constraints;
 #[cfg(feature = "faer")]

@@ -31,7 +31,7 @@ use hookean_massspring::{
     SpringMaterial,
 };
 use hookean_ode::{ForcingTerm, Method, NewtonMethod, SolverOptions, StepControl};
-use hookean_sparse::{AmgOptions, AmgReuse, AmgSmoother, PrecondKind};
+use hookean_sparse::{AmgOptions, AmgReuse, AmgSmoother, NegativeCurvature, PrecondKind};
 use serde::Deserialize;
 use serde::de::{Deserializer, Error as _};
 
@@ -434,7 +434,9 @@ pub struct ModelScene {
     pub gravity: [f64; 3],
     /// Clamp compressed springs' stiffness blocks (`max(0, 1 - l0/l)`) so the
     /// step's matrix is SPD. Default `true`; `false` gives Newton the exact
-    /// stiffness Jacobian, which may be indefinite (PCG may then fail).
+    /// stiffness Jacobian, which may be indefinite where springs are
+    /// compressed: PCG then stops at a direction of negative curvature and
+    /// Newton takes the iterate so far (truncated CG, Newton-CG).
     #[serde(default = "d_true")]
     pub clamp_stiffness: bool,
 }
@@ -691,7 +693,7 @@ pub struct AmgScene {
     /// Power-method steps of the spectral radius estimates (0: Gershgorin). Default 5.
     #[serde(default = "d_amg_power")]
     pub power_iterations: usize,
-    /// Power steps at a refill (0: keep the last estimates). Default 3.
+    /// Power steps at a refill (0: keep the last estimates). Default 0.
     #[serde(default = "d_amg_refill_power")]
     pub refill_power_iterations: usize,
     /// A refill keeps the prolongators. Default false.
@@ -1261,6 +1263,13 @@ impl Scene {
         solver.warm_start = s.warm_start;
         solver.newton.preconditioner = self.preconditioner();
         solver.newton.amg = s.amg.as_ref().map(AmgScene::options).unwrap_or_default();
+        // The exact stiffness Jacobian may be indefinite where springs are
+        // compressed: PCG then truncates (Newton-CG) instead of failing.
+        solver.newton.negative_curvature = if self.model.clamp_stiffness {
+            NegativeCurvature::Error
+        } else {
+            NegativeCurvature::Truncate
+        };
         SimulationOptions {
             method: self.integrator.method.clone(),
             solver,
@@ -1337,8 +1346,41 @@ impl Scene {
     /// solver need, in bytes, and the key that sets the size: about
     /// 1 KiB per particle (state, forces, solver vectors) and 0.5 KiB per
     /// spring (its Jacobian blocks in `df/dx`, `df/dv`, the system matrix
-    /// and its preconditioner). `None` for a size that overflows 64 bits.
+    /// and its preconditioner), plus, with a `[filter]`, 32 bytes per
+    /// neighbour of every particle's `rings`-ring neighbourhood (at most
+    /// `(2 rings + 1)^d` particles on a `d`-dimensional lattice, and never
+    /// more than the model has; the key is then `filter.rings` if the
+    /// neighbourhoods are the larger part). `None` for a size that
+    /// overflows 64 bits.
     pub fn memory_estimate(&self) -> (Option<u64>, &'static str) {
+        let (bytes, key) = self.model_memory_estimate();
+        let Some(filter) = &self.filter else {
+            return (bytes, key);
+        };
+        const PER_NEIGHBOUR: u64 = 32;
+        let dimension = if self.cloth.is_some() {
+            2
+        } else if self.jelly.is_some() {
+            3
+        } else {
+            1
+        };
+        let (particles, _) = self.particle_count();
+        let neighbours = particles.and_then(|p| {
+            let side = (filter.rings as u64).checked_mul(2)?.checked_add(1)?;
+            let ring = side.checked_pow(dimension).unwrap_or(u64::MAX).min(p);
+            p.checked_mul(ring)?.checked_mul(PER_NEIGHBOUR)
+        });
+        match (bytes, neighbours) {
+            (Some(b), Some(f)) if f > b => (b.checked_add(f), "filter.rings"),
+            (Some(b), Some(f)) => (b.checked_add(f), key),
+            (Some(_), None) => (None, "filter.rings"),
+            (None, _) => (None, key),
+        }
+    }
+
+    /// [`memory_estimate`](Self::memory_estimate) without the filter.
+    fn model_memory_estimate(&self) -> (Option<u64>, &'static str) {
         const PER_PARTICLE: u64 = 1 << 10;
         const PER_SPRING: u64 = 1 << 9;
         // Springs per particle: cloth 6 (structural, shear, bend), rope 2,

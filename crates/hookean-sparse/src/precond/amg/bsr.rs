@@ -345,6 +345,49 @@ pub(crate) fn product_values<const B: usize>(x: &Bsr<B>, y: &Bsr<B>, c: &mut Bsr
     });
 }
 
+/// The numbers of the symmetric product `C = X Y` (the Galerkin operator
+/// `R (A P)` with `R = P^T`) on the pattern from [`product_pattern`], which
+/// is then structurally symmetric: the blocks on and above the diagonal are
+/// computed as in [`product_values`] (rows split across threads), those
+/// below are the transposes of their mirror blocks (`mirror[s]`: the slot
+/// of the transposed block of slot `s`, from [`Bsr::transpose_pattern`]).
+/// Half the block products, and `C` exactly symmetric.
+pub(crate) fn product_values_symmetric<const B: usize>(
+    x: &Bsr<B>,
+    y: &Bsr<B>,
+    c: &mut Bsr<B>,
+    mirror: &[u32],
+) {
+    let (c_ptr, c_col) = (&c.row_ptr, &c.col);
+    par::row_slices(c_ptr, &mut c.val, &|i, vals: &mut [Blk<B>]| {
+        let cols = &c_col[c_ptr[i]..c_ptr[i + 1]];
+        let first = cols.partition_point(|&j| (j as usize) < i);
+        vals.fill(zero::<B>());
+        for k in x.row(i) {
+            let xk = &x.val[k];
+            let m = x.col[k] as usize;
+            let mut p = first;
+            for q in y.row(m) {
+                let j = y.col[q];
+                if (j as usize) < i {
+                    continue;
+                }
+                while cols[p] != j {
+                    p += 1;
+                }
+                mul_mat_add(xk, &y.val[q], &mut vals[p]);
+            }
+        }
+    });
+    for i in 0..c.nrows {
+        for s in c.row(i) {
+            if (c.col[s] as usize) < i {
+                c.val[s] = transpose(&c.val[mirror[s] as usize]);
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

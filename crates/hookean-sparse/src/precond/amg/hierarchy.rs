@@ -6,7 +6,7 @@ use std::sync::Mutex;
 use super::aggregate::{NO_AGGREGATE, aggregate, strong_connections, tentative_prolongator};
 use super::bsr::{
     Blk, Bsr, determinant, frobenius2, mul_add, mul_mat_add, mul_vec, product_pattern,
-    product_values, spd_inverse, zero,
+    product_values, product_values_symmetric, spd_inverse, zero,
 };
 use super::ic0::BlockIc0;
 use super::par;
@@ -49,6 +49,9 @@ struct Transfer<const B: usize> {
     r_map: Vec<u32>,
     /// `A P`, the intermediate of the Galerkin product `R (A P)`.
     ap: Bsr<B>,
+    /// For every slot of the next level's operator `R (A P)` (structurally
+    /// symmetric), the slot of its transposed block.
+    galerkin_mirror: Vec<u32>,
     /// `omega = prolongation_weight / rho(D_F^-1 A_F)`.
     omega: f64,
     /// The power method's eigenvector estimate of `D_F^-1 A_F`.
@@ -257,8 +260,22 @@ fn invert_diagonal<const B: usize>(
     dinv: &mut [Blk<B>],
     level: usize,
 ) -> Result<(), SparseError> {
-    for (i, (&d, inv)) in diag.iter().zip(dinv.iter_mut()).enumerate() {
-        *inv = spd_inverse(&a.val[d]).ok_or_else(|| {
+    // Rows split across threads; a failure is reported for the first row
+    // that fails (searched again serially, so the error does not depend on
+    // the schedule).
+    let failed = std::sync::atomic::AtomicBool::new(false);
+    par::rows(
+        dinv,
+        &|i, inv: &mut Blk<B>| match spd_inverse(&a.val[diag[i]]) {
+            Some(m) => *inv = m,
+            None => failed.store(true, std::sync::atomic::Ordering::Relaxed),
+        },
+    );
+    if !failed.into_inner() {
+        return Ok(());
+    }
+    for (i, &d) in diag.iter().enumerate() {
+        spd_inverse(&a.val[d]).ok_or_else(|| {
             let determinant = determinant(&a.val[d]);
             let scale = frobenius2(&a.val[d]).sqrt().powi(B as i32);
             if level == 0 && determinant.abs() <= 1e-14 * scale {
@@ -334,7 +351,17 @@ impl<const B: usize> Hierarchy<B> {
                 Some((t, ns)) => (Some(t), Some(ns)),
                 None => (None, None),
             };
-            let mut next = transfer.as_ref().map(|t| product_pattern(&t.r, &t.ap));
+            let mut transfer = transfer;
+            let mut next = transfer.as_mut().map(|t| {
+                let c = product_pattern(&t.r, &t.ap);
+                let (ct, mirror) = c.transpose_pattern();
+                debug_assert!(
+                    ct.row_ptr == c.row_ptr && ct.col == c.col,
+                    "R A P is symmetric"
+                );
+                t.galerkin_mirror = mirror;
+                c
+            });
             let mut w = Work::new(B * n, next.as_ref().map_or(0, |c| B * c.nrows));
             let mut level = Level {
                 dinv: vec![zero::<B>(); n],
@@ -437,6 +464,7 @@ impl<const B: usize> Hierarchy<B> {
                 r,
                 r_map,
                 ap,
+                galerkin_mirror: Vec::new(),
                 omega: 0.0,
                 eigenvector: vec![0.0; B * n],
             },
@@ -699,7 +727,7 @@ fn compute_level<const B: usize>(
         )?;
     }
     product_values(&level.a, &tr.p, &mut tr.ap);
-    product_values(&tr.r, &tr.ap, next);
+    product_values_symmetric(&tr.r, &tr.ap, next, &tr.galerkin_mirror);
     Ok(())
 }
 
@@ -715,11 +743,21 @@ fn smooth_prolongator<const B: usize>(
     refill: bool,
     work: &mut Work,
 ) -> Result<(), SparseError> {
-    // A_F: strong blocks copied, weak ones lumped onto the diagonal.
-    for i in 0..a.nrows {
+    // A_F: strong blocks copied, weak ones lumped onto the diagonal (rows
+    // split across threads).
+    let (af_src, af_diag, strong) = (&tr.af_src, &tr.af_diag, &tr.strong);
+    let af_ptr = &tr.af.row_ptr;
+    par::row_slices(af_ptr, &mut tr.af.val, &|i, vals: &mut [Blk<B>]| {
+        let row = af_ptr[i];
+        for (slot, v) in (row..).zip(vals.iter_mut()) {
+            let s = af_src[slot];
+            if s != u32::MAX {
+                *v = a.val[s as usize];
+            }
+        }
         let mut d = a.val[diag[i]];
         for k in a.row(i) {
-            if k != diag[i] && !tr.strong[k] {
+            if k != diag[i] && !strong[k] {
                 for r in 0..B {
                     for c in 0..B {
                         d[r][c] += a.val[k][r][c];
@@ -727,19 +765,15 @@ fn smooth_prolongator<const B: usize>(
                 }
             }
         }
-        tr.af.val[tr.af_diag[i]] = d;
-    }
-    for (v, &s) in tr.af.val.iter_mut().zip(&tr.af_src) {
-        if s != u32::MAX {
-            *v = a.val[s as usize];
-        }
-    }
+        vals[af_diag[i] - row] = d;
+    });
     // D_F^-1; where lumping made a diagonal block indefinite (a matrix that
     // is not an M-matrix, e.g. a scalar elasticity operator with positive
     // off-diagonal entries), D^-1 of A instead: any SPD scaling smooths T.
-    for ((inv, &d), dinv) in tr.df_inv.iter_mut().zip(&tr.af_diag).zip(a_dinv) {
-        *inv = spd_inverse(&tr.af.val[d]).unwrap_or(*dinv);
-    }
+    let af = &tr.af;
+    par::rows(&mut tr.df_inv, &|i, inv: &mut Blk<B>| {
+        *inv = spd_inverse(&af.val[af_diag[i]]).unwrap_or(a_dinv[i]);
+    });
     if let Some(iterations) = iterations {
         let rho = spectral_radius(
             &tr.af,
@@ -753,27 +787,29 @@ fn smooth_prolongator<const B: usize>(
     }
     // P = T - omega D_F^-1 (A_F T).
     product_values(&tr.af, &tr.t, &mut tr.p);
-    for i in 0..a.nrows {
-        let dinv = &tr.df_inv[i];
-        for k in tr.p.row(i) {
+    let (df_inv, t, t_in_p, omega) = (&tr.df_inv, &tr.t, &tr.t_in_p, tr.omega);
+    let p_ptr = &tr.p.row_ptr;
+    par::row_slices(p_ptr, &mut tr.p.val, &|i, vals: &mut [Blk<B>]| {
+        let dinv = &df_inv[i];
+        for v in vals.iter_mut() {
             let mut m = zero::<B>();
-            mul_mat_add(dinv, &tr.p.val[k], &mut m);
+            mul_mat_add(dinv, v, &mut m);
             for row in m.iter_mut() {
-                for v in row.iter_mut() {
-                    *v *= -tr.omega;
+                for x in row.iter_mut() {
+                    *x *= -omega;
                 }
             }
-            tr.p.val[k] = m;
+            *v = m;
         }
-        if let Some(k) = tr.t.row(i).next() {
-            let s = tr.t_in_p[i];
+        if let Some(k) = t.row(i).next() {
+            let s = t_in_p[i] - p_ptr[i];
             for r in 0..B {
                 for c in 0..B {
-                    tr.p.val[s][r][c] += tr.t.val[k][r][c];
+                    vals[s][r][c] += t.val[k][r][c];
                 }
             }
         }
-    }
+    });
     tr.p.fill_transpose(&mut tr.r, &tr.r_map);
     Ok(())
 }

@@ -29,7 +29,7 @@ fn sequential(rows: usize) -> bool {
 
 /// Rows per rayon task: below this a level's kernel runs sequentially (the
 /// coarse levels, whose work is smaller than a task's overhead).
-pub(crate) const ROWS_PER_TASK: usize = 4096;
+pub(crate) const ROWS_PER_TASK: usize = 1024;
 
 /// `f(i, &mut out[i])` for every row `i`, split across threads.
 pub(crate) fn rows<T: Send, F: Fn(usize, &mut T) + Sync>(out: &mut [T], f: &F) {
