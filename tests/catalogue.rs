@@ -946,7 +946,15 @@ const REPRODUCE: &[Case] = &[
     case(
         "reproduce: claims of the other paper only",
         &[],
-        &["reproduce", "--paper", "filter", "--claims", "2", "--out", "{}/r"],
+        &[
+            "reproduce",
+            "--paper",
+            "filter",
+            "--claims",
+            "2",
+            "--out",
+            "{}/r",
+        ],
         2,
         "select no claim",
     )

@@ -15,7 +15,7 @@ use std::time::Instant;
 use clap::{Args, Parser, ValueEnum};
 use hookean::SimulationOptions;
 use hookean_filter::{
-    BisectionOptions, ExplicitScheme, FilterCoupling, FilterOptions, Figure8Method, Figure8Row,
+    BisectionOptions, ExplicitScheme, Figure8Method, Figure8Row, FilterCoupling, FilterOptions,
     Form, ModelIntegrator, RunOptions, figure8_runs, measure_stable_step, predict_dt_max,
     run_bounded,
 };
@@ -287,6 +287,16 @@ fn reproduce(
         bar.set_message(format!("{id}: {claim}"));
         let t0 = Instant::now();
         let o = f(&ctx)?;
+        // A miss says so first; the claims with a known cause say why in
+        // their own note, the others name the tolerance missed.
+        let note = if o.pass || o.note.starts_with("misses") {
+            o.note
+        } else {
+            format!(
+                "misses: {} is outside the tolerance ({}). {}",
+                o.measured, o.tolerance, o.note
+            )
+        };
         claims.push(Claim {
             id,
             paper,
@@ -295,7 +305,7 @@ fn reproduce(
             measured: o.measured,
             tolerance: o.tolerance,
             pass: o.pass,
-            note: o.note,
+            note,
             seconds: t0.elapsed().as_secs_f64(),
         });
         bar.inc(1);
@@ -312,7 +322,10 @@ fn reproduce(
     };
     let table = markdown(&record);
     write(&dir.join("claims.md"), &table)?;
-    write(&dir.join("claims.json"), &(crate::to_json(&record, true)? + "\n"))?;
+    write(
+        &dir.join("claims.json"),
+        &(crate::to_json(&record, true)? + "\n"),
+    )?;
     Ok((record, table))
 }
 
@@ -447,7 +460,11 @@ fn orders(ctx: &Ctx) -> Result<Outcome, CliError> {
             .collect();
         let q = observed_order(&finite[finite.len().saturating_sub(4)..]).unwrap_or(f64::NAN);
         let dev = (q - m.order() as f64).abs();
-        worst = if dev.is_nan() { f64::INFINITY } else { worst.max(dev) };
+        worst = if dev.is_nan() {
+            f64::INFINITY
+        } else {
+            worst.max(dev)
+        };
         parts.push(format!("{m} {q:.2}"));
     }
     Ok(Outcome {
@@ -524,7 +541,11 @@ fn regions(ctx: &Ctx) -> Result<Outcome, CliError> {
         ny: 101,
     };
     let mut fractions = Vec::new();
-    for m in [Method::ImplicitEuler, Method::ImplicitMidpoint, Method::Bdf(2)] {
+    for m in [
+        Method::ImplicitEuler,
+        Method::ImplicitMidpoint,
+        Method::Bdf(2),
+    ] {
         let s = sample_region(&m, &left).map_err(failed)?;
         fractions.push((m, s.stable_fraction()));
     }
@@ -550,7 +571,8 @@ fn regions(ctx: &Ctx) -> Result<Outcome, CliError> {
                 .collect::<Vec<_>>()
                 .join(", ")
         ),
-        tolerance: "fractions exactly 1 (101 x 101 points of [-20, 0) x [-20, 20]); area within 2%".into(),
+        tolerance: "fractions exactly 1 (101 x 101 points of [-20, 0) x [-20, 20]); area within 2%"
+            .into(),
         pass: a_stable && (area / pi - 1.0).abs() <= 0.02,
         note: String::new(),
     })
@@ -567,7 +589,11 @@ fn large_steps(_: &Ctx) -> Result<Outcome, CliError> {
         })
         .fold(0.0f64, f64::max);
     let mut worst_implicit: f64 = 0.0;
-    for m in [Method::ImplicitEuler, Method::ImplicitMidpoint, Method::Bdf(2)] {
+    for m in [
+        Method::ImplicitEuler,
+        Method::ImplicitMidpoint,
+        Method::Bdf(2),
+    ] {
         let rows = oscillator_rows(ex3, &m, 5, 3)?;
         for r in rows {
             worst_implicit = worst_implicit.max(r.error);
@@ -580,7 +606,9 @@ fn large_steps(_: &Ctx) -> Result<Outcome, CliError> {
         measured: format!(
             "largest implicit error {worst_implicit:.3} at 5-20 steps (solution size {scale:.3}); explicit Euler at 5 steps {ee_err:.3e}"
         ),
-        tolerance: "implicit error <= max(|z|, |v|) of the solution; explicit Euler error > 10x that".into(),
+        tolerance:
+            "implicit error <= max(|z|, |v|) of the solution; explicit Euler error > 10x that"
+                .into(),
         pass: worst_implicit <= scale && !(ee_err <= 10.0 * scale),
         note: "example 3 (particle on a damped spring), 5, 10 and 20 steps".into(),
     })
@@ -802,7 +830,10 @@ fn filtered_cg(ctx: &Ctx) -> Result<Outcome, CliError> {
         ),
         tolerance: "violation <= 1e-14, converged".into(),
         pass: info.converged && violation <= 1e-14,
-        note: format!("{n} x {n} drape, 2 pins and {} sliding constraints", (n * n - n).div_ceil(10)),
+        note: format!(
+            "{n} x {n} drape, 2 pins and {} sliding constraints",
+            (n * n - n).div_ceil(10)
+        ),
     })
 }
 
@@ -857,7 +888,19 @@ fn figure6(_: &Ctx) -> Result<Outcome, CliError> {
         tolerance: ">= 1.8x; <= 1.05x".into(),
         pass: one >= 1.8 && twenty <= 1.05,
         note: format!(
-            "12 x 12 drape, plain form, the velocity change filtered; the symmetric form the paper recommends gives {symmetric:.2}x (it averages each particle with its filtered neighbourhood, halving the filter's effect on the stiffest mode; figure 6 of it: filter/fig6.svg)"
+            "{}12 x 12 drape, plain form, the velocity change filtered; the symmetric form the paper recommends gives {symmetric:.2}x (it averages each particle with its filtered neighbourhood, halving the filter's effect on the stiffest mode; figure 6 of it: filter/fig6.svg)",
+            if one < 1.8 {
+                format!(
+                    "misses: lambda = 1 enlarges the stable step {one:.2}x, {:.0}% short of 1.8x (the filter does not damp the cloth's stiffest mode as much as the paper's). ",
+                    100.0 * (1.0 - one / 1.8)
+                )
+            } else if twenty > 1.05 {
+                format!(
+                    "misses: lambda = 20 still enlarges the step {twenty:.3}x (the paper: no change for lambda > 10, as the neighbours' weights e^-20 vanish). "
+                )
+            } else {
+                String::new()
+            }
         ),
     })
 }
@@ -985,8 +1028,18 @@ fn filter_cost(ctx: &Ctx) -> Result<Outcome, CliError> {
         tolerance: "cost <= 8%, speed-up >= 10%".into(),
         pass: cost <= 0.08 && speedup >= 0.10,
         note: format!(
-            "{n} x {n} drape through Simulation::step, best of {rounds} interleaved rounds of 5 steps (medians: cost {:.1}%); speed-up = 1.25 t_plain / t_filtered - 1 (a filtered run takes 1/1.25 the steps){threaded}. Wall-clock: noisy on a loaded machine",
-            100.0 * (mf / mp - 1.0)
+            "{}{n} x {n} drape through Simulation::step, best of {rounds} interleaved rounds of 5 steps (medians: cost {:.1}%); speed-up = 1.25 t_plain / t_filtered - 1 (a filtered run takes 1/1.25 the steps){threaded}. Wall-clock: noisy on a loaded machine",
+            100.0 * (mf / mp - 1.0),
+            if cost <= 0.08 && speedup >= 0.10 {
+                String::new()
+            } else {
+                format!(
+                    "misses: a filtered step costs {:.1}% more than an unfiltered one ({:.1} points over 8%), so a filtered run at 1.25x the step is only {:.1}% faster (10% needed). Wall-clock times of one thread: another program running on the machine inflates them unevenly; the medians and a rerun tell. ",
+                    100.0 * cost,
+                    (100.0 * cost - 8.0).max(0.0),
+                    100.0 * speedup
+                )
+            }
         ),
     })
 }
@@ -1036,7 +1089,8 @@ fn spectra(ctx: &Ctx) -> Result<Outcome, CliError> {
         measured: format!(
             "high-frequency share of the last state's spectrum: FB Euler {fb:.4}, backward Euler {be:.4}, filtered {fil:.4}"
         ),
-        tolerance: "FB Euler > filtered, and filtered closer to backward Euler than FB Euler is".into(),
+        tolerance: "FB Euler > filtered, and filtered closer to backward Euler than FB Euler is"
+            .into(),
         pass: fb > fil && (fil - be).abs() < (fb - be).abs(),
         note: format!(
             "{n} x {n} drape at h = 0.9 dt_max for all three (hookean filter-analysis, filter/analysis.json): the velocity spectrum's share beyond half the Nyquist radius. At a step this small every scheme filters little, so the differences are a few percent; averaged over the run (figure 4) the shares are {:.4}, {:.4}, {:.4}. Pictures in filter/",
@@ -1050,11 +1104,7 @@ fn figure8(ctx: &Ctx) -> Result<Outcome, CliError> {
     let (sizes, k0s, t_end): (Vec<usize>, Vec<f64>, f64) = if ctx.quick {
         (vec![8, 16], vec![1e4, 1e6, 1e8], 0.5)
     } else {
-        (
-            vec![16, 32, 64],
-            vec![1e4, 1e5, 1e6, 1e7, 1e8, 1e9],
-            2.0,
-        )
+        (vec![16, 32, 64], vec![1e4, 1e5, 1e6, 1e7, 1e8, 1e9], 2.0)
     };
     let k0_panel_n = if ctx.quick { 8 } else { 16 };
     let mut best = SimulationOptions::drape_solver();
@@ -1072,9 +1122,8 @@ fn figure8(ctx: &Ctx) -> Result<Outcome, CliError> {
             k0_rows.extend(rows.iter().filter(|r| r.n == k0_panel_n).copied());
             continue;
         }
-        k0_rows.extend(
-            figure8_runs(k0_panel_n, k0, t_end, &methods, &best, |_| {}).map_err(failed)?,
-        );
+        k0_rows
+            .extend(figure8_runs(k0_panel_n, k0, t_end, &methods, &best, |_| {}).map_err(failed)?);
     }
     // fig8.csv and the two panels.
     let mut csv = String::from(
@@ -1174,16 +1223,59 @@ fn figure8(ctx: &Ctx) -> Result<Outcome, CliError> {
         .filter(|r| r.method == Figure8Method::Imex)
         .all(|r| r.bounded);
     let pass = crossover.is_some_and(|k| (1e5..=1e8).contains(&k));
+    // Every method's time at every k0 of the sweep (ms; "blew up" where the
+    // energy was not bounded).
+    let per_method = methods
+        .iter()
+        .map(|&m| {
+            let times = k0s
+                .iter()
+                .map(|&k0| {
+                    k0_rows.iter().find(|r| r.k0 == k0 && r.method == m).map_or(
+                        "-".to_string(),
+                        |r| {
+                            if r.bounded {
+                                format!("{:.1}", 1e3 * r.seconds)
+                            } else {
+                                "blew up".to_string()
+                            }
+                        },
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join(" / ");
+            format!("{} {times}", m.name())
+        })
+        .collect::<Vec<_>>()
+        .join(", ");
+    let k0_list = k0s
+        .iter()
+        .map(|k| format!("{k:.0e}"))
+        .collect::<Vec<_>>()
+        .join(" / ");
+    let miss = if pass {
+        String::new()
+    } else {
+        match crossover {
+            Some(k) => format!(
+                "misses: the implicit schemes overtake the explicit ones from k0 = {k:.0e}, outside 1e5-1e8 (the explicit steps shrink as 1/sqrt(k0) by eq. 11, the implicit step stays 0.01 s, so where they cross depends on the cost of one implicit step against one explicit step on this machine). "
+            ),
+            None => "misses: no k0 of the sweep where backward Euler or IMEX beats every explicit method (the explicit steps shrink as 1/sqrt(k0) by eq. 11 while the implicit step stays 0.01 s: the sweep does not reach stiff enough springs, or an implicit step costs more than the paper's). ".into(),
+        }
+    };
     Ok(Outcome {
         paper_value: "crossover at k0 ~ 1e6".into(),
-        measured: match crossover {
-            Some(k) => format!("implicit/IMEX faster from k0 = {k:.0e} on"),
-            None => "no crossover in the sweep".into(),
-        },
+        measured: format!(
+            "{}; ms at k0 = {k0_list} ({k0_panel_n} x {k0_panel_n} drape, {t_end} s): {per_method}",
+            match crossover {
+                Some(k) => format!("implicit/IMEX faster from k0 = {k:.0e} on"),
+                None => "no crossover in the sweep".into(),
+            }
+        ),
         tolerance: "crossover within a decade or two: 1e5 <= k0 <= 1e8".into(),
         pass,
         note: format!(
-            "{}; IMEX bounded at every k0: {imex_bounded}; fig8-particles.svg, fig8-k0.svg, fig8.csv",
+            "{miss}{}; IMEX bounded at every k0: {imex_bounded}; fig8-particles.svg, fig8-k0.svg, fig8.csv",
             summary.join("; ")
         ),
     })

@@ -39,18 +39,30 @@ fn a_quick_subset_writes_the_table_the_record_and_the_figures() {
     }
     let all_pass = claims.iter().all(|c| c["pass"] == true);
     assert_eq!(o.status.success(), all_pass, "{stderr}");
-    assert!(stdout.contains("| # | paper | claim | paper's value | measured | tolerance | pass | note |"));
+    assert!(
+        stdout
+            .contains("| # | paper | claim | paper's value | measured | tolerance | pass | note |")
+    );
     let md = std::fs::read_to_string(dir.join("claims.md")).unwrap();
     assert!(md.contains("| 14 | filter |"));
     // Figure 8: both panels name every method, IMEX included.
     for panel in ["fig8-particles.svg", "fig8-k0.svg"] {
         let svg = std::fs::read_to_string(dir.join(panel)).unwrap();
-        for name in ["FB Euler", "filtered RK4", "Verlet", "IMEX (EEH00)", "backward Euler (BW98"] {
+        for name in [
+            "FB Euler",
+            "filtered RK4",
+            "Verlet",
+            "IMEX (EEH00)",
+            "backward Euler (BW98",
+        ] {
             assert!(svg.contains(name), "{name} missing from {panel}");
         }
     }
     let csv = std::fs::read_to_string(dir.join("fig8.csv")).unwrap();
-    assert!(csv.lines().any(|l| l.contains("IMEX (EEH00)") && l.contains("true")));
+    assert!(
+        csv.lines()
+            .any(|l| l.contains("IMEX (EEH00)") && l.contains("true"))
+    );
     assert!(dir.join("fig4-regions.svg").exists());
     // A second run refuses the folder without --force.
     let again = hookean(&["reproduce", "--claims", "2", "--out", dir.to_str().unwrap()]);

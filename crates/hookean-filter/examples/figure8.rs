@@ -27,22 +27,31 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .into_iter()
         .filter(|m| *m != Figure8Method::BackwardEulerBest)
         .collect();
-    println!("| N | k0 (rest) | k0 (run max) | method | h (s) | steps | CG its | bounded | time (s) |");
+    println!(
+        "| N | k0 (rest) | k0 (run max) | method | h (s) | steps | CG its | bounded | time (s) |"
+    );
     println!("|---|---|---|---|---|---|---|---|---|");
     for &n in &sizes {
         for &k0 in &k0s {
-            figure8_runs(n as usize, k0, t_end, &methods, &SolverOptions::default(), |r| {
-                println!(
-                    "| {n}x{n} | {k0:.0e} | {:.2e} | {} | {:.2e} | {} | {} | {} | {:.3} |",
-                    r.k0_run,
-                    r.method.name(),
-                    r.h,
-                    r.steps,
-                    r.linear_iterations,
-                    r.bounded,
-                    r.seconds
-                );
-            })?;
+            figure8_runs(
+                n as usize,
+                k0,
+                t_end,
+                &methods,
+                &SolverOptions::default(),
+                |r| {
+                    println!(
+                        "| {n}x{n} | {k0:.0e} | {:.2e} | {} | {:.2e} | {} | {} | {} | {:.3} |",
+                        r.k0_run,
+                        r.method.name(),
+                        r.h,
+                        r.steps,
+                        r.linear_iterations,
+                        r.bounded,
+                        r.seconds
+                    );
+                },
+            )?;
         }
     }
     Ok(())

@@ -182,13 +182,7 @@ pub fn figure8_runs(
 
     // Backward Euler first, one simulated second at a time: k0 of its states.
     let (model, state) = cloth(&scene)?;
-    let mut sim = ModelIntegrator::new(
-        model,
-        &state,
-        Method::ImplicitEuler,
-        bw98_options(),
-        None,
-    )?;
+    let mut sim = ModelIntegrator::new(model, &state, Method::ImplicitEuler, bw98_options(), None)?;
     let mut k0_run = k0;
     let (mut seconds, mut bounded, mut second) = (0.0, true, 1.0f64);
     loop {
@@ -239,8 +233,8 @@ pub fn figure8_runs(
                 let Some((m, filtered)) = explicit.explicit() else {
                     continue;
                 };
-                let c = ExplicitScheme::from_method(&m)
-                    .map_or(2.0, ExplicitScheme::stability_constant);
+                let c =
+                    ExplicitScheme::from_method(&m).map_or(2.0, ExplicitScheme::stability_constant);
                 let mut h = (0.95 * c / k0_run.sqrt()).min(0.01);
                 if filtered {
                     h *= 1.25;

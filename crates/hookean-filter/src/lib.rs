@@ -93,9 +93,9 @@ mod velocity;
 
 pub use error::FilterError;
 pub use experiments::{
-    AutoStep, BisectionOptions, DrapeMethod, Prediction, RunOptions, RunOutcome, StableStep, StableStepRow,
-    VelocityRun, auto_step, drape_velocity_run, measure_stable_step, predict_dt_max, run_bounded,
-    stable_step_against_lambda,
+    AutoStep, BisectionOptions, DrapeMethod, Prediction, RunOptions, RunOutcome, StableStep,
+    StableStepRow, VelocityRun, auto_step, drape_velocity_run, measure_stable_step, predict_dt_max,
+    run_bounded, stable_step_against_lambda,
 };
 pub use figure8::{Figure8Method, Figure8Row, figure8_runs};
 pub use filtered::{FilterCoupling, FilterStats, FilteredIntegrator, position_weight};

@@ -641,7 +641,8 @@ impl VelocityFilter {
             let mut sum = 0.0;
             for k in r.clone() {
                 let q = &p[self.neighbours[k]];
-                let d2 = (q[0] - p[i][0]).powi(2) + (q[1] - p[i][1]).powi(2) + (q[2] - p[i][2]).powi(2);
+                let d2 =
+                    (q[0] - p[i][0]).powi(2) + (q[1] - p[i][1]).powi(2) + (q[2] - p[i][2]).powi(2);
                 let b = kernel.beta(d2.sqrt() * inv_unit);
                 self.weights[k] = b;
                 sum += b;
@@ -655,9 +656,11 @@ impl VelocityFilter {
         }
         // Every particle is gathered (see `Plan::build`), in particle order,
         // its taps in neighbourhood order: refill the effective weights.
-        for (w, (k, i)) in self.plan.gather_weight.iter_mut().zip(
-            (0..n).flat_map(|i| (self.offsets[i]..self.offsets[i + 1]).map(move |k| (k, i))),
-        ) {
+        for (w, (k, i)) in
+            self.plan.gather_weight.iter_mut().zip(
+                (0..n).flat_map(|i| (self.offsets[i]..self.offsets[i + 1]).map(move |k| (k, i))),
+            )
+        {
             *w = match form {
                 Form::Plain => self.weights[k],
                 Form::Symmetric if self.neighbours[k] == i => 0.5 + 0.5 * self.weights[k],
@@ -985,7 +988,13 @@ mod tests {
         assert_eq!(f.plan_stats().gathered_particles, n);
         // The chain's springs are 0.5 long: particles 0.5 apart are at rest.
         let x: Vec<f64> = (0..3 * n)
-            .map(|k| if k % 3 == 0 { 0.5 * (k / 3) as f64 } else { 0.0 })
+            .map(|k| {
+                if k % 3 == 0 {
+                    0.5 * (k / 3) as f64
+                } else {
+                    0.0
+                }
+            })
             .collect();
         f.update_distances(&x).unwrap();
         for i in 0..n {

@@ -1199,7 +1199,11 @@ impl SecondOrderProblem for MassSpringModel {
 
     /// The tutorial's eq. 50 in isotropic storage (see
     /// [`MassSpringModel::assemble_linearized_iso`]).
-    fn linearized_jacobians_iso(&self, dfdx: &mut IsoBlockMatrix, dfdv: &mut IsoBlockMatrix) -> bool {
+    fn linearized_jacobians_iso(
+        &self,
+        dfdx: &mut IsoBlockMatrix,
+        dfdv: &mut IsoBlockMatrix,
+    ) -> bool {
         self.assemble_linearized_iso(dfdx, dfdv);
         true
     }

@@ -117,7 +117,10 @@ pub(crate) enum ImexFailure {
     /// The factorisation or the solve failed.
     Sparse(SparseError),
     /// Filtered PCG did not converge.
-    NotConverged { iterations: usize, relative_residual: f64 },
+    NotConverged {
+        iterations: usize,
+        relative_residual: f64,
+    },
 }
 
 impl From<SparseError> for ImexFailure {
@@ -237,9 +240,7 @@ impl Imex {
         let stale = match &self.key {
             None => true,
             Some(k) => {
-                k.h != h
-                    || k.revision != problem.material_revision()
-                    || k.pinned != self.pinned_now
+                k.h != h || k.revision != problem.material_revision() || k.pinned != self.pinned_now
             }
         };
         if stale {

@@ -38,10 +38,22 @@ impl Chain {
 
     fn start(&self) -> (Vec<f64>, Vec<f64>) {
         let x = (0..3 * self.n)
-            .map(|q| if q < 3 { 0.0 } else { 0.3 * ((q as f64) * 0.7).sin() })
+            .map(|q| {
+                if q < 3 {
+                    0.0
+                } else {
+                    0.3 * ((q as f64) * 0.7).sin()
+                }
+            })
             .collect();
         let v = (0..3 * self.n)
-            .map(|q| if q < 3 { 0.0 } else { 0.5 * ((q as f64) * 1.3).cos() })
+            .map(|q| {
+                if q < 3 {
+                    0.0
+                } else {
+                    0.5 * ((q as f64) * 1.3).cos()
+                }
+            })
             .collect();
         (x, v)
     }
@@ -149,13 +161,22 @@ fn on_a_linear_force_imex_is_implicit_euler_and_stable() {
     let (k, d) = (1e4, 0.0);
     let h = 0.1;
     let imex = run(Chain::new(8, k, d, 0.0), Method::Imex, h, 2.0, 1e-13);
-    let ie = run(Chain::new(8, k, d, 0.0), Method::ImplicitEuler, h, 2.0, 1e-13);
+    let ie = run(
+        Chain::new(8, k, d, 0.0),
+        Method::ImplicitEuler,
+        h,
+        2.0,
+        1e-13,
+    );
     let scale = ie.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let diff = imex
         .iter()
         .zip(&ie)
         .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-    assert!(diff <= 1e-9 * scale.max(1.0), "IMEX vs implicit Euler: {diff:e}");
+    assert!(
+        diff <= 1e-9 * scale.max(1.0),
+        "IMEX vs implicit Euler: {diff:e}"
+    );
     // Implicit Euler damps the undamped chain: the state shrank.
     let (x0, v0) = Chain::new(8, k, d, 0.0).start();
     let start = x0.iter().chain(&v0).fold(0.0f64, |m, v| m.max(v.abs()));
@@ -180,7 +201,10 @@ fn with_a_nonlinear_remainder_imex_converges_with_order_one() {
     let errs: Vec<f64> = hs.iter().map(|&h| err(h)).collect();
     for w in errs.windows(2) {
         let order = (w[0] / w[1]).log2();
-        assert!((0.85..1.2).contains(&order), "observed order {order} ({errs:?})");
+        assert!(
+            (0.85..1.2).contains(&order),
+            "observed order {order} ({errs:?})"
+        );
     }
 }
 
@@ -193,9 +217,15 @@ fn the_linear_part_lifts_the_explicit_limit() {
     let imex = run(make(), Method::Imex, 0.05, 1.0, 1e-10);
     assert!(imex.iter().all(|v| v.is_finite() && v.abs() < 10.0));
     let (x0, v0) = make().start();
-    let mut fb =
-        SecondOrderIntegrator::new(make(), Method::FbEuler, 0.0, &x0, &v0, SolverOptions::with_h(0.05))
-            .unwrap();
+    let mut fb = SecondOrderIntegrator::new(
+        make(),
+        Method::FbEuler,
+        0.0,
+        &x0,
+        &v0,
+        SolverOptions::with_h(0.05),
+    )
+    .unwrap();
     let blew_up = match fb.integrate(1.0) {
         Err(_) => true,
         Ok(_) => fb.state().iter().any(|v| !v.is_finite() || v.abs() > 1e3),
@@ -235,7 +265,14 @@ fn imex_needs_a_linear_part() {
     let c = Chain::new(3, 1.0, 0.0, 0.0);
     let (x0, v0) = c.start();
     assert!(matches!(
-        SecondOrderIntegrator::new(NoLinear(c), Method::Imex, 0.0, &x0, &v0, SolverOptions::default()),
+        SecondOrderIntegrator::new(
+            NoLinear(c),
+            Method::Imex,
+            0.0,
+            &x0,
+            &v0,
+            SolverOptions::default()
+        ),
         Err(OdeError::UnsupportedMethod { .. })
     ));
     assert_eq!("imex".parse::<Method>().unwrap(), Method::Imex);

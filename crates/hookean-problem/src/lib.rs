@@ -116,7 +116,11 @@ pub trait SecondOrderProblem {
     /// integrates `f_lin` implicitly and `f - f_lin` explicitly; both keep
     /// what they build from them until the step size or
     /// [`material_revision`](Self::material_revision) changes.
-    fn linearized_jacobians_iso(&self, _dfdx: &mut IsoBlockMatrix, _dfdv: &mut IsoBlockMatrix) -> bool {
+    fn linearized_jacobians_iso(
+        &self,
+        _dfdx: &mut IsoBlockMatrix,
+        _dfdv: &mut IsoBlockMatrix,
+    ) -> bool {
         false
     }
 

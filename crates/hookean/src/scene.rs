@@ -1502,7 +1502,10 @@ impl Scene {
         }
         let mut options = self.simulation_options();
         if self.integrator.h == StepScene::Auto {
-            let filter = options.filter.as_ref().map(|f| (f, options.filter_coupling));
+            let filter = options
+                .filter
+                .as_ref()
+                .map(|f| (f, options.filter_coupling));
             options.solver.h = hookean_filter::auto_step(
                 &model,
                 &state.x,
@@ -1740,7 +1743,10 @@ mod tests {
         match implicit.build() {
             Err(e @ HookeanError::InvalidOption { .. }) => {
                 let m = e.to_string();
-                assert!(m.contains("integrator.h") && m.contains("implicit-euler"), "{m}");
+                assert!(
+                    m.contains("integrator.h") && m.contains("implicit-euler"),
+                    "{m}"
+                );
             }
             Err(e) => panic!("{e}"),
             Ok(_) => panic!("auto with implicit Euler was accepted"),
