@@ -42,7 +42,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         filter,
         ..SimulationOptions::default()
     };
-    let mut sims = vec![
+    let mut sims = [
         Simulation::new(model.clone(), state.clone(), options(None))?,
         Simulation::new(model, state, options(Some(FilterOptions::default())))?,
     ];
