@@ -1016,6 +1016,16 @@ fn filter_cost(ctx: &Ctx) -> Result<Outcome, CliError> {
     };
     let cost = tf / tp - 1.0;
     let speedup = 1.25 * tp / tf - 1.0;
+    let miss = if cost <= 0.08 && speedup >= 0.10 {
+        String::new()
+    } else {
+        format!(
+            "misses: a filtered step costs {:.1}% more than an unfiltered one ({:.1} points over the 8% allowed; the paper: 5%), so a filtered run at 1.25x the step is {:.1}% faster (10% needed). These are wall-clock times of one thread: another program on the machine inflates them unevenly, so the medians and a rerun tell whether the filter or the machine is at fault. ",
+            100.0 * cost,
+            (100.0 * cost - 8.0).max(0.0),
+            100.0 * speedup
+        )
+    };
     Ok(Outcome {
         paper_value: "cost 5%, net speed-up 20%".into(),
         measured: format!(
@@ -1028,18 +1038,8 @@ fn filter_cost(ctx: &Ctx) -> Result<Outcome, CliError> {
         tolerance: "cost <= 8%, speed-up >= 10%".into(),
         pass: cost <= 0.08 && speedup >= 0.10,
         note: format!(
-            "{}{n} x {n} drape through Simulation::step, best of {rounds} interleaved rounds of 5 steps (medians: cost {:.1}%); speed-up = 1.25 t_plain / t_filtered - 1 (a filtered run takes 1/1.25 the steps){threaded}. Wall-clock: noisy on a loaded machine",
+            "{miss}{n} x {n} drape through Simulation::step, best of {rounds} interleaved rounds of 5 steps (medians: cost {:.1}%); speed-up = 1.25 t_plain / t_filtered - 1 (a filtered run takes 1/1.25 the steps){threaded}. Wall-clock: noisy on a loaded machine",
             100.0 * (mf / mp - 1.0),
-            if cost <= 0.08 && speedup >= 0.10 {
-                String::new()
-            } else {
-                format!(
-                    "misses: a filtered step costs {:.1}% more than an unfiltered one ({:.1} points over 8%), so a filtered run at 1.25x the step is only {:.1}% faster (10% needed). Wall-clock times of one thread: another program running on the machine inflates them unevenly; the medians and a rerun tell. ",
-                    100.0 * cost,
-                    (100.0 * cost - 8.0).max(0.0),
-                    100.0 * speedup
-                )
-            }
         ),
     })
 }
