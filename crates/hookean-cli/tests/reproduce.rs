@@ -1,6 +1,6 @@
 //! `hookean reproduce`: the table and the record of a run. CI runs the
 //! command's cheap claims in the debug build (the whole `--quick` run takes
-//! about 6 s in release, about a minute unoptimised): 2 (stability
+//! about 6 s in release): 2 (stability
 //! limits on y' = -15 y), 3 (stability regions and figure 4), 9 (filtered
 //! CG on constraints) and 14 (figure 8 with every method, on 8 x 8 and
 //! 16 x 16 drapes for half a second). The full list is checked by hand with
