@@ -926,6 +926,90 @@ const GLOBAL: &[Case] = &[
     case("an unknown subcommand", &[], &["simulate"], 2, "simulate"),
 ];
 
+const REPRODUCE: &[Case] = &[
+    case(
+        "reproduce: an unknown paper",
+        &[],
+        &["reproduce", "--paper", "hauth", "--out", "{}/r"],
+        2,
+        "hauth",
+    )
+    .absent(&["r"]),
+    case(
+        "reproduce: claim 15",
+        &[],
+        &["reproduce", "--claims", "15", "--out", "{}/r"],
+        2,
+        "1 to 14",
+    )
+    .absent(&["r"]),
+    case(
+        "reproduce: claims of the other paper only",
+        &[],
+        &[
+            "reproduce",
+            "--paper",
+            "filter",
+            "--claims",
+            "2",
+            "--out",
+            "{}/r",
+        ],
+        2,
+        "select no claim",
+    )
+    .absent(&["r"]),
+    case(
+        "reproduce: a claim that is not a number",
+        &[],
+        &["reproduce", "--claims", "two", "--out", "{}/r"],
+        2,
+        "two",
+    )
+    .absent(&["r"]),
+    case(
+        "reproduce: an existing folder of other files",
+        &[("r/mine.txt", "mine")],
+        &["reproduce", "--claims", "2", "--out", "{}/r", "--force"],
+        2,
+        "r",
+    ),
+    case(
+        "reproduce: an existing output folder without --force",
+        &[("r/claims.json", "{}")],
+        &["reproduce", "--claims", "2", "--out", "{}/r"],
+        2,
+        "--force",
+    ),
+    case(
+        "reproduce: one cheap claim",
+        &[],
+        &["reproduce", "--quick", "--claims", "2", "--out", "{}/r"],
+        0,
+        "| 2 | tutorial |",
+    )
+    .creates(&["r/claims.md", "r/claims.json"]),
+    case(
+        "run: integrator.h = \"auto\" with an implicit method",
+        &[("s.toml", "[cloth]\nn = 4\n[integrator]\nh = \"auto\"\n")],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "integrator.h",
+    )
+    .absent(&["out"]),
+    case(
+        "run: an unknown filter coupling",
+        &[(
+            "s.toml",
+            "[cloth]\nn = 4\n[integrator]\nmethod = \"fb-euler\"\n[filter]\ncoupling = \"force\"\n",
+        )],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "s.toml:6",
+    )
+    .absent(&["out"]),
+];
+
 const VIEW: &[Case] = &[
     case(
         "view: a folder without a run",
@@ -1084,6 +1168,8 @@ fn every_case_of_the_catalogue_exits_as_promised_and_keeps_the_user_files() {
         BENCH_PRECOND,
         VIEW,
         GLOBAL,
+        // Cases 84-92 (issue 18).
+        REPRODUCE,
     ]
     .iter()
     .flat_map(|cases| cases.iter())

@@ -69,19 +69,26 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
     }
     let scene = Scene::from_file(&args.scene, &args.set).map_err(input)?;
     let (particles, _) = scene.particle_count();
-    args.work.check(
-        args.at / scene.integrator.h,
-        particles.map_or(f64::INFINITY, |p| p as f64),
-        &format!(
-            "--at {:?} s at integrator.h = {:?} s of {}",
-            args.at,
-            scene.integrator.h,
-            args.scene.display()
-        ),
-    )?;
+    let check_work = |h: f64| {
+        args.work.check(
+            args.at / h,
+            particles.map_or(f64::INFINITY, |p| p as f64),
+            &format!(
+                "--at {:?} s at integrator.h = {h:?} s of {}",
+                args.at,
+                args.scene.display()
+            ),
+        )
+    };
+    // "auto" is known once the model is built.
+    if let Some(h) = scene.integrator.h.value() {
+        check_work(h)?;
+    }
     let mut sim = scene
         .build()
         .map_err(|e| input(format!("{}: {e}", args.scene.display())))?;
+    let h = sim.h_next();
+    check_work(h)?;
     let mut steps = 0;
     if args.at > 0.0 {
         // A bar on a terminal: simulating to a late --at can take a while.
@@ -104,7 +111,6 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
         .map_err(|e| CliError::Input(format!("cannot create {}: {e}", args.out.display())))?;
     let a_path = args.out.join("A.mtx");
     let b_path = args.out.join("b.mtx");
-    let h = scene.integrator.h;
     sim.model()
         .export_implicit_euler_system(h, sim.x(), sim.v(), &a_path, &b_path)
         .map_err(input)?;

@@ -10,6 +10,7 @@
 //! hookean filter-analysis SCENE --plot DIR [--n 16] [--t-end 1.0] [--force]
 //! hookean view OUT_DIR [--force]
 //! hookean scene-keys
+//! hookean reproduce [--paper tutorial|filter|all] [--out DIR] [--quick] [--claims 1,2] [--force]
 //! ```
 //!
 //! Every command takes `--threads N` (default: the scene's `threads` key
@@ -36,6 +37,7 @@ mod output;
 mod plot;
 mod regions;
 mod render;
+mod reproduce;
 mod run;
 mod solve;
 mod stability;
@@ -80,6 +82,9 @@ enum Command {
     ExportSystem(export_system::ExportSystemArgs),
     /// List every scene key (TOML) with its units and default.
     SceneKeys,
+    /// Reproduce the claims of both papers: a table (claims.md, claims.json: claim, paper's value,
+    /// measured value, tolerance, pass) and every figure; exit code 1 if a claim fails.
+    Reproduce(reproduce::ReproduceArgs),
 }
 
 /// How a command failed.
@@ -97,10 +102,33 @@ pub enum CliError {
     OutputClosed,
 }
 
+/// While set, [`write_line`] writes nothing: `hookean reproduce` runs other
+/// commands for their files and prints only its own table.
+static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Silences [`write_line`] until dropped.
+pub(crate) struct Quiet;
+
+impl Quiet {
+    pub(crate) fn new() -> Self {
+        QUIET.store(true, std::sync::atomic::Ordering::Relaxed);
+        Quiet
+    }
+}
+
+impl Drop for Quiet {
+    fn drop(&mut self) {
+        QUIET.store(false, std::sync::atomic::Ordering::Relaxed);
+    }
+}
+
 /// Writes one line to standard output; a closed pipe is
 /// [`CliError::OutputClosed`] instead of a panic.
 pub fn write_line(line: std::fmt::Arguments<'_>) -> Result<(), CliError> {
     use std::io::Write;
+    if QUIET.load(std::sync::atomic::Ordering::Relaxed) {
+        return Ok(());
+    }
     let mut out = std::io::stdout().lock();
     match out.write_fmt(line).and_then(|()| out.write_all(b"\n")) {
         Ok(()) => Ok(()),
@@ -206,5 +234,6 @@ fn dispatch(command: Command, threads: Option<usize>) -> Result<(), CliError> {
         Command::FilterAnalysis(args) => filter_analysis::run(&args),
         Command::View(args) => view::run(&args),
         Command::SceneKeys => outln!("{}", hookean::scene::KEYS.trim_end()),
+        Command::Reproduce(args) => reproduce::run(&args),
     }
 }

@@ -10,7 +10,13 @@ use crate::CliError;
 
 /// Files by which a folder is recognised as the output of an earlier run,
 /// which `--force` may replace.
-const RUN_FILES: [&str; 4] = ["summary.json", "steps.csv", "final.png", "view.html"];
+const RUN_FILES: [&str; 5] = [
+    "summary.json",
+    "steps.csv",
+    "final.png",
+    "view.html",
+    "claims.json",
+];
 
 /// A staging folder for the output folder `target`.
 #[derive(Debug)]

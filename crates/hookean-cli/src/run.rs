@@ -319,7 +319,9 @@ pub fn run(args: &RunArgs, threads: Option<usize>) -> Result<(), CliError> {
 fn run_scene(args: &RunArgs, scene: &Scene) -> Result<(), CliError> {
     let max_bytes = max_memory_bytes(args.max_memory)?;
     if scene.tutorial.is_some() {
-        check_work(args, scene, 1)?;
+        // A [tutorial] scene's step is a number (the scene refuses "auto").
+        let h = scene.integrator.h.value().unwrap_or(f64::MIN_POSITIVE);
+        check_work(args, scene, 1, h)?;
     }
     let name = args
         .scene
@@ -353,16 +355,20 @@ fn run_scene(args: &RunArgs, scene: &Scene) -> Result<(), CliError> {
     }
 }
 
-/// Refuses a run of `particles` particles whose work is above `--max-work`.
-fn check_work(args: &RunArgs, scene: &Scene, particles: usize) -> Result<(), CliError> {
+/// Refuses a run of `particles` particles at step `h` whose work is above `--max-work`.
+fn check_work(args: &RunArgs, scene: &Scene, particles: usize, h: f64) -> Result<(), CliError> {
+    let auto = if scene.integrator.h.value().is_none() {
+        " (\"auto\")"
+    } else {
+        ""
+    };
     args.work.check(
-        scene.duration / scene.integrator.h,
+        scene.duration / h,
         particles as f64,
         &format!(
-            "{}: duration = {:?} s at integrator.h = {:?} s",
+            "{}: duration = {:?} s at integrator.h = {h:?} s{auto}",
             args.scene.display(),
             scene.duration,
-            scene.integrator.h
         ),
     )
 }
@@ -383,7 +389,7 @@ fn run_model(
         )),
         e => CliError::Input(format!("{}: {e}", args.scene.display())),
     })?;
-    check_work(args, scene, sim.model().n_particles())?;
+    check_work(args, scene, sim.model().n_particles(), sim.h_next())?;
 
     let mut csv = StepsCsv::create(out.join("steps.csv")).map_err(failed)?;
     let mut frames = ObjFrames {
@@ -501,7 +507,7 @@ fn run_model(
         Some(ParticleTrace { points, .. }) => crate::plot::TimePlot {
             title: "Tutorial example 3: particle on a damped spring",
             y_label: "height z (m)",
-            numerical: &format!("{} (h = {} s)", sim.method(), scene.integrator.h),
+            numerical: &format!("{} (h = {} s)", sim.method(), sim.h_next()),
             points,
         }
         .draw(scene.output.width, scene.output.height),

@@ -147,7 +147,7 @@ fn integrate<P: FirstOrderProblem>(
     crate::plot::TimePlot {
         title: &title,
         y_label: "y",
-        numerical: &format!("{} (h = {} s)", ode.method(), scene.integrator.h),
+        numerical: &format!("{} (h = {} s)", ode.method(), ode.options().h),
         points: &points,
     }
     .draw(scene.output.width, scene.output.height)

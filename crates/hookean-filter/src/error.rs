@@ -71,6 +71,20 @@ pub enum FilterError {
         /// The method's name.
         method: String,
     },
+    /// The stable step of eq. 11 is not known for this method.
+    #[error(
+        "the stable step of eq. 11 is known for explicit-euler, fb-euler, verlet and rk4, not {method}"
+    )]
+    NoStableStep {
+        /// The method's name.
+        method: String,
+    },
+    /// A coupling name that is not one of `"increment"`, `"velocity"`, `"positions"`.
+    #[error("unknown filter coupling '{name}' (\"increment\", \"velocity\" or \"positions\")")]
+    UnknownCoupling {
+        /// The name given.
+        name: String,
+    },
     /// The power method failed.
     #[error(transparent)]
     Sparse(#[from] SparseError),

@@ -286,6 +286,88 @@ pub fn predict_dt_max(
     })
 }
 
+/// The step [`auto_step`] picks and where it comes from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AutoStep {
+    /// The step: `safety * bound * dt_max`.
+    pub h: f64,
+    /// The prediction at the starting state (filtered when the filter's
+    /// prediction holds for the method and coupling, else unfiltered).
+    pub prediction: Prediction,
+    /// Whether `prediction` is the filtered one.
+    pub filtered: bool,
+    /// The factor of the coupling on top of `dt_max`: `1 / sqrt 2` for
+    /// [`FilterCoupling::VelocityOnly`], 1 otherwise.
+    pub coupling_factor: f64,
+}
+
+/// The largest stable step of an explicit `method` on `model` from
+/// positions `x` (at rest or starting), times `safety` (`integrator.h =
+/// "auto"` of scenes): `dt_max = c / sqrt(k0)` (eq. 11, `c` of
+/// [`ExplicitScheme::stability_constant`]) with `k0` from the modified
+/// power method (Algorithm 1) where its prediction holds:
+///
+/// - FB Euler with the increment coupling: the filtered `k0`
+///   (`h^2 a phi < 4` in the linear analysis: eq. 11 with the filtered `k0`
+///   is exact; measured within 2-5%, docs/perf/filter.md);
+/// - every other filtered method or coupling: the unfiltered `k0`, since a
+///   post-step filter hardly enlarges Verlet's and RK4's steps (1.03x,
+///   1.1x measured) and the position coupling at least keeps FB Euler's;
+///   the paper's literal velocity coupling is stable only for `h^2 a < 2
+///   (1 + phi)` (less than without a filter), so its step is divided by
+///   `sqrt 2` (the bound for filter eigenvalues `phi >= 0`).
+///
+/// The state's stiffness grows as the model stretches (a falling cloth:
+/// up to 1.5x `k0`), so `safety` < 1 leaves the margin.
+///
+/// # Errors
+/// [`FilterError::NoStableStep`] for a method eq. 11 does not cover
+/// (implicit methods, the explicit midpoint rule, tableaus);
+/// [`FilterError::InvalidParameter`] for `safety` outside (0, 1]; the
+/// prediction's errors.
+pub fn auto_step(
+    model: &MassSpringModel,
+    x: &[f64],
+    method: &Method,
+    filter: Option<(&FilterOptions, FilterCoupling)>,
+    safety: f64,
+) -> Result<AutoStep, FilterError> {
+    if !(safety > 0.0 && safety <= 1.0) {
+        return Err(FilterError::InvalidParameter {
+            name: "safety",
+            value: safety,
+            reason: "must be in (0, 1]",
+        });
+    }
+    let scheme = ExplicitScheme::from_method(method).ok_or_else(|| FilterError::NoStableStep {
+        method: method.to_string(),
+    })?;
+    let filtered = matches!(
+        (filter, scheme),
+        (
+            Some((_, FilterCoupling::Increment)),
+            ExplicitScheme::ForwardBackwardEuler
+        )
+    );
+    let prediction = predict_dt_max(
+        model,
+        x,
+        filter.filter(|_| filtered).map(|(o, _)| o),
+        scheme,
+        &PowerParams::default(),
+    )?;
+    let coupling_factor = match filter {
+        Some((_, FilterCoupling::VelocityOnly)) => std::f64::consts::FRAC_1_SQRT_2,
+        _ => 1.0,
+    };
+    Ok(AutoStep {
+        h: safety * coupling_factor * prediction.dt_max,
+        prediction,
+        filtered,
+        coupling_factor,
+    })
+}
+
 /// One row of figure 6: the stable step against the filter parameter.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StableStepRow {

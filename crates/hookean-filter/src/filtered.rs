@@ -46,6 +46,42 @@ pub enum FilterCoupling {
     Increment,
 }
 
+impl FilterCoupling {
+    /// The three couplings, in the order of their names below.
+    pub const ALL: [FilterCoupling; 3] = [
+        FilterCoupling::Increment,
+        FilterCoupling::VelocityOnly,
+        FilterCoupling::CorrectPositions,
+    ];
+
+    /// The name scenes use: `"increment"`, `"velocity"` (the paper's
+    /// literal scheme, section 4.1) or `"positions"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            FilterCoupling::Increment => "increment",
+            FilterCoupling::VelocityOnly => "velocity",
+            FilterCoupling::CorrectPositions => "positions",
+        }
+    }
+}
+
+impl std::fmt::Display for FilterCoupling {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for FilterCoupling {
+    type Err = FilterError;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Self::ALL
+            .into_iter()
+            .find(|c| c.name() == s)
+            .ok_or_else(|| FilterError::UnknownCoupling { name: s.into() })
+    }
+}
+
 /// Counters of a filtered run, besides the integrator's own [`Stats`].
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct FilterStats {
@@ -55,21 +91,26 @@ pub struct FilterStats {
 
 /// An explicit integrator of `hookean-ode` turned into its filtered version:
 /// every [`step`](Self::step) runs the integrator's step, filters the
-/// velocities with a [`VelocityFilter`] and hands the state back through
-/// [`SecondOrderIntegrator::set_state`]. Works with forward Euler, FB Euler,
-/// Verlet, RK4 and any explicit tableau; allocates nothing per step.
+/// velocities with a [`VelocityFilter`] and writes the state back in place
+/// ([`SecondOrderIntegrator::modify_state`]). Works with forward Euler, FB
+/// Euler, Verlet, RK4 and any explicit tableau; allocates nothing per step.
 ///
-/// Handing the state back restarts the integrator's cached values: Verlet
+/// Changing the state restarts the integrator's cached values: Verlet
 /// then evaluates the force twice per step instead of once.
 pub struct FilteredIntegrator<P: SecondOrderProblem> {
     inner: SecondOrderIntegrator<P>,
     filter: VelocityFilter,
     coupling: FilterCoupling,
     theta: f64,
-    x: Vec<f64>,
-    v: Vec<f64>,
+    /// The step's velocity change (increment coupling) or the unfiltered
+    /// velocities (the others): the filter's input.
     dv: Vec<f64>,
+    /// `v_n`, the velocity at the start of the step (increment coupling).
     prev: Vec<f64>,
+    /// Whether `prev` holds the integrator's current velocity: the filtered
+    /// step writes it in its last pass; [`inner_mut`](Self::inner_mut)
+    /// clears it, and the next step copies the velocity again.
+    prev_valid: bool,
     stats: FilterStats,
 }
 
@@ -104,10 +145,9 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
             filter,
             coupling,
             theta,
-            x: vec![0.0; n],
-            v: vec![0.0; n],
             dv: vec![0.0; n],
             prev: vec![0.0; n],
+            prev_valid: false,
             stats: FilterStats::default(),
         })
     }
@@ -119,8 +159,8 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
     /// [`hookean_ode::OdeError::NonFinite`]).
     pub fn step(&mut self) -> Result<StepReport, FilterError> {
         self.remember_velocity();
-        let report = self.inner.step()?;
-        self.filter_step(report)
+        let report = self.inner.step();
+        self.filter_step(report?)
     }
 
     /// One filtered step that does not pass `t_end`, or `None` once `t_end`
@@ -131,65 +171,75 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
     /// As [`step`](Self::step).
     pub fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, FilterError> {
         self.remember_velocity();
-        match self.inner.step_to(t_end)? {
-            Some(report) => Ok(Some(self.filter_step(report)?)),
-            None => Ok(None),
+        match self.inner.step_to(t_end) {
+            Ok(Some(report)) => Ok(Some(self.filter_step(report)?)),
+            Ok(None) => Ok(None),
+            Err(e) => {
+                self.prev_valid = false;
+                Err(e.into())
+            }
         }
     }
 
-    /// Keeps `v_n` for the increment coupling.
+    /// Keeps `v_n` for the increment coupling (unless the last filtered
+    /// step left it in `prev` already).
     fn remember_velocity(&mut self) {
-        if self.coupling == FilterCoupling::Increment {
+        if self.coupling == FilterCoupling::Increment && !self.prev_valid {
             self.prev.copy_from_slice(self.inner.v());
         }
+        self.prev_valid = false;
     }
 
-    /// Filters the state the integrator's step `report` reached (section 4.1).
+    /// Filters, in place, the state the integrator's step `report` reached
+    /// (section 4.1): one pass to form the filter's input, the filter, one
+    /// pass to write velocities and positions back.
     fn filter_step(&mut self, report: StepReport) -> Result<StepReport, FilterError> {
         // Particles the step held in all directions (the model's pins) keep
         // their velocity.
         self.filter
             .pin_fully_constrained(self.inner.constraints())?;
-        let h = match self.coupling {
+        // Time-dependent weights (if asked for): the distances of x_{n+1}.
+        self.filter.update_distances(self.inner.x())?;
+        let coupling = self.coupling;
+        let h = match coupling {
             FilterCoupling::VelocityOnly => 0.0,
             FilterCoupling::CorrectPositions => report.h,
             FilterCoupling::Increment => self.theta * report.h,
         };
-        if self.coupling == FilterCoupling::Increment {
-            // Filter the increment dv = v_{n+1} - v_n: v = v_n + F dv and
-            // x = x_{n+1} + h (F dv - dv), since v - v_{n+1} = F dv - dv.
-            for ((d, r), p) in self.dv.iter_mut().zip(self.inner.v()).zip(&self.prev) {
-                *d = r - p;
-            }
-            self.filter.apply_to(&self.dv, &mut self.v)?;
-            for ((((v, x), x1), d), p) in self
-                .v
-                .iter_mut()
-                .zip(self.x.iter_mut())
-                .zip(self.inner.x())
-                .zip(&self.dv)
-                .zip(&self.prev)
-            {
-                *x = x1 + h * (*v - d);
-                *v += p;
-            }
-        } else {
-            self.filter.apply_to(self.inner.v(), &mut self.v)?;
-            if h == 0.0 {
-                self.x.copy_from_slice(self.inner.x());
-            } else {
-                for (((x, x1), v), r) in self
-                    .x
+        let (filter, dv, prev) = (&self.filter, &mut self.dv, &mut self.prev);
+        // The filter is a convex combination (normalised non-negative
+        // weights), so a finite step (which the integrator checked) stays
+        // finite; the next step checks the state again.
+        self.inner.modify_state(|x, v| -> Result<(), FilterError> {
+            if coupling == FilterCoupling::Increment {
+                // Filter the increment dv = v_{n+1} - v_n: v = v_n + F dv and
+                // x = x_{n+1} + h (F dv - dv), since v - v_{n+1} = F dv - dv.
+                for ((d, r), p) in dv.iter_mut().zip(v.iter()).zip(prev.iter()) {
+                    *d = r - p;
+                }
+                filter.apply_to(dv, v)?;
+                for (((v, x), d), p) in v
                     .iter_mut()
-                    .zip(self.inner.x())
-                    .zip(&self.v)
-                    .zip(self.inner.v())
+                    .zip(x.iter_mut())
+                    .zip(dv.iter())
+                    .zip(prev.iter_mut())
                 {
-                    *x = x1 + h * (v - r);
+                    *x += h * (*v - d);
+                    *v += *p;
+                    *p = *v;
+                }
+            } else {
+                dv.copy_from_slice(v);
+                filter.apply_to(dv, v)?;
+                if h != 0.0 {
+                    for ((v, x), r) in v.iter().zip(x.iter_mut()).zip(dv.iter()) {
+                        *x += h * (v - r);
+                    }
                 }
             }
-        }
-        self.inner.set_state(report.t, &self.x, &self.v)?;
+            Ok(())
+        })?;
+        self.prev_valid = coupling == FilterCoupling::Increment;
         self.stats.applications += 1;
         Ok(report)
     }
@@ -254,6 +304,7 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
 
     /// The wrapped integrator, mutably (e.g. to reset its state).
     pub fn inner_mut(&mut self) -> &mut SecondOrderIntegrator<P> {
+        self.prev_valid = false;
         &mut self.inner
     }
 

@@ -84,6 +84,7 @@
 
 mod error;
 pub mod experiments;
+mod figure8;
 mod filtered;
 mod model_integrator;
 mod spectrum;
@@ -92,10 +93,11 @@ mod velocity;
 
 pub use error::FilterError;
 pub use experiments::{
-    BisectionOptions, DrapeMethod, Prediction, RunOptions, RunOutcome, StableStep, StableStepRow,
-    VelocityRun, drape_velocity_run, measure_stable_step, predict_dt_max, run_bounded,
-    stable_step_against_lambda,
+    AutoStep, BisectionOptions, DrapeMethod, Prediction, RunOptions, RunOutcome, StableStep,
+    StableStepRow, VelocityRun, auto_step, drape_velocity_run, measure_stable_step, predict_dt_max,
+    run_bounded, stable_step_against_lambda,
 };
+pub use figure8::{Figure8Method, Figure8Row, figure8_runs};
 pub use filtered::{FilterCoupling, FilterStats, FilteredIntegrator, position_weight};
 pub use model_integrator::ModelIntegrator;
 pub use spectrum::{VelocityImage, fftshift, high_frequency_fraction, power_spectrum};

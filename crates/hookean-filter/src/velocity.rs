@@ -61,6 +61,16 @@ pub struct FilterOptions {
     /// Neighbourhood radius in rings of the spring graph (1 = the springs'
     /// other ends; the particle itself is always included). Default 1.
     pub rings: usize,
+    /// Time-dependent weights, as the paper writes them (`beta_j^{t + dt}`,
+    /// section 4.1): before each application the distances are the
+    /// particles' current straight-line distances (in units of the
+    /// shortest rest length) and the weights are normalised again
+    /// ([`VelocityFilter::update_distances`]). Every particle is then
+    /// gathered (no shared stencils) and each step pays a distance and an
+    /// exponential per neighbour: measured in docs/perf/filter.md. Default
+    /// `false`: the weights of the rest state (path lengths through the
+    /// spring graph), computed once.
+    pub current_distances: bool,
 }
 
 impl Default for FilterOptions {
@@ -69,6 +79,7 @@ impl Default for FilterOptions {
             kernel: Kernel::Exponential { lambda: 1.0 },
             form: Form::Symmetric,
             rings: 1,
+            current_distances: false,
         }
     }
 }
@@ -137,6 +148,8 @@ pub struct VelocityFilter {
     pinned_list: Vec<usize>,
     plan: Plan,
     scratch: Vec<f64>,
+    /// The shortest rest length (the distance unit).
+    unit: f64,
 }
 
 /// How a [`VelocityFilter`] evaluates its particles (see its evaluation plan).
@@ -215,6 +228,7 @@ impl Plan {
         neighbours: &[usize],
         weights: &[f64],
         form: Form,
+        gather_all: bool,
     ) -> Result<Self, FilterError> {
         let n = offsets.len() - 1;
         if u32::try_from(neighbours.len()).is_err() || u32::try_from(n).is_err() {
@@ -247,7 +261,7 @@ impl Plan {
                 end += 1;
             }
             let len = end - first;
-            if len >= MIN_RUN {
+            if len >= MIN_RUN && !gather_all {
                 let taps = offsets[first]..offsets[first + 1];
                 let t0 = plan.tap_starts.len();
                 plan.tap_starts
@@ -575,7 +589,13 @@ impl VelocityFilter {
                 hops[w] = usize::MAX;
             }
         }
-        let plan = Plan::build(&offsets, &neighbours, &weights, options.form)?;
+        let plan = Plan::build(
+            &offsets,
+            &neighbours,
+            &weights,
+            options.form,
+            options.current_distances,
+        )?;
         let pinned = pinned.map_or_else(|| vec![false; n_particles], <[bool]>::to_vec);
         let pinned_list = (0..n_particles).filter(|&i| pinned[i]).collect();
         Ok(Self {
@@ -587,7 +607,67 @@ impl VelocityFilter {
             pinned_list,
             plan,
             scratch: vec![0.0; 3 * n_particles],
+            unit: if shortest.is_finite() { shortest } else { 1.0 },
         })
+    }
+
+    /// With [`FilterOptions::current_distances`], recomputes the weights
+    /// from the positions `x` (3 per particle): `d_ij = |x_j - x_i|` in
+    /// units of the shortest rest length, `beta(d_ij)` normalised over each
+    /// neighbourhood (the paper's `beta_j^{t + dt}`). Without it, does
+    /// nothing. Allocates nothing.
+    ///
+    /// # Errors
+    /// [`FilterError::DimensionMismatch`] if `x.len() != 3 n_particles`,
+    /// [`FilterError::NonFinite`] for a non-finite position.
+    pub fn update_distances(&mut self, x: &[f64]) -> Result<(), FilterError> {
+        if !self.options.current_distances {
+            return Ok(());
+        }
+        let n = self.n_particles();
+        if x.len() != 3 * n {
+            return Err(FilterError::DimensionMismatch {
+                what: "positions",
+                expected: 3 * n,
+                found: x.len(),
+            });
+        }
+        let (p, _) = x.as_chunks::<3>();
+        let kernel = self.options.kernel;
+        let form = self.options.form;
+        let inv_unit = 1.0 / self.unit;
+        for i in 0..n {
+            let r = self.offsets[i]..self.offsets[i + 1];
+            let mut sum = 0.0;
+            for k in r.clone() {
+                let q = &p[self.neighbours[k]];
+                let d2 =
+                    (q[0] - p[i][0]).powi(2) + (q[1] - p[i][1]).powi(2) + (q[2] - p[i][2]).powi(2);
+                let b = kernel.beta(d2.sqrt() * inv_unit);
+                self.weights[k] = b;
+                sum += b;
+            }
+            if !(sum > 0.0 && sum.is_finite()) {
+                return Err(FilterError::NonFinite { what: "positions" });
+            }
+            for k in r {
+                self.weights[k] /= sum;
+            }
+        }
+        // Every particle is gathered (see `Plan::build`), in particle order,
+        // its taps in neighbourhood order: refill the effective weights.
+        for (w, (k, i)) in
+            self.plan.gather_weight.iter_mut().zip(
+                (0..n).flat_map(|i| (self.offsets[i]..self.offsets[i + 1]).map(move |k| (k, i))),
+            )
+        {
+            *w = match form {
+                Form::Plain => self.weights[k],
+                Form::Symmetric if self.neighbours[k] == i => 0.5 + 0.5 * self.weights[k],
+                Form::Symmetric => 0.5 * self.weights[k],
+            };
+        }
+        Ok(())
     }
 
     /// Builds the filter on the spring graph of a mass-spring model: one
@@ -822,6 +902,7 @@ mod tests {
             kernel: Kernel::Exponential { lambda: 2.0 },
             form: Form::Plain,
             rings: 2,
+            current_distances: false,
         };
         let f = VelocityFilter::new(3, &edges, None, opts).unwrap();
         let (nb, w) = f.neighbourhood(0);
@@ -885,6 +966,58 @@ mod tests {
         );
         // lambda = 10 hardly filters: e^-10 weights.
         assert!(amplitude[2] > 0.999);
+    }
+
+    /// Time-dependent weights: at the rest state of a chain they are the
+    /// rest weights; with the chain stretched to twice its length they are
+    /// `beta(2 d)` normalised, computed here by hand.
+    #[test]
+    fn current_distances_follow_the_positions() {
+        let n = 6;
+        let rest = VelocityFilter::new(n, &chain(n), None, FilterOptions::default()).unwrap();
+        let mut f = VelocityFilter::new(
+            n,
+            &chain(n),
+            None,
+            FilterOptions {
+                current_distances: true,
+                ..FilterOptions::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(f.plan_stats().gathered_particles, n);
+        // The chain's springs are 0.5 long: particles 0.5 apart are at rest.
+        let x: Vec<f64> = (0..3 * n)
+            .map(|k| {
+                if k % 3 == 0 {
+                    0.5 * (k / 3) as f64
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        f.update_distances(&x).unwrap();
+        for i in 0..n {
+            let (a, b) = (rest.neighbourhood(i).1, f.neighbourhood(i).1);
+            for (p, q) in a.iter().zip(b) {
+                assert!((p - q).abs() < 1e-15);
+            }
+        }
+        let stretched: Vec<f64> = x.iter().map(|v| 2.0 * v).collect();
+        f.update_distances(&stretched).unwrap();
+        // Interior particle: itself at d = 0, two neighbours at d = 2.
+        let (b0, b2) = (1.0, (-2.0f64).exp());
+        let w = f.neighbourhood(2).1.to_vec();
+        let w1 = f.neighbourhood(1).1.to_vec();
+        assert!((w[1] - b0 / (b0 + 2.0 * b2)).abs() < 1e-15, "{w:?}");
+        assert!((w[0] - b2 / (b0 + 2.0 * b2)).abs() < 1e-15, "{w:?}");
+        // The application uses them: symmetric form, a spike on particle 2.
+        let mut v = vec![0.0; 3 * n];
+        v[6] = 1.0;
+        f.apply(&mut v).unwrap();
+        assert!((v[6] - (0.5 + 0.5 * w[1])).abs() < 1e-15);
+        assert!((v[3] - 0.5 * w1[2]).abs() < 1e-15);
+        assert!(f.update_distances(&x[..3]).is_err());
     }
 
     #[test]

@@ -235,3 +235,89 @@ fn the_filter_never_shrinks_the_stable_step_of_verlet_and_rk4() {
         );
     }
 }
+
+/// `auto_step` (scenes' `integrator.h = "auto"`): for filtered FB Euler
+/// with the increment coupling it is `safety` times the filtered
+/// `dt_max = 2 / sqrt(k0)`; on the 12 x 12 drape that step is above the
+/// unfiltered limit, the filtered run at it stays bounded for 0.2 s and the
+/// unfiltered one blows up. Other couplings and methods fall back to the
+/// unfiltered `k0` (the literal velocity coupling also divides by sqrt 2);
+/// implicit methods have no such step.
+#[test]
+fn auto_step_is_the_safe_filtered_limit_where_the_prediction_holds() {
+    use hookean_filter::{ExplicitScheme, auto_step, predict_dt_max};
+    let (model, state) =
+        hookean_massspring::cloth(&hookean_massspring::ClothParams::drape(12)).unwrap();
+    let opts = FilterOptions::default();
+    let plain = predict_dt_max(
+        &model,
+        &state.x,
+        None,
+        ExplicitScheme::ForwardBackwardEuler,
+        &Default::default(),
+    )
+    .unwrap();
+    let filtered = predict_dt_max(
+        &model,
+        &state.x,
+        Some(&opts),
+        ExplicitScheme::ForwardBackwardEuler,
+        &Default::default(),
+    )
+    .unwrap();
+    let auto = auto_step(
+        &model,
+        &state.x,
+        &Method::FbEuler,
+        Some((&opts, FilterCoupling::Increment)),
+        0.9,
+    )
+    .unwrap();
+    assert!(auto.filtered);
+    assert!((auto.h - 0.9 * filtered.dt_max).abs() < 1e-15);
+    assert!(
+        auto.h > 1.1 * plain.dt_max,
+        "{} vs {}",
+        auto.h,
+        plain.dt_max
+    );
+    let run = |filter: Option<FilterOptions>| {
+        let mut sim = ModelIntegrator::new(
+            model.clone(),
+            &state,
+            Method::FbEuler,
+            SolverOptions::with_h(auto.h),
+            filter.map(|o| (o, FilterCoupling::Increment)),
+        )
+        .unwrap();
+        run_bounded(
+            &mut sim,
+            &RunOptions {
+                t_end: 0.2,
+                ..Default::default()
+            },
+        )
+        .unwrap()
+        .bounded
+    };
+    assert!(run(Some(opts.clone())));
+    assert!(!run(None));
+
+    let velocity = auto_step(
+        &model,
+        &state.x,
+        &Method::FbEuler,
+        Some((&opts, FilterCoupling::VelocityOnly)),
+        1.0,
+    )
+    .unwrap();
+    assert!(!velocity.filtered);
+    assert!((velocity.h - plain.dt_max / 2f64.sqrt()).abs() < 1e-15);
+    let rk4 = auto_step(&model, &state.x, &Method::Rk4, None, 1.0).unwrap();
+    assert!((rk4.h - plain.dt_max * 8.75f64.sqrt() / 2.0).abs() < 1e-12);
+    assert!(matches!(
+        auto_step(&model, &state.x, &Method::ImplicitEuler, None, 0.8),
+        Err(hookean_filter::FilterError::NoStableStep { .. })
+    ));
+    assert!(auto_step(&model, &state.x, &Method::FbEuler, None, 1.5).is_err());
+}

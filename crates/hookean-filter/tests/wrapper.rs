@@ -179,3 +179,44 @@ fn pinned_particles_of_the_model_are_not_filtered() {
     assert!(f.is_pinned(0) && !f.is_pinned(1));
     assert_eq!(f.n_particles(), 10);
 }
+
+/// Two filtered steps of FB Euler with the increment coupling, the state
+/// replaced in between through `inner_mut`: the second step filters
+/// `v_2 - v_1` of the new state (the kept `v_n` is dropped), as the
+/// hand-written `v_2 = v_1 + F (h M^-1 f(x_1))`, `x_2 = x_1 + h v_2` says.
+#[test]
+fn a_state_replaced_between_steps_is_the_next_increments_start() {
+    let (model, state) = rope5();
+    let h = 1e-3;
+    let inner = SecondOrderIntegrator::new(
+        model.clone(),
+        Method::FbEuler,
+        0.0,
+        &state.x,
+        &state.v,
+        SolverOptions::with_h(h),
+    )
+    .unwrap();
+    let vf = VelocityFilter::from_model(&model, FilterOptions::default()).unwrap();
+    let mut fi = FilteredIntegrator::new(inner, vf, FilterCoupling::Increment).unwrap();
+    fi.step().unwrap();
+    // A new state: the rope's start with a different velocity.
+    let v_new: Vec<f64> = (0..15).map(|k| 0.1 * (k as f64).cos()).collect();
+    fi.inner_mut().set_state(h, &state.x, &v_new).unwrap();
+    fi.step().unwrap();
+
+    let mut f = vec![0.0; 15];
+    model.force(h, &state.x, &v_new, &mut f);
+    let mut filter = VelocityFilter::from_model(&model, FilterOptions::default()).unwrap();
+    let mut dv: Vec<f64> = f
+        .iter()
+        .zip(model.mass())
+        .map(|(fi, m)| h * fi / m)
+        .collect();
+    filter.apply(&mut dv).unwrap();
+    for k in 0..15 {
+        let v2 = v_new[k] + dv[k];
+        assert!((fi.v()[k] - v2).abs() < 1e-12, "v[{k}]");
+        assert!((fi.x()[k] - (state.x[k] + h * v2)).abs() < 1e-14, "x[{k}]");
+    }
+}

@@ -19,7 +19,7 @@ use std::sync::Arc;
 
 use hookean_problem::SecondOrderProblem;
 use hookean_sparse::block::{self, Block3};
-use hookean_sparse::{BlockPattern, Constraints, Slot, SymBlockMatrix};
+use hookean_sparse::{BlockPattern, Constraints, IsoBlockMatrix, Slot, SymBlockMatrix};
 use nalgebra::Vector3;
 
 use crate::error::MassSpringError;
@@ -1014,6 +1014,43 @@ impl MassSpringModel {
         }
     }
 
+    /// The tutorial's eq. 50 in isotropic storage, one scalar per block:
+    /// `k` per spring in `df/dx` (`-k` on the diagonals), `d` in `df/dv`
+    /// (none for [`SpringDamping::None`]), `-c` on the diagonal for air
+    /// friction. Permanent constraints are *not* applied (they would make
+    /// the blocks anisotropic): the integrators filter the constrained
+    /// directions (filtered PCG, or the eliminated pins of the IMEX
+    /// factorisation). Allocates nothing; panics if the matrices are not on
+    /// the model's pattern.
+    pub fn assemble_linearized_iso(&self, dfdx: &mut IsoBlockMatrix, dfdv: &mut IsoBlockMatrix) {
+        dfdx.set_zero();
+        dfdv.set_zero();
+        let damped = self.options.damping != SpringDamping::None;
+        for s in &self.springs {
+            let (i, j) = (s.i, s.j);
+            let slots = (dfdx.slot(i, j), dfdx.slot(i, i), dfdx.slot(j, j));
+            let (Ok(ij), Ok(ii), Ok(jj)) = slots else {
+                panic!("linearised Jacobian not on the model's pattern");
+            };
+            dfdx.add_to_slot(ij, s.stiffness);
+            dfdx.add_to_slot(ii, -s.stiffness);
+            dfdx.add_to_slot(jj, -s.stiffness);
+            if damped && s.damping != 0.0 {
+                dfdv.add_to_slot(ij, s.damping);
+                dfdv.add_to_slot(ii, -s.damping);
+                dfdv.add_to_slot(jj, -s.damping);
+            }
+        }
+        let c = self.options.air_friction;
+        if c != 0.0 {
+            for p in 0..self.n_particles() {
+                if let Ok(pp) = dfdv.slot(p, p) {
+                    dfdv.add_to_slot(pp, -c);
+                }
+            }
+        }
+    }
+
     fn scatter_permanent(
         &self,
         m: &mut SymBlockMatrix,
@@ -1158,6 +1195,21 @@ impl SecondOrderProblem for MassSpringModel {
     fn linearized_jacobians(&self, dfdx: &mut SymBlockMatrix, dfdv: &mut SymBlockMatrix) -> bool {
         self.assemble_linearized(dfdx, dfdv);
         true
+    }
+
+    /// The tutorial's eq. 50 in isotropic storage (see
+    /// [`MassSpringModel::assemble_linearized_iso`]).
+    fn linearized_jacobians_iso(
+        &self,
+        dfdx: &mut IsoBlockMatrix,
+        dfdv: &mut IsoBlockMatrix,
+    ) -> bool {
+        self.assemble_linearized_iso(dfdx, dfdv);
+        true
+    }
+
+    fn material_revision(&self) -> u64 {
+        MassSpringModel::material_revision(self)
     }
 
     /// Pins, sliding constraints and collisions (tutorial section 4.2).

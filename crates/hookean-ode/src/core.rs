@@ -215,7 +215,11 @@ impl<S: System> Core<S> {
     /// Forgets multistep history and cached forces (the state changed
     /// outside the method, or the problem did).
     pub fn reset_history(&mut self) {
-        self.hist[0].copy_from_slice(&self.s);
+        // Only the multistep methods read the history (a copy of the whole
+        // state is measurable next to an explicit step).
+        if matches!(self.method, Method::Bdf(_) | Method::Bdf2Variable) {
+            self.hist[0].copy_from_slice(&self.s);
+        }
         self.hist_len = 1;
         self.f_valid = false;
         self.acc_valid = false;
@@ -265,6 +269,19 @@ impl<S: System> Core<S> {
         self.s[n..].copy_from_slice(v);
         self.restart_at(t);
         Ok(())
+    }
+
+    /// The halves `[x; v]` of a second-order state, edited in place by `f`
+    /// between steps (post-processing such as a velocity filter): the time
+    /// stays, cached forces and multistep history are dropped as by
+    /// [`set_state_parts`](Self::set_state_parts). Nothing is copied or
+    /// checked here; the next step checks the state is finite.
+    pub fn modify_state_parts<R>(&mut self, f: impl FnOnce(&mut [f64], &mut [f64]) -> R) -> R {
+        let n = self.m / 2;
+        let (x, v) = self.s.split_at_mut(n);
+        let r = f(x, v);
+        self.reset_history();
+        r
     }
 
     /// After a new state was written: time `t`, a fresh fixed-step count and
@@ -454,6 +471,7 @@ impl<S: System> Core<S> {
                 r
             }
             Method::Bdf(k) => self.bdf_step(t, h, k),
+            Method::Imex => self.sys.imex_step(t, h, &mut self.s, &mut self.stats),
             Method::Bdf2Variable => unreachable!("variable-step method in fixed_step"),
         }
     }

@@ -220,6 +220,19 @@ impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
                 reason: "lumped masses must be positive and finite",
             });
         }
+        if method == Method::Imex {
+            let pattern = problem.jacobian_pattern();
+            let (mut k, mut d) = (
+                hookean_sparse::IsoBlockMatrix::new(pattern.clone()),
+                hookean_sparse::IsoBlockMatrix::new(pattern),
+            );
+            if !problem.linearized_jacobians_iso(&mut k, &mut d) {
+                return Err(OdeError::UnsupportedMethod {
+                    method: method.to_string(),
+                    problem: "second-order without a linear part (SecondOrderProblem::linearized_jacobians_iso, eq. 50)",
+                });
+            }
+        }
         let sys = SecondSys::new(problem, &options)?;
         let mut s0 = x0.to_vec();
         s0.extend_from_slice(v0);
@@ -302,6 +315,17 @@ impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
         // Copies the halves in place: no allocation, so that wrappers may
         // hand a post-processed state back after every step.
         self.core.set_state_parts(t, x, v)
+    }
+
+    /// Edits the positions and velocities in place between steps:
+    /// `f(x, v)` may change both (a velocity filter after an explicit step
+    /// does). The time stays; cached forces and multistep history are
+    /// dropped as by [`set_state`](Self::set_state), but nothing is copied
+    /// and the growth bound is kept. A non-finite value written here is
+    /// caught by the next step ([`OdeError::NonFinite`]). Returns what `f`
+    /// returns.
+    pub fn modify_state<R>(&mut self, f: impl FnOnce(&mut [f64], &mut [f64]) -> R) -> R {
+        self.core.modify_state_parts(f)
     }
 
     /// The constraints set by the last [`SecondOrderProblem::begin_step`].

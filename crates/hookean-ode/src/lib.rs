@@ -81,6 +81,7 @@ pub mod bdf_solver;
 pub mod control;
 mod core;
 pub mod error;
+pub mod imex;
 pub mod integrator;
 mod krylov;
 pub mod method;

@@ -36,6 +36,13 @@ pub enum Method {
     /// `"bdf2-variable"`: BDF2 with variable step size, a local error
     /// estimate and step-size control.
     Bdf2Variable,
+    /// `"imex"`: the implicit-explicit Euler scheme of Eberhardt, Etzmuss
+    /// and Hauth (2000) for second-order problems with a linear part
+    /// (eq. 50): the linear force implicit, with its constant matrix
+    /// factored once, the nonlinear remainder explicit ([`crate::imex`]
+    /// has the formulas). Order 1. Not in [`Method::all_named`]: it needs
+    /// a problem with [`linearized_jacobians_iso`](crate::SecondOrderProblem::linearized_jacobians_iso).
+    Imex,
 }
 
 impl Method {
@@ -60,7 +67,7 @@ impl Method {
     /// the order conditions up to 4).
     pub fn order(&self) -> usize {
         match self {
-            Method::ExplicitEuler | Method::FbEuler | Method::ImplicitEuler => 1,
+            Method::ExplicitEuler | Method::FbEuler | Method::ImplicitEuler | Method::Imex => 1,
             Method::Midpoint | Method::Verlet | Method::ImplicitMidpoint | Method::Bdf2Variable => {
                 2
             }
@@ -70,7 +77,9 @@ impl Method {
         }
     }
 
-    /// True for the methods that solve a nonlinear system every step.
+    /// True for the methods that solve a system every step (a nonlinear
+    /// one, or IMEX's linear one): they have no explicit stability limit and
+    /// are not velocity-filtered.
     pub fn is_implicit(&self) -> bool {
         matches!(
             self,
@@ -78,12 +87,13 @@ impl Method {
                 | Method::ImplicitMidpoint
                 | Method::Bdf(_)
                 | Method::Bdf2Variable
+                | Method::Imex
         )
     }
 
     /// True for the methods that only apply to second-order problems.
     pub fn is_second_order_only(&self) -> bool {
-        matches!(self, Method::FbEuler | Method::Verlet)
+        matches!(self, Method::FbEuler | Method::Verlet | Method::Imex)
     }
 
     /// True for the variable-step method.
@@ -134,6 +144,7 @@ impl fmt::Display for Method {
             Method::ImplicitMidpoint => f.write_str("implicit-midpoint"),
             Method::Bdf(k) => write!(f, "bdf{k}"),
             Method::Bdf2Variable => f.write_str("bdf2-variable"),
+            Method::Imex => f.write_str("imex"),
         }
     }
 }
@@ -151,6 +162,7 @@ impl FromStr for Method {
             "implicit-euler" => Method::ImplicitEuler,
             "implicit-midpoint" => Method::ImplicitMidpoint,
             "bdf2-variable" => Method::Bdf2Variable,
+            "imex" | "imex-euler" => Method::Imex,
             _ => match s.strip_prefix("bdf").and_then(|k| k.parse::<usize>().ok()) {
                 Some(k) if (1..=6).contains(&k) => Method::Bdf(k),
                 _ => {

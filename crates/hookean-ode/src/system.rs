@@ -7,10 +7,10 @@
 use std::cell::RefCell;
 
 use hookean_nonlinear::{
-    DenseLu, Newton, NewtonOptions, NewtonStats, NonlinearError, NonlinearSystem, PcgSolver,
-    SparseLu,
+    DenseLu, Newton, NewtonMethod, NewtonOptions, NewtonStats, NonlinearError, NonlinearSystem,
+    PcgSolver, SparseLu,
 };
-use hookean_sparse::{AnyPreconditioner, Constraints, SymBlockMatrix};
+use hookean_sparse::{AnyPreconditioner, Constraints, IsoBlockMatrix, SparseError, SymBlockMatrix};
 
 use crate::error::OdeError;
 use crate::options::{SolverOptions, Stats};
@@ -69,6 +69,40 @@ pub(crate) trait System {
         acc: &mut [f64],
         stats: &mut Stats,
     ) -> bool;
+    /// One step of the IMEX scheme ([`crate::imex`]) on the state `s`
+    /// (second-order systems with a linear part only; the integrator
+    /// checks that at construction).
+    fn imex_step(
+        &mut self,
+        t: f64,
+        h: f64,
+        s: &mut [f64],
+        stats: &mut Stats,
+    ) -> Result<StageInfo, StageFailure>;
+}
+
+/// The failure of an IMEX step as a stage failure (a linear-solver failure:
+/// the step is retried with substeps).
+fn imex_failure(e: crate::imex::ImexFailure) -> StageFailure {
+    use crate::imex::ImexFailure;
+    match e {
+        ImexFailure::Sparse(e) => StageFailure::Linear(NonlinearError::Linear(e)),
+        ImexFailure::NotConverged {
+            iterations,
+            relative_residual,
+        } => StageFailure::Linear(NonlinearError::LinearNotConverged {
+            iterations,
+            tolerance: 1e-10,
+            relative_residual,
+            stats: Box::default(),
+        }),
+        ImexFailure::NoLinearPart => {
+            StageFailure::Other(NonlinearError::Linear(SparseError::InvalidParameter {
+                name: "method",
+                message: "imex needs the problem's linear part (eq. 50)".into(),
+            }))
+        }
+    }
 }
 
 /// Books a Newton run (successful or not) into the counters and maps the result.
@@ -377,6 +411,17 @@ impl<P: FirstOrderProblem> System for FirstSys<P> {
         false
     }
 
+    fn imex_step(
+        &mut self,
+        _t: f64,
+        _h: f64,
+        _s: &mut [f64],
+        _stats: &mut Stats,
+    ) -> Result<StageInfo, StageFailure> {
+        // Core::new refuses second-order-only methods on first-order problems.
+        Err(imex_failure(crate::imex::ImexFailure::NoLinearPart))
+    }
+
     fn solve_stage(
         &mut self,
         tau: f64,
@@ -528,6 +573,93 @@ impl<P: SecondOrderProblem> NonlinearSystem for ReducedStage<'_, P> {
     }
 }
 
+/// The stage equation of [`ReducedStage`] with the tutorial's linearised
+/// Jacobian (eq. 50) as its Newton matrix, stored isotropically (one
+/// scalar per 3x3 block): `A = M - gh D - gh^2 K` with the constant `K`
+/// and `D` of [`SecondOrderProblem::linearized_jacobians_iso`]. Inexact
+/// simplified Newton (algorithm 3) keeps `A` until `gh` or the material
+/// changes, so a Newton iteration costs a force evaluation and CG
+/// iterations on a third of the nonzeros, and no assembly.
+struct ReducedStageIso<'a, 'b, P> {
+    stage: ReducedStage<'a, P>,
+    k: &'b IsoBlockMatrix,
+    d: &'b IsoBlockMatrix,
+    /// The particles' masses (one per particle: isotropic).
+    particle_mass: &'b [f64],
+}
+
+impl<P: SecondOrderProblem> NonlinearSystem for ReducedStageIso<'_, '_, P> {
+    type Jacobian = IsoBlockMatrix;
+
+    fn dim(&self) -> usize {
+        self.stage.dim()
+    }
+
+    fn residual(&mut self, v: &[f64], g: &mut [f64]) -> Result<(), NonlinearError> {
+        self.stage.residual(v, g)
+    }
+
+    /// The linearised matrix is the only one this form has.
+    fn jacobian(&mut self, v: &[f64], a: &mut IsoBlockMatrix) -> Result<(), NonlinearError> {
+        self.approximate_jacobian(v, a).map(|_| ())
+    }
+
+    fn approximate_jacobian(
+        &mut self,
+        _v: &[f64],
+        a: &mut IsoBlockMatrix,
+    ) -> Result<bool, NonlinearError> {
+        let gh = self.stage.gh;
+        a.set_zero();
+        a.add_scaled(-gh * gh, self.k)?;
+        a.add_scaled(-gh, self.d)?;
+        a.add_to_diagonal(self.particle_mass)?;
+        Ok(true)
+    }
+}
+
+/// Eq. 50's path of [`SecondSys`]: its own Newton on isotropic storage,
+/// the constant `K`, `D` and the material revision they belong to.
+struct LinearizedNewton {
+    newton: Newton<IsoBlockMatrix, PcgSolver<AnyPreconditioner>>,
+    k: IsoBlockMatrix,
+    d: IsoBlockMatrix,
+    particle_mass: Vec<f64>,
+    revision: u64,
+    last_gh: f64,
+}
+
+impl LinearizedNewton {
+    /// `None` if the problem has no isotropic linearisation or its masses
+    /// differ between the coordinates of a particle.
+    fn new<P: SecondOrderProblem>(
+        problem: &P,
+        options: NewtonOptions,
+        linear: PcgSolver<AnyPreconditioner>,
+    ) -> Result<Option<Self>, NonlinearError> {
+        let pattern = problem.jacobian_pattern();
+        let mut k = IsoBlockMatrix::new(pattern.clone());
+        let mut d = IsoBlockMatrix::new(pattern.clone());
+        if !problem.linearized_jacobians_iso(&mut k, &mut d) {
+            return Ok(None);
+        }
+        let mass = problem.mass();
+        let (m3, _) = mass.as_chunks::<3>();
+        if m3.iter().any(|m| m[0] != m[1] || m[1] != m[2]) {
+            return Ok(None);
+        }
+        let particle_mass = m3.iter().map(|m| m[0]).collect();
+        Ok(Some(Self {
+            newton: Newton::new(options, IsoBlockMatrix::new(pattern), linear)?,
+            k,
+            d,
+            particle_mass,
+            revision: problem.material_revision(),
+            last_gh: f64::NAN,
+        }))
+    }
+}
+
 /// Second-order problems in the reduced velocity form (docs/ARCHITECTURE.md): the
 /// state is `[x; v]`; the stage `K = [X; V]` satisfies `X = psi_x + gh V`
 /// and `G(V) = M (V - psi_v) - gh f(tau, psi_x + gh V, V) = 0`, solved by
@@ -552,6 +684,13 @@ pub(crate) struct SecondSys<P> {
     user_newton: NewtonOptions,
     /// The mean particle mass.
     mean_mass: f64,
+    /// The IMEX scheme's matrices and factor (built at its first step).
+    imex: Option<Box<crate::imex::Imex>>,
+    /// Inexact simplified Newton's eq. 50 path (built at its first stage;
+    /// `Err(())` once the problem was found to have none).
+    linearized: Option<Result<Box<LinearizedNewton>, ()>>,
+    /// The material revision the kept Jacobian of `newton` belongs to.
+    revision: u64,
 }
 
 /// The velocity form's residual `M (V - psi_v) - gh f` is a momentum: its
@@ -596,8 +735,110 @@ impl<P: SecondOrderProblem> SecondSys<P> {
             xs: vec![0.0; n],
             last_delta: vec![0.0; n],
             last_delta_gh: f64::NAN,
+            imex: None,
+            linearized: None,
+            revision: problem.material_revision(),
             problem,
         })
+    }
+}
+
+impl<P: SecondOrderProblem> SecondSys<P> {
+    /// [`System::solve_stage`] by inexact simplified Newton on eq. 50's
+    /// isotropic matrix ([`ReducedStageIso`]), kept until `gh` or the
+    /// material revision changes; `None` if the problem has no isotropic
+    /// linearisation (then the full-block path runs, with
+    /// [`SecondOrderProblem::linearized_jacobians`] if it has that).
+    fn solve_stage_linearized(
+        &mut self,
+        tau: f64,
+        gh: f64,
+        psi: &[f64],
+        k: &mut [f64],
+        opts: &SolverOptions,
+        stats: &mut Stats,
+    ) -> Option<Result<StageInfo, StageFailure>> {
+        let nopts = momentum_options(&opts.newton, self.mean_mass);
+        if self.linearized.is_none() {
+            let built = PcgSolver::from_options(&opts.newton)
+                .and_then(|linear| LinearizedNewton::new(&self.problem, nopts.clone(), linear));
+            self.linearized = Some(match built {
+                Ok(Some(l)) => Ok(Box::new(l)),
+                Ok(None) => Err(()),
+                Err(e) => return Some(Err(StageFailure::Other(e))),
+            });
+        }
+        let Some(Ok(lin)) = self.linearized.as_mut() else {
+            return None;
+        };
+        let lin = &mut **lin;
+        if *lin.newton.options() != nopts
+            && let Err(e) = lin.newton.set_options(nopts)
+        {
+            return Some(Err(StageFailure::Other(e)));
+        }
+        let revision = self.problem.material_revision();
+        if revision != lin.revision {
+            if !self
+                .problem
+                .linearized_jacobians_iso(&mut lin.k, &mut lin.d)
+            {
+                self.linearized = Some(Err(()));
+                return None;
+            }
+            lin.revision = revision;
+            lin.newton.invalidate_jacobian();
+        }
+        if gh != lin.last_gh {
+            lin.newton.invalidate_jacobian();
+            lin.last_gh = gh;
+        }
+        let n = self.n;
+        let linear = lin.newton.linear_solver_mut();
+        let solver_has_some = linear.constraints_mut().is_some_and(|c| !c.is_empty());
+        if !self.constraints.is_empty() || solver_has_some {
+            linear.copy_constraints(&self.constraints);
+        }
+        let (psi_x, psi_v) = psi.split_at(n);
+        let (kx, kv) = k.split_at_mut(n);
+        if !self.constraints.is_empty() {
+            self.constraints.impose(kv);
+        }
+        if opts.warm_start && self.last_delta_gh == gh {
+            let guess = lin.newton.linear_solver_mut().arm_guess(n);
+            for i in 0..n {
+                guess[i] = self.last_delta[i] - (kv[i] - psi_v[i]);
+            }
+        }
+        let mut stage = ReducedStageIso {
+            stage: ReducedStage {
+                problem: &self.problem,
+                tau,
+                gh,
+                psi_x,
+                psi_v,
+                x: &mut self.xs,
+                force: &mut self.force,
+                dfdx: &mut self.dfdx,
+                dfdv: &mut self.dfdv,
+                constraints: &self.constraints,
+            },
+            k: &lin.k,
+            d: &lin.d,
+            particle_mass: &lin.particle_mass,
+        };
+        let result = lin.newton.solve(&mut stage, kv);
+        lin.newton.linear_solver_mut().disarm_guess();
+        let info = match account(result, 0, stats) {
+            Ok(info) => info,
+            Err(e) => return Some(Err(e)),
+        };
+        for i in 0..n {
+            kx[i] = psi_x[i] + gh * kv[i];
+            self.last_delta[i] = kv[i] - psi_v[i];
+        }
+        self.last_delta_gh = gh;
+        Some(Ok(info))
     }
 }
 
@@ -658,6 +899,36 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
         true
     }
 
+    fn imex_step(
+        &mut self,
+        t: f64,
+        h: f64,
+        s: &mut [f64],
+        stats: &mut Stats,
+    ) -> Result<StageInfo, StageFailure> {
+        use crate::imex::{Imex, ImexFailure};
+        if self.imex.is_none() {
+            let imex = Imex::new(&self.problem).ok_or(ImexFailure::NoLinearPart);
+            self.imex = Some(Box::new(imex.map_err(imex_failure)?));
+        }
+        let Some(imex) = self.imex.as_mut() else {
+            return Err(imex_failure(ImexFailure::NoLinearPart));
+        };
+        let (x, v) = s.split_at_mut(self.n);
+        imex.step(
+            &self.problem,
+            &self.constraints,
+            t,
+            h,
+            x,
+            v,
+            &mut self.force,
+            stats,
+        )
+        .map_err(imex_failure)?;
+        Ok(StageInfo::default())
+    }
+
     fn solve_stage(
         &mut self,
         tau: f64,
@@ -667,6 +938,11 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
         opts: &SolverOptions,
         stats: &mut Stats,
     ) -> Result<StageInfo, StageFailure> {
+        if matches!(opts.newton.method, NewtonMethod::InexactSimplified(_))
+            && let Some(result) = self.solve_stage_linearized(tau, gh, psi, k, opts, stats)
+        {
+            return result;
+        }
         let n = self.n;
         if self.user_newton != opts.newton {
             self.newton
@@ -681,10 +957,13 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
         if !self.constraints.is_empty() || solver_has_some {
             linear.copy_constraints(&self.constraints);
         }
-        // A kept Jacobian (simplified variants) is only valid for this gh.
-        if gh != self.last_gh {
+        // A kept Jacobian (simplified variants) is only valid for this gh
+        // and this material.
+        let revision = self.problem.material_revision();
+        if gh != self.last_gh || revision != self.revision {
             self.newton.invalidate_jacobian();
             self.last_gh = gh;
+            self.revision = revision;
         }
         let (psi_x, psi_v) = psi.split_at(n);
         let (kx, kv) = k.split_at_mut(n);

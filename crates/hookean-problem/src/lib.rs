@@ -28,7 +28,7 @@
 
 use std::sync::Arc;
 
-use hookean_sparse::{BlockPattern, Constraints, SymBlockMatrix};
+use hookean_sparse::{BlockPattern, Constraints, IsoBlockMatrix, SymBlockMatrix};
 
 /// A first-order system `y' = f(t, y)` (the tutorial's eq. 7).
 pub trait FirstOrderProblem {
@@ -104,6 +104,30 @@ pub trait SecondOrderProblem {
     /// model has none. They change only when the material changes.
     fn linearized_jacobians(&self, _dfdx: &mut SymBlockMatrix, _dfdv: &mut SymBlockMatrix) -> bool {
         false
+    }
+
+    /// The same linearised Jacobians in isotropic storage (one scalar per
+    /// 3x3 block, a third of the nonzeros): `K = df_lin/dx` and `D =
+    /// df_lin/dv` of the linear force `f_lin(x, v) = K x + D v` of eq. 50,
+    /// without the permanent constraints (integrators filter them). Writes
+    /// them and returns `true`, or returns `false` (the default) if the
+    /// problem has none. Read by inexact simplified Newton (Algorithm 3)
+    /// and by the IMEX scheme of Eberhardt, Etzmuss and Hauth (2000), which
+    /// integrates `f_lin` implicitly and `f - f_lin` explicitly; both keep
+    /// what they build from them until the step size or
+    /// [`material_revision`](Self::material_revision) changes.
+    fn linearized_jacobians_iso(
+        &self,
+        _dfdx: &mut IsoBlockMatrix,
+        _dfdv: &mut IsoBlockMatrix,
+    ) -> bool {
+        false
+    }
+
+    /// A counter that changes whenever the linearised Jacobians change
+    /// (material, damping model, permanent constraints). Default 0 (never).
+    fn material_revision(&self) -> u64 {
+        0
     }
 
     /// Called by integrators before every step (and again before a retried

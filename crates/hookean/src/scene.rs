@@ -25,7 +25,7 @@
 
 use std::path::Path;
 
-use hookean_filter::{FilterOptions, Form, Kernel};
+use hookean_filter::{FilterCoupling, FilterOptions, Form, Kernel};
 use hookean_massspring::{
     BlockParams, ClothParams, ClothPins, Collider, ModelOptions, RopeParams, SpringDamping,
     SpringMaterial,
@@ -482,9 +482,17 @@ pub struct IntegratorScene {
     /// `fb-euler`, `verlet`). Default `implicit-euler`.
     #[serde(default = "d_method", deserialize_with = "method")]
     pub method: Method,
-    /// (Initial) step size (s). Default 0.01.
-    #[serde(default = "d_h", deserialize_with = "positive")]
-    pub h: f64,
+    /// (Initial) step size (s), or `"auto"` for an explicit method: the
+    /// largest stable step of the model at its starting state, from the
+    /// (filtered) modified power method and eq. 11, times `h_safety`.
+    /// Default 0.01.
+    #[serde(default)]
+    pub h: StepScene,
+    /// The safety factor of `h = "auto"`, in (0, 1]: the cloth stiffens as
+    /// it stretches, so the stable step of the starting state is an upper
+    /// bound. Default 0.8.
+    #[serde(default = "d_h_safety", deserialize_with = "safety")]
+    pub h_safety: f64,
     /// Step control of `bdf2-variable`: `"error"` (default) or `"newton"` (Newton iterations).
     #[serde(default)]
     pub control: ControlScene,
@@ -499,11 +507,83 @@ pub struct IntegratorScene {
     pub h_max: f64,
 }
 
+/// `integrator.h`: a step size in seconds or `"auto"`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum StepScene {
+    /// A fixed (or initial) step size (s), positive and finite.
+    Value(f64),
+    /// The largest stable step of an explicit method times `h_safety`
+    /// (resolved when the scene is built:
+    /// [`auto_step`](hookean_filter::auto_step)).
+    Auto,
+}
+
+impl Default for StepScene {
+    fn default() -> Self {
+        StepScene::Value(d_h())
+    }
+}
+
+impl StepScene {
+    /// The step size, `None` for `"auto"` (known once the model is built:
+    /// [`Simulation::h_next`]).
+    pub fn value(self) -> Option<f64> {
+        match self {
+            StepScene::Value(h) => Some(h),
+            StepScene::Auto => None,
+        }
+    }
+}
+
+impl std::fmt::Display for StepScene {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StepScene::Value(h) => write!(f, "{h:?} s"),
+            StepScene::Auto => f.write_str("\"auto\""),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for StepScene {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Raw {
+            Number(f64),
+            Name(String),
+        }
+        match Raw::deserialize(d)? {
+            Raw::Number(h) if h > 0.0 && h.is_finite() => Ok(StepScene::Value(h)),
+            Raw::Number(h) => Err(D::Error::custom(format!(
+                "must be a positive number or \"auto\", got {h:?}"
+            ))),
+            Raw::Name(s) if s == "auto" => Ok(StepScene::Auto),
+            Raw::Name(s) => Err(D::Error::custom(format!(
+                "must be a positive number or \"auto\", got \"{s}\""
+            ))),
+        }
+    }
+}
+
+fn safety<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    let v = f64::deserialize(d)?;
+    if v > 0.0 && v <= 1.0 {
+        Ok(v)
+    } else {
+        Err(D::Error::custom(format!("must be in (0, 1], got {v:?}")))
+    }
+}
+
+fn d_h_safety() -> f64 {
+    0.8
+}
+
 impl Default for IntegratorScene {
     fn default() -> Self {
         Self {
             method: d_method(),
-            h: d_h(),
+            h: StepScene::default(),
+            h_safety: d_h_safety(),
             control: ControlScene::Error,
             rtol: d_rtol(),
             atol: d_atol(),
@@ -832,6 +912,46 @@ pub struct FilterScene {
     /// Neighbourhood radius in rings of the spring graph. Default 1.
     #[serde(default = "d_rings", deserialize_with = "at_least_one")]
     pub rings: usize,
+    /// How the filtered velocities go back into the step: `"increment"`
+    /// (default: the step's velocity change is filtered and the positions
+    /// follow; FB Euler's stable step is then `2 / sqrt(k0)` with the
+    /// filtered k0), `"velocity"` (the paper's section 4.1 literally: the
+    /// new velocities are replaced, the positions are left; measured less
+    /// stable than no filter, docs/perf/filter.md) or `"positions"` (the
+    /// velocities are replaced and the positions moved by the change).
+    #[serde(default)]
+    pub coupling: CouplingScene,
+    /// The distances of the weights: `"rest"` (default: path lengths of the
+    /// rest state, weights computed once) or `"current"` (the particles'
+    /// distances after each step, the paper's time-dependent weights;
+    /// slower, docs/perf/filter.md).
+    #[serde(default)]
+    pub distances: DistancesScene,
+}
+
+/// `filter.distances`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DistancesScene {
+    /// Rest lengths, weights computed once.
+    #[default]
+    Rest,
+    /// Current distances, weights recomputed every step.
+    Current,
+}
+
+/// How the filtered velocities go back into the step
+/// ([`FilterCoupling`](hookean_filter::FilterCoupling)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CouplingScene {
+    /// [`FilterCoupling::Increment`](hookean_filter::FilterCoupling::Increment).
+    #[default]
+    Increment,
+    /// [`FilterCoupling::VelocityOnly`](hookean_filter::FilterCoupling::VelocityOnly).
+    Velocity,
+    /// [`FilterCoupling::CorrectPositions`](hookean_filter::FilterCoupling::CorrectPositions).
+    Positions,
 }
 
 fn d_rings() -> usize {
@@ -1064,6 +1184,12 @@ impl Scene {
                 "solver.amg: [solver.amg] is given but solver.preconditioner is \"{p}\", not \"amg\" or \"auto\""
             ));
         }
+        if self.integrator.h == StepScene::Auto && self.tutorial.is_some() {
+            return Err(
+                "integrator.h: \"auto\" is the stable step of a mass-spring model; a [tutorial] scene needs a number"
+                    .into(),
+            );
+        }
         if models != 1 {
             return Err(format!(
                 "a scene needs exactly one model table ([cloth], [rope], [jelly], [particle] or [tutorial]), found {models}"
@@ -1112,7 +1238,8 @@ impl Scene {
             ForcingScene::Ew2 => ForcingTerm::EW2_DEFAULT,
         };
         let mut solver: SolverOptions = SimulationOptions::drape_solver();
-        solver.h = self.integrator.h;
+        // "auto" needs the model: `build` replaces this placeholder.
+        solver.h = self.integrator.h.value().unwrap_or_else(d_h);
         solver.rtol = self.integrator.rtol;
         solver.atol = self.integrator.atol;
         solver.h_max = self.integrator.h_max;
@@ -1156,7 +1283,13 @@ impl Scene {
                     FormScene::Plain => Form::Plain,
                 },
                 rings: f.rings,
+                current_distances: f.distances == DistancesScene::Current,
             }),
+            filter_coupling: match self.filter.as_ref().map(|f| f.coupling) {
+                Some(CouplingScene::Velocity) => FilterCoupling::VelocityOnly,
+                Some(CouplingScene::Positions) => FilterCoupling::CorrectPositions,
+                Some(CouplingScene::Increment) | None => FilterCoupling::Increment,
+            },
             ..SimulationOptions::default()
         }
     }
@@ -1367,7 +1500,26 @@ impl Scene {
                 } => Collider::sphere(center, radius, margin).map_err(collider)?,
             });
         }
-        Simulation::new(model, state, self.simulation_options()).map_err(|e| match e {
+        let mut options = self.simulation_options();
+        if self.integrator.h == StepScene::Auto {
+            let filter = options
+                .filter
+                .as_ref()
+                .map(|f| (f, options.filter_coupling));
+            options.solver.h = hookean_filter::auto_step(
+                &model,
+                &state.x,
+                &options.method,
+                filter,
+                self.integrator.h_safety,
+            )
+            .map_err(|e| HookeanError::InvalidOption {
+                name: "integrator.h".into(),
+                message: format!("\"auto\": {e}"),
+            })?
+            .h;
+        }
+        Simulation::new(model, state, options).map_err(|e| match e {
             HookeanError::InvalidOption { name, message } if name == "filter" => {
                 HookeanError::Build {
                     table: name,
@@ -1467,7 +1619,7 @@ mod tests {
         assert_eq!(c.pins, PinScene::TwoCorners);
         assert_eq!(s.duration, 5.0);
         assert_eq!(s.integrator.method, Method::ImplicitEuler);
-        assert_eq!(s.integrator.h, 0.01);
+        assert_eq!(s.integrator.h, StepScene::Value(0.01));
     }
 
     #[test]
@@ -1547,6 +1699,65 @@ mod tests {
             err("[cloth]\n[solver]\npreconditioner = \"mic0\"\n[solver.amg]\nsweeps = 2\n");
         assert!(m.starts_with("solver.amg:"), "{m}");
         assert!(Scene::from_toml_str("s.toml", "[cloth]\n[solver.amg]\nsweeps = 2\n").is_ok());
+    }
+
+    #[test]
+    fn step_auto_and_filter_coupling_are_scene_keys() {
+        let s = Scene::from_toml_str(
+            "s.toml",
+            "[cloth]\nn = 6\n[integrator]\nmethod = \"fb-euler\"\nh = \"auto\"\n[filter]\ncoupling = \"velocity\"\n",
+        )
+        .unwrap();
+        assert_eq!(s.integrator.h, StepScene::Auto);
+        assert_eq!(s.integrator.h_safety, 0.8);
+        let o = s.simulation_options();
+        assert_eq!(o.filter_coupling, FilterCoupling::VelocityOnly);
+        // The built step: 0.8 / sqrt 2 of the unfiltered eq. 11 limit for
+        // the literal velocity coupling.
+        let sim = s.build().unwrap();
+        let (model, state) = hookean_massspring::cloth(&s.cloth_params().unwrap()).unwrap();
+        let dt = model
+            .stability(&state.x, &Default::default(), None)
+            .unwrap()
+            .dt_max;
+        assert!((sim.h_next() - 0.8 * dt / 2f64.sqrt()).abs() < 1e-12 * dt);
+        let d = Scene::from_toml_str("s.toml", "[cloth]\n[filter]\n").unwrap();
+        assert_eq!(
+            d.simulation_options().filter_coupling,
+            FilterCoupling::Increment
+        );
+
+        let (l, c, m) = err("[cloth]\n[integrator]\nh = \"fast\"\n");
+        assert_eq!((l, c), (3, 5), "{m}");
+        assert!(m.contains("positive number or \"auto\""), "{m}");
+        let (l, _, m) = err("[cloth]\n[integrator]\nh = -1.0\n");
+        assert_eq!(l, 3, "{m}");
+        let (l, _, m) = err("[cloth]\n[integrator]\nh_safety = 1.5\n");
+        assert_eq!(l, 3, "{m}");
+        let (l, _, m) = err("[cloth]\n[filter]\ncoupling = \"force\"\n");
+        assert_eq!(l, 3, "{m}");
+        assert!(m.contains("increment"), "{m}");
+        // An implicit method has no explicit stable step.
+        let implicit =
+            Scene::from_toml_str("s.toml", "[cloth]\nn = 4\n[integrator]\nh = \"auto\"\n").unwrap();
+        match implicit.build() {
+            Err(e @ HookeanError::InvalidOption { .. }) => {
+                let m = e.to_string();
+                assert!(
+                    m.contains("integrator.h") && m.contains("implicit-euler"),
+                    "{m}"
+                );
+            }
+            Err(e) => panic!("{e}"),
+            Ok(_) => panic!("auto with implicit Euler was accepted"),
+        }
+        assert!(
+            Scene::from_toml_str(
+                "s.toml",
+                "[tutorial]\nexample = 1\n[integrator]\nh = \"auto\"\n"
+            )
+            .is_err()
+        );
     }
 
     #[test]

@@ -23,9 +23,13 @@ pub struct SimulationOptions {
     /// [`SimulationOptions::drape_solver`].
     pub solver: SolverOptions,
     /// The velocity filter applied after every step of an explicit method
-    /// (the filtering paper), with `hookean-filter`'s default coupling (the
-    /// step's velocity change is filtered). Default `None`.
+    /// (the filtering paper). Default `None`.
     pub filter: Option<FilterOptions>,
+    /// How the filtered velocities go back into the integrator (read only
+    /// with a `filter`). Default [`FilterCoupling::Increment`] (the step's
+    /// velocity change is filtered); [`FilterCoupling::VelocityOnly`] is the
+    /// paper's literal scheme.
+    pub filter_coupling: FilterCoupling,
     /// The blow-up check: a run stops with [`HookeanError::BlowUp`] once
     /// its kinetic plus gravitational energy exceeds the starting total
     /// energy by more than this factor times the scene's energy scale (see
@@ -89,6 +93,7 @@ impl Default for SimulationOptions {
             method: Method::ImplicitEuler,
             solver: Self::drape_solver(),
             filter: None,
+            filter_coupling: FilterCoupling::default(),
             blow_up_factor: 1e3,
         }
     }
@@ -254,7 +259,7 @@ impl Simulation {
                 ),
             });
         }
-        let filter = options.filter.map(|f| (f, FilterCoupling::default()));
+        let filter = options.filter.map(|f| (f, options.filter_coupling));
         let integrator =
             ModelIntegrator::new(model, &state, options.method, options.solver, filter)?;
         Ok(Self {
