@@ -794,22 +794,15 @@ impl<P: SecondOrderProblem> SecondSys<P> {
             lin.last_gh = gh;
         }
         let n = self.n;
-        let linear = lin.newton.linear_solver_mut();
-        let solver_has_some = linear.constraints_mut().is_some_and(|c| !c.is_empty());
-        if !self.constraints.is_empty() || solver_has_some {
-            linear.copy_constraints(&self.constraints);
-        }
         let (psi_x, psi_v) = psi.split_at(n);
         let (kx, kv) = k.split_at_mut(n);
-        if !self.constraints.is_empty() {
-            self.constraints.impose(kv);
-        }
-        if opts.warm_start && self.last_delta_gh == gh {
-            let guess = lin.newton.linear_solver_mut().arm_guess(n);
-            for i in 0..n {
-                guess[i] = self.last_delta[i] - (kv[i] - psi_v[i]);
-            }
-        }
+        begin_stage(
+            lin.newton.linear_solver_mut(),
+            &self.constraints,
+            kv,
+            psi_v,
+            (opts.warm_start && self.last_delta_gh == gh).then_some(&self.last_delta),
+        );
         let mut stage = ReducedStageIso {
             stage: ReducedStage {
                 problem: &self.problem,
@@ -833,12 +826,53 @@ impl<P: SecondOrderProblem> SecondSys<P> {
             Ok(info) => info,
             Err(e) => return Some(Err(e)),
         };
-        for i in 0..n {
-            kx[i] = psi_x[i] + gh * kv[i];
-            self.last_delta[i] = kv[i] - psi_v[i];
-        }
+        end_stage(kx, kv, psi_x, psi_v, gh, &mut self.last_delta);
         self.last_delta_gh = gh;
         Some(Ok(info))
+    }
+}
+
+/// Before the Newton solve of a reduced stage (either Jacobian): one copy of
+/// the step's constraints into the linear solver per stage (they change
+/// between steps; none is made while both sets are empty), `kv` projected
+/// onto them, and with `last_delta` the warm start: the first correction
+/// `V_1 - V_0` guessed so that `V_1 - psi_v` repeats the last stage's
+/// `V - psi_v`.
+fn begin_stage(
+    linear: &mut PcgSolver<AnyPreconditioner>,
+    constraints: &Constraints,
+    kv: &mut [f64],
+    psi_v: &[f64],
+    last_delta: Option<&Vec<f64>>,
+) {
+    let solver_has_some = linear.constraints_mut().is_some_and(|c| !c.is_empty());
+    if !constraints.is_empty() || solver_has_some {
+        linear.copy_constraints(constraints);
+    }
+    if !constraints.is_empty() {
+        constraints.impose(kv);
+    }
+    if let Some(last) = last_delta {
+        let guess = linear.arm_guess(kv.len());
+        for (g, ((l, k), p)) in guess.iter_mut().zip(last.iter().zip(kv.iter()).zip(psi_v)) {
+            *g = l - (k - p);
+        }
+    }
+}
+
+/// After a converged reduced stage: `kx = psi_x + gh kv` and the warm start's
+/// `V - psi_v` for the next stage.
+fn end_stage(
+    kx: &mut [f64],
+    kv: &[f64],
+    psi_x: &[f64],
+    psi_v: &[f64],
+    gh: f64,
+    last_delta: &mut [f64],
+) {
+    for i in 0..kv.len() {
+        kx[i] = psi_x[i] + gh * kv[i];
+        last_delta[i] = kv[i] - psi_v[i];
     }
 }
 
@@ -950,13 +984,6 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
                 .map_err(StageFailure::Other)?;
             self.user_newton = opts.newton.clone();
         }
-        // One copy of the step's constraints per stage solve (they change
-        // between steps; none is made while the set is empty).
-        let linear = self.newton.linear_solver_mut();
-        let solver_has_some = linear.constraints_mut().is_some_and(|c| !c.is_empty());
-        if !self.constraints.is_empty() || solver_has_some {
-            linear.copy_constraints(&self.constraints);
-        }
         // A kept Jacobian (simplified variants) is only valid for this gh
         // and this material.
         let revision = self.problem.material_revision();
@@ -967,17 +994,13 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
         }
         let (psi_x, psi_v) = psi.split_at(n);
         let (kx, kv) = k.split_at_mut(n);
-        if !self.constraints.is_empty() {
-            self.constraints.impose(kv);
-        }
-        // Warm start: the first correction V_1 - V_0 is guessed so that
-        // V_1 - psi_v repeats the last stage's V - psi_v (same gh only).
-        if opts.warm_start && self.last_delta_gh == gh {
-            let guess = self.newton.linear_solver_mut().arm_guess(n);
-            for i in 0..n {
-                guess[i] = self.last_delta[i] - (kv[i] - psi_v[i]);
-            }
-        }
+        begin_stage(
+            self.newton.linear_solver_mut(),
+            &self.constraints,
+            kv,
+            psi_v,
+            (opts.warm_start && self.last_delta_gh == gh).then_some(&self.last_delta),
+        );
         let mut stage = ReducedStage {
             problem: &self.problem,
             tau,
@@ -993,10 +1016,7 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
         let result = self.newton.solve(&mut stage, kv);
         self.newton.linear_solver_mut().disarm_guess();
         let info = account(result, 0, stats)?;
-        for i in 0..n {
-            kx[i] = psi_x[i] + gh * kv[i];
-            self.last_delta[i] = kv[i] - psi_v[i];
-        }
+        end_stage(kx, kv, psi_x, psi_v, gh, &mut self.last_delta);
         self.last_delta_gh = gh;
         Ok(info)
     }
