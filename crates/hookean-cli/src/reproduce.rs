@@ -381,20 +381,6 @@ fn path_arg(p: &Path) -> String {
     p.display().to_string()
 }
 
-/// Tight Newton tolerances: errors are the discretisation's.
-fn tight() -> SolverOptions {
-    SolverOptions {
-        h: 1e-3,
-        newton: NewtonOptions {
-            rtol: 1e-13,
-            atol: 1e-14,
-            linear_rtol: 1e-13,
-            ..SolverOptions::default_newton()
-        },
-        ..SolverOptions::default()
-    }
-}
-
 /// A work-precision sweep of a second-order tutorial problem.
 fn oscillator_rows(
     o: LinearOscillator,
@@ -411,7 +397,7 @@ fn oscillator_rows(
         o.t_end,
         &o.exact_particle(o.t_end),
         &Sweep::halvings(n0, levels),
-        &tight(),
+        &crate::workprecision::tight_options(),
     )
     .map_err(|e| failed(format!("{m}: {e}")))
 }
@@ -630,7 +616,10 @@ fn example3_bounded(_: &Ctx) -> Result<Outcome, CliError> {
             0.0,
             &ex3.x0(),
             &ex3.v0_vec(),
-            SolverOptions { h, ..tight() },
+            SolverOptions {
+                h,
+                ..crate::workprecision::tight_options()
+            },
         )
         .map_err(failed)?;
         let mut peak: f64 = 0.0;

@@ -117,7 +117,7 @@ impl Problem {
     }
 
     fn run(&self, m: &Method, sweep: &Sweep) -> Result<Vec<WorkPrecisionRow>, CliError> {
-        let opts = options();
+        let opts = tight_options();
         let rows = match *self {
             Problem::Dahlquist(d) => workprecision::first_order(
                 || d,
@@ -146,8 +146,8 @@ impl Problem {
 }
 
 /// Tight Newton and linear tolerances: the error shown is the
-/// discretisation error, not the solver's.
-fn options() -> SolverOptions {
+/// discretisation error, not the solver's (also `hookean reproduce`'s).
+pub(crate) fn tight_options() -> SolverOptions {
     SolverOptions {
         h: 1e-3,
         newton: NewtonOptions {
