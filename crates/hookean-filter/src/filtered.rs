@@ -214,20 +214,7 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
             if coupling == FilterCoupling::Increment {
                 // Filter the increment dv = v_{n+1} - v_n: v = v_n + F dv and
                 // x = x_{n+1} + h (F dv - dv), since v - v_{n+1} = F dv - dv.
-                for ((d, r), p) in dv.iter_mut().zip(v.iter()).zip(prev.iter()) {
-                    *d = r - p;
-                }
-                filter.apply_to(dv, v)?;
-                for (((v, x), d), p) in v
-                    .iter_mut()
-                    .zip(x.iter_mut())
-                    .zip(dv.iter())
-                    .zip(prev.iter_mut())
-                {
-                    *x += h * (*v - d);
-                    *v += *p;
-                    *p = *v;
-                }
+                filter.apply_increment(v, x, prev, dv, h)?;
             } else {
                 dv.copy_from_slice(v);
                 filter.apply_to(dv, v)?;
