@@ -45,6 +45,15 @@ fn writes_figures_4_5_6_and_the_filter_raises_the_stable_step() {
     // lambda = 1 enlarges the stable step by at least 1.25x; lambda = 20 hardly filters.
     assert!(at(1.0) >= 1.25 * unfiltered, "{} vs {unfiltered}", at(1.0));
     assert!((at(20.0) / unfiltered - 1.0).abs() < 0.05);
+    // Figures 4 and 5 say why they do not run at the paper's 0.01 s: FB
+    // Euler's measured stable step is far below it.
+    assert!(unfiltered < 0.01 / 10.0, "{unfiltered}");
+    let why = a["step_choice"].as_str().unwrap();
+    let dt_max = a["dt_max_unfiltered"].as_f64().unwrap();
+    assert!(
+        why.contains(&format!("dt_max = {dt_max:.3e} s")) && why.contains("blows up"),
+        "{why}"
+    );
     // An existing folder is kept without --force.
     let again = hookean(&[
         "filter-analysis",
