@@ -128,6 +128,8 @@ pub struct AmgRecord {
     pub nonzeros: Vec<usize>,
     pub operator_complexity: f64,
     pub grid_complexity: f64,
+    /// Whether the coarsest level is solved directly (else only smoothed).
+    pub coarsest_direct: bool,
 }
 
 impl From<&AmgStats> for AmgRecord {
@@ -138,6 +140,7 @@ impl From<&AmgStats> for AmgRecord {
             nonzeros: s.levels.iter().map(|l| l.nonzeros).collect(),
             operator_complexity: s.operator_complexity,
             grid_complexity: s.grid_complexity,
+            coarsest_direct: s.coarsest_direct,
         }
     }
 }

@@ -17,7 +17,8 @@ use crate::power::{PowerParams, power_iterate};
 
 /// The coarsest level is solved directly (dense Cholesky) when it has at
 /// most this many unknowns, even if coarsening stalled above the
-/// requested `coarse_size`; a larger stalled level is only smoothed.
+/// requested `coarse_size` below the finest level; a larger stalled level,
+/// and a finest level that does not coarsen at all, is only smoothed.
 const DIRECT_LIMIT: usize = 3000;
 
 /// Coarsening is given up when the aggregates would keep more than this
@@ -385,9 +386,16 @@ impl<const B: usize> Hierarchy<B> {
             }
         }
         let coarsest = B * levels.last().map_or(0, |l| l.a.nrows);
+        // A finest level above `coarse_size` that does not coarsen has no
+        // strong connections to speak of (a mass-dominated system: a soft
+        // cloth, a small step): the smoother alone nearly solves it, and a
+        // dense factor of the whole matrix at every refill would cost
+        // n^3 / 3 (1.5e8 flops for 768 unknowns, against 3e4 nonzeros).
+        let direct =
+            coarsest <= DIRECT_LIMIT && (levels.len() > 1 || coarsest <= options.coarse_size);
         let mut h = Self {
             levels,
-            coarse: (coarsest <= DIRECT_LIMIT).then(|| DenseCholesky::new(coarsest)),
+            coarse: direct.then(|| DenseCholesky::new(coarsest)),
             numeric,
             work: Mutex::new(work),
         };
@@ -504,6 +512,11 @@ impl<const B: usize> Hierarchy<B> {
             })?;
         }
         Ok(())
+    }
+
+    /// Whether the coarsest level is solved directly (else only smoothed).
+    pub fn coarsest_direct(&self) -> bool {
+        self.coarse.is_some()
     }
 
     /// Per-level statistics.

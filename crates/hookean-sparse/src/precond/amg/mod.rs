@@ -163,6 +163,10 @@ pub struct AmgStats {
     pub refills: usize,
     /// Calls of `setup` that kept the hierarchy ([`AmgReuse::Keep`]).
     pub kept: usize,
+    /// Whether the coarsest level is solved by a dense Cholesky factor;
+    /// `false` when it is only smoothed (a level that stalled above 3000
+    /// unknowns, or a finest level above `coarse_size` that does not coarsen).
+    pub coarsest_direct: bool,
 }
 
 /// The finest level's storage and where its blocks come from.
@@ -515,6 +519,7 @@ impl Amg {
             levels.iter().map(|l| l.nonzeros as f64).sum::<f64>() / nnz0;
         self.stats.grid_complexity = levels.iter().map(|l| l.rows as f64).sum::<f64>() / rows0;
         self.stats.levels = levels;
+        self.stats.coarsest_direct = h.coarsest_direct();
         self.stats.setup_seconds = seconds;
         self.stats.setups += 1;
     }

@@ -254,12 +254,42 @@ fn small_matrix_is_solved_directly() {
     let mut amg = Amg::new();
     amg.setup(&a).unwrap();
     assert_eq!(amg.stats().levels.len(), 1);
+    assert!(amg.stats().coarsest_direct);
     let r = rhs(a.dim());
     let mut z = vec![0.0; r.len()];
     amg.apply(&r, &mut z);
     let mut az = vec![0.0; r.len()];
     a.apply(&z, &mut az);
     assert!(super::super::testutil::rel_diff(&az, &r) < 1e-12);
+}
+
+/// A mass-dominated system, `A = I + eps L` with `L` the 2D Poisson matrix:
+/// every off-diagonal entry is weak (`eps / (1 + 4 eps)` against the
+/// strength threshold), so the finest level does not coarsen. Above
+/// `coarse_size` it is smoothed, not factored densely at every refill:
+/// Gershgorin puts the eigenvalues of `D^-1 A` in `1 -+ 4 eps / (1 + 4 eps)`,
+/// a condition number below 1.1, where CG gains about two digits per
+/// iteration.
+#[test]
+fn a_finest_level_that_does_not_coarsen_is_smoothed_not_factored() {
+    let eps = 0.01;
+    let l = poisson(30, 2);
+    let n = l.rows();
+    let mut t = sprs::TriMat::new((n, n));
+    for (v, (i, j)) in l.iter() {
+        t.add_triplet(i, j, eps * v);
+    }
+    for i in 0..n {
+        t.add_triplet(i, i, 1.0);
+    }
+    let a: sprs::CsMat<f64> = t.to_csr();
+    let mut amg = Amg::new();
+    amg.setup(&a).unwrap();
+    assert!(n > AmgOptions::default().coarse_size);
+    assert_eq!(amg.stats().levels.len(), 1, "{:?}", amg.stats());
+    assert!(!amg.stats().coarsest_direct);
+    let iterations = pcg_iterations(&a, &amg, &rhs(n));
+    assert!(iterations <= 8, "{iterations} iterations");
 }
 
 #[test]
