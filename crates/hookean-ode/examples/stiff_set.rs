@@ -1,28 +1,92 @@
 //! Runs the variable-order BDF solver on the stiff test set
 //! ([`hookean_ode::testset`]) over a range of tolerances, one set of default
 //! options, and prints one CSV row per run: the mixed error at `t_end`
-//! against the published reference, the statistics, and the median wall
-//! time of `repeats` runs.
+//! against the published reference, the statistics, the median wall
+//! time of `repeats` runs, and the largest mixed error along the trajectory
+//! (`trajectory_error`, see [`trajectory_times`]).
 //!
 //! ```text
-//! cargo run --release -p hookean-ode --example stiff_set -- [repeats] [rtol...]
+//! cargo run --release -p hookean-ode --example stiff_set -- [--exponent p] [repeats] [rtol...]
 //! ```
+//!
+//! `--exponent p` replaces the default
+//! [`BdfOptions::tolerance_exponent`] (for the trade-off study of
+//! docs/PERFORMANCE.md, issue 17); everything else stays the defaults.
 
+use std::sync::OnceLock;
 use std::time::Instant;
 
 use hookean_ode::testset::{
     E5, Hires, Orego, Robertson, SpringChain, TestProblem, VanDerPol, mixed_error, options,
 };
-use hookean_ode::{BdfSolver, BdfStats, OdeError};
+use hookean_ode::{BdfOptions, BdfSolver, BdfStats, OdeError};
+
+/// The `--exponent` argument, if given.
+static EXPONENT: OnceLock<f64> = OnceLock::new();
+
+/// The test set's options ([`options`]), with the `--exponent` override.
+fn sweep_options<P: TestProblem>(p: &P, rtol: f64) -> BdfOptions {
+    let opts = options(p, rtol);
+    BdfOptions {
+        tolerance_exponent: EXPONENT.get().copied().unwrap_or(opts.tolerance_exponent),
+        ..opts
+    }
+}
+
+/// The output times of the trajectory error, the same rule for every
+/// problem: 20 equidistant times `t_end i / 20`, `i = 1..=20`, and 19
+/// logarithmically spaced ones `t_end 10^(-10 + i / 2)`, `i = 1..=19` (these see the
+/// early transients of Robertson and E5, whose solutions at `t_end` have
+/// decayed or settled).
+fn trajectory_times(t_end: f64) -> Vec<f64> {
+    let mut t: Vec<f64> = (1..=20)
+        .map(|i| t_end * i as f64 / 20.0)
+        .chain((1..20).map(|i| t_end * 10f64.powf(-10.0 + i as f64 / 2.0)))
+        .collect();
+    t.sort_by(f64::total_cmp);
+    t
+}
+
+/// The reference trajectory at [`trajectory_times`]: the same solver at
+/// `rtol = 1e-12`, `atol_i = 1e-12 floor_i`, with the plain error-per-step
+/// control (`tolerance_exponent = 1`). Its value at `t_end` agrees with the
+/// published reference to 3e-10 in the mixed error (E5: 2.6e-8, the
+/// published reference's own accuracy; printed on stderr).
+fn reference_trajectory<P: TestProblem + Clone>(p: &P, times: &[f64]) -> Option<Vec<Vec<f64>>> {
+    let opts = BdfOptions {
+        tolerance_exponent: 1.0,
+        max_steps: 10_000_000,
+        ..options(p, 1e-12)
+    };
+    let sol = BdfSolver::new(p.clone(), 0.0, &p.y0(), opts)
+        .and_then(|mut s| s.solve_at(times))
+        .ok()?;
+    Some((0..times.len()).map(|i| sol.y(i).to_vec()).collect())
+}
+
+/// The largest mixed error over [`trajectory_times`] of a run at `rtol`
+/// against the reference trajectory (`inf` when the run fails).
+fn trajectory_error<P: TestProblem + Clone>(p: &P, rtol: f64, reference: &[Vec<f64>]) -> f64 {
+    let times = trajectory_times(p.t_end());
+    let floor = p.floor();
+    BdfSolver::new(p.clone(), 0.0, &p.y0(), sweep_options(p, rtol))
+        .and_then(|mut s| s.solve_at(&times))
+        .map(|sol| {
+            (0..times.len())
+                .map(|i| mixed_error(sol.y(i), &reference[i], &floor))
+                .fold(0.0, f64::max)
+        })
+        .unwrap_or(f64::INFINITY)
+}
 
 fn run<P: TestProblem + Clone>(p: &P, rtol: f64) -> Result<(Vec<f64>, BdfStats), OdeError> {
-    let opts = options(p, rtol);
+    let opts = sweep_options(p, rtol);
     let mut s = BdfSolver::new(p.clone(), 0.0, &p.y0(), opts)?;
     let stats = s.solve_to(p.t_end())?;
     Ok((s.y().to_vec(), stats))
 }
 
-fn report<P: TestProblem + Clone>(p: &P, rtol: f64, repeats: usize) {
+fn report<P: TestProblem + Clone>(p: &P, rtol: f64, repeats: usize, check_reference: bool) {
     let reference = p.reference();
     let floor = p.floor();
     let mut times = Vec::new();
@@ -35,9 +99,19 @@ fn report<P: TestProblem + Clone>(p: &P, rtol: f64, repeats: usize) {
     }
     times.sort_by(f64::total_cmp);
     let median = times[times.len() / 2];
+    let reference_run = reference_trajectory(p, &trajectory_times(p.t_end()));
+    if let Some(r) = reference_run.as_ref().filter(|_| check_reference) {
+        let at_end = r.last().expect("t_end is an output time");
+        eprintln!(
+            "{}: the reference trajectory at t_end against the published reference: {:.1e}",
+            p.name(),
+            mixed_error(at_end, &reference, &floor)
+        );
+    }
+    let traj = reference_run.map_or(f64::NAN, |r| trajectory_error(p, rtol, &r));
     match last.expect("at least one run") {
         Ok((y, st)) => println!(
-            "{},{:e},{:.3e},{},{},{},{},{},{},{},{:.6e},ok",
+            "{},{:e},{:.3e},{},{},{},{},{},{},{},{:.6e},ok,{:.3e}",
             p.name(),
             rtol,
             mixed_error(&y, &reference, &floor),
@@ -48,30 +122,47 @@ fn report<P: TestProblem + Clone>(p: &P, rtol: f64, repeats: usize) {
             st.num_nonlin_solv_iters,
             st.num_err_test_fails,
             st.num_nonlin_solv_conv_fails,
-            median
+            median,
+            traj
         ),
-        Err(e) => println!("{},{:e},inf,,,,,,,,{:.6e},\"{e}\"", p.name(), rtol, median),
+        Err(e) => println!(
+            "{},{:e},inf,,,,,,,,{:.6e},\"{e}\",{:.3e}",
+            p.name(),
+            rtol,
+            median,
+            traj
+        ),
     }
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().is_some_and(|a| a == "--exponent") {
+        let p = args.get(1).and_then(|a| a.parse().ok());
+        let Some(p) = p else {
+            eprintln!("stiff_set: --exponent needs a number (1 to 2)");
+            std::process::exit(2);
+        };
+        EXPONENT.set(p).expect("set once");
+        args.drain(..2);
+    }
     let repeats = args.first().and_then(|a| a.parse().ok()).unwrap_or(1);
     let mut rtols: Vec<f64> = args.iter().skip(1).filter_map(|a| a.parse().ok()).collect();
     if rtols.is_empty() {
         rtols = vec![1e-4, 1e-5, 1e-6, 1e-7, 1e-8];
     }
     println!(
-        "problem,rtol,error,steps,rhs_evals,jac_evals,lu_setups,newton_iters,err_test_fails,conv_fails,wall_s,status"
+        "problem,rtol,error,steps,rhs_evals,jac_evals,lu_setups,newton_iters,err_test_fails,conv_fails,wall_s,status,trajectory_error"
     );
-    for &rtol in &rtols {
-        report(&Robertson { t_end: 40.0 }, rtol, repeats);
-        report(&Robertson { t_end: 1e5 }, rtol, repeats);
-        report(&VanDerPol, rtol, repeats);
-        report(&Hires, rtol, repeats);
-        report(&Orego, rtol, repeats);
-        report(&E5, rtol, repeats);
-        report(&SpringChain::new(false), rtol, repeats);
-        report(&SpringChain::new(true), rtol, repeats);
+    for (i, &rtol) in rtols.iter().enumerate() {
+        let first = i == 0;
+        report(&Robertson { t_end: 40.0 }, rtol, repeats, first);
+        report(&Robertson { t_end: 1e5 }, rtol, repeats, first);
+        report(&VanDerPol, rtol, repeats, first);
+        report(&Hires, rtol, repeats, first);
+        report(&Orego, rtol, repeats, first);
+        report(&E5, rtol, repeats, first);
+        report(&SpringChain::new(false), rtol, repeats, first);
+        report(&SpringChain::new(true), rtol, repeats, first);
     }
 }
