@@ -834,21 +834,29 @@ impl VelocityFilter {
     /// # Errors
     /// [`FilterError::DimensionMismatch`] if `src` or `dst` is not `3 n_particles` long.
     pub fn apply_to(&self, src: &[f64], dst: &mut [f64]) -> Result<(), FilterError> {
-        let n = self.n_particles();
-        for (what, len) in [
+        self.check_lengths([
             ("source velocity vector", src.len()),
             ("destination velocity vector", dst.len()),
-        ] {
-            if len != 3 * n {
-                return Err(FilterError::DimensionMismatch {
-                    what,
-                    expected: 3 * n,
-                    found: len,
-                });
-            }
-        }
+        ])?;
         self.apply_to_unchecked(src, dst);
         Ok(())
+    }
+
+    /// [`FilterError::DimensionMismatch`] for the first `(what, length)` that
+    /// is not `3 n_particles`.
+    fn check_lengths<const K: usize>(
+        &self,
+        vectors: [(&'static str, usize); K],
+    ) -> Result<(), FilterError> {
+        let expected = 3 * self.n_particles();
+        match vectors.into_iter().find(|&(_, len)| len != expected) {
+            Some((what, found)) => Err(FilterError::DimensionMismatch {
+                what,
+                expected,
+                found,
+            }),
+            None => Ok(()),
+        }
     }
 
     /// The filter as a linear map, for the modified power method: `v <- F v`.
@@ -886,21 +894,12 @@ impl VelocityFilter {
         dv: &mut [f64],
         h: f64,
     ) -> Result<(), FilterError> {
-        let n = self.n_particles();
-        for (what, len) in [
+        self.check_lengths([
             ("velocity vector", v.len()),
             ("position vector", x.len()),
             ("previous velocity vector", prev.len()),
             ("velocity increment vector", dv.len()),
-        ] {
-            if len != 3 * n {
-                return Err(FilterError::DimensionMismatch {
-                    what,
-                    expected: 3 * n,
-                    found: len,
-                });
-            }
-        }
+        ])?;
         struct Increment<'a> {
             filter: &'a VelocityFilter,
             v: &'a mut [f64],
