@@ -18,7 +18,7 @@ use crate::power::{PowerParams, power_iterate};
 /// The coarsest level is solved directly (dense Cholesky) when it has at
 /// most this many unknowns, even if coarsening stalled above the
 /// requested `coarse_size` below the finest level; a larger stalled level,
-/// and a finest level that does not coarsen at all, is only smoothed.
+/// and a finest level whose aggregation stalls, is only smoothed.
 const DIRECT_LIMIT: usize = 3000;
 
 /// Coarsening is given up when the aggregates would keep more than this
@@ -324,6 +324,9 @@ impl<const B: usize> Hierarchy<B> {
         let mut a = a;
         let mut nullspace = nullspace;
         let mut theta = options.strength_threshold;
+        // Whether the finest level stopped because its aggregation stalled
+        // (not because it was small enough or the level count was reached).
+        let mut finest_stalled = false;
         loop {
             let l = levels.len();
             let diag = a.diagonal_slots().map_err(|i| {
@@ -348,6 +351,9 @@ impl<const B: usize> Hierarchy<B> {
                 // Strength needs the diagonal blocks' values only.
                 Self::symbolic_transfer(&a, &diag, &nullspace, theta)?
             };
+            if l == 0 {
+                finest_stalled = !last && symbolic.is_none();
+            }
             let (transfer, coarse_nullspace) = match symbolic {
                 Some((t, ns)) => (Some(t), Some(ns)),
                 None => (None, None),
@@ -386,13 +392,12 @@ impl<const B: usize> Hierarchy<B> {
             }
         }
         let coarsest = B * levels.last().map_or(0, |l| l.a.nrows);
-        // A finest level above `coarse_size` that does not coarsen has no
-        // strong connections to speak of (a mass-dominated system: a soft
-        // cloth, a small step): the smoother alone nearly solves it, and a
-        // dense factor of the whole matrix at every refill would cost
-        // n^3 / 3 (1.5e8 flops for 768 unknowns, against 3e4 nonzeros).
-        let direct =
-            coarsest <= DIRECT_LIMIT && (levels.len() > 1 || coarsest <= options.coarse_size);
+        // A finest level whose aggregation stalls has few strong connections
+        // (a mass-dominated system: a soft cloth, a small step, where no
+        // block is strong): the smoother nearly solves it, and a dense
+        // factor of the whole matrix at every refill would cost n^3 / 3
+        // (1.5e8 flops for 768 unknowns, against 3e4 nonzeros).
+        let direct = coarsest <= DIRECT_LIMIT && !finest_stalled;
         let mut h = Self {
             levels,
             coarse: direct.then(|| DenseCholesky::new(coarsest)),

@@ -165,7 +165,8 @@ pub struct AmgStats {
     pub kept: usize,
     /// Whether the coarsest level is solved by a dense Cholesky factor;
     /// `false` when it is only smoothed (a level that stalled above 3000
-    /// unknowns, or a finest level above `coarse_size` that does not coarsen).
+    /// unknowns, or a finest level above `coarse_size` whose aggregation
+    /// stalls).
     pub coarsest_direct: bool,
 }
 

@@ -290,6 +290,16 @@ fn a_finest_level_that_does_not_coarsen_is_smoothed_not_factored() {
     assert!(!amg.stats().coarsest_direct);
     let iterations = pcg_iterations(&a, &amg, &rhs(n));
     assert!(iterations <= 8, "{iterations} iterations");
+    // One level because the options ask for one (not a stall): solved
+    // directly, as a single-level hierarchy always was.
+    let mut one_level = Amg::with_options(AmgOptions {
+        max_levels: 1,
+        ..Default::default()
+    })
+    .unwrap();
+    one_level.setup(&a).unwrap();
+    assert!(one_level.stats().coarsest_direct);
+    assert!(pcg_iterations(&a, &one_level, &rhs(n)) <= 2);
 }
 
 #[test]
