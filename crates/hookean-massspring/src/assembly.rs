@@ -222,11 +222,15 @@ impl<'a> Outputs<'a> {
         let f_at = if self.f.is_empty() { 0 } else { 3 * (r - s) };
         let (f0, f1) = self.f.split_at_mut(f_at);
         let v_at = starts.1 - starts.0;
-        let (x0, x1) = self.vx.split_at_mut(v_at);
+        let (x0, x1) = self
+            .vx
+            .split_at_mut(if self.vx.is_empty() { 0 } else { v_at });
         let (v0, v1) = self
             .vv
             .split_at_mut(if self.vv.is_empty() { 0 } else { v_at });
-        let (a0, a1) = self.acc.split_at_mut(r - s);
+        let (a0, a1) = self
+            .acc
+            .split_at_mut(if self.acc.is_empty() { 0 } else { r - s });
         let (h0, h1) = self.halo.split_at_mut(k * bw);
         (
             Outputs {
@@ -262,7 +266,15 @@ pub(crate) struct Halo {
 /// One assembly sweep as a [`pulp::WithSimd`] operation, so that it can be
 /// compiled for the instruction set the CPU offers (checked at run time by
 /// `pulp::Arch::dispatch`) without `unsafe` here.
-struct Sweep<'m, 'o, const F: bool, const DV: bool, const DAMP: u8, const DDX: bool> {
+struct Sweep<
+    'm,
+    'o,
+    const F: bool,
+    const DV: bool,
+    const DAMP: u8,
+    const DDX: bool,
+    const JAC: bool = true,
+> {
     model: &'m MassSpringModel,
     x: &'m [f64],
     v: &'m [f64],
@@ -271,15 +283,20 @@ struct Sweep<'m, 'o, const F: bool, const DV: bool, const DAMP: u8, const DDX: b
     fast: bool,
 }
 
-impl<const F: bool, const DV: bool, const DAMP: u8, const DDX: bool> pulp::WithSimd
-    for Sweep<'_, '_, F, DV, DAMP, DDX>
+impl<const F: bool, const DV: bool, const DAMP: u8, const DDX: bool, const JAC: bool> pulp::WithSimd
+    for Sweep<'_, '_, F, DV, DAMP, DDX, JAC>
 {
     type Output = ();
 
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _simd: S) {
-        self.model
-            .sweep::<F, DV, DAMP, DDX>(self.x, self.v, self.out, self.clamp_floor, self.fast);
+        self.model.sweep::<F, DV, DAMP, DDX, JAC>(
+            self.x,
+            self.v,
+            self.out,
+            self.clamp_floor,
+            self.fast,
+        );
     }
 }
 
@@ -492,7 +509,12 @@ impl MassSpringModel {
     }
 
     /// `f(x, v)` into `f`: gravity, external forces, air friction, springs,
-    /// then `f_p <- P_p f_p` for constrained particles. No allocation.
+    /// then `f_p <- P_p f_p` for constrained particles. No allocation
+    /// (unless another thread evaluates the same model concurrently).
+    ///
+    /// The springs go through the assembly's sweep without its Jacobian
+    /// half, so the force has the fused sweep's bits for every thread count
+    /// (threaded: the SpMV's row parts and their halos, added in part order).
     pub(crate) fn eval_force(&self, x: &[f64], v: &[f64], f: &mut [f64]) {
         let n = self.n_particles();
         assert!(
@@ -501,45 +523,67 @@ impl MassSpringModel {
             3 * n
         );
         self.init_force(v, f);
-        let damping = self.options.damping;
-        let mut geo = ChunkGeometry::new();
-        let f3 = f.as_chunks_mut::<3>().0;
-        let (x3, v3) = (x.as_chunks::<3>().0, v.as_chunks::<3>().0);
-        // Row by row, the row particle's force summed locally: the same
-        // order of operations as the fused sweep (same bits).
-        for r in 0..n {
-            let mut floc = [0.0; 3];
-            let row = &self.plan.hot[self.plan.hot_row_ptr[r]..self.plan.hot_row_ptr[r + 1]];
-            for chunk in row.chunks(CHUNK) {
-                geo.compute(x3, chunk);
-                for (k, s) in chunk.iter().enumerate() {
-                    let (e, l, inv_l) = geo.get(k);
-                    if l <= 0.0 || l.is_nan() {
-                        continue; // coincident endpoints: no direction, no force
+        let parts = hookean_sparse::par::parts_for(n);
+        let bw = self.plan.bandwidth;
+        let mut guard = self.plan.diag_acc.0.try_lock();
+        let mut local: Vec<Halo> = Vec::new();
+        let halo_buf = match guard.as_deref_mut() {
+            Ok(buf) => &mut buf.1,
+            Err(_) => &mut local,
+        };
+        if parts > 1 && halo_buf.len() < parts * bw {
+            halo_buf.resize(parts * bw, Halo::default());
+        }
+        let out = Outputs {
+            f: &mut f[..],
+            vx: &mut [],
+            vv: &mut [],
+            acc: &mut [],
+            rows: 0..n,
+            base: 0,
+            halo: if parts > 1 {
+                &mut halo_buf[..parts * bw]
+            } else {
+                &mut []
+            },
+        };
+        macro_rules! force_sweep {
+            ($dm:ident) => {
+                Self::sweep_parts(
+                    Sweep::<'_, '_, true, false, { damp_code(SpringDamping::$dm) }, false, false> {
+                        model: self,
+                        x,
+                        v,
+                        out,
+                        clamp_floor: 0.0,
+                        fast: true,
+                    },
+                    0,
+                    parts.max(1),
+                    parts,
+                )
+            };
+        }
+        match self.options.damping {
+            SpringDamping::Projected => force_sweep!(Projected),
+            SpringDamping::Incorrect => force_sweep!(Incorrect),
+            SpringDamping::None => force_sweep!(None),
+        }
+        if parts > 1 {
+            // The halos' forces, added in part order, and zeroed.
+            let f3 = f.as_chunks_mut::<3>().0;
+            for t in 0..parts {
+                let e = self.plan.pattern.part_start(t + 1, parts);
+                for (k, h) in halo_buf[t * bw..(t + 1) * bw].iter_mut().enumerate() {
+                    let j = e + k;
+                    if j >= n {
+                        break;
                     }
-                    let (i, j) = (s.i as usize, s.j as usize);
-                    let u = e * inv_l;
-                    let mut fi = u * (s.stiffness * (l - s.rest_length));
-                    match damping {
-                        SpringDamping::Projected => {
-                            let dv = Vector3::from(v3[j]) - Vector3::from(v3[i]);
-                            fi += u * (s.damping * dv.dot(&u));
-                        }
-                        SpringDamping::Incorrect => {
-                            let dv = Vector3::from(v3[j]) - Vector3::from(v3[i]);
-                            fi += dv * s.damping;
-                        }
-                        SpringDamping::None => {}
-                    }
-                    let fj = &mut f3[j];
                     for q in 0..3 {
-                        floc[q] += fi[q];
-                        fj[q] -= fi[q];
+                        f3[j][q] += h.f[q];
                     }
+                    *h = Halo::default();
                 }
-            }
-            for q in 0..3 {
-                f3[r][q] += floc[q];
             }
         }
         self.project_rows(f);
@@ -649,7 +693,7 @@ impl MassSpringModel {
                 match (has_f, has_dv, damping, damping_dx) {
                     $(($fl, $dv, $dm, $dd) => {
                         Self::sweep_parts(
-                            Sweep::<'_, '_, $fl, $dv, { damp_code($dm) }, $dd> {
+                            Sweep::<'_, '_, $fl, $dv, { damp_code($dm) }, $dd, true> {
                                 model: self, x, v, out, clamp_floor, fast,
                             },
                             0,
@@ -704,8 +748,14 @@ impl MassSpringModel {
     /// `op.out`): halves under [`rayon::join`], each part a
     /// [`sweep`](Self::sweep) compiled for the CPU's instruction set
     /// ([`run_sweep`]).
-    fn sweep_parts<const F: bool, const DV: bool, const DAMP: u8, const DDX: bool>(
-        op: Sweep<'_, '_, F, DV, DAMP, DDX>,
+    fn sweep_parts<
+        const F: bool,
+        const DV: bool,
+        const DAMP: u8,
+        const DDX: bool,
+        const JAC: bool,
+    >(
+        op: Sweep<'_, '_, F, DV, DAMP, DDX, JAC>,
         p0: usize,
         p1: usize,
         parts: usize,
@@ -727,7 +777,7 @@ impl MassSpringModel {
         let rp = model.plan.pattern.row_ptr();
         let starts = (rp[out.rows.start], rp[r]);
         let (a, b) = out.split(r, starts, mid - p0, model.plan.bandwidth);
-        let half = |out| Sweep::<'_, '_, F, DV, DAMP, DDX> {
+        let half = |out| Sweep::<'_, '_, F, DV, DAMP, DDX, JAC> {
             model,
             x,
             v,
@@ -753,7 +803,7 @@ impl MassSpringModel {
     /// Threaded, `out` holds the rows of one part; what its springs add to
     /// particles past those rows goes to its halo, added after all parts.
     #[inline(always)]
-    fn sweep<const F: bool, const DV: bool, const DAMP: u8, const DDX: bool>(
+    fn sweep<const F: bool, const DV: bool, const DAMP: u8, const DDX: bool, const JAC: bool>(
         &self,
         x: &[f64],
         v: &[f64],
@@ -778,7 +828,11 @@ impl MassSpringModel {
         let mut geo = ChunkGeometry::new();
         for r in s..end {
             let row_fast = fast && self.plan.row_fast[r];
-            let mut loc = std::mem::replace(&mut acc[r - s], [0.0; 12]);
+            let mut loc = if JAC {
+                std::mem::replace(&mut acc[r - s], [0.0; 12])
+            } else {
+                [0.0; 12]
+            };
             // The force on the row's own particle, in registers.
             let mut floc = [0.0; 3];
             let row = &self.plan.hot[self.plan.hot_row_ptr[r]..self.plan.hot_row_ptr[r + 1]];
@@ -789,7 +843,7 @@ impl MassSpringModel {
                     let (i, j) = (h.i as usize, h.j as usize);
                     if l <= 0.0 || l.is_nan() {
                         // Coincident endpoints: no direction, no force, no Jacobian.
-                        if h.first {
+                        if JAC && h.first {
                             vx[h.upper as usize - base] = block::ZERO;
                             if DV {
                                 vv[h.upper as usize - base] = block::ZERO;
@@ -819,6 +873,9 @@ impl MassSpringModel {
                             floc[q] += fi[q];
                             fj[q] -= fi[q];
                         }
+                    }
+                    if !JAC {
+                        continue;
                     }
                     // Branch-free clamp (the sign of 1 - l0/l is random in a deformed cloth).
                     let a = (1.0 - h.rest_length * inv_l).max(clamp_floor);
@@ -884,8 +941,10 @@ impl MassSpringModel {
                 }
             }
             let idx = self.plan.diag_index[r] - base;
-            vx[idx] = unsym6(&loc[..6]);
-            if DV {
+            if JAC {
+                vx[idx] = unsym6(&loc[..6]);
+            }
+            if JAC && DV {
                 let mut d = unsym6(&loc[6..]);
                 if c_air != 0.0 {
                     d = block::add(&d, &block::scale(&self.active_set.proj[r], -c_air));
@@ -1393,6 +1452,46 @@ mod tests {
                     (&again.0, again.1.values(), again.2.values())
                 );
                 assert_round_off(&(fa, xa, va), &serial, &format!("{threads} threads"));
+            }
+        }
+    }
+
+    /// The force-only evaluation is the fused sweep without its Jacobian
+    /// half: for every damping law and thread count (1: serial; 2, 3: row
+    /// parts and halos) its `f` has the fused sweep's bits, and a coincident
+    /// pair of particles gives no force and no NaN.
+    #[test]
+    fn force_only_sweep_has_the_fused_sweeps_bits_for_every_thread_count() {
+        for damping in [
+            SpringDamping::Projected,
+            SpringDamping::Incorrect,
+            SpringDamping::None,
+        ] {
+            let options = ModelOptions {
+                damping,
+                ..ModelOptions::default()
+            };
+            let (model, mut x, v) = scene_sized(options, 50, 48);
+            // Particles 1 and 2 at the same place.
+            let (a, b) = x.split_at_mut(6);
+            b[..3].copy_from_slice(&a[3..6]);
+            let mode = AssemblyMode {
+                clamp: true,
+                damping_in_dfdx: DampingInDfdx::Drop,
+            };
+            for threads in [1, 2, 3] {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                let (fused, only) = pool.install(|| {
+                    let (fused, _, _) = run(&model, &x, &v, mode, true);
+                    let mut only = vec![f64::NAN; x.len()];
+                    model.eval_force(&x, &v, &mut only);
+                    (fused, only)
+                });
+                assert!(only.iter().all(|f| f.is_finite()), "{damping:?}, {threads}");
+                assert_eq!(fused, only, "{damping:?}, {threads} threads");
             }
         }
     }

@@ -407,12 +407,25 @@ impl SymBlockMatrix {
         check_same_pattern(&self.pattern, &x.pattern)?;
         check_same_pattern(&self.pattern, &y.pattern)?;
         check_len("diagonal", d, self.dim())?;
-        for (o, (xv, yv)) in self.values.iter_mut().zip(x.values.iter().zip(&y.values)) {
-            for r in 0..3 {
-                for c in 0..3 {
-                    o[r][c] = a * xv[r][c] + b * yv[r][c];
+        // Element-wise, so threads (fixed chunks of blocks) give the serial bits.
+        let combine = |o: &mut [Block3], xv: &[Block3], yv: &[Block3]| {
+            for (o, (xv, yv)) in o.iter_mut().zip(xv.iter().zip(yv)) {
+                for r in 0..3 {
+                    for c in 0..3 {
+                        o[r][c] = a * xv[r][c] + b * yv[r][c];
+                    }
                 }
             }
+        };
+        if crate::par::parts_for(self.pattern.n) > 1 {
+            use rayon::prelude::*;
+            const CHUNK: usize = 4096;
+            self.values
+                .par_chunks_mut(CHUNK)
+                .zip(x.values.par_chunks(CHUNK).zip(y.values.par_chunks(CHUNK)))
+                .for_each(|(o, (xv, yv))| combine(o, xv, yv));
+        } else {
+            combine(&mut self.values, &x.values, &y.values);
         }
         self.add_to_diagonal(d)
     }
@@ -996,6 +1009,32 @@ mod tests {
             m.assign_diagonal_plus_combination(&d[..3], a, &x, b, &y)
                 .is_err()
         );
+    }
+
+    #[test]
+    fn threaded_diagonal_plus_combination_gives_the_serial_bits() {
+        // Large enough to split (and with a last chunk shorter than the others).
+        let n = 3 * crate::par::MIN_PARALLEL_BLOCKS + 11;
+        let x = banded(n, 67);
+        let mut y = SymBlockMatrix::new(x.pattern().clone());
+        y.add_scaled(-0.3, &x).unwrap();
+        for (k, b) in y.values.iter_mut().enumerate() {
+            b[0][1] += (k as f64 * 0.7).sin();
+        }
+        let d: Vec<f64> = (0..3 * n).map(|k| 1.0 + (k as f64).cos()).collect();
+        let run = |threads: usize| {
+            let mut m = SymBlockMatrix::new(x.pattern().clone());
+            m.values.fill([[f64::NAN; 3]; 3]);
+            in_pool(threads, || {
+                m.assign_diagonal_plus_combination(&d, -1e-4, &x, -1e-2, &y)
+                    .unwrap()
+            });
+            m.values
+        };
+        let serial = run(1);
+        assert!(serial.iter().flatten().flatten().all(|v| v.is_finite()));
+        assert_eq!(run(2), serial);
+        assert_eq!(run(3), serial);
     }
 
     #[test]
