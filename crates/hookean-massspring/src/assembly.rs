@@ -274,6 +274,7 @@ struct Sweep<
     const DAMP: u8,
     const DDX: bool,
     const JAC: bool = true,
+    const FUSED: bool = false,
 > {
     model: &'m MassSpringModel,
     x: &'m [f64],
@@ -281,21 +282,46 @@ struct Sweep<
     out: Outputs<'o>,
     clamp_floor: f64,
     fast: bool,
+    comb: Combination<'m>,
 }
 
-impl<const F: bool, const DV: bool, const DAMP: u8, const DDX: bool, const JAC: bool> pulp::WithSimd
-    for Sweep<'_, '_, F, DV, DAMP, DDX, JAC>
+/// The one-sweep Newton matrix `A = M + a df/dx + b df/dv` (a sweep with
+/// `FUSED` writes it into `vx`; otherwise unused).
+#[derive(Debug, Clone, Copy)]
+struct Combination<'m> {
+    a: f64,
+    b: f64,
+    mass: &'m [f64],
+}
+
+impl Combination<'_> {
+    const NONE: Combination<'static> = Combination {
+        a: 0.0,
+        b: 0.0,
+        mass: &[],
+    };
+}
+
+impl<
+    const F: bool,
+    const DV: bool,
+    const DAMP: u8,
+    const DDX: bool,
+    const JAC: bool,
+    const FUSED: bool,
+> pulp::WithSimd for Sweep<'_, '_, F, DV, DAMP, DDX, JAC, FUSED>
 {
     type Output = ();
 
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _simd: S) {
-        self.model.sweep::<F, DV, DAMP, DDX, JAC>(
+        self.model.sweep::<F, DV, DAMP, DDX, JAC, FUSED>(
             self.x,
             self.v,
             self.out,
             self.clamp_floor,
             self.fast,
+            self.comb,
         );
     }
 }
@@ -557,6 +583,7 @@ impl MassSpringModel {
                         out,
                         clamp_floor: 0.0,
                         fast: true,
+                        comb: Combination::NONE,
                     },
                     0,
                     parts.max(1),
@@ -615,11 +642,34 @@ impl MassSpringModel {
         dfdv: Option<&mut SymBlockMatrix>,
         mode: AssemblyMode,
     ) {
-        self.assemble_paths(x, v, f, dfdx, dfdv, mode, true);
+        self.assemble_paths(x, v, f, dfdx, dfdv, mode, true, None);
+    }
+
+    /// The Newton matrix `A = M + a df/dx + b df/dv` at `(x, v)` in one
+    /// sweep over the springs, straight into `out` (each spring's two
+    /// blocks combined, projected once and scattered once; no `df/dx` or
+    /// `df/dv` is formed). Equal to the separate Jacobians combined by
+    /// [`SymBlockMatrix::assign_diagonal_plus_combination`] up to round-off
+    /// (the terms are added in another order). No allocation.
+    ///
+    /// # Panics
+    /// If a slice length or the pattern of `out` does not match the model.
+    pub(crate) fn assemble_step_matrix(
+        &self,
+        x: &[f64],
+        v: &[f64],
+        a: f64,
+        b: f64,
+        out: &mut SymBlockMatrix,
+        mode: AssemblyMode,
+    ) {
+        self.assemble_paths(x, v, None, out, None, mode, true, Some((a, b)));
     }
 
     /// [`assemble`](Self::assemble); `fast = false` sends every row through
-    /// the constrained-capable path (for tests comparing the two).
+    /// the constrained-capable path (for tests comparing the two). With
+    /// `comb = Some((a, b))` (no `f`, no `dfdv`): `M + a df/dx + b df/dv`
+    /// into `dfdx` ([`assemble_step_matrix`](Self::assemble_step_matrix)).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn assemble_paths(
         &self,
@@ -630,6 +680,7 @@ impl MassSpringModel {
         dfdv: Option<&mut SymBlockMatrix>,
         mode: AssemblyMode,
         fast: bool,
+        comb: Option<(f64, f64)>,
     ) {
         let n = self.n_particles();
         assert!(
@@ -695,6 +746,7 @@ impl MassSpringModel {
                         Self::sweep_parts(
                             Sweep::<'_, '_, $fl, $dv, { damp_code($dm) }, $dd, true> {
                                 model: self, x, v, out, clamp_floor, fast,
+                                comb: Combination::NONE,
                             },
                             0,
                             parts.max(1),
@@ -706,11 +758,39 @@ impl MassSpringModel {
             };
         }
         use SpringDamping::{Incorrect as I, None as N, Projected as P};
-        dispatch! {
+        if let Some((a, b)) = comb {
+            assert!(
+                !has_f && !has_dv,
+                "the one-sweep matrix takes no f or df/dv"
+            );
+            let comb = Combination {
+                a,
+                b,
+                mass: &self.mass,
+            };
+            macro_rules! fused {
+                ($($dm:ident, $dd:literal;)*) => {
+                    match (damping, damping_dx) {
+                        $(($dm, $dd) => Self::sweep_parts(
+                            Sweep::<'_, '_, false, false, { damp_code($dm) }, $dd, true, true> {
+                                model: self, x, v, out, clamp_floor, fast, comb,
+                            },
+                            0,
+                            parts.max(1),
+                            parts,
+                        ),)*
+                        _ => unreachable!("damping_dx implies projected damping"),
+                    }
+                };
+            }
+            fused! { P, false; P, true; I, false; N, false; }
+        } else {
+            dispatch! {
             true, true, P, false; true, true, P, true; true, true, I, false; true, true, N, false;
             true, false, P, false; true, false, P, true; true, false, I, false; true, false, N, false;
             false, true, P, false; false, true, P, true; false, true, I, false; false, true, N, false;
             false, false, P, false; false, false, P, true; false, false, I, false; false, false, N, false;
+            }
         }
         if parts > 1 {
             // The halos, added in part order (the same bits every run), and
@@ -754,8 +834,9 @@ impl MassSpringModel {
         const DAMP: u8,
         const DDX: bool,
         const JAC: bool,
+        const FUSED: bool,
     >(
-        op: Sweep<'_, '_, F, DV, DAMP, DDX, JAC>,
+        op: Sweep<'_, '_, F, DV, DAMP, DDX, JAC, FUSED>,
         p0: usize,
         p1: usize,
         parts: usize,
@@ -771,19 +852,21 @@ impl MassSpringModel {
             out,
             clamp_floor,
             fast,
+            comb,
         } = op;
         let mid = (p0 + p1) / 2;
         let r = model.plan.pattern.part_start(mid, parts);
         let rp = model.plan.pattern.row_ptr();
         let starts = (rp[out.rows.start], rp[r]);
         let (a, b) = out.split(r, starts, mid - p0, model.plan.bandwidth);
-        let half = |out| Sweep::<'_, '_, F, DV, DAMP, DDX, JAC> {
+        let half = |out| Sweep::<'_, '_, F, DV, DAMP, DDX, JAC, FUSED> {
             model,
             x,
             v,
             out,
             clamp_floor,
             fast,
+            comb,
         };
         let (a, b) = (half(a), half(b));
         rayon::join(
@@ -803,13 +886,22 @@ impl MassSpringModel {
     /// Threaded, `out` holds the rows of one part; what its springs add to
     /// particles past those rows goes to its halo, added after all parts.
     #[inline(always)]
-    fn sweep<const F: bool, const DV: bool, const DAMP: u8, const DDX: bool, const JAC: bool>(
+    #[allow(clippy::too_many_arguments)]
+    fn sweep<
+        const F: bool,
+        const DV: bool,
+        const DAMP: u8,
+        const DDX: bool,
+        const JAC: bool,
+        const FUSED: bool,
+    >(
         &self,
         x: &[f64],
         v: &[f64],
         out: Outputs<'_>,
         clamp_floor: f64,
         fast: bool,
+        comb: Combination<'_>,
     ) {
         let need_dv = DDX || (F && DAMP != DAMP_NONE);
         let Outputs {
@@ -908,6 +1000,28 @@ impl MassSpringModel {
                     } else {
                         &mut halo[j - end].acc
                     };
+                    if FUSED {
+                        // a df_i/dx_j + b df_i/dv_j, projected once.
+                        let d = h.damping;
+                        let d6 = match DAMP {
+                            DAMP_PROJECTED => uu.map(|w| d * w),
+                            DAMP_INCORRECT => [d, 0.0, 0.0, d, 0.0, d],
+                            _ => [0.0; 6],
+                        };
+                        let c6: [f64; 6] = std::array::from_fn(|t| comb.a * k6[t] + comb.b * d6[t]);
+                        scatter_sym(
+                            vx,
+                            base,
+                            &mut loc,
+                            acc_c,
+                            0,
+                            h,
+                            constrained,
+                            &self.active_set.proj,
+                            &c6,
+                        );
+                        continue;
+                    }
                     scatter_sym(
                         vx,
                         base,
@@ -941,7 +1055,18 @@ impl MassSpringModel {
                 }
             }
             let idx = self.plan.diag_index[r] - base;
-            if JAC {
+            if JAC && FUSED {
+                // M + a (df/dx)_rr + b (df/dv)_rr, the latter with air friction.
+                let mut d = unsym6(&loc[..6]);
+                if c_air != 0.0 {
+                    let air = block::scale(&self.active_set.proj[r], -c_air * comb.b);
+                    d = block::add(&d, &air);
+                }
+                for q in 0..3 {
+                    d[q][q] += comb.mass[3 * r + q];
+                }
+                vx[idx] = d;
+            } else if JAC {
                 vx[idx] = unsym6(&loc[..6]);
             }
             if JAC && DV {
@@ -1250,6 +1375,42 @@ impl SecondOrderProblem for MassSpringModel {
         );
     }
 
+    /// `A = M + a df/dx + b df/dv` in one sweep over the springs
+    /// ([`MassSpringModel::assemble_step_matrix`]); `dfdx` and `dfdv` are
+    /// left as they are.
+    fn step_matrix(
+        &self,
+        _t: f64,
+        x: &[f64],
+        v: &[f64],
+        a: f64,
+        b: f64,
+        _dfdx: &mut SymBlockMatrix,
+        _dfdv: &mut SymBlockMatrix,
+        out: &mut SymBlockMatrix,
+    ) -> Result<(), hookean_sparse::SparseError> {
+        if out.values().len() != self.plan.pattern.stored_blocks()
+            || out.n_blocks() != self.n_particles()
+        {
+            return Err(hookean_sparse::SparseError::InvalidParameter {
+                name: "step_matrix",
+                message: "the matrix is not on the model's Jacobian pattern".into(),
+            });
+        }
+        self.assemble_step_matrix(
+            x,
+            v,
+            a,
+            b,
+            out,
+            AssemblyMode {
+                clamp: self.options.clamp_stiffness,
+                damping_in_dfdx: self.options.damping_in_dfdx,
+            },
+        );
+        Ok(())
+    }
+
     /// The tutorial's eq. 50 (see [`MassSpringModel::assemble_linearized`]).
     fn linearized_jacobians(&self, dfdx: &mut SymBlockMatrix, dfdv: &mut SymBlockMatrix) -> bool {
         self.assemble_linearized(dfdx, dfdv);
@@ -1377,7 +1538,7 @@ mod tests {
         // Start from garbage: every block must be overwritten.
         dx.values_mut().fill([[7.0; 3]; 3]);
         dv.values_mut().fill([[7.0; 3]; 3]);
-        model.assemble_paths(x, v, Some(&mut f), &mut dx, Some(&mut dv), mode, fast);
+        model.assemble_paths(x, v, Some(&mut f), &mut dx, Some(&mut dv), mode, fast, None);
         (f, dx, dv)
     }
 
@@ -1452,6 +1613,74 @@ mod tests {
                     (&again.0, again.1.values(), again.2.values())
                 );
                 assert_round_off(&(fa, xa, va), &serial, &format!("{threads} threads"));
+            }
+        }
+    }
+
+    /// The one-sweep Newton matrix is `M + a df/dx + b df/dv` formed from
+    /// the separately assembled Jacobians, to round-off, for every damping
+    /// law, damping-in-`df/dx` choice, clamp, thread count, with
+    /// constraints (pins, directions) and air friction; and a second call
+    /// gives the same bits (the scratch is left zeroed).
+    #[test]
+    fn one_sweep_step_matrix_is_the_combination_of_the_jacobians() {
+        let (gh_a, gh_b) = (-1e-4, -1e-2);
+        for damping in [
+            SpringDamping::Projected,
+            SpringDamping::Incorrect,
+            SpringDamping::None,
+        ] {
+            for damping_in_dfdx in [DampingInDfdx::Drop, DampingInDfdx::Symmetrize] {
+                if damping_in_dfdx == DampingInDfdx::Symmetrize
+                    && damping != SpringDamping::Projected
+                {
+                    continue;
+                }
+                for clamp in [true, false] {
+                    let options = ModelOptions {
+                        damping,
+                        air_friction: 0.3,
+                        ..ModelOptions::default()
+                    };
+                    let (model, x, v) = scene_sized(options, 50, 48);
+                    let mode = AssemblyMode {
+                        clamp,
+                        damping_in_dfdx,
+                    };
+                    for threads in [1, 2] {
+                        let pool = rayon::ThreadPoolBuilder::new()
+                            .num_threads(threads)
+                            .build()
+                            .unwrap();
+                        pool.install(|| {
+                            let (_, dx, dv) = run(&model, &x, &v, mode, true);
+                            let mut expected = SymBlockMatrix::new(dx.pattern().clone());
+                            expected
+                                .assign_diagonal_plus_combination(&model.mass, gh_a, &dx, gh_b, &dv)
+                                .unwrap();
+                            let mut fused = SymBlockMatrix::new(dx.pattern().clone());
+                            fused.values_mut().fill([[7.0; 3]; 3]);
+                            model.assemble_step_matrix(&x, &v, gh_a, gh_b, &mut fused, mode);
+                            let scale = expected
+                                .values()
+                                .iter()
+                                .flatten()
+                                .flatten()
+                                .fold(0.0f64, |m, w| m.max(w.abs()));
+                            let pairs = (fused.values().iter().flatten().flatten())
+                                .zip(expected.values().iter().flatten().flatten());
+                            for (u, w) in pairs {
+                                assert!(
+                                    (u - w).abs() <= 1e-13 * scale,
+                                    "{damping:?} {damping_in_dfdx:?} clamp {clamp}, {threads} threads: {u} vs {w}"
+                                );
+                            }
+                            let mut again = SymBlockMatrix::new(dx.pattern().clone());
+                            model.assemble_step_matrix(&x, &v, gh_a, gh_b, &mut again, mode);
+                            assert_eq!(again.values(), fused.values());
+                        });
+                    }
+                }
             }
         }
     }

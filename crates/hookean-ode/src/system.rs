@@ -553,11 +553,14 @@ impl<P: SecondOrderProblem> NonlinearSystem for ReducedStage<'_, P> {
         Ok(())
     }
 
+    /// `A = M - gh df/dv - gh^2 df/dx` at `V`, in one sweep where the
+    /// problem has one ([`SecondOrderProblem::step_matrix`]).
     fn jacobian(&mut self, v: &[f64], a: &mut SymBlockMatrix) -> Result<(), NonlinearError> {
         self.positions(v);
+        let gh = self.gh;
         self.problem
-            .force_jacobians(self.tau, self.x, v, self.dfdx, self.dfdv);
-        self.assemble(a)
+            .step_matrix(self.tau, self.x, v, -gh * gh, -gh, self.dfdx, self.dfdv, a)?;
+        Ok(())
     }
 
     fn approximate_jacobian(

@@ -28,7 +28,7 @@
 
 use std::sync::Arc;
 
-use hookean_sparse::{BlockPattern, Constraints, IsoBlockMatrix, SymBlockMatrix};
+use hookean_sparse::{BlockPattern, Constraints, IsoBlockMatrix, SparseError, SymBlockMatrix};
 
 /// A first-order system `y' = f(t, y)` (the tutorial's eq. 7).
 pub trait FirstOrderProblem {
@@ -98,6 +98,36 @@ pub trait SecondOrderProblem {
         dfdx: &mut SymBlockMatrix,
         dfdv: &mut SymBlockMatrix,
     );
+
+    /// The Newton matrix of the implicit methods' reduced velocity form,
+    /// `A = M + a df/dx + b df/dv` at `(t, x, v)` (implicit Euler and the
+    /// stages of the other implicit methods: `a = -gh^2`, `b = -gh`), into
+    /// `out`, on the pattern of [`jacobian_pattern`](Self::jacobian_pattern).
+    ///
+    /// The default refills `dfdx` and `dfdv` by
+    /// [`force_jacobians`](Self::force_jacobians) and combines them
+    /// ([`SymBlockMatrix::assign_diagonal_plus_combination`]); a model may
+    /// instead assemble `A` in one sweep straight into `out`, leaving `dfdx`
+    /// and `dfdv` as they are (equal to round-off: the terms are summed in
+    /// another order). Never allocates.
+    ///
+    /// # Errors
+    /// [`SparseError`] if `out`, `dfdx` or `dfdv` is not on the pattern.
+    #[allow(clippy::too_many_arguments)]
+    fn step_matrix(
+        &self,
+        t: f64,
+        x: &[f64],
+        v: &[f64],
+        a: f64,
+        b: f64,
+        dfdx: &mut SymBlockMatrix,
+        dfdv: &mut SymBlockMatrix,
+        out: &mut SymBlockMatrix,
+    ) -> Result<(), SparseError> {
+        self.force_jacobians(t, x, v, dfdx, dfdv);
+        out.assign_diagonal_plus_combination(self.mass(), a, dfdx, b, dfdv)
+    }
 
     /// The tutorial's constant linearised Jacobians (eq. 50), for simplified
     /// Newton: writes them and returns `true`, or returns `false` if the

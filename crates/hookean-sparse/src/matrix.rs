@@ -391,7 +391,9 @@ impl SymBlockMatrix {
     /// over the values: the implicit-Euler matrix
     /// `A = M - h df/dv - h^2 df/dx` of the reduced velocity form
     /// (docs/ARCHITECTURE.md) with `d = M`, `a = -h^2`, `X = df/dx`,
-    /// `b = -h`, `Y = df/dv`. The one place that matrix is formed.
+    /// `b = -h`, `Y = df/dv`: how `SecondOrderProblem::step_matrix` forms
+    /// it from separately assembled Jacobians by default (a model may form
+    /// it in its own sweep instead, as the mass-spring model does).
     ///
     /// # Errors
     /// [`SparseError::InvalidParameter`] if the patterns differ;
