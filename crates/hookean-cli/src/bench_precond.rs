@@ -75,8 +75,10 @@ pub fn deformed_state(rest: &State, n: usize, pinned: &[usize]) -> State {
     State { x, v }
 }
 
-/// The benchmark system `(A, b)` for size `n` and stiffness `k`.
-fn deformed_cloth_system(
+/// The benchmark system `(A, b)` for size `n` and stiffness `k`: exactly
+/// what `hookean bench-precond --n n --k k` solves (the example
+/// `write_bench_system` writes it to Matrix Market for other solvers).
+pub fn deformed_cloth_system(
     n: usize,
     k: f64,
 ) -> Result<(hookean_sparse::SymBlockMatrix, Vec<f64>), CliError> {

@@ -29,6 +29,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+pub use bench_precond::deformed_cloth_system;
+
 mod bench_precond;
 mod export_system;
 mod filter_analysis;
