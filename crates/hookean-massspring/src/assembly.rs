@@ -134,6 +134,17 @@ fn scatter_sym(
     }
 }
 
+/// A spring's damping block `df_i/dv_j` by its 6 unique entries: `d u u^T`
+/// (projected damping, from `u u^T` in `uu`), `d I` (the incorrect law) or 0.
+#[inline(always)]
+fn damping_block6<const DAMP: u8>(d: f64, uu: &[f64; 6]) -> [f64; 6] {
+    match DAMP {
+        DAMP_PROJECTED => uu.map(|w| d * w),
+        DAMP_INCORRECT => [d, 0.0, 0.0, d, 0.0, d],
+        _ => [0.0; 6],
+    }
+}
+
 /// Springs per chunk of [`ChunkGeometry`].
 pub(crate) const CHUNK: usize = 8;
 
@@ -1002,12 +1013,7 @@ impl MassSpringModel {
                     };
                     if FUSED {
                         // a df_i/dx_j + b df_i/dv_j, projected once.
-                        let d = h.damping;
-                        let d6 = match DAMP {
-                            DAMP_PROJECTED => uu.map(|w| d * w),
-                            DAMP_INCORRECT => [d, 0.0, 0.0, d, 0.0, d],
-                            _ => [0.0; 6],
-                        };
+                        let d6 = damping_block6::<DAMP>(h.damping, &uu);
                         let c6: [f64; 6] = std::array::from_fn(|t| comb.a * k6[t] + comb.b * d6[t]);
                         scatter_sym(
                             vx,
@@ -1034,12 +1040,7 @@ impl MassSpringModel {
                         &k6,
                     );
                     if DV {
-                        let d = h.damping;
-                        let d6 = match DAMP {
-                            DAMP_PROJECTED => uu.map(|w| d * w),
-                            DAMP_INCORRECT => [d, 0.0, 0.0, d, 0.0, d],
-                            _ => [0.0; 6],
-                        };
+                        let d6 = damping_block6::<DAMP>(h.damping, &uu);
                         scatter_sym(
                             vv,
                             base,
