@@ -1011,23 +1011,13 @@ impl MassSpringModel {
                     } else {
                         &mut halo[j - end].acc
                     };
-                    if FUSED {
-                        // a df_i/dx_j + b df_i/dv_j, projected once.
+                    // df_i/dx_j, or with FUSED a df_i/dx_j + b df_i/dv_j (projected once).
+                    let b6 = if FUSED {
                         let d6 = damping_block6::<DAMP>(h.damping, &uu);
-                        let c6: [f64; 6] = std::array::from_fn(|t| comb.a * k6[t] + comb.b * d6[t]);
-                        scatter_sym(
-                            vx,
-                            base,
-                            &mut loc,
-                            acc_c,
-                            0,
-                            h,
-                            constrained,
-                            &self.active_set.proj,
-                            &c6,
-                        );
-                        continue;
-                    }
+                        std::array::from_fn(|t| comb.a * k6[t] + comb.b * d6[t])
+                    } else {
+                        k6
+                    };
                     scatter_sym(
                         vx,
                         base,
@@ -1037,9 +1027,9 @@ impl MassSpringModel {
                         h,
                         constrained,
                         &self.active_set.proj,
-                        &k6,
+                        &b6,
                     );
-                    if DV {
+                    if DV && !FUSED {
                         let d6 = damping_block6::<DAMP>(h.damping, &uu);
                         scatter_sym(
                             vv,
