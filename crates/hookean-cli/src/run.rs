@@ -95,7 +95,7 @@ struct StepsCsv {
 
 impl StepsCsv {
     fn create(path: PathBuf) -> Result<Self, HookeanError> {
-        let file = File::create(&path).map_err(|e| io_error(&path, e))?;
+        let file = crate::output::new_file(&path).map_err(|e| io_error(&path, e))?;
         let mut out = BufWriter::new(file);
         writeln!(
             out,
@@ -142,7 +142,7 @@ struct ObjFrames {
 impl ObjFrames {
     fn write(&mut self, sim: &Simulation) -> Result<(), HookeanError> {
         let path = self.dir.join(format!("frame-{:04}.obj", self.count));
-        let file = File::create(&path).map_err(|e| io_error(&path, e))?;
+        let file = crate::output::new_file(&path).map_err(|e| io_error(&path, e))?;
         let colours = hookean::massspring::speed_colours(sim.v(), 0.0);
         sim.model()
             .write_obj(BufWriter::new(file), sim.x(), Some(&colours))?;
@@ -331,13 +331,7 @@ fn run_scene(args: &RunArgs, scene: &Scene) -> Result<(), CliError> {
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out").join(&name));
-    if out.exists() && !args.force {
-        return Err(CliError::Input(format!(
-            "output folder {} exists; pass --force to replace it",
-            out.display()
-        )));
-    }
-    let staging = crate::output::Staging::new(&out)?;
+    let staging = crate::output::Staging::new(&out, "--out", args.force, &[&args.scene])?;
     let report = if let Some(t) = &scene.tutorial {
         crate::tutorial_run::run(scene, t, &args.scene, staging.dir(), args.quiet)
     } else {
@@ -486,8 +480,7 @@ fn run_model(
     };
     let json = crate::to_json(&record, true)?;
     let summary_path = out.join("summary.json");
-    std::fs::write(&summary_path, json + "\n")
-        .map_err(|e| failed(format!("{}: {e}", summary_path.display())))?;
+    crate::output::write_text(&summary_path, &(json + "\n"))?;
 
     // view.html: the recorded frames (the last state alone without frames).
     let mut view_frames = std::mem::take(&mut frames.view);

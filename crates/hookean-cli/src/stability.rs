@@ -17,8 +17,8 @@ use hookean_ode::bdf::BdfCoefficients;
 use hookean_ode::stability::{ComplexGrid, RegionSample, sample_region};
 
 use crate::CliError;
+use crate::output::{check_new_file, write_text};
 use crate::regions::{Panel, RegionPanels};
-use crate::workprecision::{check_new_file, write_text};
 
 #[derive(Debug, Args)]
 pub struct StabilityArgs {

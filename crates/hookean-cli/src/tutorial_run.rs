@@ -115,8 +115,7 @@ fn integrate<P: FirstOrderProblem>(
     let wall = start.elapsed().as_secs_f64();
     let write = |name: &str, text: String| -> Result<(), CliError> {
         let path = out.join(name);
-        std::fs::write(&path, text)
-            .map_err(|e| CliError::Failed(format!("{}: {e}", path.display())))
+        crate::output::write_text(&path, &text)
     };
     write("steps.csv", csv)?;
     let s = ode.stats();

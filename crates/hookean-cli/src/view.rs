@@ -235,9 +235,11 @@ impl ViewRun {
             .replacen("{{DATA}}", &data, 1))
     }
 
-    /// Writes the page to `path`.
+    /// Writes the page to `path`, replacing it whole (a link there is
+    /// replaced, never written through: `output::replace_file`).
     pub fn write(&self, path: &Path) -> Result<(), CliError> {
-        std::fs::write(path, self.html()?)
+        let html = self.html()?;
+        crate::output::replace_file(path, |w| w.write_all(html.as_bytes()))
             .map_err(|e| CliError::Failed(format!("{}: {e}", path.display())))
     }
 }
@@ -430,14 +432,27 @@ impl ViewRun {
 /// `hookean view OUT_DIR`: writes `OUT_DIR/view.html`.
 pub fn run(args: &ViewArgs) -> Result<(), CliError> {
     let path = args.dir.join("view.html");
-    if path.exists() && !args.force {
-        return Err(CliError::Input(format!(
-            "{} exists; pass --force to replace it",
-            path.display()
-        )));
+    if std::fs::symlink_metadata(&path).is_ok() {
+        if !args.force {
+            return Err(CliError::Input(format!(
+                "{} exists; pass --force to replace it",
+                path.display()
+            )));
+        }
+        // --force replaces a view.html hookean wrote, nothing of the user's.
+        if !crate::output::is_listed_file(&args.dir, "view.html") {
+            return Err(CliError::Input(format!(
+                "{} was not written by hookean (it is not a file listed in {}): \
+                 remove it yourself, or copy the run to a new folder",
+                path.display(),
+                args.dir.join(crate::output::MARKER).display()
+            )));
+        }
     }
     let view = ViewRun::from_folder(&args.dir)?;
     view.write(&path)?;
+    crate::output::add_to_marker(&args.dir, "view.html")
+        .map_err(|e| CliError::Failed(format!("{}: {e}", args.dir.display())))?;
     eprintln!(
         "wrote {} ({} frames, {:.1} MB)",
         path.display(),
