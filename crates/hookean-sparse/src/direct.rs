@@ -34,6 +34,7 @@ impl DirectCholesky {
     /// [`SparseError::NonFinite`], or [`SparseError::Direct`] if a pivot is
     /// not positive (the matrix is not positive definite).
     pub fn factor_block(&mut self, a: &SymBlockMatrix) -> Result<(), SparseError> {
+        crate::error::non_empty("matrix", a.dim())?;
         // The upper triangle in CSR is the lower triangle in CSC.
         let (indptr, indices, data) = a.upper_csr_arrays();
         self.factor_lower_csc(a.dim(), indptr, indices, &data)

@@ -72,6 +72,7 @@ mod operator;
 pub mod par;
 mod power;
 mod precond;
+pub mod text;
 pub mod vecops;
 
 pub use block::Block3;
