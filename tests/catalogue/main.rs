@@ -59,6 +59,8 @@ pub(crate) struct Case {
     absent: &'static [&'static str],
     /// Folders (relative) whose earlier hookean output the case may replace.
     replaces: &'static [&'static str],
+    /// Environment variables of the command (`RAYON_NUM_THREADS`).
+    env: &'static [(&'static str, &'static str)],
 }
 
 pub(crate) const fn case(
@@ -79,6 +81,7 @@ pub(crate) const fn case(
         creates: &[],
         absent: &[],
         replaces: &[],
+        env: &[],
     }
 }
 
@@ -103,10 +106,16 @@ impl Case {
         self.replaces = folders;
         self
     }
+    pub(crate) const fn env(mut self, vars: &'static [(&'static str, &'static str)]) -> Self {
+        self.env = vars;
+        self
+    }
 }
 
+mod bounds;
 mod commands;
 mod files;
+mod fuzz;
 mod races;
 mod run;
 mod solve;
@@ -238,7 +247,11 @@ fn check(index: usize, c: &Case) -> Result<(), String> {
     }
     let before = snapshot(&dir);
     let args = expand(c.args, &dir);
-    let mut child = hookean(&dir, &args).spawn().unwrap();
+    let mut command = hookean(&dir, &args);
+    for (k, v) in c.env {
+        command.env(k, v);
+    }
+    let mut child = command.spawn().unwrap();
     let start = Instant::now();
     while child.try_wait().unwrap().is_none() {
         if start.elapsed() > TIME_LIMIT {
@@ -336,8 +349,9 @@ fn every_case_of_the_catalogue_exits_as_promised_and_keeps_the_user_files() {
         GLOBAL,
         // Cases 84-92 (issue 18).
         REPRODUCE,
-        // Issue 28: output files and folders.
+        // Issue 28: output files and folders, bounds, readers, exit codes.
         files::FILES,
+        bounds::BOUNDS,
     ]
     .iter()
     .flat_map(|cases| cases.iter())

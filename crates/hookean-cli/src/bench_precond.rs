@@ -146,7 +146,8 @@ pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
                     nnz,
                     ..record
                 };
-                failed |= record.error.is_some();
+                // A solver that failed or missed the tolerance fails the command (exit 1).
+                failed |= record.error.is_some() || !record.converged;
                 table.push(format!(
                     "| {n} | {k:e} | {rows} | {} | {} | {:.3} | {:.3} | {:.1e} |{}",
                     record.precond,
@@ -166,7 +167,7 @@ pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
     }
     bar.finish_and_clear();
     for line in table {
-        eprintln!("{line}");
+        crate::errln!("{line}");
     }
     if failed {
         return Err(CliError::SolverFailed);

@@ -285,9 +285,8 @@ where
             found: d,
         });
     }
-    if !(params.rtol >= 0.0 && params.rtol.is_finite())
-        || !(params.atol >= 0.0 && params.atol.is_finite())
-    {
+    let tolerance = |t: f64| t >= 0.0 && t.is_finite();
+    if !(tolerance(params.rtol) && tolerance(params.atol)) {
         return Err(SparseError::InvalidParameter {
             name: "tolerance",
             message: format!(

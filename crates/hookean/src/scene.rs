@@ -1737,7 +1737,7 @@ mod tests {
         for (bad, key) in [
             ("strength_threshold = 1.5", "[0, 1)"),
             ("jacobi_weight = 2.0", "(0, 2)"),
-            ("sweeps = 0", "at least 1"),
+            ("sweeps = 0", "1 to 100"),
             ("smoother = \"sor\"", "sor"),
             ("reuse = \"sometimes\"", "sometimes"),
             ("levels = 3", "levels"),
