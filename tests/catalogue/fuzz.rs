@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use hookean_testkit::fuzz::invocation;
 
-use crate::{CLOTH, SPD, case_dir, hookean, leftovers, names_hidden_entry};
+use crate::{CLOTH, SPD, case_dir, has_long_number, hookean, leftovers, names_hidden_entry};
 
 /// Cases per `cargo test` run (`HOOKEAN_FUZZ_CLI_CASES` sets another count).
 const CASES: u64 = 200;
@@ -69,6 +69,15 @@ pub(crate) fn check_invocation(seed: u64) -> Result<i32, String> {
     }
     if stderr.contains("panicked") || stderr.contains("memory allocation") {
         problems.push("a panic or an abort".into());
+    }
+    let given: Vec<&str> = inv
+        .args
+        .iter()
+        .chain(inv.env.iter().map(|(_, v)| v))
+        .map(String::as_str)
+        .collect();
+    if has_long_number(&stderr, &given) {
+        problems.push("a message prints a number of 20 or more digits".into());
     }
     if names_hidden_entry(&stderr) || !leftovers(&dir).is_empty() {
         problems.push("a staging folder named or left".into());

@@ -418,7 +418,7 @@ fn run_model(
     let frames = (scene.duration * scene.output.frame_rate).min(scene.duration / h) + 1.0;
     if scene.output.frame_rate > 0.0 && !(frames <= MAX_FRAMES as f64) {
         return Err(CliError::Input(format!(
-            "{}: output.frame_rate = {} for duration = {} s is about {frames:.3e} frames, more than {MAX_FRAMES}; lower output.frame_rate",
+            "{}: output.frame_rate = {:?} for duration = {:?} s is about {frames:.3e} frames, more than {MAX_FRAMES}; lower output.frame_rate",
             args.scene.display(),
             scene.output.frame_rate,
             scene.duration
