@@ -326,4 +326,25 @@ pub(crate) const BOUNDS: &[Case] = &[
         "--max-work",
     )
     .absent(&["wp.csv"]),
+    case(
+        "bench-precond: the documented largest cloth with the direct solver (it aborted)",
+        &[],
+        &["bench-precond", "--n", "1024", "--k", "1e4", "--precond", "direct"],
+        2,
+        "--n 1024: the system would need about",
+    ),
+    case(
+        "bench-precond: --max-memory above the machine's memory",
+        &[],
+        &["bench-precond", "--n", "4", "--max-memory", "1e300"],
+        2,
+        "machine's memory",
+    ),
+    case(
+        "solve: a matrix larger than --max-memory",
+        &[("a.mtx", SPD)],
+        &["solve", "{}/a.mtx", "--max-memory", "1e-9"],
+        2,
+        "a.mtx:1: the input is larger than",
+    ),
 ];

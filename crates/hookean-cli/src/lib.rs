@@ -43,6 +43,7 @@ mod bench_precond;
 mod export_system;
 mod filter_analysis;
 mod lineplot;
+mod memory;
 mod output;
 mod plot;
 mod regions;

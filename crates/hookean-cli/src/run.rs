@@ -48,33 +48,6 @@ pub struct RunArgs {
     work: crate::work::WorkCap,
 }
 
-/// `--max-memory` in bytes.
-pub fn max_memory_bytes(gib: f64) -> Result<u64, CliError> {
-    // A cap above the machine's memory would let an allocation abort.
-    let physical = physical_memory_bytes();
-    let max_gib = physical as f64 / (1u64 << 30) as f64;
-    if gib > 0.0 && gib <= max_gib {
-        Ok((gib * (1u64 << 30) as f64) as u64)
-    } else {
-        Err(CliError::Input(format!(
-            "--max-memory must lie in (0, {max_gib:.1}] GiB (this machine's memory), got {gib:?}"
-        )))
-    }
-}
-
-/// The machine's memory (`MemTotal` of /proc/meminfo; 1 TiB where it
-/// cannot be read).
-fn physical_memory_bytes() -> u64 {
-    std::fs::read_to_string("/proc/meminfo")
-        .ok()
-        .and_then(|t| {
-            let line = t.lines().find(|l| l.starts_with("MemTotal:"))?;
-            let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-            kib.checked_mul(1024)
-        })
-        .unwrap_or(1 << 40)
-}
-
 /// The statistics of a run, as written to `summary.json`.
 #[derive(Debug, Serialize)]
 pub struct RunRecord {
@@ -341,7 +314,7 @@ pub fn run(args: &RunArgs, threads: Option<usize>) -> Result<(), CliError> {
 }
 
 fn run_scene(args: &RunArgs, scene: &Scene) -> Result<(), CliError> {
-    let max_bytes = max_memory_bytes(args.max_memory)?;
+    let max_bytes = crate::memory::cap_bytes(args.max_memory)?;
     if scene.tutorial.is_some() {
         // A [tutorial] scene's step is a number (the scene refuses "auto").
         let h = scene.integrator.h.value().unwrap_or(f64::MIN_POSITIVE);

@@ -7,8 +7,8 @@ use std::time::Instant;
 use clap::Args;
 use hookean_sparse::{
     AmgOptions, AmgSmoother, AmgStats, AnyPreconditioner, CgParams, CgWorkspace, DirectCholesky,
-    LinearOperator, PrecondKind, PreconditionerSetup, SymBlockMatrix, pcg, read_matrix_market_file,
-    vecops::norm2,
+    LinearOperator, PrecondKind, PreconditionerSetup, ReadOptions, SymBlockMatrix, pcg,
+    read_matrix_market_file_with, vecops::norm2,
 };
 use serde::Serialize;
 
@@ -61,6 +61,15 @@ pub struct SolverArgs {
     /// The smoother of `amg`: block-jacobi, gauss-seidel (symmetric) or ic0 (block IC(0)).
     #[arg(long, default_value = "block-jacobi")]
     pub amg_smoother: String,
+    /// Refuse a matrix, system or direct factor that would need more memory than this (GiB),
+    /// in (0, the machine's memory].
+    #[arg(
+        long,
+        value_name = "GIB",
+        default_value_t = 8.0,
+        allow_negative_numbers = true
+    )]
+    pub max_memory: f64,
 }
 
 impl SolverArgs {
@@ -93,6 +102,7 @@ impl SolverArgs {
             ..Default::default()
         };
         self.smoother()?;
+        crate::memory::cap_bytes(self.max_memory)?;
         Ok((parse_solvers(&self.precond, omega)?, params))
     }
 
@@ -242,13 +252,24 @@ pub fn run_solver(
                 "csr",
             ),
         },
-        Solver::Direct => run_direct(original, b, params.rtol, repeat),
+        Solver::Direct => {
+            // The factor gets what the cap leaves beside the matrix's copies
+            // (CSR, block storage, the direct solver's own: about 40 bytes a nonzero).
+            let cap = crate::memory::cap_bytes(args.max_memory).unwrap_or(0);
+            let budget = cap.saturating_sub(40 * original.nnz() as u64);
+            run_direct(original, b, params.rtol, repeat, budget)
+        }
     }
 }
 
 pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let (solvers, params) = args.solver.resolve()?;
-    let a = read_matrix_market_file(&args.matrix)?.into_csr();
+    let cap = crate::memory::cap_bytes(args.solver.max_memory)?;
+    let opts = ReadOptions {
+        max_bytes: cap,
+        ..ReadOptions::default()
+    };
+    let a = read_matrix_market_file_with(&args.matrix, &opts)?.into_csr();
     let (rows, cols) = a.shape();
     if rows != cols {
         return Err(CliError::Input(format!(
@@ -264,7 +285,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     }
     let b = match &args.rhs {
         Some(path) => {
-            let b = read_matrix_market_file(path)?
+            let b = read_matrix_market_file_with(path, &opts)?
                 .into_vector()
                 .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
             if b.len() != rows {
@@ -469,13 +490,19 @@ where
     record
 }
 
-fn run_direct(a: &sprs::CsMat<f64>, b: &[f64], rtol: f64, repeat: usize) -> SolveRecord {
+fn run_direct(
+    a: &sprs::CsMat<f64>,
+    b: &[f64],
+    rtol: f64,
+    repeat: usize,
+    max_bytes: u64,
+) -> SolveRecord {
     let mut record = empty_record("faer-cholesky", "direct".into(), "csc-lower");
     let mut x = vec![0.0; b.len()];
     let mut best_setup = f64::INFINITY;
     let mut best_solve = f64::INFINITY;
     for _ in 0..repeat {
-        let mut d = DirectCholesky::new();
+        let mut d = DirectCholesky::with_max_bytes(max_bytes);
         let t0 = Instant::now();
         if let Err(e) = d.factor_csr(a) {
             record.error = Some(e.to_string());

@@ -88,7 +88,8 @@ pub use iso::{IsoBlockMatrix, IsoSlot};
 pub use matrix::{BlockPattern, Slot, SymBlockMatrix};
 pub use mtx::{
     MatrixMarket, ReadOptions, read_matrix_market, read_matrix_market_file,
-    read_matrix_market_with, write_matrix_market, write_vector_market,
+    read_matrix_market_file_with, read_matrix_market_with, write_matrix_market,
+    write_vector_market,
 };
 pub use operator::{LinearOperator, MatrixFree};
 pub use power::{PowerHook, PowerInfo, PowerParams, power_method};

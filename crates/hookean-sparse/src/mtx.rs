@@ -417,12 +417,23 @@ pub fn read_matrix_market_with(
 pub fn read_matrix_market_file(
     path: impl AsRef<std::path::Path>,
 ) -> Result<MatrixMarket, SparseError> {
+    read_matrix_market_file_with(path, &ReadOptions::default())
+}
+
+/// [`read_matrix_market_file`] with [`ReadOptions`].
+///
+/// # Errors
+/// As [`read_matrix_market_file`].
+pub fn read_matrix_market_file_with(
+    path: impl AsRef<std::path::Path>,
+    opts: &ReadOptions,
+) -> Result<MatrixMarket, SparseError> {
     let path = path.as_ref();
     let file = std::fs::File::open(path).map_err(|e| SparseError::Io {
         path: path.display().to_string(),
         message: e.to_string(),
     })?;
-    read_matrix_market(std::io::BufReader::new(file)).map_err(|e| match e {
+    read_matrix_market_with(std::io::BufReader::new(file), opts).map_err(|e| match e {
         SparseError::Parse { line, message, .. } => SparseError::Parse {
             path: path.display().to_string(),
             line,
