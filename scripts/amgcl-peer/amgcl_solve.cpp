@@ -137,10 +137,18 @@ static Result run_block3(const Csr &a, const std::vector<double> &b, double rtol
     return r;
 }
 
+// The aggregation of --value scalar: unknowns per block, the near-nullspace
+// (row-major, `modes` columns; none when 0), the strength threshold (< 0: AMGCL's).
+struct Aggregation {
+    int block_size = 3;
+    std::vector<double> nullspace;
+    int modes = 0;
+    double eps_strong = -1;
+};
+
 template <template <class> class Relax>
 static Result run_scalar(const Csr &a, const std::vector<double> &b, double rtol, int esr,
-                         int block_size, const std::vector<double> &nullspace, int modes,
-                         double eps_strong) {
+                         const Aggregation &ag) {
     typedef amgcl::backend::builtin<double> Backend;
     typedef amgcl::make_solver<
         amgcl::amg<Backend, amgcl::coarsening::smoothed_aggregation, Relax>,
@@ -152,11 +160,11 @@ static Result run_scalar(const Csr &a, const std::vector<double> &b, double rtol
         prm.precond.coarsening.estimate_spectral_radius = true;
         prm.precond.coarsening.power_iters = esr;
     }
-    prm.precond.coarsening.aggr.block_size = block_size;
-    if (eps_strong >= 0) prm.precond.coarsening.aggr.eps_strong = eps_strong;
-    if (modes > 0) {
-        prm.precond.coarsening.nullspace.cols = modes;
-        prm.precond.coarsening.nullspace.B = nullspace;
+    prm.precond.coarsening.aggr.block_size = ag.block_size;
+    if (ag.eps_strong >= 0) prm.precond.coarsening.aggr.eps_strong = ag.eps_strong;
+    if (ag.modes > 0) {
+        prm.precond.coarsening.nullspace.cols = ag.modes;
+        prm.precond.coarsening.nullspace.B = ag.nullspace;
     }
     Result r;
     auto t0 = std::chrono::steady_clock::now();
@@ -189,10 +197,10 @@ int main(int argc, char **argv) {
     if (argc < 3) return usage();
     std::string a_path = argv[1], b_path = argv[2], value = "block3", relax_list = "damped_jacobi",
                 label = a_path, nullspace_path;
-    double rtol = 1e-8, eps_strong = -1;
+    double rtol = 1e-8;
     int repeat = 3;
     int esr = 0;
-    int block_size = 3;
+    Aggregation ag;
     for (int i = 3; i + 1 < argc; i += 2) {
         std::string k = argv[i], v = argv[i + 1];
         if (k == "--value") value = v;
@@ -201,16 +209,16 @@ int main(int argc, char **argv) {
         else if (k == "--repeat") repeat = std::atoi(v.c_str());
         else if (k == "--label") label = v;
         else if (k == "--esr") esr = std::atoi(v.c_str());
-        else if (k == "--block-size") block_size = std::atoi(v.c_str());
+        else if (k == "--block-size") ag.block_size = std::atoi(v.c_str());
         else if (k == "--nullspace") nullspace_path = v;
-        else if (k == "--eps-strong") eps_strong = std::atof(v.c_str());
+        else if (k == "--eps-strong") ag.eps_strong = std::atof(v.c_str());
         else return usage();
     }
+    const int block_size = ag.block_size;
     if (block_size < 1 || (value == "block3" && (block_size != 3 || !nullspace_path.empty())))
         return usage();
     Csr a;
-    std::vector<double> b, nullspace;
-    int modes = 0;
+    std::vector<double> b;
     try {
         amgcl::io::mm_reader ra(a_path);
         if (!ra.is_symmetric()) std::cerr << "note: " << a_path << " is stored general\n";
@@ -229,13 +237,13 @@ int main(int argc, char **argv) {
         if (!nullspace_path.empty()) {
             amgcl::io::mm_reader rn(nullspace_path);
             size_t nrows, ncols;
-            std::tie(nrows, ncols) = rn(nullspace);  // row-major, as AMGCL wants it
+            std::tie(nrows, ncols) = rn(ag.nullspace);  // row-major, as AMGCL wants it
             if (nrows != rows || ncols == 0) {
                 std::cerr << "error: " << nullspace_path << " is " << nrows << "x" << ncols
                           << " (need " << rows << " rows)\n";
                 return 2;
             }
-            modes = int(ncols);
+            ag.modes = int(ncols);
         }
         // The reader keeps the file's order within a row; sort each row by
         // column (the builtin backend and the block adapter expect it).
@@ -272,10 +280,10 @@ int main(int argc, char **argv) {
                 else if (relax == "chebyshev") r = run_block3<amgcl::relaxation::chebyshev>(a, b, rtol, esr);
                 else return usage();
             } else if (value == "scalar") {
-                if (relax == "spai0") r = run_scalar<amgcl::relaxation::spai0>(a, b, rtol, esr, block_size, nullspace, modes, eps_strong);
-                else if (relax == "damped_jacobi") r = run_scalar<amgcl::relaxation::damped_jacobi>(a, b, rtol, esr, block_size, nullspace, modes, eps_strong);
-                else if (relax == "ilu0") r = run_scalar<amgcl::relaxation::ilu0>(a, b, rtol, esr, block_size, nullspace, modes, eps_strong);
-                else if (relax == "chebyshev") r = run_scalar<amgcl::relaxation::chebyshev>(a, b, rtol, esr, block_size, nullspace, modes, eps_strong);
+                if (relax == "spai0") r = run_scalar<amgcl::relaxation::spai0>(a, b, rtol, esr, ag);
+                else if (relax == "damped_jacobi") r = run_scalar<amgcl::relaxation::damped_jacobi>(a, b, rtol, esr, ag);
+                else if (relax == "ilu0") r = run_scalar<amgcl::relaxation::ilu0>(a, b, rtol, esr, ag);
+                else if (relax == "chebyshev") r = run_scalar<amgcl::relaxation::chebyshev>(a, b, rtol, esr, ag);
                 else return usage();
             } else {
                 return usage();
@@ -292,7 +300,7 @@ int main(int argc, char **argv) {
                     "\"converged\":%s}\n",
                     label.c_str(), value.c_str(), relax.c_str(), omp_get_max_threads(), a.n,
                     a.ptr[a.n], r.iterations, r.setup_s, r.solve_s, r.amgcl_resid,
-                    r.rel_residual, r.levels, r.op_complexity, esr, block_size, modes,
+                    r.rel_residual, r.levels, r.op_complexity, esr, block_size, ag.modes,
                     r.amgcl_resid <= rtol ? "true" : "false");
         std::fflush(stdout);
     }

@@ -24,7 +24,7 @@
 #       hookean   `hookean --threads 1 solve --format csr --block-size B
 #                  --precond jacobi,ssor,ic0,amg` (and --format block where
 #                  B = 3; --nullspace once `hookean solve` has it)
-#       eigen     ConjugateGradient + jacobi, ic (AMD), ic-natural, ssor (eigen_pcg)
+#       eigen     ConjugateGradient (UpLo = Lower) + jacobi, ic (AMD), ic-natural, ssor (eigen_pcg)
 #       amgcl     smoothed aggregation + CG, smoothers damped_jacobi and ilu0:
 #                 "sa" with AMGCL's defaults (3x3 block values where B = 3, else
 #                 scalar with aggregation on B x B blocks) and, where the
