@@ -11,8 +11,8 @@
 # CLOTH (default 64,128: the cloth sizes N, k = 1e4), PEER_TIMEOUT (seconds
 # per tool run, default 600), CARGO_TARGET_DIR.
 #
-#  1. Installs what it needs: Eigen 3.4 (Debian's libeigen3-dev, with apt-get
-#     when missing), a venv with pyamg, scipy and numpy from PyPI, AMGCL 1.4.9
+#  1. Installs what it needs: Eigen 3.4 (Debian's libeigen3-dev; g++, git and
+#     python3-venv too, with apt-get when missing), a venv with pyamg, scipy and numpy from PyPI, AMGCL 1.4.9
 #     cloned at run time (commit checked; nothing of it is kept in the repo);
 #     compiles scripts/peers/eigen_pcg.cpp and scripts/amgcl-peer/amgcl_solve.cpp
 #     (g++ -O3, no -march=native, like our release build); builds `hookean`,
@@ -50,13 +50,20 @@ mkdir -p "$WORK/set"
 log() { echo "[peers $(date +%H:%M:%S)] $*" >&2; }
 
 # 1. Tools.
-EIGEN_INCLUDE=${EIGEN_INCLUDE:-/usr/include/eigen3}
-if [ ! -f "$EIGEN_INCLUDE/Eigen/Core" ]; then
-    log "installing libeigen3-dev"
+deb() {  # deb PACKAGE TEST...: installs the Debian package unless TEST succeeds
+    local package=$1; shift
+    "$@" >/dev/null 2>&1 && return
+    log "installing $package"
     command -v apt-get >/dev/null && [ "$(id -u)" = 0 ] ||
-        { echo "need Eigen 3.4: apt-get install libeigen3-dev, or set EIGEN_INCLUDE" >&2; exit 1; }
-    apt-get install -y -q libeigen3-dev >&2 || { apt-get update -q >&2 && apt-get install -y -q libeigen3-dev >&2; }
-fi
+        { echo "need the Debian package $package (or its equivalent)" >&2; exit 1; }
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get install -y -q "$package" >&2 || { apt-get update -q >&2 && apt-get install -y -q "$package" >&2; }
+}
+EIGEN_INCLUDE=${EIGEN_INCLUDE:-/usr/include/eigen3}
+deb libeigen3-dev test -f "$EIGEN_INCLUDE/Eigen/Core"
+deb g++ command -v g++
+deb git command -v git
+deb python3-venv python3 -m venv --help
 VENV=$WORK/venv
 if [ ! -x "$VENV/bin/python" ] || ! "$VENV/bin/python" -c "import pyamg, scipy" 2>/dev/null; then
     log "creating $VENV (pyamg, scipy, numpy from PyPI)"
@@ -68,7 +75,8 @@ AMGCL_GIT=${AMGCL_GIT:-https://github.com/ddemidov/amgcl}
 AMGCL_TAG=1.4.9
 AMGCL_COMMIT=28296c2a95894b3732a89b2f75f257a957b09857
 AMGCL_SRC=$WORK/amgcl-$AMGCL_TAG
-[ -d "$AMGCL_SRC" ] || git clone -q --depth 1 --branch "$AMGCL_TAG" "$AMGCL_GIT" "$AMGCL_SRC" 2>/dev/null
+[ -d "$AMGCL_SRC" ] ||
+    git -c advice.detachedHead=false clone -q --depth 1 --branch "$AMGCL_TAG" "$AMGCL_GIT" "$AMGCL_SRC" >&2
 [ "$(git -C "$AMGCL_SRC" rev-parse HEAD)" = "$AMGCL_COMMIT" ] ||
     { echo "AMGCL $AMGCL_TAG is not commit $AMGCL_COMMIT" >&2; exit 1; }
 compile() {  # compile SOURCE BINARY FLAGS...: when the source is newer

@@ -153,8 +153,10 @@ def run_pyamg(d, name, rtol):
     strength, theta = 0; standard aggregation; Jacobi-smoothed prolongator; symmetric
     Gauss-Seidel pre- and post-smoothing; pinv on the coarsest level), as CG's
     preconditioner (one V-cycle), from x = 0 to |r| <= rtol |b|. The set-up includes
-    the conversion to BSR with the system's block size."""
+    the conversion to BSR with the system's block size. Seeded, so that the iteration
+    count is the same in every run."""
     import pyamg
+    np.random.seed(SEED)  # pyamg's spectral-radius estimates start from np.random vectors
     meta = json.load(open(f"{d}/set.json"))[name]
     a, b, nullspace = read_system(d, name)
     bs = meta["block_size"]
