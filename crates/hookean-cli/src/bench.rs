@@ -20,13 +20,14 @@ use std::path::{Path, PathBuf};
 
 use clap::Args;
 use hookean_sparse::{
-    MatrixMarket, ReadOptions, check_csr_symmetric, read_matrix_market_file_with,
+    MatrixMarket, PrecondKind, ReadOptions, check_csr_symmetric, read_matrix_market_file_with,
 };
 
 use crate::CliError;
 use crate::lineplot::{LogLogPlot, Series};
 use crate::solve::{
-    Matrix, RunOptions, SolveRecord, Solver, SolverArgs, System, load_system, run_solver,
+    Matrix, RunOptions, SolveRecord, Solver, SolverArgs, System, load_system, nullspace_block_size,
+    run_solver,
 };
 
 #[derive(Debug, Args)]
@@ -68,8 +69,8 @@ pub struct BenchArgs {
     /// Matrix storage for PCG: block (symmetric 3x3 blocks), csr, or auto (block when possible).
     #[arg(long, default_value = "auto")]
     format: String,
-    /// Unknowns per node for `amg` on csr storage, 1 to 3 (default: the number of near-nullspace
-    /// vectors when a `_nullspace.mtx` is given, else 1).
+    /// Unknowns per node for `amg` on csr storage, 1 to 3 (default: read off the first vector of a
+    /// `_nullspace.mtx`, a translation non-zero at every d-th entry, else 1).
     #[arg(long)]
     block_size: Option<usize>,
     /// Skip a matrix, or a direct factor, that would need more memory than this (GiB), in (0, the
@@ -107,6 +108,14 @@ enum Source {
         nullspace: Option<PathBuf>,
     },
     Cloth(usize),
+}
+
+/// A system's near-nullspace for the multigrid.
+enum Loaded {
+    /// The vectors (empty: the multigrid's default).
+    Vectors(Vec<Vec<f64>>),
+    /// Why the file's vectors are not used (added to the multigrid's status).
+    Note(String),
 }
 
 /// One row of the table.
@@ -313,12 +322,12 @@ fn bench(
                 let run = RunOptions {
                     trace: true,
                     near_nullspace: match (solver, &nullspace) {
-                        (Solver::Pcg(hookean_sparse::PrecondKind::Amg), Ok(v)) => v.clone(),
+                        (Solver::Pcg(PrecondKind::Amg), Ok(Loaded::Vectors(v))) => v.clone(),
                         _ => Vec::new(),
                     },
                 };
                 let mut record = match (solver, &nullspace) {
-                    (Solver::Pcg(hookean_sparse::PrecondKind::Amg), Err(reason)) => {
+                    (Solver::Pcg(PrecondKind::Amg), Err(reason)) => {
                         let mut r = failed_record(solver);
                         r.error = Some(reason.clone());
                         r
@@ -339,12 +348,16 @@ fn bench(
                 best[s] = Some(record);
             }
         }
-        for record in best.into_iter().flatten() {
-            let status = match (&record.error, record.converged) {
+        for (solver, record) in solvers.iter().zip(best.into_iter()) {
+            let Some(record) = record else { continue };
+            let mut status = match (&record.error, record.converged) {
                 (Some(e), _) => format!("failed: {e}"),
                 (None, true) => "converged".to_string(),
                 (None, false) => format!("not converged (|r|/|b| = {:.1e})", record.rel_residual),
             };
+            if let (Solver::Pcg(PrecondKind::Amg), Ok(Loaded::Note(note))) = (solver, &nullspace) {
+                status = format!("{status}; {note}");
+            }
             if !args.quiet {
                 crate::errln!(
                     "  {:<13} {:>6} iterations, {:>10.3} ms, {status}",
@@ -416,7 +429,7 @@ fn load(
     input: &Input,
     args: &BenchArgs,
     cap: u64,
-) -> Result<(System, Result<Vec<Vec<f64>>, String>), String> {
+) -> Result<(System, Result<Loaded, String>), String> {
     match &input.source {
         Source::Cloth(n) => {
             let (a, b) = crate::deformed_cloth_system(*n, CLOTH_K).map_err(reason)?;
@@ -428,7 +441,10 @@ fn load(
                 },
                 _ => Matrix::Block(a),
             };
-            Ok((System { a: csr, b, matrix }, Ok(Vec::new())))
+            Ok((
+                System { a: csr, b, matrix },
+                Ok(Loaded::Vectors(Vec::new())),
+            ))
         }
         Source::File {
             matrix,
@@ -440,8 +456,8 @@ fn load(
                 None => Ok(Vec::new()),
             };
             let block_size = args.block_size.unwrap_or(match &nullspace {
-                Ok(v) if (1..=3).contains(&v.len()) => v.len(),
-                _ => 1,
+                Ok(v) => nullspace_block_size(v).unwrap_or(1),
+                Err(_) => 1,
             });
             let system = load_system(matrix, rhs.as_deref(), &args.format, block_size, cap)
                 .map_err(reason)?;
@@ -455,6 +471,28 @@ fn load(
                 )),
                 _ => Ok(v),
             });
+            // The multigrid takes as many near-nullspace vectors as unknowns
+            // per node; with more (rigid-body rotations), it runs on its
+            // default (the translations) and says so.
+            let note = match (&nullspace, &system.matrix) {
+                (Ok(v), Matrix::Csr { block_size, .. })
+                    if !v.is_empty() && v.len() != *block_size =>
+                {
+                    Some(format!(
+                        "near-nullspace of {} vectors not used: the multigrid takes one per unknown of a node ({block_size})",
+                        v.len()
+                    ))
+                }
+                (Ok(v), Matrix::Block(_)) if !v.is_empty() && v.len() != 3 => Some(format!(
+                    "near-nullspace of {} vectors not used: the block multigrid takes 3",
+                    v.len()
+                )),
+                _ => None,
+            };
+            let nullspace = match note {
+                Some(n) => Ok(Loaded::Note(n)),
+                None => nullspace.map(Loaded::Vectors),
+            };
             Ok((system, nullspace))
         }
     }

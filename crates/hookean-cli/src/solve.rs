@@ -492,6 +492,21 @@ fn empty_record(solver: &'static str, precond: String, format: &'static str) -> 
     }
 }
 
+/// The unknowns per node `d` a near-nullspace implies: its first vector (a
+/// translation along the first axis, or the constant) is non-zero exactly
+/// at the entries `i` with `i % d == 0`. 1 for a vector without zeros (the
+/// constant of a scalar problem); `None` for another pattern.
+pub fn nullspace_block_size(nullspace: &[Vec<f64>]) -> Option<usize> {
+    let first = nullspace.first()?;
+    (1..=3).find(|&d| {
+        first.len().is_multiple_of(d)
+            && first
+                .iter()
+                .enumerate()
+                .all(|(i, v)| (*v != 0.0) == i.is_multiple_of(d))
+    })
+}
+
 /// What [`run_solver`] does besides solving.
 #[derive(Debug, Clone, Default)]
 pub struct RunOptions {
@@ -644,4 +659,42 @@ fn run_direct(
         ];
     }
     record
+}
+
+#[cfg(test)]
+mod nullspace_tests {
+    use super::nullspace_block_size;
+
+    /// The rigid-body modes of n nodes in `d` dimensions at coordinates
+    /// `(i, 2 i, ...)`: d translations, then rotations (the first vector is
+    /// the translation along x).
+    fn rigid_modes(n: usize, d: usize) -> Vec<Vec<f64>> {
+        let mut modes: Vec<Vec<f64>> = (0..d)
+            .map(|c| (0..n * d).map(|i| f64::from(i % d == c)).collect())
+            .collect();
+        // The rotation in the xy plane: (-y, x, 0).
+        modes.push(
+            (0..n * d)
+                .map(|i| match i % d {
+                    0 => -2.0 * (i / d) as f64 - 1.0,
+                    1 => (i / d) as f64 + 1.0,
+                    _ => 0.0,
+                })
+                .collect(),
+        );
+        modes
+    }
+
+    #[test]
+    fn the_first_translation_gives_the_unknowns_per_node() {
+        assert_eq!(nullspace_block_size(&[vec![1.0; 12]]), Some(1));
+        assert_eq!(nullspace_block_size(&rigid_modes(5, 2)), Some(2));
+        assert_eq!(nullspace_block_size(&rigid_modes(5, 3)), Some(3));
+        // A vector with zeros in no period: no answer.
+        assert_eq!(
+            nullspace_block_size(&[vec![1.0, 0.0, 0.0, 0.0, 1.0, 1.0]]),
+            None
+        );
+        assert_eq!(nullspace_block_size(&[]), None);
+    }
 }
