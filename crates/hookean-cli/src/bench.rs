@@ -459,8 +459,14 @@ fn load(
                 Ok(v) => nullspace_block_size(v).unwrap_or(1),
                 Err(_) => 1,
             });
-            let system = load_system(matrix, rhs.as_deref(), &args.format, block_size, cap)
-                .map_err(reason)?;
+            // `auto` groups 3x3 blocks where it can; a near-nullspace saying
+            // the nodes have 1 or 2 unknowns asks for scalar storage.
+            let format = match (&nullspace, args.format.as_str()) {
+                (Ok(v), "auto") if nullspace_block_size(v).is_some_and(|d| d != 3) => "csr",
+                (_, f) => f,
+            };
+            let system =
+                load_system(matrix, rhs.as_deref(), format, block_size, cap).map_err(reason)?;
             check_csr_symmetric(&system.a)
                 .map_err(|e| format!("{}: {e} (PCG needs a symmetric matrix)", matrix.display()))?;
             let nullspace = nullspace.and_then(|v| match v.first() {
@@ -618,6 +624,16 @@ fn table(rows: &[Row]) -> (String, String) {
                     r.system
                 ));
                 csv.push_str(&format!("{},,,,,,,,,,{csv_status}\n", r.system));
+            }
+            Some(rec) if rec.error.is_some() => {
+                md.push_str(&format!(
+                    "| {} | {} | {} | {} | - | - | - | - | - | - | {md_status} |\n",
+                    r.system, r.rows, r.nnz, rec.precond
+                ));
+                csv.push_str(&format!(
+                    "{},{},{},{},,,,,,,{csv_status}\n",
+                    r.system, r.rows, r.nnz, rec.precond
+                ));
             }
             Some(rec) => {
                 let total = rec.setup_s + rec.solve_s;
