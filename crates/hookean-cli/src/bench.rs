@@ -435,10 +435,7 @@ fn load(
             let (a, b) = crate::deformed_cloth_system(*n, CLOTH_K).map_err(reason)?;
             let csr = a.to_csr();
             let matrix = match args.format.as_str() {
-                "csr" => Matrix::Csr {
-                    a: csr.clone(),
-                    block_size: args.block_size.unwrap_or(3),
-                },
+                "csr" => Matrix::csr(csr.clone(), args.block_size.unwrap_or(3)),
                 _ => Matrix::Block(a),
             };
             Ok((

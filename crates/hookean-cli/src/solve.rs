@@ -9,7 +9,7 @@ use clap::Args;
 use hookean_sparse::{
     AmgOptions, AmgSmoother, AmgStats, AnyPreconditioner, CgParams, CgProgress, CgWorkspace,
     DirectCholesky, LinearOperator, PrecondKind, PreconditionerSetup, ReadOptions, SymBlockMatrix,
-    pcg, read_matrix_market_file_with, vecops::norm2,
+    SymCsrMatrix, pcg, read_matrix_market_file_with, vecops::norm2,
 };
 use serde::Serialize;
 
@@ -221,11 +221,26 @@ fn parse_solver(name: &str, omega: f64, out: &mut Vec<Solver>) -> Result<(), Cli
 pub enum Matrix {
     /// Symmetric 3x3-block storage.
     Block(SymBlockMatrix),
-    /// Plain CSR, with the unknowns per node multigrid groups into blocks.
+    /// Plain CSR, with the unknowns per node multigrid groups into blocks;
+    /// the preconditioners are built from `a`, and PCG's products use its
+    /// upper triangle (`product`, [`SymCsrMatrix`]) when `a` is symmetric.
     Csr {
         a: sprs::CsMat<f64>,
         block_size: usize,
+        product: Option<SymCsrMatrix>,
     },
+}
+
+impl Matrix {
+    /// CSR storage of `a`, with the symmetric product when `a` is symmetric.
+    pub fn csr(a: sprs::CsMat<f64>, block_size: usize) -> Self {
+        let product = SymCsrMatrix::from_csr(&a).ok();
+        Matrix::Csr {
+            a,
+            block_size,
+            product,
+        }
+    }
 }
 
 /// Runs one solver on `A x = b` (`matrix` in PCG's storage, `original` the
@@ -267,8 +282,13 @@ pub fn run_solver(
                 trace: run.trace,
             };
             match matrix {
-                Matrix::Block(m) => pcg.run(m),
-                Matrix::Csr { a, .. } => pcg.run(a),
+                Matrix::Block(m) => pcg.run(m, m),
+                Matrix::Csr {
+                    a,
+                    product: Some(s),
+                    ..
+                } => pcg.run(s, a),
+                Matrix::Csr { a, .. } => pcg.run(a, a),
             }
         }
         Solver::Direct => {
@@ -356,10 +376,7 @@ pub fn load_system(
         )));
     }
     let matrix = match format {
-        "csr" => Matrix::Csr {
-            a: a.clone(),
-            block_size,
-        },
+        "csr" => Matrix::csr(a.clone(), block_size),
         "block" => Matrix::Block(SymBlockMatrix::from_csr(&a).map_err(|e| {
             CliError::Input(format!(
                 "{}: cannot use block storage: {e}",
@@ -368,10 +385,7 @@ pub fn load_system(
         })?),
         "auto" => match SymBlockMatrix::from_csr(&a) {
             Ok(m) => Matrix::Block(m),
-            Err(_) => Matrix::Csr {
-                a: a.clone(),
-                block_size,
-            },
+            Err(_) => Matrix::csr(a.clone(), block_size),
         },
         other => {
             return Err(CliError::Input(format!(
@@ -539,10 +553,12 @@ struct PcgRun<'a> {
 }
 
 impl PcgRun<'_> {
-    fn run<M>(&self, m: &M) -> SolveRecord
+    /// PCG on the operator `m` with a preconditioner built from `source`
+    /// (the same matrix in the storage the preconditioners take).
+    fn run<M, S>(&self, m: &M, source: &S) -> SolveRecord
     where
         M: LinearOperator,
-        AnyPreconditioner: PreconditionerSetup<M>,
+        AnyPreconditioner: PreconditionerSetup<S>,
     {
         let (b, kind, params) = (self.b, self.kind, self.params);
         let mut record = empty_record("hookean-pcg", kind.to_string(), self.format);
@@ -564,7 +580,7 @@ impl PcgRun<'_> {
             let heap = live_heap_bytes();
             let t0 = Instant::now();
             let new = AnyPreconditioner::with_amg_options(kind, self.amg);
-            let setup = new.and_then(|mut p| p.setup(m).map(|()| p));
+            let setup = new.and_then(|mut p| p.setup(source).map(|()| p));
             let setup_s = t0.elapsed().as_secs_f64();
             let p = match setup {
                 Ok(p) => p,

@@ -13,8 +13,9 @@
 //!   The pattern ([`BlockPattern`]) is built once per topology; values are
 //!   refilled in place every step ([`SymBlockMatrix::add_to_block`],
 //!   or [`SymBlockMatrix::add_to_slot`] with cached slots).
-//! - [`LinearOperator`]: `y = A x`, for the block matrix, `sprs::CsMat<f64>`
-//!   and closures ([`MatrixFree`]).
+//! - [`LinearOperator`]: `y = A x`, for the block matrix, `sprs::CsMat<f64>`,
+//!   the scalar symmetric [`SymCsrMatrix`] (upper triangle, half the bytes
+//!   per product) and closures ([`MatrixFree`]).
 //! - [`Preconditioner`] / [`PreconditionerSetup`]: [`Identity`], [`Jacobi`],
 //!   [`BlockJacobi`], [`Ssor`], [`IncompleteCholesky`] (IC(0), and MIC(0)
 //!   with [`IncompleteCholesky::modified`]) and smoothed-aggregation
@@ -81,6 +82,7 @@ mod operator;
 pub mod par;
 mod power;
 mod precond;
+mod symcsr;
 pub mod text;
 pub mod vecops;
 
@@ -112,3 +114,4 @@ pub use precond::{
     BlockJacobi, Identity, IncompleteCholesky, Jacobi, PrecondKind, Preconditioner,
     PreconditionerSetup, Ssor,
 };
+pub use symcsr::SymCsrMatrix;
