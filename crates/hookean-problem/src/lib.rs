@@ -26,6 +26,11 @@
 //! assert_eq!(dy[0], -30.0);
 //! ```
 
+/// The README's example, compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeExample;
+
 use std::sync::Arc;
 
 /// `hookean-sparse`, whose matrices this API speaks ([`SymBlockMatrix`],

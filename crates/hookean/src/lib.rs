@@ -29,6 +29,11 @@
 //! # Ok::<(), hookean::HookeanError>(())
 //! ```
 
+/// The README's example, compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeExample;
+
 #[cfg(feature = "filter")]
 pub use hookean_filter as filter;
 #[cfg(feature = "massspring")]
