@@ -164,7 +164,7 @@ pub struct RenderScene<'a> {
     pub faces: &'a [[usize; 3]],
     /// Springs drawn as thick lines when there are no faces.
     pub segments: &'a [(usize, usize)],
-    /// Planes (the first is the ground) and spheres.
+    /// Planes (the first is the ground), spheres and meshes.
     pub colliders: &'a [ViewCollider],
     /// The box the view is fitted to: every frame of the run, so that the
     /// scale is the run's (an exploded run does not shrink back into view).
@@ -184,6 +184,8 @@ enum Item {
     Face(usize),
     Segment(usize),
     Sphere([f64; 3], f64),
+    /// Triangle `k` of mesh collider `c` (an index into `meshes`).
+    MeshFace(usize, usize),
 }
 
 /// An orthographic camera looking along `-dir` from an elevated front-left
@@ -227,8 +229,14 @@ impl Camera {
             ViewCollider::Sphere { center, radius } => Some((cam.project(center), *radius)),
             _ => None,
         });
+        let meshes: Vec<([f64; 3], f64)> = s
+            .colliders
+            .iter()
+            .flat_map(|c| c.mesh_vertices_at(s.t))
+            .map(|p| (cam.project(&p), 0.0))
+            .collect();
         let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for (q, r) in corners.chain(spheres) {
+        for (q, r) in corners.chain(spheres).chain(meshes) {
             for c in 0..2 {
                 lo[c] = lo[c].min(q[c] - r);
                 hi[c] = hi[c].max(q[c] + r);
@@ -364,9 +372,26 @@ pub fn render(s: &RenderScene<'_>, width: usize, height: usize) -> Result<Canvas
             .map(|(k, f)| (proj[f[0]][2] + proj[f[1]][2] + proj[f[2]][2], Item::Face(k)))
             .collect()
     };
+    // Mesh colliders at the time of the state: world vertices, projected.
+    let meshes: Vec<(Vec<[f64; 3]>, &[[usize; 3]])> = s
+        .colliders
+        .iter()
+        .filter_map(|c| match c {
+            ViewCollider::Mesh { triangles, .. } => {
+                Some((c.mesh_vertices_at(s.t), triangles.as_slice()))
+            }
+            _ => None,
+        })
+        .collect();
     for c in s.colliders {
         if let ViewCollider::Sphere { center, radius } = c {
             items.push((3.0 * cam.project(center)[2], Item::Sphere(*center, *radius)));
+        }
+    }
+    for (m, (vertices, triangles)) in meshes.iter().enumerate() {
+        for (k, t) in triangles.iter().enumerate() {
+            let depth: f64 = t.iter().map(|&i| cam.project(&vertices[i])[2]).sum();
+            items.push((depth, Item::MeshFace(m, k)));
         }
     }
     items.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -391,6 +416,14 @@ pub fn render(s: &RenderScene<'_>, width: usize, height: usize) -> Result<Canvas
                 );
             }
             Item::Sphere(center, radius) => draw_sphere(&mut canvas, &cam, &center, radius, &light),
+            Item::MeshFace(m, k) => {
+                let (vertices, triangles) = &meshes[m];
+                let p = triangles[k].map(|i| vertices[i]);
+                let normal = normalise(cross(sub(&p[1], &p[0]), sub(&p[2], &p[0])));
+                let shade = 0.35 + 0.65 * dot3(&normal, &light).abs();
+                let px3 = p.map(|q| cam.pixel(&cam.project(&q)));
+                canvas.fill_triangle(px3, to_u8([0.78 * shade, 0.74 * shade, 0.68 * shade]));
+            }
         }
     }
     draw_labels(&mut canvas, s, &cam, view_w, grid, implied)?;
@@ -429,6 +462,10 @@ fn draw_labels(
             ViewCollider::Sphere { radius, .. } => {
                 Some(format!("sphere collider r = {} m", tick_text(*radius)))
             }
+            ViewCollider::Mesh { triangles, .. } => Some(format!(
+                "mesh collider ({} triangles)",
+                triangles.len()
+            )),
             _ => None,
         })
         .collect();

@@ -8,6 +8,8 @@ use nalgebra::Vector3;
 
 use crate::assembly::AssemblyPlan;
 use crate::collide::Collider;
+use crate::contact::ContactState;
+use crate::self_contact::{SelfCollision, SelfContact};
 use crate::error::MassSpringError;
 
 /// A spring between particles `i` and `j` (docs/ARCHITECTURE.md, "the reference drape"):
@@ -248,6 +250,8 @@ pub struct MassSpringModel {
     /// The constraints of the current step (permanent + contacts).
     pub(crate) active_set: ActiveSet,
     pub(crate) colliders: Vec<Collider>,
+    /// The contact state of the current step (friction, self-contact).
+    pub(crate) contact: ContactState,
     pub(crate) scratch: Vec<f64>,
     pub(crate) faces: Vec<[usize; 3]>,
     pub(crate) revision: u64,
@@ -329,6 +333,7 @@ impl MassSpringModel {
             fixes: vec![Dirs::EMPTY; n],
             active_set: ActiveSet::new(n),
             colliders: Vec::new(),
+            contact: ContactState::default(),
             scratch: vec![0.0; 3 * n],
             faces: Vec::new(),
             revision: 0,
@@ -506,9 +511,38 @@ impl MassSpringModel {
         self.active_set.dirs.get(particle).map_or(0, |d| d.count)
     }
 
-    /// Adds a collider (plane or sphere), handled in every `begin_step`.
+    /// Adds a collider (plane, sphere or mesh), handled in every
+    /// `begin_step` (and, for meshes, `end_step`).
     pub fn add_collider(&mut self, collider: Collider) {
         self.colliders.push(collider);
+    }
+
+    /// Turns cloth self-collision on (`Some`) or off (`None`) on the
+    /// model's triangles ([`set_faces`](Self::set_faces) first): proximity
+    /// repulsion inside the implicit step and the continuous pass after it
+    /// (docs/CONTACT.md).
+    ///
+    /// # Errors
+    /// [`MassSpringError::InvalidParameter`] for a non-positive thickness, a
+    /// negative stiffness, or a model without triangles.
+    pub fn set_self_collision(
+        &mut self,
+        options: Option<SelfCollision>,
+    ) -> Result<(), MassSpringError> {
+        self.contact.self_contact = match options {
+            Some(o) => Some(Box::new(SelfContact::new(
+                self.n_particles(),
+                &self.faces,
+                o,
+            )?)),
+            None => None,
+        };
+        Ok(())
+    }
+
+    /// The self-collision options, if it is on.
+    pub fn self_collision(&self) -> Option<SelfCollision> {
+        self.contact.self_contact.as_ref().map(|s| s.options())
     }
 
     /// The colliders.
