@@ -3,7 +3,8 @@
 //! vertex and a triangle, or two edges, can only meet at a time `t` in
 //! `[0, 1]` when their four points are coplanar, a cubic equation in `t`;
 //! at each root (in increasing order) the distance between the two
-//! features decides whether they meet.
+//! features, and whether they close in on each other along the contact
+//! normal, decide whether they meet.
 //!
 //! ```
 //! use hookean_geometry::ccd::vertex_face;
@@ -150,6 +151,13 @@ fn cubic_tolerance(x0: &[V3; 4], x1: &[V3; 4]) -> f64 {
     1e-12 * size * size * size
 }
 
+/// True when the features close along `n` over the step:
+/// `n . sum_i w_i (x1_i - x0_i) < 0`.
+fn closing(n: &V3, w: &[f64; 4], x0: &[V3; 4], x1: &[V3; 4]) -> bool {
+    let c: f64 = (0..4).map(|i| w[i] * n.dot(&(x1[i] - x0[i]))).sum();
+    c < 0.0
+}
+
 /// Orients `n` so that the first feature starts on its positive side:
 /// `n . sum_i w_i x_i(0) >= 0`, or, for features touching at the start,
 /// so that they approach along it.
@@ -166,8 +174,9 @@ fn orient(n: V3, w: &[f64; 4], x0: &[V3; 4], x1: &[V3; 4]) -> V3 {
 }
 
 /// The first time in the step at which vertex `x[0]` comes within `eta`
-/// of triangle `(x[1], x[2], x[3])`, all four moving linearly from `x0`
-/// to `x1`; `None` if it never does.
+/// of triangle `(x[1], x[2], x[3])` while closing in on it (features that
+/// touch but move apart or slide along each other are no impact), all four
+/// moving linearly from `x0` to `x1`; `None` if it never does.
 pub fn vertex_face(x0: &[V3; 4], x1: &[V3; 4], eta: f64) -> Option<Impact> {
     let c = coplanarity_cubic(x0, x1, [1, 2, 3, 0]);
     let mut times = [0.0; 8];
@@ -187,19 +196,22 @@ pub fn vertex_face(x0: &[V3; 4], x1: &[V3; 4], eta: f64) -> Option<Impact> {
             } else {
                 V3::z()
             };
-            return Some(Impact {
-                t,
-                weights: w,
-                normal: orient(normal, &w, x0, x1),
-            });
+            let normal = orient(normal, &w, x0, x1);
+            if closing(&normal, &w, x0, x1) {
+                return Some(Impact {
+                    t,
+                    weights: w,
+                    normal,
+                });
+            }
         }
     }
     None
 }
 
 /// The first time in the step at which edge `(x[0], x[1])` comes within
-/// `eta` of edge `(x[2], x[3])`, all four moving linearly from `x0` to
-/// `x1`; `None` if it never does.
+/// `eta` of edge `(x[2], x[3])` while closing in on it, all four moving
+/// linearly from `x0` to `x1`; `None` if it never does.
 pub fn edge_edge(x0: &[V3; 4], x1: &[V3; 4], eta: f64) -> Option<Impact> {
     let c = coplanarity_cubic(x0, x1, [0, 1, 2, 3]);
     let mut times = [0.0; 8];
@@ -222,11 +234,14 @@ pub fn edge_edge(x0: &[V3; 4], x1: &[V3; 4], eta: f64) -> Option<Impact> {
                 let trial = if e.x.abs() < e.y.abs() { V3::x() } else { V3::y() };
                 e.cross(&trial).normalize()
             };
-            return Some(Impact {
-                t,
-                weights: w,
-                normal: orient(normal, &w, x0, x1),
-            });
+            let normal = orient(normal, &w, x0, x1);
+            if closing(&normal, &w, x0, x1) {
+                return Some(Impact {
+                    t,
+                    weights: w,
+                    normal,
+                });
+            }
         }
     }
     None

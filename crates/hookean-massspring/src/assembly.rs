@@ -624,7 +624,7 @@ impl MassSpringModel {
                 }
             }
         }
-        self.add_contact_forces(x, v, f);
+        self.add_contact_forces(x, f);
         self.project_rows(f);
     }
 
@@ -805,14 +805,8 @@ impl MassSpringModel {
             }
         }
         // The contact forces' diagonal blocks (nothing without contact).
-        if let Some((a, b)) = comb {
-            self.add_contact_jacobians(x, v, a, b, dfdx);
-        } else {
-            self.add_contact_jacobians(x, v, 1.0, 0.0, dfdx);
-            if let Some(m) = dfdv.as_deref_mut() {
-                self.add_contact_jacobians(x, v, 0.0, 1.0, m);
-            }
-        }
+        let a = comb.map_or(1.0, |(a, _)| a);
+        self.add_contact_jacobians(x, a, dfdx);
         if parts > 1 {
             // The halos, added in part order (the same bits every run), and
             // zeroed for the next call.
@@ -841,7 +835,7 @@ impl MassSpringModel {
             }
         }
         if let Some(f) = f {
-            self.add_contact_forces(x, v, f);
+            self.add_contact_forces(x, f);
             self.project_rows(f);
         }
     }

@@ -6,18 +6,23 @@
 //!   pushed out (to the surface for planes and spheres, to the thickness for
 //!   meshes), its inward normal velocity relative to the surface is removed,
 //!   and, unless it separates, its normal is constrained for the step. With
-//!   friction, a particle whose tangential speed is below [`STICK_SPEED`]
-//!   and whose tangential force lies in the static cone `|f_t| <= mu_s N`
-//!   sticks (all three directions constrained, moving with the surface);
-//!   otherwise it slides against a kinetic friction force `mu_k N` inside the
-//!   implicit step. Cloth self-collision finds its proximity pairs here.
-//! - **Inside the step**: the friction force of sliding particles and the
-//!   repulsion of self-contact pairs are forces of the model, with their
-//!   Jacobians on the diagonal blocks ([`MassSpringModel::add_contact_forces`],
-//!   [`MassSpringModel::add_contact_jacobians`]).
-//! - **After the step** (`end_step`): the continuous passes, cloth
-//!   self-collision (`self_contact.rs`) and then mesh colliders (a particle
-//!   whose straight path entered a mesh is put back at the thickness).
+//!   Coulomb friction the impact first takes up to `mu_k |dv_n|` of the
+//!   tangential velocity (Bridson et al. 2002, eq. 9); then the tangential
+//!   momentum the particle would have after the step without friction,
+//!   `q = m v_t + h f_t` (`h` the last step's size), decides: within the
+//!   static cone, `|q| <= h mu_s N`, the particle sticks (all three
+//!   directions constrained, moving with the surface); outside it, it slides
+//!   against the kinetic friction force `-mu_k N q / |q|` (the normal force
+//!   `N = -f . n` at the step's start). Cloth self-collision finds its
+//!   proximity pairs here.
+//! - **Inside the step**: the friction force of sliding particles (constant
+//!   over the step: no Jacobian) and the repulsion of self-contact pairs are
+//!   forces of the model ([`MassSpringModel::add_contact_forces`]), the
+//!   repulsion with diagonal Jacobian blocks
+//!   ([`MassSpringModel::add_contact_jacobians`]).
+//! - **After the step** (`end_step`): the continuous passes, mesh colliders
+//!   (a particle whose straight path entered a mesh is put back at the
+//!   thickness) and cloth self-collision (`self_contact.rs`).
 
 use hookean_sparse::SymBlockMatrix;
 use hookean_sparse::block::{self, Block3};
@@ -28,22 +33,17 @@ use crate::collide::{Collider, touch};
 use crate::model::{Dirs, MassSpringModel, point};
 use crate::self_contact::SelfContact;
 
-/// Tangential speed (m/s) below which a particle in the static friction
-/// cone sticks: the speed at which Coulomb friction is regularised into a
-/// viscous force (`f = -mu_k N v_t / max(|v_t|, STICK_SPEED)`).
+/// Tangential speed (m/s) below which a particle whose tangential force
+/// lies in the static cone sticks when no step size is known yet (the first
+/// step of a run); afterwards the static cone of the momentum decides.
 pub const STICK_SPEED: f64 = 1e-3;
 
-/// A sliding contact of the current step: the kinetic friction force
-/// `-mu_k N v_t / max(|v_t|, STICK_SPEED)` on particle `p`, with the normal
-/// force `N` of the step's start.
+/// A sliding contact of the current step: the kinetic friction force on
+/// particle `p`, constant over the step.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Sliding {
     p: usize,
-    normal: Vector3<f64>,
-    /// `mu_k N` (N).
-    mu_n: f64,
-    /// The surface's velocity at the contact.
-    surface_velocity: Vector3<f64>,
+    force: Vector3<f64>,
 }
 
 /// What the contact handling did in the last step (counters).
@@ -72,6 +72,8 @@ pub struct ContactStats {
 #[derive(Debug, Clone, Default)]
 pub(crate) struct ContactState {
     pub(crate) sliding: Vec<Sliding>,
+    /// The size of the last accepted step (0 before the first).
+    pub(crate) h_last: f64,
     pub(crate) self_contact: Option<Box<SelfContact>>,
     pub(crate) stats: ContactStats,
 }
@@ -176,7 +178,13 @@ impl MassSpringModel {
                     v[3 * p..3 * p + 3].copy_from_slice(w.as_slice());
                 }
                 let ft = fp - normal * f_n;
-                let stick = vt.norm() <= STICK_SPEED && ft.norm() <= friction.mu_s * big_n;
+                let (h, m) = (self.contact.h_last, self.particle_mass[p]);
+                let q = vt * m + ft * h;
+                let stick = if h > 0.0 {
+                    q.norm() <= h * friction.mu_s * big_n
+                } else {
+                    vt.norm() <= STICK_SPEED && ft.norm() <= friction.mu_s * big_n
+                };
                 if !dirs.push([normal.x, normal.y, normal.z], 0.0) {
                     continue;
                 }
@@ -188,13 +196,17 @@ impl MassSpringModel {
                     v[3 * p..3 * p + 3].copy_from_slice(w.as_slice());
                     self.contact.stats.sticking += 1;
                 } else if friction.mu_k > 0.0 && big_n > 0.0 {
-                    self.contact.sliding.push(Sliding {
-                        p,
-                        normal,
-                        mu_n: friction.mu_k * big_n,
-                        surface_velocity: touch.velocity,
-                    });
-                    self.contact.stats.sliding += 1;
+                    // Opposing the momentum it would have: outside the cone,
+                    // the friction impulse h mu_k N <= h mu_s N < |q| cannot
+                    // reverse it.
+                    let dir = if q.norm() > 0.0 { q / q.norm() } else { vt / speed };
+                    if dir.iter().all(|c| c.is_finite()) {
+                        self.contact.sliding.push(Sliding {
+                            p,
+                            force: dir * (-friction.mu_k * big_n),
+                        });
+                        self.contact.stats.sliding += 1;
+                    }
                 }
                 self.activate(p, dirs);
                 self.active_set.contact_count += 1;
@@ -208,13 +220,10 @@ impl MassSpringModel {
     /// constrained particles are projected): kinetic friction of sliding
     /// particles and the repulsion of self-contact pairs. No allocation;
     /// nothing when there is no contact.
-    pub(crate) fn add_contact_forces(&self, x: &[f64], v: &[f64], f: &mut [f64]) {
+    pub(crate) fn add_contact_forces(&self, x: &[f64], f: &mut [f64]) {
         for s in &self.contact.sliding {
-            let vrel = point(v, s.p) - s.surface_velocity;
-            let vt = vrel - s.normal * vrel.dot(&s.normal);
-            let scale = s.mu_n / vt.norm().max(STICK_SPEED);
             for r in 0..3 {
-                f[3 * s.p + r] -= scale * vt[r];
+                f[3 * s.p + r] += s.force[r];
             }
         }
         if let Some(sc) = &self.contact.self_contact {
@@ -222,42 +231,14 @@ impl MassSpringModel {
         }
     }
 
-    /// Adds `a d(f_c)/dx + b d(f_c)/dv` of the contact forces `f_c` to the
-    /// diagonal blocks of `m` (projected for constrained particles,
-    /// `P_p J P_p`): the friction of a sliding particle is a damping in its
-    /// tangent plane, `-mu_k N / max(|v_t|, STICK_SPEED)` times the
-    /// projector onto the tangent plane (less `t t^T` along the sliding
-    /// direction `t` when `|v_t|` exceeds the regularisation); a
-    /// self-contact pair adds `-k w_i^2 n n^T` to each of its particles'
-    /// blocks (the coupling blocks between particles are left out: they are
-    /// not on the pattern, so Newton converges linearly on them). No
-    /// allocation.
-    pub(crate) fn add_contact_jacobians(
-        &self,
-        x: &[f64],
-        v: &[f64],
-        a: f64,
-        b: f64,
-        m: &mut SymBlockMatrix,
-    ) {
-        if b != 0.0 {
-            for s in &self.contact.sliding {
-                let vrel = point(v, s.p) - s.surface_velocity;
-                let vt = vrel - s.normal * vrel.dot(&s.normal);
-                let speed = vt.norm();
-                let n = [s.normal.x, s.normal.y, s.normal.z];
-                let mut j = block::scale(&block::outer(&n, &n), -1.0);
-                for r in 0..3 {
-                    j[r][r] += 1.0;
-                }
-                if speed > STICK_SPEED {
-                    let t = [vt.x / speed, vt.y / speed, vt.z / speed];
-                    j = block::add(&j, &block::scale(&block::outer(&t, &t), -1.0));
-                }
-                let scale = -b * s.mu_n / speed.max(STICK_SPEED);
-                self.add_to_diagonal_projected(m, s.p, &block::scale(&j, scale));
-            }
-        }
+    /// Adds `a d(f_c)/dx` of the contact forces `f_c` to the diagonal
+    /// blocks of `m` (projected for constrained particles, `P_p J P_p`):
+    /// a self-contact pair adds `-k |w_i| (sum_j |w_j|) n n^T` to each of its
+    /// particles' blocks (a diagonal bound of its stiffness: the coupling
+    /// blocks between the particles are not on the pattern, so Newton
+    /// converges linearly, and monotonically, on them). Friction is constant
+    /// over the step and adds nothing. No allocation.
+    pub(crate) fn add_contact_jacobians(&self, x: &[f64], a: f64, m: &mut SymBlockMatrix) {
         if a != 0.0
             && let Some(sc) = &self.contact.self_contact
         {
@@ -281,8 +262,10 @@ impl MassSpringModel {
     }
 
     /// `end_step`: the continuous passes of the step from `t` to `t + h`
-    /// that started at `x_start` (self-collision, then mesh colliders).
-    /// True if `x` or `v` changed.
+    /// that started at `x_start`. Mesh colliders always; with
+    /// self-collision, every collider before and after the self-collision
+    /// pass (a plane or sphere left to the next `begin_step` would push the
+    /// layer on it through the layers above). True if `x` or `v` changed.
     pub(crate) fn end_contact_step(
         &mut self,
         t: f64,
@@ -291,43 +274,56 @@ impl MassSpringModel {
         x: &mut [f64],
         v: &mut [f64],
     ) -> bool {
-        let mut changed = false;
-        if let Some(mut sc) = self.contact.self_contact.take() {
-            let inv_mass: &dyn Fn(usize) -> f64 = &|p| {
-                if self.active_set.dirs[p].count == 3 {
-                    0.0
-                } else {
-                    1.0 / self.particle_mass[p]
-                }
-            };
-            let proj = |p: usize| {
-                self.active_set.constrained[p].then(|| self.active_set.proj[p])
-            };
-            let out = sc.resolve(h, x_start, x, v, inv_mass, &proj);
-            self.contact.stats.impacts = out.impacts;
-            self.contact.stats.impact_zones = out.zones;
-            self.contact.stats.fallbacks = out.fallbacks;
-            changed |= out.changed;
-            self.contact.self_contact = Some(sc);
-        }
-        if self
+        self.contact.h_last = h;
+        let has_mesh = self
             .colliders
             .iter()
-            .any(|c| matches!(c, Collider::Mesh { .. }))
-        {
-            let corrected = self.mesh_pass(t, h, x_start, x, v);
+            .any(|c| matches!(c, Collider::Mesh { .. }));
+        let Some(mut sc) = self.contact.self_contact.take() else {
+            if !has_mesh {
+                return false;
+            }
+            let corrected = self.collider_pass(t, h, x_start, x, v, false);
             self.contact.stats.mesh_corrections = corrected;
-            changed |= corrected > 0;
+            return corrected > 0;
+        };
+        let mut corrected = self.collider_pass(t, h, x_start, x, v, true);
+        let inv_mass: &dyn Fn(usize) -> f64 = &|p| {
+            if self.active_set.dirs[p].count == 3 {
+                0.0
+            } else {
+                1.0 / self.particle_mass[p]
+            }
+        };
+        let proj = |p: usize| self.active_set.constrained[p].then(|| self.active_set.proj[p]);
+        let out = sc.resolve(h, x_start, x, v, inv_mass, &proj);
+        self.contact.stats.impacts = out.impacts;
+        self.contact.stats.impact_zones = out.zones;
+        self.contact.stats.fallbacks = out.fallbacks;
+        self.contact.self_contact = Some(sc);
+        if out.changed {
+            corrected += self.collider_pass(t, h, x_start, x, v, true);
         }
-        changed
+        self.contact.stats.mesh_corrections = corrected;
+        out.changed || corrected > 0
     }
 
     /// Puts back every particle whose straight path from `x_start` entered
     /// a mesh collider (or that ended inside one): at the contact point
     /// pushed out by the thickness, its inward normal velocity relative to
-    /// the surface removed. Particles are independent: threaded, the same
-    /// bits for every thread count. Returns the number corrected.
-    fn mesh_pass(&self, t: f64, h: f64, x_start: &[f64], x: &mut [f64], v: &mut [f64]) -> usize {
+    /// the surface removed; with `analytic`, also particles that ended
+    /// inside a plane or sphere (onto the surface). Particles are
+    /// independent: threaded, the same bits for every thread count. Returns
+    /// the number of corrections.
+    fn collider_pass(
+        &self,
+        t: f64,
+        h: f64,
+        x_start: &[f64],
+        x: &mut [f64],
+        v: &mut [f64],
+        analytic: bool,
+    ) -> usize {
         let colliders = &self.colliders;
         let fixes = &self.fixes;
         x.par_chunks_exact_mut(3)
@@ -340,20 +336,31 @@ impl MassSpringModel {
                 }
                 let mut hits = 0;
                 for c in colliders {
-                    let Collider::Mesh { mesh, .. } = c else {
-                        continue;
-                    };
-                    let (a, b) = (Vector3::from_column_slice(a), Vector3::from_column_slice(xp));
-                    if let Some((y, n)) = mesh.correct_path(t, h, &a, &b) {
-                        xp.copy_from_slice(y.as_slice());
-                        let vs = mesh.motion().velocity_at(t + h, &y);
-                        let w = Vector3::from_column_slice(vp);
-                        let vn = (w - vs).dot(&n);
-                        if vn < 0.0 {
-                            vp.copy_from_slice((w - n * vn).as_slice());
+                    let b = Vector3::from_column_slice(xp);
+                    let (y, n, vs) = match c {
+                        Collider::Mesh { mesh, .. } => {
+                            let a = Vector3::from_column_slice(a);
+                            let Some((y, n)) = mesh.correct_path(t, h, &a, &b) else {
+                                continue;
+                            };
+                            (y, n, mesh.motion().velocity_at(t + h, &y))
                         }
-                        hits += 1;
+                        _ if analytic => {
+                            let (phi, n) = c.signed_distance(&b);
+                            if !(phi < 0.0) {
+                                continue;
+                            }
+                            (b - n * phi, n, Vector3::zeros())
+                        }
+                        _ => continue,
+                    };
+                    xp.copy_from_slice(y.as_slice());
+                    let w = Vector3::from_column_slice(vp);
+                    let vn = (w - vs).dot(&n);
+                    if vn < 0.0 {
+                        vp.copy_from_slice((w - n * vn).as_slice());
                     }
+                    hits += 1;
                 }
                 hits
             })

@@ -82,5 +82,5 @@ pub use hookean_problem::SecondOrderProblem;
 pub use model::{
     DampingInDfdx, MassSpringModel, ModelOptions, ParticleConstraint, Spring, SpringDamping,
 };
-pub use obj::{ObjMesh, parse_obj, read_obj_file, speed_colours, write_obj};
+pub use obj::{ObjMesh, parse_obj, read_obj_file, read_surface, speed_colours, write_obj};
 pub use self_contact::SelfCollision;
