@@ -158,6 +158,11 @@ fn closing(n: &V3, w: &[f64; 4], x0: &[V3; 4], x1: &[V3; 4]) -> bool {
     c < 0.0
 }
 
+/// The largest displacement of the points `range` over the step.
+fn moved(x0: &[V3; 4], x1: &[V3; 4], range: std::ops::Range<usize>) -> f64 {
+    range.map(|i| (x1[i] - x0[i]).norm()).fold(0.0, f64::max)
+}
+
 /// Orients `n` so that the first feature starts on its positive side:
 /// `n . sum_i w_i x_i(0) >= 0`, or, for features touching at the start,
 /// so that they approach along it.
@@ -178,6 +183,12 @@ fn orient(n: V3, w: &[f64; 4], x0: &[V3; 4], x1: &[V3; 4]) -> V3 {
 /// touch but move apart or slide along each other are no impact), all four
 /// moving linearly from `x0` to `x1`; `None` if it never does.
 pub fn vertex_face(x0: &[V3; 4], x1: &[V3; 4], eta: f64) -> Option<Impact> {
+    // Distance is 1-Lipschitz in each point: features farther apart at the
+    // start than their largest motions can close do not meet.
+    let d0 = (x0[0] - closest_point_triangle(&x0[0], &x0[1], &x0[2], &x0[3]).point).norm();
+    if d0 - (moved(x0, x1, 0..1) + moved(x0, x1, 1..4)) > eta {
+        return None;
+    }
     let c = coplanarity_cubic(x0, x1, [1, 2, 3, 0]);
     let mut times = [0.0; 8];
     let n = candidate_times(&c, cubic_tolerance(x0, x1), &mut times);
@@ -213,6 +224,10 @@ pub fn vertex_face(x0: &[V3; 4], x1: &[V3; 4], eta: f64) -> Option<Impact> {
 /// `eta` of edge `(x[2], x[3])` while closing in on it, all four moving
 /// linearly from `x0` to `x1`; `None` if it never does.
 pub fn edge_edge(x0: &[V3; 4], x1: &[V3; 4], eta: f64) -> Option<Impact> {
+    let (_, _, c1, c2) = closest_points_segments(&x0[0], &x0[1], &x0[2], &x0[3]);
+    if (c1 - c2).norm() - (moved(x0, x1, 0..2) + moved(x0, x1, 2..4)) > eta {
+        return None;
+    }
     let c = coplanarity_cubic(x0, x1, [0, 1, 2, 3]);
     let mut times = [0.0; 8];
     let n = candidate_times(&c, cubic_tolerance(x0, x1), &mut times);

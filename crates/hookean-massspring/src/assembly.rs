@@ -624,7 +624,7 @@ impl MassSpringModel {
                 }
             }
         }
-        self.add_contact_forces(x, f);
+        self.add_contact_forces(x, v, f);
         self.project_rows(f);
     }
 
@@ -805,8 +805,14 @@ impl MassSpringModel {
             }
         }
         // The contact forces' diagonal blocks (nothing without contact).
-        let a = comb.map_or(1.0, |(a, _)| a);
-        self.add_contact_jacobians(x, a, dfdx);
+        if let Some((a, b)) = comb {
+            self.add_contact_jacobians(x, a, b, dfdx);
+        } else {
+            self.add_contact_jacobians(x, 1.0, 0.0, dfdx);
+            if let Some(m) = dfdv.as_deref_mut() {
+                self.add_contact_jacobians(x, 0.0, 1.0, m);
+            }
+        }
         if parts > 1 {
             // The halos, added in part order (the same bits every run), and
             // zeroed for the next call.
@@ -835,7 +841,7 @@ impl MassSpringModel {
             }
         }
         if let Some(f) = f {
-            self.add_contact_forces(x, f);
+            self.add_contact_forces(x, v, f);
             self.project_rows(f);
         }
     }

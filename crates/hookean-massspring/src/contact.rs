@@ -12,13 +12,17 @@
 //!   `q = m v_t + h f_t` (`h` the last step's size), decides: within the
 //!   static cone, `|q| <= h mu_s N`, the particle sticks (all three
 //!   directions constrained, moving with the surface); outside it, it slides
-//!   against the kinetic friction force `-mu_k N q / |q|` (the normal force
-//!   `N = -f . n` at the step's start). Cloth self-collision finds its
-//!   proximity pairs here.
-//! - **Inside the step**: the friction force of sliding particles (constant
-//!   over the step: no Jacobian) and the repulsion of self-contact pairs are
-//!   forces of the model ([`MassSpringModel::add_contact_forces`]), the
-//!   repulsion with diagonal Jacobian blocks
+//!   (the normal force `N = -f . n` at the step's start). Cloth
+//!   self-collision finds its proximity pairs here.
+//! - **Inside the step**: kinetic friction is the tangential damping force
+//!   `-c v_t` with `c = mu_k N / |v_t^pred|`, `|v_t^pred| = (|q| - h mu_k
+//!   N) / m` the tangential speed Coulomb friction leaves at the step's end:
+//!   it has the Coulomb magnitude `mu_k N` exactly when the other forces are
+//!   constant over the step, is linear in the unknown velocity (Newton needs
+//!   no extra iteration for it) and can only brake, never reverse or push, a
+//!   particle whose load changes within the step. It and the repulsion of
+//!   self-contact pairs are forces of the model
+//!   ([`MassSpringModel::add_contact_forces`]) with diagonal Jacobian blocks
 //!   ([`MassSpringModel::add_contact_jacobians`]).
 //! - **After the step** (`end_step`): the continuous passes, mesh colliders
 //!   (a particle whose straight path entered a mesh is put back at the
@@ -38,12 +42,16 @@ use crate::self_contact::SelfContact;
 /// step of a run); afterwards the static cone of the momentum decides.
 pub const STICK_SPEED: f64 = 1e-3;
 
-/// A sliding contact of the current step: the kinetic friction force on
-/// particle `p`, constant over the step.
+/// A sliding contact of the current step: the kinetic friction force
+/// `-c P_t (v_p - v_s)` on particle `p` (`P_t = I - n n^T`, `v_s` the
+/// surface's velocity), a damping in the tangent plane.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Sliding {
     p: usize,
-    force: Vector3<f64>,
+    /// `c = mu_k N / |v_t^pred|` (N s/m).
+    c: f64,
+    normal: Vector3<f64>,
+    surface_velocity: Vector3<f64>,
 }
 
 /// What the contact handling did in the last step (counters).
@@ -196,14 +204,21 @@ impl MassSpringModel {
                     v[3 * p..3 * p + 3].copy_from_slice(w.as_slice());
                     self.contact.stats.sticking += 1;
                 } else if friction.mu_k > 0.0 && big_n > 0.0 {
-                    // Opposing the momentum it would have: outside the cone,
-                    // the friction impulse h mu_k N <= h mu_s N < |q| cannot
-                    // reverse it.
-                    let dir = if q.norm() > 0.0 { q / q.norm() } else { vt / speed };
-                    if dir.iter().all(|c| c.is_finite()) {
+                    // The predicted tangential speed at the step's end,
+                    // (|q| - h mu_k N) / m > 0 outside the cone; before the
+                    // first step (h unknown) the current speed.
+                    let pred = if h > 0.0 {
+                        (q.norm() - h * friction.mu_k * big_n) / m
+                    } else {
+                        vt.norm()
+                    };
+                    let c = friction.mu_k * big_n / pred.max(STICK_SPEED);
+                    if c.is_finite() {
                         self.contact.sliding.push(Sliding {
                             p,
-                            force: dir * (-friction.mu_k * big_n),
+                            c,
+                            normal,
+                            surface_velocity: touch.velocity,
                         });
                         self.contact.stats.sliding += 1;
                     }
@@ -220,10 +235,12 @@ impl MassSpringModel {
     /// constrained particles are projected): kinetic friction of sliding
     /// particles and the repulsion of self-contact pairs. No allocation;
     /// nothing when there is no contact.
-    pub(crate) fn add_contact_forces(&self, x: &[f64], f: &mut [f64]) {
+    pub(crate) fn add_contact_forces(&self, x: &[f64], v: &[f64], f: &mut [f64]) {
         for s in &self.contact.sliding {
+            let vrel = point(v, s.p) - s.surface_velocity;
+            let vt = vrel - s.normal * vrel.dot(&s.normal);
             for r in 0..3 {
-                f[3 * s.p + r] += s.force[r];
+                f[3 * s.p + r] -= s.c * vt[r];
             }
         }
         if let Some(sc) = &self.contact.self_contact {
@@ -231,14 +248,24 @@ impl MassSpringModel {
         }
     }
 
-    /// Adds `a d(f_c)/dx` of the contact forces `f_c` to the diagonal
-    /// blocks of `m` (projected for constrained particles, `P_p J P_p`):
+    /// Adds `a d(f_c)/dx + b d(f_c)/dv` of the contact forces `f_c` to the
+    /// diagonal blocks of `m` (projected for constrained particles, `P_p J
+    /// P_p`): kinetic friction is the damping `-c P_t` in the tangent plane;
     /// a self-contact pair adds `-k |w_i| (sum_j |w_j|) n n^T` to each of its
     /// particles' blocks (a diagonal bound of its stiffness: the coupling
     /// blocks between the particles are not on the pattern, so Newton
-    /// converges linearly, and monotonically, on them). Friction is constant
-    /// over the step and adds nothing. No allocation.
-    pub(crate) fn add_contact_jacobians(&self, x: &[f64], a: f64, m: &mut SymBlockMatrix) {
+    /// converges linearly, and monotonically, on them). No allocation.
+    pub(crate) fn add_contact_jacobians(&self, x: &[f64], a: f64, b: f64, m: &mut SymBlockMatrix) {
+        if b != 0.0 {
+            for s in &self.contact.sliding {
+                let n = [s.normal.x, s.normal.y, s.normal.z];
+                let mut j = block::scale(&block::outer(&n, &n), -1.0);
+                for r in 0..3 {
+                    j[r][r] += 1.0;
+                }
+                self.add_to_diagonal_projected(m, s.p, &block::scale(&j, -b * s.c));
+            }
+        }
         if a != 0.0
             && let Some(sc) = &self.contact.self_contact
         {

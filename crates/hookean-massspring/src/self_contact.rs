@@ -85,6 +85,13 @@ pub(crate) struct Pair {
     n: V3,
 }
 
+/// What a traversal finds.
+#[derive(Debug, Clone, Copy)]
+enum Found {
+    Pair(Pair),
+    Hit(Hit),
+}
+
 /// An impact found by the continuous pass.
 #[derive(Debug, Clone, Copy)]
 struct Hit {
@@ -124,8 +131,12 @@ pub(crate) struct SelfContact {
     /// Bit `k`: triangle owns its edge `k` (vertex `k` to `k + 1`).
     owned_edges: Vec<u8>,
     bvh: Option<Bvh>,
-    pairs: Overlaps<Pair>,
-    hits: Overlaps<Hit>,
+    /// Per particle and per triangle: boxes of the current pass (a point
+    /// or swept path, grown by half the pass's distance).
+    vbox: Vec<Aabb>,
+    tbox: Vec<Aabb>,
+    found: Overlaps<Found>,
+    pairs: Vec<Pair>,
     impacts: Vec<Hit>,
     parent: Vec<u32>,
     zone_members: Vec<u32>,
@@ -179,8 +190,10 @@ impl SelfContact {
             owned_vertices,
             owned_edges,
             bvh: None,
-            pairs: Overlaps::default(),
-            hits: Overlaps::default(),
+            vbox: vec![Aabb::EMPTY; n],
+            tbox: vec![Aabb::EMPTY; faces.len()],
+            found: Overlaps::default(),
+            pairs: Vec::new(),
             impacts: Vec::new(),
             parent: vec![NONE; n],
             zone_members: Vec::new(),
@@ -192,40 +205,70 @@ impl SelfContact {
         self.opts
     }
 
-    /// The tree of the triangles, built on first use from `boxes` (a
-    /// triangle's box) and refitted to them.
-    fn refit_tree(&mut self, n_tris: usize, boxes: impl Fn(usize) -> Aabb) {
-        match &mut self.bvh {
-            Some(bvh) => bvh.refit(boxes),
-            None => {
-                self.bvh = Some(Bvh::build(
-                    &(0..n_tris).map(&boxes).collect::<Vec<_>>(),
-                ))
+    /// Fills the particle and triangle boxes of the paths `x0 -> x1` (or
+    /// the points `x0`), grown by `r`, and refits the tree to them (built on
+    /// first use). No allocation after the first call.
+    fn fill_boxes(&mut self, x0: &[f64], x1: Option<&[f64]>, r: f64) {
+        for (p, b) in self.vbox.iter_mut().enumerate() {
+            let mut bx = Aabb::point(&pt(x0, p as u32));
+            if let Some(x1) = x1 {
+                bx.add_point(&pt(x1, p as u32));
             }
+            *b = bx.inflated(r);
+        }
+        let vbox = &self.vbox;
+        for (t, b) in self.tbox.iter_mut().enumerate() {
+            let [i, j, k] = self.tris[t];
+            *b = vbox[i as usize].union(&vbox[j as usize]).union(&vbox[k as usize]);
+        }
+        let tbox = &self.tbox;
+        match &mut self.bvh {
+            Some(bvh) => bvh.refit(|t| tbox[t]),
+            None => self.bvh = Some(Bvh::build(tbox)),
         }
     }
 
-    /// Finds the proximity pairs of the positions `x` (the step's start);
-    /// returns their number.
-    pub(crate) fn find_proximity(&mut self, x: &[f64]) -> usize {
+    /// One traversal of the tree: with `x1`, the impacts of the paths `x0
+    /// -> x1` (continuous detection, boxes grown by `eta / 2`); without,
+    /// the proximity pairs of `x0` (boxes grown by `h_th / 2`). Fills
+    /// `impacts` or `pairs` (in a fixed order); returns how many.
+    fn traverse(&mut self, x0: &[f64], x1: Option<&[f64]>) -> usize {
         let th = self.opts.thickness;
-        let tris = std::mem::take(&mut self.tris);
-        let at = |p: u32| pt(x, p);
-        let boxes = |t: usize| tri_box(x, &tris[t]).inflated(0.5 * th);
-        self.refit_tree(tris.len(), boxes);
-        let (ov, oe) = (&self.owned_vertices, &self.owned_edges);
-        let bvh = self.bvh.as_ref().expect("built above");
-        bvh.self_overlaps(&mut self.pairs, |i, j, out| {
+        let eta = ETA * th;
+        let prox = x1.is_none();
+        self.fill_boxes(x0, x1, 0.5 * if prox { th } else { eta });
+        let (tris, ov, oe) = (&self.tris, &self.owned_vertices, &self.owned_edges);
+        let (vbox, tbox) = (&self.vbox, &self.tbox);
+        let xe = x1.unwrap_or(x0);
+        let at = |p: u32| pt(xe, p);
+        let moves = |idx: [u32; 4]| {
+            x1.is_some_and(|x1| {
+                idx.iter()
+                    .any(|&p| (0..3).any(|r| x0[3 * p as usize + r] != x1[3 * p as usize + r]))
+            })
+        };
+        let paths = |idx: [u32; 4]| (idx.map(|q| pt(x0, q)), idx.map(|q| pt(xe, q)));
+        let bvh = self.bvh.as_ref().expect("built by fill_boxes");
+        bvh.self_overlaps(&mut self.found, |i, j, out| {
             let (ti, tj) = (&tris[i], &tris[j]);
-            for (a, ta, tb) in [(i, ti, tj), (j, tj, ti)] {
+            for (a, ta, b, tb) in [(i, ti, j, tj), (j, tj, i, ti)] {
                 for k in 0..3 {
                     let p = ta[k];
-                    if ov[a] & (1 << k) == 0 || tb.contains(&p) {
+                    if ov[a] & (1 << k) == 0
+                        || tb.contains(&p)
+                        || !vbox[p as usize].overlaps(&tbox[b])
+                    {
                         continue;
                     }
-                    let xs = [at(p), at(tb[0]), at(tb[1]), at(tb[2])];
-                    if let Some(q) = vertex_face_proximity(&xs, th) {
-                        out.push(pair([p, tb[0], tb[1], tb[2]], &q));
+                    let idx = [p, tb[0], tb[1], tb[2]];
+                    if moves(idx) {
+                        let (y0, y1) = paths(idx);
+                        if let Some(hit) = vertex_face(&y0, &y1, eta) {
+                            out.push(Found::Hit(to_hit(idx, &hit)));
+                        }
+                    }
+                    if prox && let Some(q) = vertex_face_proximity(&idx.map(at), th) {
+                        out.push(Found::Pair(pair(idx, &q)));
                     }
                 }
             }
@@ -234,22 +277,55 @@ impl SelfContact {
                     continue;
                 }
                 let (p, q) = (ti[ka], ti[(ka + 1) % 3]);
+                let ea = vbox[p as usize].union(&vbox[q as usize]);
                 for kb in 0..3 {
                     if oe[j] & (1 << kb) == 0 {
                         continue;
                     }
                     let (r, s) = (tj[kb], tj[(kb + 1) % 3]);
-                    if p == r || p == s || q == r || q == s {
+                    if p == r
+                        || p == s
+                        || q == r
+                        || q == s
+                        || !ea.overlaps(&vbox[r as usize].union(&vbox[s as usize]))
+                    {
                         continue;
                     }
-                    if let Some(prox) = edge_edge_proximity(&[at(p), at(q), at(r), at(s)], th) {
-                        out.push(pair([p, q, r, s], &prox));
+                    let idx = [p, q, r, s];
+                    if moves(idx) {
+                        let (y0, y1) = paths(idx);
+                        if let Some(hit) = edge_edge(&y0, &y1, eta) {
+                            out.push(Found::Hit(to_hit(idx, &hit)));
+                        }
+                    }
+                    if prox && let Some(q) = edge_edge_proximity(&idx.map(at), th) {
+                        out.push(Found::Pair(pair(idx, &q)));
                     }
                 }
             }
         });
-        self.tris = tris;
-        self.pairs.len()
+        if prox {
+            self.pairs.clear();
+        } else {
+            self.impacts.clear();
+        }
+        for f in self.found.iter() {
+            match *f {
+                Found::Pair(p) => self.pairs.push(p),
+                Found::Hit(h) => self.impacts.push(h),
+            }
+        }
+        if prox {
+            self.pairs.len()
+        } else {
+            self.impacts.len()
+        }
+    }
+
+    /// Finds the proximity pairs of the positions `x` (the step's start);
+    /// returns their number.
+    pub(crate) fn find_proximity(&mut self, x: &[f64]) -> usize {
+        self.traverse(x, None)
     }
 
     /// The gap `g = n . sum_i w_i x_i` of a pair and whether it repels.
@@ -303,81 +379,10 @@ impl SelfContact {
         }
     }
 
-    /// Continuous detection on the straight paths `x0 -> x1`: fills
-    /// `impacts` (in a fixed order) and returns their number.
+    /// Continuous detection on the straight paths `x0 -> x1`: returns the
+    /// number of impacts.
     fn detect(&mut self, x0: &[f64], x1: &[f64]) -> usize {
-        let eta = ETA * self.opts.thickness;
-        let tris = std::mem::take(&mut self.tris);
-        let boxes = |t: usize| {
-            tri_box(x0, &tris[t])
-                .union(&tri_box(x1, &tris[t]))
-                .inflated(0.5 * eta)
-        };
-        self.refit_tree(tris.len(), boxes);
-        let (ov, oe) = (&self.owned_vertices, &self.owned_edges);
-        let bvh = self.bvh.as_ref().expect("built above");
-        let moves = |idx: [u32; 4]| {
-            idx.iter()
-                .any(|&p| (0..3).any(|r| x0[3 * p as usize + r] != x1[3 * p as usize + r]))
-        };
-        let swept = |p: u32| {
-            let mut b = Aabb::point(&pt(x0, p));
-            b.add_point(&pt(x1, p));
-            b.inflated(0.5 * eta)
-        };
-        bvh.self_overlaps(&mut self.hits, |i, j, out| {
-            let (ti, tj) = (&tris[i], &tris[j]);
-            for (a, ta, b, tb) in [(i, ti, j, tj), (j, tj, i, ti)] {
-                for k in 0..3 {
-                    let p = ta[k];
-                    if ov[a] & (1 << k) == 0 || tb.contains(&p) {
-                        continue;
-                    }
-                    if !swept(p).overlaps(&boxes(b)) {
-                        continue;
-                    }
-                    let idx = [p, tb[0], tb[1], tb[2]];
-                    if !moves(idx) {
-                        continue;
-                    }
-                    if let Some(hit) = vertex_face(&idx.map(|q| pt(x0, q)), &idx.map(|q| pt(x1, q)), eta)
-                    {
-                        out.push(to_hit(idx, &hit));
-                    }
-                }
-            }
-            for ka in 0..3 {
-                if oe[i] & (1 << ka) == 0 {
-                    continue;
-                }
-                let (p, q) = (ti[ka], ti[(ka + 1) % 3]);
-                let ea = swept(p).union(&swept(q));
-                for kb in 0..3 {
-                    if oe[j] & (1 << kb) == 0 {
-                        continue;
-                    }
-                    let (r, s) = (tj[kb], tj[(kb + 1) % 3]);
-                    if p == r || p == s || q == r || q == s {
-                        continue;
-                    }
-                    if !ea.overlaps(&swept(r).union(&swept(s))) {
-                        continue;
-                    }
-                    let idx = [p, q, r, s];
-                    if !moves(idx) {
-                        continue;
-                    }
-                    if let Some(hit) = edge_edge(&idx.map(|q| pt(x0, q)), &idx.map(|q| pt(x1, q)), eta)
-                    {
-                        out.push(to_hit(idx, &hit));
-                    }
-                }
-            }
-        });
-        self.tris = tris;
-        self.impacts.clear();
-        self.impacts.extend(self.hits.iter().copied());
-        self.impacts.len()
+        self.traverse(x0, Some(x1))
     }
 
     /// The continuous pass of a step of size `h` from `x0` to `x` (with
@@ -628,11 +633,4 @@ fn to_hit(idx: [u32; 4], hit: &Impact) -> Hit {
 fn pt(x: &[f64], p: u32) -> V3 {
     let p = p as usize;
     V3::new(x[3 * p], x[3 * p + 1], x[3 * p + 2])
-}
-
-fn tri_box(x: &[f64], t: &[u32; 3]) -> Aabb {
-    let mut b = Aabb::point(&pt(x, t[0]));
-    b.add_point(&pt(x, t[1]));
-    b.add_point(&pt(x, t[2]));
-    b
 }

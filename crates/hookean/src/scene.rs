@@ -259,6 +259,9 @@ pub struct ClothScene {
     /// `"horizontal"` (default: the xy plane) or `"vertical"` (the xz plane).
     #[serde(default)]
     pub plane: PlaneScene,
+    /// Turns the cloth's plane about the x axis by this many degrees (right-hand rule: a horizontal cloth tilts its far edge up). Default 0.
+    #[serde(default, deserialize_with = "finite")]
+    pub tilt: f64,
     /// Position of the first particle. Default `[0, 0, 0]`.
     #[serde(default, deserialize_with = "finite3")]
     pub origin: [f64; 3],
@@ -1469,6 +1472,13 @@ impl Scene {
         let axis_v = match c.plane {
             PlaneScene::Horizontal => [0.0, 1.0, 0.0],
             PlaneScene::Vertical => [0.0, 0.0, 1.0],
+        };
+        // About +x: (y, z) -> (y cos - z sin, y sin + z cos).
+        let axis_v = if c.tilt == 0.0 {
+            axis_v
+        } else {
+            let (s, co) = c.tilt.to_radians().sin_cos();
+            [0.0, axis_v[1] * co - axis_v[2] * s, axis_v[1] * s + axis_v[2] * co]
         };
         Some(ClothParams {
             nu: c.n,
