@@ -1449,10 +1449,12 @@ impl SecondOrderProblem for MassSpringModel {
     ///    particle is constrained in all three directions, a sliding one gets
     ///    the kinetic friction force.
     /// 3. `constraints` is cleared (recreated if sized for another model) and
-    ///    filled with every active direction `d` of particle `p` with value 0:
-    ///    **the unknown is the velocity change `dv` of the reduced velocity
-    ///    form, and `d . dv_p = 0`** keeps the already-zeroed constrained
-    ///    velocity components at zero during the step.
+    ///    filled with every active direction `d` of particle `p` with the
+    ///    value `d . w_p`, `w_p` the velocity the constraint moves with (zero
+    ///    for pins and static colliders, a moving collider's surface
+    ///    velocity): the integrator imposes it on the new velocity, and its
+    ///    Newton corrections keep it (the velocity components were already
+    ///    set to it here).
     ///
     /// The active directions also project `force` and the Jacobians until the
     /// next `begin_step`.
@@ -1466,15 +1468,17 @@ impl SecondOrderProblem for MassSpringModel {
         }
         for &p in &self.active_set.list {
             let d = &self.active_set.dirs[p];
+            // The prescribed velocity: zero, or a moving collider's.
+            let w = self.active_set.vel[p];
             if d.count == 3 {
-                // Orthonormal and complete: equivalent to a pin at dv = 0.
-                constraints
-                    .pin(p, [0.0; 3])
-                    .expect("particle index is in range");
+                // Orthonormal and complete: equivalent to a pin of V_p.
+                constraints.pin(p, w).expect("particle index is in range");
             } else {
                 for k in 0..d.count {
+                    let e = d.dirs[k];
+                    let value = e[0] * w[0] + e[1] * w[1] + e[2] * w[2];
                     constraints
-                        .constrain(p, d.dirs[k], 0.0)
+                        .constrain(p, e, value)
                         .expect("directions are orthonormal and finite");
                 }
             }

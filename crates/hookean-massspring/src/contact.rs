@@ -160,8 +160,10 @@ impl MassSpringModel {
                 }
                 let friction = self.colliders[c].friction();
                 let mut dirs: Dirs = self.active_set.dirs[p];
+                let moving = [touch.velocity.x, touch.velocity.y, touch.velocity.z];
                 if friction.is_none() {
                     if dirs.push([normal.x, normal.y, normal.z], 0.0) {
+                        self.active_set.vel[p] = moving;
                         self.activate(p, dirs);
                         self.active_set.contact_count += 1;
                     }
@@ -223,6 +225,7 @@ impl MassSpringModel {
                         self.contact.stats.sliding += 1;
                     }
                 }
+                self.active_set.vel[p] = moving;
                 self.activate(p, dirs);
                 self.active_set.contact_count += 1;
             }

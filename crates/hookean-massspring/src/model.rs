@@ -197,6 +197,10 @@ pub(crate) struct ActiveSet {
     pub(crate) list: Vec<usize>,
     /// Contacts found by the last collision pass.
     pub(crate) contact_count: usize,
+    /// The velocity the constrained directions of a particle move with
+    /// (zero for pins and static colliders; a moving collider's surface
+    /// velocity): the prescribed value of direction `d` is `d . vel[p]`.
+    pub(crate) vel: Vec<[f64; 3]>,
 }
 
 impl ActiveSet {
@@ -207,6 +211,7 @@ impl ActiveSet {
             constrained: vec![false; n],
             list: Vec::with_capacity(n),
             contact_count: 0,
+            vel: vec![[0.0; 3]; n],
         }
     }
 }
@@ -616,6 +621,7 @@ impl MassSpringModel {
             self.active_set.constrained[p] = false;
             self.active_set.dirs[p] = Dirs::EMPTY;
             self.active_set.proj[p] = block::IDENTITY;
+            self.active_set.vel[p] = [0.0; 3];
             self.plan.mark_rows_of(p, true);
         }
         self.active_set.list.clear();

@@ -134,6 +134,24 @@ pub fn self_intersections(x: &[f64], faces: &[[usize; 3]]) -> Vec<(usize, usize)
     out
 }
 
+/// True when `p` lies strictly inside the closed triangle mesh
+/// (`vertices`, `triangles`), by the parity of the crossings of a ray from
+/// `p` in a fixed direction of irrational slopes (so that it passes through
+/// no edge or vertex of a mesh with rational coordinates) with the
+/// triangles: a test independent of signed distances and pseudo-normals.
+pub fn inside_closed_mesh(p: &P, vertices: &[P], triangles: &[[usize; 3]]) -> bool {
+    let d = [0.301_511_344_577_763_6, 0.527_644_853_011_086_3, 0.794_200_883_813_283_7];
+    let far = [p[0] + 1e6 * d[0], p[1] + 1e6 * d[1], p[2] + 1e6 * d[2]];
+    let mut crossings = 0;
+    for t in triangles {
+        let tri = t.map(|i| vertices[i]);
+        if segment_crosses(p, &far, &tri) {
+            crossings += 1;
+        }
+    }
+    crossings % 2 == 1
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -159,5 +177,21 @@ mod tests {
         // Sharing an edge and folded: boundary contact only.
         let g = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.3]];
         assert!(!triangles_intersect(&a, &g));
+    }
+
+    #[test]
+    fn ray_parity_finds_the_inside_of_a_box() {
+        let v: Vec<P> = (0..8)
+            .map(|i| [(i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64])
+            .collect();
+        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let t: Vec<[usize; 3]> = quads
+            .iter()
+            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            .collect();
+        assert!(inside_closed_mesh(&[0.5, 0.5, 0.5], &v, &t));
+        assert!(inside_closed_mesh(&[0.01, 0.99, 0.02], &v, &t));
+        assert!(!inside_closed_mesh(&[1.5, 0.5, 0.5], &v, &t));
+        assert!(!inside_closed_mesh(&[0.5, 0.5, 1.001], &v, &t));
     }
 }
