@@ -184,8 +184,8 @@ enum Item {
     Face(usize),
     Segment(usize),
     Sphere([f64; 3], f64),
-    /// Triangle `k` of mesh collider `c` (an index into `meshes`).
-    MeshFace(usize, usize),
+    /// A piece of a mesh collider's triangle.
+    MeshFace(usize),
 }
 
 /// An orthographic camera looking along `-dir` from an elevated front-left
@@ -372,15 +372,24 @@ pub fn render(s: &RenderScene<'_>, width: usize, height: usize) -> Result<Canvas
             .map(|(k, f)| (proj[f[0]][2] + proj[f[1]][2] + proj[f[2]][2], Item::Face(k)))
             .collect()
     };
-    // Mesh colliders at the time of the state: world vertices, projected.
-    let meshes: Vec<(Vec<[f64; 3]>, &[[usize; 3]])> = s
+    // Mesh colliders at the time of the state, cut into pieces about the
+    // size of the cloth's: the painter's algorithm sorts whole triangles,
+    // and a table top drawn as one triangle would cover the cloth on it.
+    let (lo3, hi3) = s.bounds;
+    let piece = (0..3).map(|c| hi3[c] - lo3[c]).fold(1e-3, f64::max) / 48.0;
+    let meshes: Vec<[[f64; 3]; 3]> = s
         .colliders
         .iter()
-        .filter_map(|c| match c {
-            ViewCollider::Mesh { triangles, .. } => {
-                Some((c.mesh_vertices_at(s.t), triangles.as_slice()))
-            }
-            _ => None,
+        .flat_map(|c| {
+            let v = c.mesh_vertices_at(s.t);
+            let triangles = match c {
+                ViewCollider::Mesh { triangles, .. } => triangles.clone(),
+                _ => Vec::new(),
+            };
+            triangles
+                .into_iter()
+                .flat_map(move |t| subdivide(t.map(|i| v[i]), piece))
+                .collect::<Vec<_>>()
         })
         .collect();
     for c in s.colliders {
@@ -388,11 +397,9 @@ pub fn render(s: &RenderScene<'_>, width: usize, height: usize) -> Result<Canvas
             items.push((3.0 * cam.project(center)[2], Item::Sphere(*center, *radius)));
         }
     }
-    for (m, (vertices, triangles)) in meshes.iter().enumerate() {
-        for (k, t) in triangles.iter().enumerate() {
-            let depth: f64 = t.iter().map(|&i| cam.project(&vertices[i])[2]).sum();
-            items.push((depth, Item::MeshFace(m, k)));
-        }
+    for (k, t) in meshes.iter().enumerate() {
+        let depth: f64 = t.iter().map(|p| cam.project(p)[2]).sum();
+        items.push((depth, Item::MeshFace(k)));
     }
     items.sort_by(|a, b| a.0.total_cmp(&b.0));
     let half_width = (width.min(height) as f64 / 200.0).max(1.5);
@@ -416,9 +423,8 @@ pub fn render(s: &RenderScene<'_>, width: usize, height: usize) -> Result<Canvas
                 );
             }
             Item::Sphere(center, radius) => draw_sphere(&mut canvas, &cam, &center, radius, &light),
-            Item::MeshFace(m, k) => {
-                let (vertices, triangles) = &meshes[m];
-                let p = triangles[k].map(|i| vertices[i]);
+            Item::MeshFace(k) => {
+                let p = meshes[k];
                 let normal = normalise(cross(sub(&p[1], &p[0]), sub(&p[2], &p[0])));
                 let shade = 0.35 + 0.65 * dot3(&normal, &light).abs();
                 let px3 = p.map(|q| cam.pixel(&cam.project(&q)));
@@ -462,10 +468,9 @@ fn draw_labels(
             ViewCollider::Sphere { radius, .. } => {
                 Some(format!("sphere collider r = {} m", tick_text(*radius)))
             }
-            ViewCollider::Mesh { triangles, .. } => Some(format!(
-                "mesh collider ({} triangles)",
-                triangles.len()
-            )),
+            ViewCollider::Mesh { triangles, .. } => {
+                Some(format!("mesh collider ({} triangles)", triangles.len()))
+            }
             _ => None,
         })
         .collect();
@@ -513,6 +518,32 @@ fn draw_labels(
     })
 }
 
+/// Triangle `t` cut into `k^2` similar pieces, `k` the smallest count that
+/// makes every edge at most `size` (at most 64 per edge).
+fn subdivide(t: [[f64; 3]; 3], size: f64) -> Vec<[[f64; 3]; 3]> {
+    let longest = (0..3)
+        .map(|e| {
+            let d = sub(&t[(e + 1) % 3], &t[e]);
+            (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+        })
+        .fold(0.0, f64::max);
+    let k = ((longest / size).ceil() as usize).clamp(1, 64);
+    let at = |i: usize, j: usize| -> [f64; 3] {
+        let (a, b) = (i as f64 / k as f64, j as f64 / k as f64);
+        std::array::from_fn(|c| t[0][c] + a * (t[1][c] - t[0][c]) + b * (t[2][c] - t[0][c]))
+    };
+    let mut out = Vec::with_capacity(k * k);
+    for i in 0..k {
+        for j in 0..k - i {
+            out.push([at(i, j), at(i + 1, j), at(i, j + 1)]);
+            if i + j + 1 < k {
+                out.push([at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+    }
+    out
+}
+
 fn to_u8(c: [f64; 3]) -> [u8; 3] {
     c.map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
 }
@@ -548,6 +579,20 @@ mod tests {
         c.fill_triangle([[0.0, 0.0], [100.0, 0.0], [0.0, 100.0]], [0, 0, 0]);
         let dark = c.pixels().iter().filter(|p| **p == [0, 0, 0]).count();
         assert!((dark as f64 - 5000.0).abs() < 150.0, "{dark}");
+    }
+
+    #[test]
+    fn subdivided_triangles_tile_the_triangle() {
+        let t = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]];
+        let pieces = subdivide(t, 0.5);
+        // Longest edge sqrt(5) = 2.24: k = 5, 25 pieces of a 25th of the area.
+        assert_eq!(pieces.len(), 25);
+        let area = |p: &[[f64; 3]; 3]| {
+            let c = cross(sub(&p[1], &p[0]), sub(&p[2], &p[0]));
+            0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
+        };
+        let total: f64 = pieces.iter().map(area).sum();
+        assert!((total - area(&t)).abs() < 1e-12);
     }
 
     #[test]

@@ -75,7 +75,12 @@ impl From<&Collider> for ViewCollider {
             Collider::Mesh { mesh, .. } => {
                 let m = mesh.motion();
                 ViewCollider::Mesh {
-                    vertices: mesh.mesh().vertices().iter().map(|v| [v.x, v.y, v.z]).collect(),
+                    vertices: mesh
+                        .mesh()
+                        .vertices()
+                        .iter()
+                        .map(|v| [v.x, v.y, v.z])
+                        .collect(),
                     triangles: mesh.mesh().triangles().to_vec(),
                     velocity: m.velocity,
                     angular_velocity: m.angular_velocity,

@@ -100,9 +100,8 @@ mod tests {
 
     #[test]
     fn union_overlap_and_distance_follow_the_definitions() {
-        let a = Aabb::point(&Vector3::new(0.0, 0.0, 0.0)).union(&Aabb::point(&Vector3::new(
-            1.0, 1.0, 1.0,
-        )));
+        let a = Aabb::point(&Vector3::new(0.0, 0.0, 0.0))
+            .union(&Aabb::point(&Vector3::new(1.0, 1.0, 1.0)));
         let b = Aabb::point(&Vector3::new(1.0, 2.0, 0.5));
         assert!(!a.overlaps(&b));
         assert!(a.inflated(1.0).overlaps(&b));

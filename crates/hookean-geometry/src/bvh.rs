@@ -390,7 +390,11 @@ mod tests {
         let mut rng = SmallRng::seed_from_u64(seed);
         (0..n)
             .map(|_| {
-                let c = Vector3::new(rng.random::<f64>(), rng.random::<f64>(), rng.random::<f64>());
+                let c = Vector3::new(
+                    rng.random::<f64>(),
+                    rng.random::<f64>(),
+                    rng.random::<f64>(),
+                );
                 Aabb::point(&c).inflated(0.02 + 0.03 * rng.random::<f64>())
             })
             .collect()
@@ -453,9 +457,7 @@ mod tests {
         let p = Vector3::new(0.25, 0.5, 0.75);
         let d2 = |i: usize| (moved[i].center() - p).norm_squared();
         let (best, d) = bvh.nearest(&p, d2).unwrap();
-        let brute_best = (0..200)
-            .min_by(|&a, &b| d2(a).total_cmp(&d2(b)))
-            .unwrap();
+        let brute_best = (0..200).min_by(|&a, &b| d2(a).total_cmp(&d2(b))).unwrap();
         assert_eq!(d, d2(brute_best));
         assert_eq!(best, brute_best);
     }

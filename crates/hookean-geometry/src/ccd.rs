@@ -246,7 +246,11 @@ pub fn edge_edge(x0: &[V3; 4], x1: &[V3; 4], eta: f64) -> Option<Impact> {
             } else {
                 // Parallel and touching: any direction across both edges.
                 let e = q1 - p1;
-                let trial = if e.x.abs() < e.y.abs() { V3::x() } else { V3::y() };
+                let trial = if e.x.abs() < e.y.abs() {
+                    V3::x()
+                } else {
+                    V3::y()
+                };
                 e.cross(&trial).normalize()
             };
             let normal = orient(normal, &w, x0, x1);
@@ -326,7 +330,11 @@ mod tests {
         for _ in 0..2000 {
             let mut r = || V3::new(rng.random(), rng.random(), rng.random::<f64>() - 0.5);
             let tri0 = [r(), r(), r()];
-            let tri1 = [tri0[0] + r() * 0.2, tri0[1] + r() * 0.2, tri0[2] + r() * 0.2];
+            let tri1 = [
+                tri0[0] + r() * 0.2,
+                tri0[1] + r() * 0.2,
+                tri0[2] + r() * 0.2,
+            ];
             let p0 = (tri0[0] + tri0[1] + tri0[2]) / 3.0 + V3::new(0.0, 0.0, 0.4) + r() * 0.1;
             let p1 = (tri1[0] + tri1[1] + tri1[2]) / 3.0 - V3::new(0.0, 0.0, 0.4) + r() * 0.3;
             let x0 = [p0, tri0[0], tri0[1], tri0[2]];

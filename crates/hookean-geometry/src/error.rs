@@ -38,7 +38,9 @@ pub enum GeometryError {
         triangle: usize,
     },
     /// An edge is shared by more than two triangles.
-    #[error("edge {a}-{b} of triangle {triangle} is shared by {count} triangles (non-manifold: at most 2)")]
+    #[error(
+        "edge {a}-{b} of triangle {triangle} is shared by {count} triangles (non-manifold: at most 2)"
+    )]
     NonManifoldEdge {
         /// A triangle beyond the second one on the edge.
         triangle: usize,
@@ -51,7 +53,9 @@ pub enum GeometryError {
     },
     /// Two triangles on an edge run through it in the same direction: their
     /// normals disagree about which side is outside.
-    #[error("triangle {triangle} runs through edge {a}-{b} in the same direction as its neighbour (inconsistent orientation)")]
+    #[error(
+        "triangle {triangle} runs through edge {a}-{b} in the same direction as its neighbour (inconsistent orientation)"
+    )]
     Orientation {
         /// The second triangle on the edge.
         triangle: usize,

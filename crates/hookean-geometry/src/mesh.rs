@@ -357,7 +357,11 @@ mod tests {
                     .fold(f64::INFINITY, f64::min)
             };
             let got = mesh.closest(&p);
-            assert!((got.distance - want).abs() < 1e-12, "{p:?}: {} vs {want}", got.distance);
+            assert!(
+                (got.distance - want).abs() < 1e-12,
+                "{p:?}: {} vs {want}",
+                got.distance
+            );
             // The normal points from the surface point to p outside.
             if want > 1e-9 {
                 assert!(((p - got.point) / want - got.normal).norm() < 1e-9);
@@ -385,7 +389,12 @@ mod tests {
 
     #[test]
     fn bad_meshes_are_refused_with_the_triangle_named() {
-        let sq = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]];
+        let sq = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [1.0, 1.0, 0.0],
+        ];
         assert_eq!(
             TriMesh::new(sq.clone(), vec![]).unwrap_err(),
             GeometryError::Empty { what: "triangles" }
@@ -405,16 +414,29 @@ mod tests {
         fin.push([0.5, 0.0, 1.0]);
         assert!(matches!(
             TriMesh::new(fin, vec![[0, 1, 2], [1, 0, 3], [0, 1, 4]]).unwrap_err(),
-            GeometryError::NonManifoldEdge { triangle: 2, a: 0, b: 1, count: 3 }
+            GeometryError::NonManifoldEdge {
+                triangle: 2,
+                a: 0,
+                b: 1,
+                count: 3
+            }
         ));
         // Two neighbours both running 1 -> 2.
         assert_eq!(
             TriMesh::new(sq.clone(), vec![[0, 1, 2], [1, 2, 3]]).unwrap_err(),
-            GeometryError::Orientation { triangle: 1, a: 1, b: 2 }
+            GeometryError::Orientation {
+                triangle: 1,
+                a: 1,
+                b: 2
+            }
         );
         assert_eq!(
             TriMesh::new(sq, vec![[0, 1, 9]]).unwrap_err(),
-            GeometryError::IndexOutOfRange { triangle: 0, index: 9, n_vertices: 4 }
+            GeometryError::IndexOutOfRange {
+                triangle: 0,
+                index: 9,
+                n_vertices: 4
+            }
         );
     }
 }

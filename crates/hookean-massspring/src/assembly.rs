@@ -1487,14 +1487,7 @@ impl SecondOrderProblem for MassSpringModel {
 
     /// The continuous contact passes (`contact.rs`): cloth self-collision
     /// and mesh colliders; nothing (and `false`) for a model without them.
-    fn end_step(
-        &mut self,
-        t: f64,
-        h: f64,
-        x_start: &[f64],
-        x: &mut [f64],
-        v: &mut [f64],
-    ) -> bool {
+    fn end_step(&mut self, t: f64, h: f64, x_start: &[f64], x: &mut [f64], v: &mut [f64]) -> bool {
         self.end_contact_step(t, h, x_start, x, v)
     }
 }

@@ -76,8 +76,8 @@ pub use builders::{
 };
 pub use collide::{Collider, Friction, MeshCollider, RigidMotion};
 pub use contact::{ContactStats, STICK_SPEED};
-pub use hookean_geometry::{GeometryError, TriMesh};
 pub use error::MassSpringError;
+pub use hookean_geometry::{GeometryError, TriMesh};
 pub use hookean_problem::SecondOrderProblem;
 pub use model::{
     DampingInDfdx, MassSpringModel, ModelOptions, ParticleConstraint, Spring, SpringDamping,

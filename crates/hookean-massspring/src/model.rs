@@ -9,8 +9,8 @@ use nalgebra::Vector3;
 use crate::assembly::AssemblyPlan;
 use crate::collide::Collider;
 use crate::contact::ContactState;
-use crate::self_contact::{SelfCollision, SelfContact};
 use crate::error::MassSpringError;
+use crate::self_contact::{SelfCollision, SelfContact};
 
 /// A spring between particles `i` and `j` (docs/ARCHITECTURE.md, "the reference drape"):
 /// force on `i` is `f_i = k (l - l0) u + damping term`, `u = (x_j - x_i) / l`,

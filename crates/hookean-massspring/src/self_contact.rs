@@ -157,8 +157,7 @@ impl SelfContact {
         if faces.is_empty() {
             return Err(MassSpringError::InvalidParameter {
                 name: "self_collision",
-                message: "the model has no triangles (self-collision needs a cloth or mesh)"
-                    .into(),
+                message: "the model has no triangles (self-collision needs a cloth or mesh)".into(),
             });
         }
         let tris: Vec<[u32; 3]> = faces.iter().map(|f| f.map(|i| i as u32)).collect();
@@ -219,7 +218,9 @@ impl SelfContact {
         let vbox = &self.vbox;
         for (t, b) in self.tbox.iter_mut().enumerate() {
             let [i, j, k] = self.tris[t];
-            *b = vbox[i as usize].union(&vbox[j as usize]).union(&vbox[k as usize]);
+            *b = vbox[i as usize]
+                .union(&vbox[j as usize])
+                .union(&vbox[k as usize]);
         }
         let tbox = &self.tbox;
         match &mut self.bvh {
@@ -564,7 +565,9 @@ fn impulse(
     inv_mass: &dyn Fn(usize) -> f64,
     proj: &dyn Fn(usize) -> Option<Block3>,
 ) -> bool {
-    let vn: f64 = (0..4).map(|i| hit.w[i] * hit.n.dot(&pt(v, hit.idx[i]))).sum();
+    let vn: f64 = (0..4)
+        .map(|i| hit.w[i] * hit.n.dot(&pt(v, hit.idx[i])))
+        .sum();
     if !(vn < 0.0) {
         return false;
     }

@@ -38,7 +38,11 @@ fn close_layers_make_proximity_pairs_that_push_apart() {
     let (mut xs, mut v) = (x.clone(), vec![0.0; 18]);
     let mut c = Constraints::new(6);
     m.begin_step(0.0, &mut xs, &mut v, &mut c);
-    assert!(m.contact_stats().proximity_pairs >= 1, "{:?}", m.contact_stats());
+    assert!(
+        m.contact_stats().proximity_pairs >= 1,
+        "{:?}",
+        m.contact_stats()
+    );
     let mut f = vec![0.0; 18];
     m.force(0.0, &xs, &v, &mut f);
     // Vertex 3 pushed up by k (h - d) = 50 (0.01 - 0.005) = 0.25 N.
@@ -85,12 +89,18 @@ fn a_point_triangle_crossing_inside_one_step_is_caught() {
     }
     let h = 0.005;
     let moved: Vec<f64> = x0.iter().zip(&v).map(|(x, v)| x + h * v).collect();
-    assert!(hookean_testkit::intersect::triangles_intersect(&tri(&moved, 0), &tri(&moved, 1)));
+    assert!(hookean_testkit::intersect::triangles_intersect(
+        &tri(&moved, 0),
+        &tri(&moved, 1)
+    ));
     let mut m = two_triangles(&x0);
     let (x, v) = step_with(&mut m, &x0, &v, h);
     let s = m.contact_stats();
     assert!(s.impacts >= 1, "{s:?}");
-    assert!(!hookean_testkit::intersect::triangles_intersect(&tri(&x, 0), &tri(&x, 1)));
+    assert!(!hookean_testkit::intersect::triangles_intersect(
+        &tri(&x, 0),
+        &tri(&x, 1)
+    ));
     assert!(x[3 * 3 + 2] > 0.0, "the tip stays above: {x:?}");
     // Inelastic: the tip no longer approaches the lower triangle.
     // Relative normal velocity at the contact point (barycentric 0.6, 0.2, 0.2).
@@ -106,7 +116,8 @@ fn an_edge_edge_crossing_inside_one_step_is_caught() {
     // the plane x = 0.5, its lower edge 3-4 along y at z = 0.05, below the
     // apex, swept down through edge 0-1 and past it.
     let x0 = vec![
-        0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, -1.0, 0.0, // lower: edge 0-1 on y = 0, body at y < 0
+        0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, -1.0,
+        0.0, // lower: edge 0-1 on y = 0, body at y < 0
         0.5, 0.3, 0.05, 0.5, 0.6, 0.05, 0.5, 0.45, 0.8, // upper: edge 3-4 at y in [0.3, 0.6]
     ];
     // Move the upper triangle towards -y and down: edge 3-4 passes under
@@ -118,10 +129,16 @@ fn an_edge_edge_crossing_inside_one_step_is_caught() {
     }
     let h = 0.005;
     let moved: Vec<f64> = x0.iter().zip(&v).map(|(x, v)| x + h * v).collect();
-    assert!(hookean_testkit::intersect::triangles_intersect(&tri(&moved, 0), &tri(&moved, 1)));
+    assert!(hookean_testkit::intersect::triangles_intersect(
+        &tri(&moved, 0),
+        &tri(&moved, 1)
+    ));
     let mut m = two_triangles(&x0);
     let (x, _) = step_with(&mut m, &x0, &v, h);
     let s = m.contact_stats();
     assert!(s.impacts >= 1, "{s:?}");
-    assert!(!hookean_testkit::intersect::triangles_intersect(&tri(&x, 0), &tri(&x, 1)));
+    assert!(!hookean_testkit::intersect::triangles_intersect(
+        &tri(&x, 0),
+        &tri(&x, 1)
+    ));
 }

@@ -22,7 +22,10 @@ pub fn orient3d(a: &P, b: &P, c: &P, d: &P) -> f64 {
 /// (strictly: its end points on opposite sides of the triangle's plane, and
 /// the line through it on the same side of all three edges).
 fn segment_crosses(p: &P, q: &P, t: &[P; 3]) -> bool {
-    let (sp, sq) = (orient3d(&t[0], &t[1], &t[2], p), orient3d(&t[0], &t[1], &t[2], q));
+    let (sp, sq) = (
+        orient3d(&t[0], &t[1], &t[2], p),
+        orient3d(&t[0], &t[1], &t[2], q),
+    );
     if !((sp > 0.0 && sq < 0.0) || (sp < 0.0 && sq > 0.0)) {
         return false;
     }
@@ -45,7 +48,8 @@ fn cross2(a: &[f64; 2], b: &[f64; 2], c: &[f64; 2], d: &[f64; 2]) -> bool {
 
 /// 2D: is `p` strictly inside triangle `t`?
 fn inside2(p: &[f64; 2], t: &[[f64; 2]; 3]) -> bool {
-    let o = |a: &[f64; 2], b: &[f64; 2]| (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
+    let o =
+        |a: &[f64; 2], b: &[f64; 2]| (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
     let s = [o(&t[0], &t[1]), o(&t[1], &t[2]), o(&t[2], &t[0])];
     (s[0] > 0.0 && s[1] > 0.0 && s[2] > 0.0) || (s[0] < 0.0 && s[1] < 0.0 && s[2] < 0.0)
 }
@@ -55,7 +59,8 @@ fn inside2(p: &[f64; 2], t: &[[f64; 2]; 3]) -> bool {
 /// projections overlap. Touching along boundaries does not count.
 pub fn triangles_intersect(a: &[P; 3], b: &[P; 3]) -> bool {
     for k in 0..3 {
-        if segment_crosses(&a[k], &a[(k + 1) % 3], b) || segment_crosses(&b[k], &b[(k + 1) % 3], a) {
+        if segment_crosses(&a[k], &a[(k + 1) % 3], b) || segment_crosses(&b[k], &b[(k + 1) % 3], a)
+        {
             return true;
         }
     }
@@ -66,7 +71,11 @@ pub fn triangles_intersect(a: &[P; 3], b: &[P; 3]) -> bool {
     }
     let n = {
         let (u, v) = (sub(&a[1], &a[0]), sub(&a[2], &a[0]));
-        [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+        [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ]
     };
     let drop = (0..3)
         .max_by(|&i, &j| n[i].abs().total_cmp(&n[j].abs()))
@@ -121,7 +130,8 @@ pub fn self_intersections(x: &[f64], faces: &[[usize; 3]]) -> Vec<(usize, usize)
             if boxes[j].0[0] > boxes[i].1[0] {
                 break;
             }
-            let overlap = (1..3).all(|c| boxes[i].0[c] <= boxes[j].1[c] && boxes[j].0[c] <= boxes[i].1[c]);
+            let overlap =
+                (1..3).all(|c| boxes[i].0[c] <= boxes[j].1[c] && boxes[j].0[c] <= boxes[i].1[c]);
             if !overlap || faces[i].iter().any(|v| faces[j].contains(v)) {
                 continue;
             }
@@ -140,7 +150,11 @@ pub fn self_intersections(x: &[f64], faces: &[[usize; 3]]) -> Vec<(usize, usize)
 /// no edge or vertex of a mesh with rational coordinates) with the
 /// triangles: a test independent of signed distances and pseudo-normals.
 pub fn inside_closed_mesh(p: &P, vertices: &[P], triangles: &[[usize; 3]]) -> bool {
-    let d = [0.301_511_344_577_763_6, 0.527_644_853_011_086_3, 0.794_200_883_813_283_7];
+    let d = [
+        0.301_511_344_577_763_6,
+        0.527_644_853_011_086_3,
+        0.794_200_883_813_283_7,
+    ];
     let far = [p[0] + 1e6 * d[0], p[1] + 1e6 * d[1], p[2] + 1e6 * d[2]];
     let mut crossings = 0;
     for t in triangles {
@@ -184,7 +198,14 @@ mod tests {
         let v: Vec<P> = (0..8)
             .map(|i| [(i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64])
             .collect();
-        let quads = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
         let t: Vec<[usize; 3]> = quads
             .iter()
             .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])

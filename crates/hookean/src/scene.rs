@@ -1478,7 +1478,11 @@ impl Scene {
             axis_v
         } else {
             let (s, co) = c.tilt.to_radians().sin_cos();
-            [0.0, axis_v[1] * co - axis_v[2] * s, axis_v[1] * s + axis_v[2] * co]
+            [
+                0.0,
+                axis_v[1] * co - axis_v[2] * s,
+                axis_v[1] * s + axis_v[2] * co,
+            ]
         };
         Some(ClothParams {
             nu: c.n,
@@ -1663,8 +1667,9 @@ impl Scene {
             })
             .map_err(in_table("jelly"))?
         } else if let Some(m) = &self.mesh {
-            let (obj, _) = hookean_massspring::read_surface(self.resolve(&m.path), m.scale, m.offset)
-                .map_err(in_table("mesh"))?;
+            let (obj, _) =
+                hookean_massspring::read_surface(self.resolve(&m.path), m.scale, m.offset)
+                    .map_err(in_table("mesh"))?;
             let bend = m.bend_stiffness.unwrap_or(m.stiffness / 10.0);
             let (mut model, state) = hookean_massspring::from_mesh(
                 &obj,
@@ -1754,7 +1759,8 @@ impl Scene {
                     let mesh = MeshCollider::new(surface, *thickness)
                         .and_then(|m| m.with_motion(motion))
                         .map_err(&collider)?;
-                    Collider::mesh(mesh).with_friction(friction(*static_friction, *kinetic_friction)?)
+                    Collider::mesh(mesh)
+                        .with_friction(friction(*static_friction, *kinetic_friction)?)
                 }
             });
         }

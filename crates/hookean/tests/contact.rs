@@ -151,7 +151,10 @@ fn a_particle_dropped_on_a_mesh_rests_at_its_thickness() {
     let table = MeshCollider::new(box_mesh([-0.5, -0.5, 0.0], [0.5, 0.5, 0.5]), th).unwrap();
     let sim = drop_particle(Collider::mesh(table), [0.1, -0.2, 0.8], 1.0);
     let gap = sim.x()[2] - 0.5;
-    assert!((gap - th).abs() < 0.01 * th, "rests {gap} above, thickness {th}");
+    assert!(
+        (gap - th).abs() < 0.01 * th,
+        "rests {gap} above, thickness {th}"
+    );
     assert!(sim.v()[2].abs() < 1e-9);
     // Onto a box turned 30 degrees about x (its top face slanted), with
     // friction enough to hold the particle (tan 30 deg = 0.58 < 0.8): it
@@ -187,7 +190,10 @@ fn a_particle_dropped_on_a_mesh_rests_at_its_thickness() {
     let n = rotate([0.0, 0.0, 1.0]);
     let p = sim.x();
     let dist = n[0] * p[0] + n[1] * p[1] + n[2] * p[2] - 0.5;
-    assert!((dist - th).abs() < 0.01 * th, "rests {dist} from the face, thickness {th}");
+    assert!(
+        (dist - th).abs() < 0.01 * th,
+        "rests {dist} from the face, thickness {th}"
+    );
     assert!(sim.v().iter().all(|v| v.abs() < 1e-9), "{:?}", sim.v());
 }
 
@@ -209,7 +215,9 @@ fn a_particle_rides_a_rising_platform_at_its_thickness() {
 }
 
 fn scene(name: &str, overrides: &[&str]) -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes").join(name);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../scenes")
+        .join(name);
     let o: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
     Scene::from_file(&path, &o).unwrap()
 }
@@ -277,7 +285,11 @@ fn cloth_table(overrides: &[&str], rests: bool) {
     assert!(z.iter().all(|&z| z > 0.5 && z < 0.56), "{z:?}");
     if rests {
         let resting = z.iter().filter(|&&z| (z - 0.505).abs() < 1e-3).count();
-        assert!(4 * resting >= z.len(), "{resting} of {} at the thickness", z.len());
+        assert!(
+            4 * resting >= z.len(),
+            "{resting} of {} at the thickness",
+            z.len()
+        );
     }
     // Same thread count, same bits.
     let (again, _) = run_checked(&s, 2, |_| {});
@@ -356,4 +368,3 @@ fn cloth_slope_rests_on_its_slope() {
     let moved = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
     assert!(moved < 1e-3, "moved {moved} m");
 }
-
