@@ -1,5 +1,5 @@
-//! A bounding volume hierarchy of axis-aligned boxes, one primitive per
-//! leaf: built once per topology (median splits along the longest axis of
+//! A bounding volume hierarchy of axis-aligned boxes, up to four
+//! primitives per leaf: built once per topology (median splits along the longest axis of
 //! the centroids, a deterministic order), refitted in place when the
 //! primitives move, queried by box, by nearest primitive, and for all
 //! overlapping pairs of its own leaves (self-collision), on rayon threads
@@ -12,14 +12,25 @@ use crate::aabb::Aabb;
 
 const NONE: u32 = u32::MAX;
 
+/// Primitives per leaf: a leaf tests its primitives' own boxes, which is
+/// cheaper than descending two more levels of nodes.
+const LEAF: usize = 4;
+
 #[derive(Debug, Clone, Copy)]
 struct Node {
     aabb: Aabb,
-    /// Children (internal nodes) or `NONE`.
+    /// Children (internal nodes) or `NONE` for leaves.
     left: u32,
     right: u32,
-    /// The primitive of a leaf, `NONE` for internal nodes.
-    prim: u32,
+    /// A leaf's primitives: `order[first..first + count]`.
+    first: u32,
+    count: u32,
+}
+
+impl Node {
+    fn is_leaf(&self) -> bool {
+        self.left == NONE
+    }
 }
 
 /// A binary tree of boxes over primitives `0..n`; node 0 is the root, every
@@ -41,8 +52,10 @@ struct Node {
 #[derive(Debug, Clone)]
 pub struct Bvh {
     nodes: Vec<Node>,
-    /// Leaf node of each primitive.
-    leaf_of: Vec<u32>,
+    /// Primitives in leaf order.
+    order: Vec<u32>,
+    /// The primitives' boxes (of the last build or refit).
+    boxes: Vec<Aabb>,
 }
 
 /// Pairs of overlapping leaves found by [`Bvh::self_overlaps`], in a fixed
@@ -90,32 +103,30 @@ impl Bvh {
     pub fn build(boxes: &[Aabb]) -> Self {
         let n = boxes.len();
         let mut bvh = Bvh {
-            nodes: Vec::with_capacity((2 * n).saturating_sub(1)),
-            leaf_of: vec![NONE; n],
+            nodes: Vec::with_capacity((2 * n / LEAF + 1).max(1)),
+            order: (0..n as u32).collect(),
+            boxes: boxes.to_vec(),
         };
         if n == 0 {
             return bvh;
         }
         let centers: Vec<Vector3<f64>> = boxes.iter().map(Aabb::center).collect();
-        let mut prims: Vec<u32> = (0..n as u32).collect();
-        bvh.nodes.push(Node {
+        let leaf = |first: usize, count: usize| Node {
             aabb: Aabb::EMPTY,
             left: NONE,
             right: NONE,
-            prim: NONE,
-        });
+            first: first as u32,
+            count: count as u32,
+        };
+        bvh.nodes.push(leaf(0, n));
         // Explicit stack of (node, range) to build without recursion.
         let mut stack = vec![(0usize, 0usize, n)];
         while let Some((node, lo, hi)) = stack.pop() {
-            if hi - lo == 1 {
-                let p = prims[lo];
-                bvh.nodes[node].prim = p;
-                bvh.nodes[node].aabb = boxes[p as usize];
-                bvh.leaf_of[p as usize] = node as u32;
+            if hi - lo <= LEAF {
                 continue;
             }
             let mut cb = Aabb::EMPTY;
-            for &p in &prims[lo..hi] {
+            for &p in &bvh.order[lo..hi] {
                 cb.add_point(&centers[p as usize]);
             }
             let e = cb.extent();
@@ -128,20 +139,14 @@ impl Bvh {
             };
             let mid = lo + (hi - lo) / 2;
             // A total order (coordinate, index): the same tree on every run.
-            prims[lo..hi].select_nth_unstable_by(mid - lo, |&a, &b| {
+            bvh.order[lo..hi].select_nth_unstable_by(mid - lo, |&a, &b| {
                 centers[a as usize][axis]
                     .total_cmp(&centers[b as usize][axis])
                     .then(a.cmp(&b))
             });
             let left = bvh.nodes.len();
-            for _ in 0..2 {
-                bvh.nodes.push(Node {
-                    aabb: Aabb::EMPTY,
-                    left: NONE,
-                    right: NONE,
-                    prim: NONE,
-                });
-            }
+            bvh.nodes.push(leaf(lo, mid - lo));
+            bvh.nodes.push(leaf(mid, hi - mid));
             bvh.nodes[node].left = left as u32;
             bvh.nodes[node].right = left as u32 + 1;
             stack.push((left + 1, mid, hi));
@@ -153,12 +158,12 @@ impl Bvh {
 
     /// Number of primitives.
     pub fn len(&self) -> usize {
-        self.leaf_of.len()
+        self.order.len()
     }
 
     /// True for a tree without primitives.
     pub fn is_empty(&self) -> bool {
-        self.leaf_of.is_empty()
+        self.order.is_empty()
     }
 
     /// The box of the whole tree ([`Aabb::EMPTY`] when empty).
@@ -166,15 +171,25 @@ impl Bvh {
         self.nodes.first().map_or(Aabb::EMPTY, |n| n.aabb)
     }
 
-    /// Replaces every leaf's box by `aabb(primitive)` and recomputes the
-    /// internal boxes bottom-up. The tree's shape is kept (its quality
+    /// The primitives of a leaf.
+    fn prims(&self, nd: &Node) -> &[u32] {
+        &self.order[nd.first as usize..(nd.first + nd.count) as usize]
+    }
+
+    /// Replaces every primitive's box by `aabb(primitive)` and recomputes
+    /// the nodes' boxes bottom-up. The tree's shape is kept (its quality
     /// degrades gracefully under the small motions of one time step). No
     /// allocation.
     pub fn refit(&mut self, aabb: impl Fn(usize) -> Aabb) {
+        for (i, b) in self.boxes.iter_mut().enumerate() {
+            *b = aabb(i);
+        }
         for k in (0..self.nodes.len()).rev() {
             let nd = self.nodes[k];
-            self.nodes[k].aabb = if nd.prim != NONE {
-                aabb(nd.prim as usize)
+            self.nodes[k].aabb = if nd.is_leaf() {
+                self.prims(&nd)
+                    .iter()
+                    .fold(Aabb::EMPTY, |b, &p| b.union(&self.boxes[p as usize]))
             } else {
                 self.nodes[nd.left as usize]
                     .aabb
@@ -183,7 +198,7 @@ impl Bvh {
         }
     }
 
-    /// Calls `f(primitive)` for every leaf whose box overlaps `query`.
+    /// Calls `f(primitive)` for every primitive whose box overlaps `query`.
     pub fn for_each_overlap(&self, query: &Aabb, mut f: impl FnMut(usize)) {
         if !self.nodes.is_empty() {
             self.overlap_rec(0, query, &mut f);
@@ -195,8 +210,12 @@ impl Bvh {
         if !nd.aabb.overlaps(query) {
             return;
         }
-        if nd.prim != NONE {
-            f(nd.prim as usize);
+        if nd.is_leaf() {
+            for &p in self.prims(nd) {
+                if self.boxes[p as usize].overlaps(query) {
+                    f(p as usize);
+                }
+            }
         } else {
             self.overlap_rec(nd.left as usize, query, f);
             self.overlap_rec(nd.right as usize, query, f);
@@ -228,10 +247,14 @@ impl Bvh {
         best: &mut (usize, f64),
     ) {
         let nd = &self.nodes[k];
-        if nd.prim != NONE {
-            let d = dist2(nd.prim as usize);
-            if d < best.1 {
-                *best = (nd.prim as usize, d);
+        if nd.is_leaf() {
+            for &q in self.prims(nd) {
+                if self.boxes[q as usize].distance_squared(p) < best.1 {
+                    let d = dist2(q as usize);
+                    if d < best.1 {
+                        *best = (q as usize, d);
+                    }
+                }
             }
             return;
         }
@@ -271,7 +294,7 @@ impl Bvh {
             return;
         }
         // Expand (a, a) self tasks and (a, b) pair tasks level by level;
-        // tasks that cannot yield a pair are dropped.
+        // pairs of disjoint nodes are dropped.
         overlaps.tasks.push((0, 0));
         loop {
             let end = overlaps.tasks.len();
@@ -282,26 +305,24 @@ impl Bvh {
             for t in 0..end {
                 let (a, b) = overlaps.tasks[t];
                 let (na, nb) = (self.nodes[a as usize], self.nodes[b as usize]);
-                if a == b && na.prim == NONE {
+                if a == b && !na.is_leaf() {
                     overlaps.tasks.push((na.left, na.left));
                     overlaps.tasks.push((na.right, na.right));
                     overlaps.tasks.push((na.left, na.right));
                     expanded = true;
-                } else if a != b && na.aabb.overlaps(&nb.aabb) {
-                    if na.prim == NONE {
+                } else if a != b && na.aabb.overlaps(&nb.aabb) && !(na.is_leaf() && nb.is_leaf()) {
+                    if !na.is_leaf() {
                         overlaps.tasks.push((na.left, b));
                         overlaps.tasks.push((na.right, b));
-                    } else if nb.prim == NONE {
+                    } else {
                         overlaps.tasks.push((a, nb.left));
                         overlaps.tasks.push((a, nb.right));
-                    } else {
-                        // Two leaves: keep as a task of its own.
-                        overlaps.tasks.push((a, b));
-                        continue;
                     }
                     expanded = true;
+                } else if a == b || na.aabb.overlaps(&nb.aabb) {
+                    // A leaf, or two overlapping leaves: a task of its own.
+                    overlaps.tasks.push((a, b));
                 }
-                // (Leaf self tasks and disjoint pairs yield nothing: dropped.)
             }
             overlaps.tasks.drain(..end);
             if !expanded {
@@ -332,12 +353,32 @@ impl Bvh {
 
     fn self_rec<T>(&self, k: usize, visit: &impl Fn(usize, usize, &mut Vec<T>), out: &mut Vec<T>) {
         let nd = &self.nodes[k];
-        if nd.prim != NONE {
+        if nd.is_leaf() {
+            let prims = self.prims(nd);
+            for (x, &i) in prims.iter().enumerate() {
+                for &j in &prims[x + 1..] {
+                    self.visit_prims(i, j, visit, out);
+                }
+            }
             return;
         }
         self.self_rec(nd.left as usize, visit, out);
         self.self_rec(nd.right as usize, visit, out);
         self.pair_rec(nd.left as usize, nd.right as usize, visit, out);
+    }
+
+    #[inline]
+    fn visit_prims<T>(
+        &self,
+        i: u32,
+        j: u32,
+        visit: &impl Fn(usize, usize, &mut Vec<T>),
+        out: &mut Vec<T>,
+    ) {
+        let (i, j) = (i as usize, j as usize);
+        if self.boxes[i].overlaps(&self.boxes[j]) {
+            visit(i.min(j), i.max(j), out);
+        }
     }
 
     fn pair_rec<T>(
@@ -351,10 +392,16 @@ impl Bvh {
         if !na.aabb.overlaps(&nb.aabb) {
             return;
         }
-        match (na.prim != NONE, nb.prim != NONE) {
+        match (na.is_leaf(), nb.is_leaf()) {
             (true, true) => {
-                let (i, j) = (na.prim as usize, nb.prim as usize);
-                visit(i.min(j), i.max(j), out);
+                for &i in self.prims(na) {
+                    if !self.boxes[i as usize].overlaps(&nb.aabb) {
+                        continue;
+                    }
+                    for &j in self.prims(nb) {
+                        self.visit_prims(i, j, visit, out);
+                    }
+                }
             }
             (true, false) => {
                 self.pair_rec(a, nb.left as usize, visit, out);

@@ -74,6 +74,10 @@ pub struct ContactStats {
     /// Self-collision rounds of the last step that needed the fallbacks
     /// beyond rigid zones (translation or rest): normally 0.
     pub fallbacks: usize,
+    /// Traversals of the self-collision tree in the last step (rebuilds of
+    /// the candidate list, and detections of fast motion): most steps need
+    /// none.
+    pub traversals: usize,
 }
 
 /// The contact state of a model between `begin_step` and `end_step`.
@@ -330,6 +334,7 @@ impl MassSpringModel {
         self.contact.stats.impacts = out.impacts;
         self.contact.stats.impact_zones = out.zones;
         self.contact.stats.fallbacks = out.fallbacks;
+        self.contact.stats.traversals = std::mem::take(&mut sc.traversals);
         self.contact.self_contact = Some(sc);
         if out.changed {
             corrected += self.collider_pass(t, h, x_start, x, v, true);

@@ -22,7 +22,7 @@
 
 use hookean_geometry::ccd::{Impact, edge_edge, vertex_face};
 use hookean_geometry::proximity::{Proximity, edge_edge_proximity, vertex_face_proximity};
-use hookean_geometry::{Aabb, Bvh, Overlaps};
+use hookean_geometry::{Aabb, Bvh, Overlaps, closest_point_triangle, closest_points_segments};
 use hookean_sparse::block::Block3;
 use nalgebra::{Matrix3, Vector3};
 
@@ -85,11 +85,12 @@ pub(crate) struct Pair {
     n: V3,
 }
 
-/// What a traversal finds.
+/// A feature pair of the candidate list: vertex-face (`idx[0]` and the
+/// face `idx[1..]`) or edge-edge.
 #[derive(Debug, Clone, Copy)]
-enum Found {
-    Pair(Pair),
-    Hit(Hit),
+struct Candidate {
+    idx: [u32; 4],
+    ee: bool,
 }
 
 /// An impact found by the continuous pass.
@@ -118,6 +119,8 @@ const ZONE_ROUNDS: usize = 40;
 /// The collision distance of the continuous test, relative to the
 /// thickness.
 const ETA: f64 = 0.01;
+/// The candidate list's margin beyond the thickness, relative to it.
+const SKIN: f64 = 1.0;
 
 const NONE: u32 = u32::MAX;
 
@@ -135,9 +138,15 @@ pub(crate) struct SelfContact {
     /// or swept path, grown by half the pass's distance).
     vbox: Vec<Aabb>,
     tbox: Vec<Aabb>,
-    found: Overlaps<Found>,
+    /// Feature pairs within `(1 + SKIN) h_th` of each other at `reference`.
+    candidates: Vec<Candidate>,
+    reference: Vec<f64>,
+    found: Overlaps<Candidate>,
+    hits: Overlaps<Hit>,
     pairs: Vec<Pair>,
     impacts: Vec<Hit>,
+    /// Tree traversals since the counter was last taken.
+    pub(crate) traversals: usize,
     parent: Vec<u32>,
     zone_members: Vec<u32>,
 }
@@ -191,9 +200,13 @@ impl SelfContact {
             bvh: None,
             vbox: vec![Aabb::EMPTY; n],
             tbox: vec![Aabb::EMPTY; faces.len()],
+            candidates: Vec::new(),
+            reference: Vec::new(),
             found: Overlaps::default(),
+            hits: Overlaps::default(),
             pairs: Vec::new(),
             impacts: Vec::new(),
+            traversals: 0,
             parent: vec![NONE; n],
             zone_members: Vec::new(),
         })
@@ -229,106 +242,113 @@ impl SelfContact {
         }
     }
 
-    /// One traversal of the tree: with `x1`, the impacts of the paths `x0
-    /// -> x1` (continuous detection, boxes grown by `eta / 2`); without,
-    /// the proximity pairs of `x0` (boxes grown by `h_th / 2`). Fills
-    /// `impacts` or `pairs` (in a fixed order); returns how many.
-    fn traverse(&mut self, x0: &[f64], x1: Option<&[f64]>) -> usize {
-        let th = self.opts.thickness;
-        let eta = ETA * th;
-        let prox = x1.is_none();
-        self.fill_boxes(x0, x1, 0.5 * if prox { th } else { eta });
-        let (tris, ov, oe) = (&self.tris, &self.owned_vertices, &self.owned_edges);
-        let (vbox, tbox) = (&self.vbox, &self.tbox);
-        let xe = x1.unwrap_or(x0);
-        let at = |p: u32| pt(xe, p);
-        let moves = |idx: [u32; 4]| {
-            x1.is_some_and(|x1| {
-                idx.iter()
-                    .any(|&p| (0..3).any(|r| x0[3 * p as usize + r] != x1[3 * p as usize + r]))
-            })
-        };
-        let paths = |idx: [u32; 4]| (idx.map(|q| pt(x0, q)), idx.map(|q| pt(xe, q)));
-        let bvh = self.bvh.as_ref().expect("built by fill_boxes");
-        bvh.self_overlaps(&mut self.found, |i, j, out| {
-            let (ti, tj) = (&tris[i], &tris[j]);
-            for (a, ta, b, tb) in [(i, ti, j, tj), (j, tj, i, ti)] {
-                for k in 0..3 {
-                    let p = ta[k];
-                    if ov[a] & (1 << k) == 0
-                        || tb.contains(&p)
-                        || !vbox[p as usize].overlaps(&tbox[b])
-                    {
-                        continue;
-                    }
-                    let idx = [p, tb[0], tb[1], tb[2]];
-                    if moves(idx) {
-                        let (y0, y1) = paths(idx);
-                        if let Some(hit) = vertex_face(&y0, &y1, eta) {
-                            out.push(Found::Hit(to_hit(idx, &hit)));
-                        }
-                    }
-                    if prox && let Some(q) = vertex_face_proximity(&idx.map(at), th) {
-                        out.push(Found::Pair(pair(idx, &q)));
-                    }
+    /// Every owned feature pair (vertex-face, edge-edge; sharing no vertex)
+    /// of the triangles `i` and `j` whose particle boxes overlap, handed to
+    /// `f(particles, edge_edge)`.
+    fn feature_pairs(&self, i: usize, j: usize, mut f: impl FnMut([u32; 4], bool)) {
+        let (ti, tj) = (&self.tris[i], &self.tris[j]);
+        let (ov, oe, vbox, tbox) = (
+            &self.owned_vertices,
+            &self.owned_edges,
+            &self.vbox,
+            &self.tbox,
+        );
+        for (a, ta, b, tb) in [(i, ti, j, tj), (j, tj, i, ti)] {
+            for k in 0..3 {
+                let p = ta[k];
+                if ov[a] & (1 << k) != 0 && !tb.contains(&p) && vbox[p as usize].overlaps(&tbox[b])
+                {
+                    f([p, tb[0], tb[1], tb[2]], false);
                 }
             }
-            for ka in 0..3 {
-                if oe[i] & (1 << ka) == 0 {
+        }
+        for ka in 0..3 {
+            if oe[i] & (1 << ka) == 0 {
+                continue;
+            }
+            let (p, q) = (ti[ka], ti[(ka + 1) % 3]);
+            let ea = vbox[p as usize].union(&vbox[q as usize]);
+            for kb in 0..3 {
+                if oe[j] & (1 << kb) == 0 {
                     continue;
                 }
-                let (p, q) = (ti[ka], ti[(ka + 1) % 3]);
-                let ea = vbox[p as usize].union(&vbox[q as usize]);
-                for kb in 0..3 {
-                    if oe[j] & (1 << kb) == 0 {
-                        continue;
-                    }
-                    let (r, s) = (tj[kb], tj[(kb + 1) % 3]);
-                    if p == r
-                        || p == s
-                        || q == r
-                        || q == s
-                        || !ea.overlaps(&vbox[r as usize].union(&vbox[s as usize]))
-                    {
-                        continue;
-                    }
-                    let idx = [p, q, r, s];
-                    if moves(idx) {
-                        let (y0, y1) = paths(idx);
-                        if let Some(hit) = edge_edge(&y0, &y1, eta) {
-                            out.push(Found::Hit(to_hit(idx, &hit)));
-                        }
-                    }
-                    if prox && let Some(q) = edge_edge_proximity(&idx.map(at), th) {
-                        out.push(Found::Pair(pair(idx, &q)));
-                    }
+                let (r, s) = (tj[kb], tj[(kb + 1) % 3]);
+                if p != r
+                    && p != s
+                    && q != r
+                    && q != s
+                    && ea.overlaps(&vbox[r as usize].union(&vbox[s as usize]))
+                {
+                    f([p, q, r, s], true);
                 }
             }
-        });
-        if prox {
-            self.pairs.clear();
-        } else {
-            self.impacts.clear();
         }
-        for f in self.found.iter() {
-            match *f {
-                Found::Pair(p) => self.pairs.push(p),
-                Found::Hit(h) => self.impacts.push(h),
+    }
+
+    /// The candidate list (a Verlet list): every owned feature pair closer
+    /// than `R = (1 + SKIN) h_th` at the positions `x`, which become the
+    /// reference positions.
+    fn build_candidates(&mut self, x: &[f64]) {
+        self.traversals += 1;
+        let radius = (1.0 + SKIN) * self.opts.thickness;
+        self.fill_boxes(x, None, 0.5 * radius);
+        let at = |p: u32| pt(x, p);
+        let mut found = std::mem::take(&mut self.found);
+        let bvh = self.bvh.as_ref().expect("built by fill_boxes");
+        bvh.self_overlaps(&mut found, |i, j, out| {
+            self.feature_pairs(i, j, |idx, ee| {
+                let y = idx.map(at);
+                let d = if ee {
+                    let (_, _, c1, c2) = closest_points_segments(&y[0], &y[1], &y[2], &y[3]);
+                    (c1 - c2).norm()
+                } else {
+                    (y[0] - closest_point_triangle(&y[0], &y[1], &y[2], &y[3]).point).norm()
+                };
+                if d < radius {
+                    out.push(Candidate { idx, ee });
+                }
+            });
+        });
+        self.candidates.clear();
+        self.candidates.extend(found.iter().copied());
+        self.found = found;
+        self.reference.clear();
+        self.reference.extend_from_slice(x);
+    }
+
+    /// The largest distance of a particle of `x` from its reference position
+    /// (infinite before the first build).
+    fn drift(&self, x: &[f64]) -> f64 {
+        if self.reference.len() != x.len() {
+            return f64::INFINITY;
+        }
+        max_move(&self.reference, x)
+    }
+
+    /// Finds the proximity pairs of the positions `x` (the step's start)
+    /// among the candidates, rebuilt first when a particle has moved more
+    /// than `SKIN h_th / 2` since they were found (then no pair closer than
+    /// `h_th` can be missing: distance is 1-Lipschitz in each point). Returns
+    /// their number.
+    pub(crate) fn find_proximity(&mut self, x: &[f64]) -> usize {
+        let th = self.opts.thickness;
+        if 2.0 * self.drift(x) >= SKIN * th {
+            self.build_candidates(x);
+        }
+        self.pairs.clear();
+        for c in &self.candidates {
+            let y = c.idx.map(|p| pt(x, p));
+            let q = if c.ee {
+                edge_edge_proximity(&y, th)
+            } else {
+                vertex_face_proximity(&y, th)
+            };
+            if let Some(q) = q {
+                self.pairs.push(pair(c.idx, &q));
             }
         }
-        if prox {
-            self.pairs.len()
-        } else {
-            self.impacts.len()
-        }
+        self.pairs.len()
     }
-
-    /// Finds the proximity pairs of the positions `x` (the step's start);
-    /// returns their number.
-    pub(crate) fn find_proximity(&mut self, x: &[f64]) -> usize {
-        self.traverse(x, None)
-    }
-
     /// The gap `g = n . sum_i w_i x_i` of a pair and whether it repels.
     fn gap(&self, x: &[f64], p: &Pair) -> Option<f64> {
         let g: f64 = (0..4).map(|i| p.w[i] * p.n.dot(&pt(x, p.idx[i]))).sum();
@@ -380,10 +400,45 @@ impl SelfContact {
         }
     }
 
-    /// Continuous detection on the straight paths `x0 -> x1`: returns the
-    /// number of impacts.
+    /// Continuous detection on the straight paths `x0 -> x1`: fills
+    /// `impacts` (in a fixed order) and returns their number. Two features
+    /// can only meet in the step if they start within `2 M + eta` of each
+    /// other (`M` the largest motion of a particle in the step); when every
+    /// such pair is among the candidates (`2 M + eta + 2 D < R`, `D` the
+    /// drift since they were found, rebuilding them once if needed), only the
+    /// candidates are tested; otherwise (fast motion) the tree of the swept
+    /// boxes is traversed.
     fn detect(&mut self, x0: &[f64], x1: &[f64]) -> usize {
-        self.traverse(x0, Some(x1))
+        let th = self.opts.thickness;
+        let eta = ETA * th;
+        let radius = (1.0 + SKIN) * th;
+        let reach = 2.0 * max_move(x0, x1) + eta;
+        if reach + 2.0 * self.drift(x0) >= radius && reach < radius {
+            self.build_candidates(x0);
+        }
+        self.impacts.clear();
+        if reach + 2.0 * self.drift(x0) < radius {
+            for c in &self.candidates {
+                if let Some(hit) = ccd(c.idx, c.ee, x0, x1, eta) {
+                    self.impacts.push(hit);
+                }
+            }
+            return self.impacts.len();
+        }
+        self.traversals += 1;
+        self.fill_boxes(x0, Some(x1), 0.5 * eta);
+        let mut found = std::mem::take(&mut self.hits);
+        let bvh = self.bvh.as_ref().expect("built by fill_boxes");
+        bvh.self_overlaps(&mut found, |i, j, out| {
+            self.feature_pairs(i, j, |idx, ee| {
+                if let Some(hit) = ccd(idx, ee, x0, x1, eta) {
+                    out.push(hit);
+                }
+            });
+        });
+        self.impacts.extend(found.iter().copied());
+        self.hits = found;
+        self.impacts.len()
     }
 
     /// The continuous pass of a step of size `h` from `x0` to `x` (with
@@ -595,6 +650,36 @@ fn impulse(
         }
     }
     true
+}
+
+/// The continuous test of one feature pair on the paths `x0 -> x1`, if its
+/// particles move at all.
+fn ccd(idx: [u32; 4], ee: bool, x0: &[f64], x1: &[f64], eta: f64) -> Option<Hit> {
+    let moves = idx
+        .iter()
+        .any(|&p| (0..3).any(|r| x0[3 * p as usize + r] != x1[3 * p as usize + r]));
+    if !moves {
+        return None;
+    }
+    let (y0, y1) = (idx.map(|q| pt(x0, q)), idx.map(|q| pt(x1, q)));
+    let hit = if ee {
+        edge_edge(&y0, &y1, eta)
+    } else {
+        vertex_face(&y0, &y1, eta)
+    };
+    hit.map(|h| to_hit(idx, &h))
+}
+
+/// The largest distance between a particle's positions in `a` and `b`.
+fn max_move(a: &[f64], b: &[f64]) -> f64 {
+    a.chunks_exact(3)
+        .zip(b.chunks_exact(3))
+        .map(|(p, q)| {
+            let d = [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
+            d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+        })
+        .fold(0.0, f64::max)
+        .sqrt()
 }
 
 fn find(parent: &mut [u32], mut p: u32) -> u32 {
