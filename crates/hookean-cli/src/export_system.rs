@@ -32,7 +32,7 @@ pub struct ExportSystemArgs {
     /// Scene overrides key=value (as in `hookean run`).
     #[arg(long = "set")]
     set: Vec<String>,
-    /// Write into an existing folder, overwriting A.mtx and b.mtx.
+    /// Replace an existing --out that holds nothing but an earlier hookean output.
     #[arg(long)]
     force: bool,
     #[command(flatten)]
@@ -61,12 +61,8 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
             args.at
         )));
     }
-    if args.out.exists() && !args.force {
-        return Err(CliError::Input(format!(
-            "--out {} exists (use --force to write into it)",
-            args.out.display()
-        )));
-    }
+    // Refused before the simulation: an --out that exists (or holds the scene).
+    let staging = crate::output::Staging::new(&args.out, "--out", args.force, &[&args.scene])?;
     let scene = Scene::from_file(&args.scene, &args.set).map_err(input)?;
     let (particles, _) = scene.particle_count();
     let check_work = |h: f64| {
@@ -98,8 +94,9 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
             std::ops::ControlFlow::Continue(())
         });
         progress.clear();
+        // A blow-up or a solver failure of a valid scene: a failed run (exit 1).
         let summary = result.map_err(|e| {
-            CliError::Input(format!(
+            CliError::Failed(format!(
                 "{}: simulation to t = {} failed: {e}",
                 args.scene.display(),
                 args.at
@@ -107,13 +104,18 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
         })?;
         steps = summary.stats.steps;
     }
-    std::fs::create_dir_all(&args.out)
-        .map_err(|e| CliError::Input(format!("cannot create {}: {e}", args.out.display())))?;
-    let a_path = args.out.join("A.mtx");
-    let b_path = args.out.join("b.mtx");
-    sim.model()
-        .export_implicit_euler_system(h, sim.x(), sim.v(), &a_path, &b_path)
-        .map_err(input)?;
+    let (a_path, b_path) = (args.out.join("A.mtx"), args.out.join("b.mtx"));
+    let dir = staging.dir();
+    if let Err(e) = sim.model().export_implicit_euler_system(
+        h,
+        sim.x(),
+        sim.v(),
+        dir.join("A.mtx"),
+        dir.join("b.mtx"),
+    ) {
+        return Err(staging.abandon(CliError::Failed(e.to_string())));
+    }
+    staging.commit()?;
     let record = ExportRecord {
         scene: args.scene.display().to_string(),
         t: sim.t(),

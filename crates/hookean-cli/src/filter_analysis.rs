@@ -141,12 +141,6 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
             }
         )));
     }
-    if args.plot.exists() && !args.force {
-        return Err(CliError::Input(format!(
-            "output folder {} exists; pass --force to write into it",
-            args.plot.display()
-        )));
-    }
     let drape = ClothParams {
         nu: args.n,
         nv: args.n,
@@ -172,9 +166,24 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
             args.t_end, h, args.step_fraction, args.n
         ),
     )?;
-    std::fs::create_dir_all(&args.plot)
-        .map_err(|e| input(format!("{}: {e}", args.plot.display())))?;
+    // The figures are written into a staging folder moved to --plot at the
+    // end, as `run` does (crate::output).
+    let staging = crate::output::Staging::new(&args.plot, "--plot", args.force, &[&args.scene])?;
+    match analyse(args, &drape, h, plain.dt_max, staging.dir()) {
+        Ok(()) => staging.commit(),
+        Err(e) => Err(staging.abandon(e)),
+    }
+}
 
+/// Figures 4, 5 and 6 and analysis.json of the cloth `drape` into `dir`, at
+/// the FB Euler step `h` (the unfiltered stable step is `dt_max`).
+fn analyse(
+    args: &FilterAnalysisArgs,
+    drape: &ClothParams,
+    h: f64,
+    dt_max: f64,
+    dir: &Path,
+) -> Result<(), CliError> {
     // Figures 4 and 5 (three runs), then figure 6: a bar on a terminal.
     let bar = ProgressBar::new(4);
     bar.set_style(crate::bar_style(
@@ -192,17 +201,17 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
     let mut figure4 = Vec::new();
     for (name, method) in &methods {
         bar.set_message(format!("figures 4 and 5: {name} run"));
-        let run = drape_velocity_run(&drape, method, h, args.t_end, VELOCITY_SCALE, 0.5)
+        let run = drape_velocity_run(drape, method, h, args.t_end, VELOCITY_SCALE, 0.5)
             .map_err(failed)?;
         bar.inc(1);
         write_png(
             &figure4_picture(&run.image, name, h).map_err(CliError::Failed)?,
-            &args.plot.join(format!("fig4-{name}.png")),
+            &dir.join(format!("fig4-{name}.png")),
         )?;
         let spec = fftshift(&run.spectrum, args.n, args.n);
         write_png(
             &figure5_picture(&spec, args.n, name).map_err(CliError::Failed)?,
-            &args.plot.join(format!("fig5-{name}.png")),
+            &dir.join(format!("fig5-{name}.png")),
         )?;
         figure4.push(Figure4Row {
             method: name,
@@ -216,7 +225,7 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
     // Figure 6.
     bar.set_message("figure 6: stable step by bisection for 7 lambdas");
     let lambdas = [0.25, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0];
-    let build = || cloth_model(&drape).map_err(hookean_filter::FilterError::from);
+    let build = || cloth_model(drape).map_err(hookean_filter::FilterError::from);
     let options = BisectionOptions {
         run: RunOptions {
             t_end: 0.5,
@@ -258,16 +267,15 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
             },
         ],
     };
-    let svg_path = args.plot.join("fig6.svg");
-    std::fs::write(&svg_path, plot.render().map_err(CliError::Failed)?)
-        .map_err(|e| failed(format!("{}: {e}", svg_path.display())))?;
+    let svg_path = dir.join("fig6.svg");
+    crate::output::write_text(&svg_path, &plot.render().map_err(CliError::Failed)?)?;
 
     let analysis = Analysis {
         n: args.n,
-        stiffness: cloth.structural.stiffness,
-        damping: cloth.structural.damping,
-        dt_max_unfiltered: plain.dt_max,
-        step_choice: step_choice(h, args.step_fraction, plain.dt_max),
+        stiffness: drape.structural.stiffness,
+        damping: drape.structural.damping,
+        dt_max_unfiltered: dt_max,
+        step_choice: step_choice(h, args.step_fraction, dt_max),
         figure4,
         figure6: rows
             .iter()
@@ -279,9 +287,8 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
             })
             .collect(),
     };
-    let json_path = args.plot.join("analysis.json");
-    std::fs::write(&json_path, crate::to_json(&analysis, true)? + "\n")
-        .map_err(|e| failed(format!("{}: {e}", json_path.display())))?;
+    let json_path = dir.join("analysis.json");
+    crate::output::write_text(&json_path, &(crate::to_json(&analysis, true)? + "\n"))?;
     crate::outln!("{}", crate::to_json(&analysis, false)?)?;
     Ok(())
 }

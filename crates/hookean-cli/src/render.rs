@@ -4,7 +4,6 @@
 //! (blue = at rest, red = fastest), like the filtering paper's figure 7.
 //! Models without triangles (ropes) are drawn as thick spring segments.
 
-use std::io::BufWriter;
 use std::path::Path;
 
 use plotters::prelude::*;
@@ -126,19 +125,20 @@ impl Canvas {
             .collect()
     }
 
-    /// Writes the canvas as an 8-bit RGB PNG.
+    /// Writes the canvas as an 8-bit RGB PNG, replacing `path` whole (a link
+    /// there is replaced, never written through: `output::replace_file`).
     pub fn write_png(&self, path: &Path) -> Result<(), String> {
-        let file = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let mut encoder =
-            png::Encoder::new(BufWriter::new(file), self.width as u32, self.height as u32);
-        encoder.set_color(png::ColorType::Rgb);
-        encoder.set_depth(png::BitDepth::Eight);
-        let mut writer = encoder
-            .write_header()
-            .map_err(|e| format!("{}: {e}", path.display()))?;
-        writer
-            .write_image_data(self.rgb())
-            .map_err(|e| format!("{}: {e}", path.display()))
+        crate::output::replace_file(path, |w| {
+            let mut encoder = png::Encoder::new(w, self.width as u32, self.height as u32);
+            encoder.set_color(png::ColorType::Rgb);
+            encoder.set_depth(png::BitDepth::Eight);
+            let mut writer = encoder.write_header().map_err(std::io::Error::other)?;
+            writer
+                .write_image_data(self.rgb())
+                .map_err(std::io::Error::other)?;
+            writer.finish().map_err(std::io::Error::other)
+        })
+        .map_err(|e| format!("{}: {e}", path.display()))
     }
 }
 

@@ -226,13 +226,7 @@ pub fn run(args: &ReproduceArgs) -> Result<(), CliError> {
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out").join("reproduce"));
-    if out.exists() && !args.force {
-        return Err(CliError::Input(format!(
-            "output folder {} exists; pass --force to replace it",
-            out.display()
-        )));
-    }
-    let staging = crate::output::Staging::new(&out)?;
+    let staging = crate::output::Staging::new(&out, "--out", args.force, &[])?;
     let result = reproduce(args, &selected, staging.dir());
     match result {
         Ok((record, table)) => {
@@ -244,7 +238,7 @@ pub fn run(args: &ReproduceArgs) -> Result<(), CliError> {
                 .filter(|c| !c.pass)
                 .map(|c| c.id.to_string())
                 .collect();
-            eprintln!(
+            crate::errln!(
                 "reproduce: {} of {} claims hold in {:.1} s; wrote {}",
                 record.passed,
                 record.total,
@@ -321,8 +315,8 @@ fn reproduce(
         claims,
     };
     let table = markdown(&record);
-    write(&dir.join("claims.md"), &table)?;
-    write(
+    crate::output::write_text(&dir.join("claims.md"), &table)?;
+    crate::output::write_text(
         &dir.join("claims.json"),
         &(crate::to_json(&record, true)? + "\n"),
     )?;
@@ -357,10 +351,6 @@ fn markdown(r: &Record) -> String {
         );
     }
     s
-}
-
-fn write(path: &Path, text: &str) -> Result<(), CliError> {
-    std::fs::write(path, text).map_err(|e| failed(format!("{}: {e}", path.display())))
 }
 
 /// Runs a subcommand's `run` on arguments as the command line would give them.
@@ -1092,7 +1082,7 @@ fn filter_cost(ctx: &Ctx) -> Result<Outcome, CliError> {
 fn spectra(ctx: &Ctx) -> Result<Outcome, CliError> {
     let n = if ctx.quick { 12 } else { 16 };
     let scene = ctx.dir.join("filter-drape.toml");
-    write(&scene, "[cloth]\n")?;
+    crate::output::write_text(&scene, "[cloth]\n")?;
     let plot = ctx.dir.join("filter");
     let args: crate::filter_analysis::FilterAnalysisArgs = subcommand(&[
         path_arg(&scene),
@@ -1191,7 +1181,7 @@ fn figure8(ctx: &Ctx) -> Result<Outcome, CliError> {
             );
         }
     }
-    write(&ctx.dir.join("fig8.csv"), &csv)?;
+    crate::output::write_text(&ctx.dir.join("fig8.csv"), &csv)?;
     let series = |list: &[Figure8Row], x: fn(&Figure8Row) -> f64| -> Vec<Series> {
         methods
             .iter()
@@ -1211,7 +1201,7 @@ fn figure8(ctx: &Ctx) -> Result<Outcome, CliError> {
         y_label: "wall time (s)".into(),
         series: series(&rows, |r| (r.n * r.n) as f64),
     };
-    write(
+    crate::output::write_text(
         &ctx.dir.join("fig8-particles.svg"),
         &top.render().map_err(CliError::Failed)?,
     )?;
@@ -1221,7 +1211,7 @@ fn figure8(ctx: &Ctx) -> Result<Outcome, CliError> {
         y_label: "wall time (s)".into(),
         series: series(&k0_rows, |r| r.k0),
     };
-    write(
+    crate::output::write_text(
         &ctx.dir.join("fig8-k0.svg"),
         &bottom.render().map_err(CliError::Failed)?,
     )?;

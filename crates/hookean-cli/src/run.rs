@@ -16,6 +16,7 @@ use serde::Serialize;
 
 use crate::CliError;
 use crate::render::{RenderScene, render};
+use crate::thin::Thinned;
 use crate::view::{FrameEnergies, ViewCollider, ViewFrame, ViewRun};
 
 #[derive(Debug, Args)]
@@ -35,7 +36,7 @@ pub struct RunArgs {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
-    /// Refuse scenes whose model would need more memory than this (GiB).
+    /// Refuse scenes whose model would need more memory than this (GiB), in (0, the machine's memory].
     #[arg(
         long,
         value_name = "GIB",
@@ -45,17 +46,6 @@ pub struct RunArgs {
     max_memory: f64,
     #[command(flatten)]
     work: crate::work::WorkCap,
-}
-
-/// `--max-memory` in bytes.
-pub fn max_memory_bytes(gib: f64) -> Result<u64, CliError> {
-    if gib > 0.0 && gib.is_finite() {
-        Ok((gib * (1u64 << 30) as f64).min(u64::MAX as f64) as u64)
-    } else {
-        Err(CliError::Input(format!(
-            "--max-memory must be a positive number of GiB, got {gib:?}"
-        )))
-    }
 }
 
 /// The statistics of a run, as written to `summary.json`.
@@ -95,7 +85,7 @@ struct StepsCsv {
 
 impl StepsCsv {
     fn create(path: PathBuf) -> Result<Self, HookeanError> {
-        let file = File::create(&path).map_err(|e| io_error(&path, e))?;
+        let file = crate::output::new_file(&path).map_err(|e| io_error(&path, e))?;
         let mut out = BufWriter::new(file);
         writeln!(
             out,
@@ -130,23 +120,26 @@ impl Sink for StepsCsv {
 }
 
 /// OBJ frames at a fixed rate of simulated time, coloured by speed, and the
-/// same frames kept for `view.html`.
+/// same frames kept for `view.html` (thinned within `thin::VIEW_BYTES`).
 struct ObjFrames {
     dir: PathBuf,
     interval: f64,
     next: f64,
     count: usize,
-    view: Vec<ViewFrame>,
+    /// The time of every OBJ frame.
+    times: Vec<f64>,
+    view: Thinned<ViewFrame>,
 }
 
 impl ObjFrames {
     fn write(&mut self, sim: &Simulation) -> Result<(), HookeanError> {
         let path = self.dir.join(format!("frame-{:04}.obj", self.count));
-        let file = File::create(&path).map_err(|e| io_error(&path, e))?;
+        let file = crate::output::new_file(&path).map_err(|e| io_error(&path, e))?;
         let colours = hookean::massspring::speed_colours(sim.v(), 0.0);
         sim.model()
             .write_obj(BufWriter::new(file), sim.x(), Some(&colours))?;
         self.view.push(view_frame(sim)?);
+        self.times.push(sim.t());
         self.count += 1;
         self.next += self.interval;
         Ok(())
@@ -203,9 +196,10 @@ fn view_of(sim: &Simulation, summary: serde_json::Value, frames: Vec<ViewFrame>)
     }
 }
 
-/// `(t, z, exact z)` of the moving particle of the tutorial's example 3.
+/// `(t, z, exact z)` of the moving particle of the tutorial's example 3
+/// (thinned within `thin::PLOT_POINTS`).
 struct ParticleTrace {
-    points: Vec<(f64, f64, f64)>,
+    points: Thinned<(f64, f64, f64)>,
     exact: Option<LinearOscillator>,
 }
 
@@ -305,6 +299,9 @@ fn failed(e: impl std::fmt::Display) -> CliError {
     CliError::Failed(e.to_string())
 }
 
+/// The most OBJ frames one run writes (10 000 s at the default 10 per second).
+pub(crate) const MAX_FRAMES: usize = 100_000;
+
 /// `hookean run`; `threads` is the command's `--threads`, which wins over
 /// the scene's `threads` key.
 pub fn run(args: &RunArgs, threads: Option<usize>) -> Result<(), CliError> {
@@ -317,7 +314,7 @@ pub fn run(args: &RunArgs, threads: Option<usize>) -> Result<(), CliError> {
 }
 
 fn run_scene(args: &RunArgs, scene: &Scene) -> Result<(), CliError> {
-    let max_bytes = max_memory_bytes(args.max_memory)?;
+    let max_bytes = crate::memory::cap_bytes(args.max_memory)?;
     if scene.tutorial.is_some() {
         // A [tutorial] scene's step is a number (the scene refuses "auto").
         let h = scene.integrator.h.value().unwrap_or(f64::MIN_POSITIVE);
@@ -331,13 +328,7 @@ fn run_scene(args: &RunArgs, scene: &Scene) -> Result<(), CliError> {
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out").join(&name));
-    if out.exists() && !args.force {
-        return Err(CliError::Input(format!(
-            "output folder {} exists; pass --force to replace it",
-            out.display()
-        )));
-    }
-    let staging = crate::output::Staging::new(&out)?;
+    let staging = crate::output::Staging::new(&out, "--out", args.force, &[&args.scene])?;
     let report = if let Some(t) = &scene.tutorial {
         crate::tutorial_run::run(scene, t, &args.scene, staging.dir(), args.quiet)
     } else {
@@ -347,7 +338,7 @@ fn run_scene(args: &RunArgs, scene: &Scene) -> Result<(), CliError> {
         Ok(report) => {
             staging.commit()?;
             if let Some(line) = report {
-                eprintln!("{line}; wrote {}", out.display());
+                crate::errln!("{line}; wrote {}", out.display());
             }
             Ok(())
         }
@@ -389,7 +380,23 @@ fn run_model(
         )),
         e => CliError::Input(format!("{}: {e}", args.scene.display())),
     })?;
-    check_work(args, scene, sim.model().n_particles(), sim.h_next())?;
+    // A variable-step method takes at least duration / h_max steps.
+    let h = if sim.method().is_variable_step() {
+        scene.integrator.h_max.max(sim.h_next())
+    } else {
+        sim.h_next()
+    };
+    check_work(args, scene, sim.model().n_particles(), h)?;
+    // At most one OBJ frame per step and MAX_FRAMES in all.
+    let frames = (scene.duration * scene.output.frame_rate).min(scene.duration / h) + 1.0;
+    if scene.output.frame_rate > 0.0 && !(frames <= MAX_FRAMES as f64) {
+        return Err(CliError::Input(format!(
+            "{}: output.frame_rate = {:?} for duration = {:?} s is about {frames:.3e} frames, more than {MAX_FRAMES}; lower output.frame_rate",
+            args.scene.display(),
+            scene.output.frame_rate,
+            scene.duration
+        )));
+    }
 
     let mut csv = StepsCsv::create(out.join("steps.csv")).map_err(failed)?;
     let mut frames = ObjFrames {
@@ -401,7 +408,8 @@ fn run_model(
         },
         next: 0.0,
         count: 0,
-        view: Vec::new(),
+        times: Vec::new(),
+        view: Thinned::new(crate::thin::max_view_frames(sim.model().n_particles())),
     };
     if scene.output.frame_rate > 0.0 {
         frames.write(&sim).map_err(failed)?;
@@ -409,7 +417,7 @@ fn run_model(
     let mut progress = Progress::new(scene.duration, args.quiet);
     // The tutorial's example 3 ([particle]) is pictured as z(t) against its exact solution.
     let mut trace = scene.particle.as_ref().map(|_| ParticleTrace {
-        points: vec![],
+        points: Thinned::new(crate::thin::PLOT_POINTS),
         exact: exact_example3(scene),
     });
     if let Some(t) = &mut trace {
@@ -438,7 +446,7 @@ fn run_model(
                 )
             };
             // The frames up to the failure show how it went wrong.
-            if !frames.view.is_empty() {
+            if !frames.view.items().is_empty() {
                 let stats = sim.stats();
                 let summary = serde_json::json!({
                     "scene": args.scene.display().to_string(),
@@ -449,7 +457,7 @@ fn run_model(
                     "newton_iterations": stats.newton_iterations,
                     "cg_iterations": stats.linear_iterations,
                 });
-                let view = view_of(&sim, summary, std::mem::take(&mut frames.view));
+                let view = view_of(&sim, summary, frames.view.take());
                 if view.write(&out.join("view.html")).is_ok() {
                     message += &format!(
                         "; {} shows the frames before",
@@ -481,16 +489,15 @@ fn run_model(
         final_kinetic_energy: energies.kinetic,
         final_total_energy: energies.total(),
         frames: frames.count,
-        frame_times: frames.view.iter().map(|f| f.t).collect(),
+        frame_times: std::mem::take(&mut frames.times),
         colliders: colliders(&sim),
     };
     let json = crate::to_json(&record, true)?;
     let summary_path = out.join("summary.json");
-    std::fs::write(&summary_path, json + "\n")
-        .map_err(|e| failed(format!("{}: {e}", summary_path.display())))?;
+    crate::output::write_text(&summary_path, &(json + "\n"))?;
 
     // view.html: the recorded frames (the last state alone without frames).
-    let mut view_frames = std::mem::take(&mut frames.view);
+    let mut view_frames = frames.view.take();
     let last = view_frame(&sim).map_err(failed)?;
     let last_is_a_frame = view_frames.last().is_some_and(|f| f.t == last.t);
     if !last_is_a_frame {
@@ -508,7 +515,7 @@ fn run_model(
             title: "Tutorial example 3: particle on a damped spring",
             y_label: "height z (m)",
             numerical: &format!("{} (h = {} s)", sim.method(), sim.h_next()),
-            points,
+            points: points.items(),
         }
         .draw(scene.output.width, scene.output.height),
         None => render(

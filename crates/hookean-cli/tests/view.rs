@@ -293,8 +293,8 @@ fn a_run_that_blows_up_leaves_a_view_of_the_frames_before() {
     ]);
     assert_eq!(o.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&o.stderr);
-    // The failed run's output stays in its partial folder (the target is
-    // left as it was), whose view.html the message names.
+    // The failed run's partial output goes to the new target folder, whose
+    // view.html the message names.
     let page = stderr
         .split(" shows the frames before")
         .next()
@@ -302,8 +302,9 @@ fn a_run_that_blows_up_leaves_a_view_of_the_frames_before() {
         .map(std::path::PathBuf::from)
         .unwrap_or_else(|| panic!("{stderr}"));
     assert!(page.ends_with("view.html") && page.is_file(), "{stderr}");
-    assert!(!out.exists(), "the target folder was not created");
-    let partial = page.parent().unwrap().to_path_buf();
+    assert_eq!(page, out.join("view.html"), "{stderr}");
+    assert!(stderr.contains("the partial output is in"), "{stderr}");
+    let partial = out;
     let Some(browser) = chromium() else {
         let _ = std::fs::remove_dir_all(&partial);
         return;

@@ -273,6 +273,7 @@ where
     F: Filter,
 {
     let n = a.nrows();
+    crate::error::non_empty("matrix", n)?;
     check_len("right-hand side b", b, n)?;
     check_len("solution x", x, n)?;
     if let Some(d) = precond.dim()
@@ -284,11 +285,12 @@ where
             found: d,
         });
     }
-    if !(params.rtol >= 0.0) || !(params.atol >= 0.0) {
+    let tolerance = |t: f64| t >= 0.0 && t.is_finite();
+    if !(tolerance(params.rtol) && tolerance(params.atol)) {
         return Err(SparseError::InvalidParameter {
             name: "tolerance",
             message: format!(
-                "rtol and atol must be non-negative numbers, got {:?} and {:?}",
+                "rtol and atol must be finite non-negative numbers, got {:?} and {:?}",
                 params.rtol, params.atol
             ),
         });
@@ -317,6 +319,7 @@ where
     z.copy_from_slice(b);
     filter.project(z);
     let b_norm = norm2(z);
+    check_scale("right-hand side b", z)?;
     let mut r_norm = norm2(r);
     check_finite_scalar("initial residual", r_norm)?;
     let reference = if b_norm > 0.0 { b_norm } else { r_norm };
@@ -432,6 +435,18 @@ fn check_preconditioned(rz: f64, iteration: usize) -> Result<(), SparseError> {
         });
     }
     Ok(())
+}
+
+/// Refuses a non-zero vector whose largest entry lies outside
+/// `[1e-150, 1e150]`: the squares of CG's inner products would underflow
+/// to zero (reporting convergence at `x = 0`) or overflow.
+pub(crate) fn check_scale(what: &'static str, v: &[f64]) -> Result<(), SparseError> {
+    let largest = crate::vecops::norm_inf(v);
+    if largest == 0.0 || (1e-150..=1e150).contains(&largest) {
+        Ok(())
+    } else {
+        Err(SparseError::BadlyScaled { what, largest })
+    }
 }
 
 fn check_finite_scalar(what: &'static str, v: f64) -> Result<(), SparseError> {

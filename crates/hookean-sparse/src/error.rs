@@ -88,6 +88,26 @@ pub enum SparseError {
         /// Relative residual (or relative change) reached.
         relative_residual: f64,
     },
+    /// The right-hand side is so small or so large that the squares of the
+    /// solver's inner products would underflow or overflow (its largest
+    /// entry outside `[1e-150, 1e150]`): a norm of zero would report
+    /// convergence at `x = 0`. Scale the system (by a power of two, which
+    /// is exact).
+    #[error(
+        "the system is badly scaled: the largest entry of {what} is {largest:e}, outside [1e-150, 1e150]; scale it (by a power of two, exactly)"
+    )]
+    BadlyScaled {
+        /// Which vector (`"right-hand side b"`).
+        what: &'static str,
+        /// Its largest absolute entry.
+        largest: f64,
+    },
+    /// A solver or preconditioner was given a system of no unknowns.
+    #[error("{what} is empty (0 x 0): there is nothing to solve")]
+    Empty {
+        /// What was empty (`"matrix"`).
+        what: &'static str,
+    },
     /// A preconditioner needs a positive diagonal and found otherwise.
     #[error("{preconditioner} needs a positive diagonal, but entry {row} is {value:?}")]
     NonPositiveDiagonal {
@@ -200,5 +220,15 @@ pub(crate) fn check_finite(what: &'static str, v: &[f64]) -> Result<(), SparseEr
             what,
             index: Some(i),
         }),
+    }
+}
+
+/// Refuses a system of no unknowns ([`SparseError::Empty`]): every solver
+/// and preconditioner set-up calls this first.
+pub(crate) fn non_empty(what: &'static str, n: usize) -> Result<usize, SparseError> {
+    if n == 0 {
+        Err(SparseError::Empty { what })
+    } else {
+        Ok(n)
     }
 }

@@ -72,6 +72,7 @@ mod operator;
 pub mod par;
 mod power;
 mod precond;
+pub mod text;
 pub mod vecops;
 
 pub use block::Block3;
@@ -87,7 +88,8 @@ pub use iso::{IsoBlockMatrix, IsoSlot};
 pub use matrix::{BlockPattern, Slot, SymBlockMatrix};
 pub use mtx::{
     MatrixMarket, ReadOptions, read_matrix_market, read_matrix_market_file,
-    read_matrix_market_with, write_matrix_market, write_vector_market,
+    read_matrix_market_file_with, read_matrix_market_with, write_matrix_market,
+    write_vector_market,
 };
 pub use operator::{LinearOperator, MatrixFree};
 pub use power::{PowerHook, PowerInfo, PowerParams, power_method};

@@ -343,6 +343,7 @@ fn check_finite(values: &[f64]) -> Result<(), SparseError> {
 
 impl PreconditionerSetup<SymBlockMatrix> for IncompleteCholesky {
     fn setup(&mut self, a: &SymBlockMatrix) -> Result<(), SparseError> {
+        crate::error::non_empty("matrix", a.dim())?;
         let source = std::mem::replace(&mut self.source, Source::None);
         let mut factor = match source {
             Source::Block(f) if f.is_for(a.pattern()) => f,

@@ -99,7 +99,7 @@ pub(crate) fn square_dim(a: &sprs::CsMat<f64>) -> Result<usize, SparseError> {
     if rows != cols {
         return Err(SparseError::NotSquare { rows, cols });
     }
-    Ok(rows)
+    crate::error::non_empty("matrix", rows)
 }
 
 /// `a` in CSR form: itself, or a converted copy of a CSC matrix.

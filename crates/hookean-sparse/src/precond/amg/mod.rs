@@ -633,6 +633,7 @@ fn fill_from_blocks(
 
 impl PreconditionerSetup<SymBlockMatrix> for Amg {
     fn setup(&mut self, a: &SymBlockMatrix) -> Result<(), SparseError> {
+        crate::error::non_empty("matrix", a.dim())?;
         let start = Instant::now();
         let same = matches!(&self.inner, Inner::Block { source, .. }
             if Arc::ptr_eq(source, a.pattern()) || **source == **a.pattern());
