@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The contact cost table of docs/PERFORMANCE.md: cloth-table and cloth-fold
-# against the same cloth with no collider (free-table.toml, free-fold.toml),
+# against the same cloth with no collider (free-table.toml, free-fold.toml;
+# pinned-table.toml: that cloth pinned at two corners, deforming as it drapes),
 # and the drape and cloth-sphere against the base commit's build, interleaved,
 # ROUNDS rounds; prints every run's stepping wall time (summary.json's
 # wall_s), Newton iterations and rejected steps. Run under /work/bin/quiet.
@@ -19,6 +20,7 @@ for r in $(seq "$rounds"); do
   echo "round $r"
   run cloth-table "$new" scenes/cloth-table.toml
   run free-table "$new" docs/perf/contact/free-table.toml
+  run pinned-table "$new" docs/perf/contact/pinned-table.toml
   run cloth-fold "$new" scenes/cloth-fold.toml
   run free-fold "$new" docs/perf/contact/free-fold.toml
   if [ -n "$base" ]; then
