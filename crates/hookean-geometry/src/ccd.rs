@@ -178,6 +178,23 @@ fn orient(n: V3, w: &[f64; 4], x0: &[V3; 4], x1: &[V3; 4]) -> V3 {
     if closing <= 0.0 { n } else { -n }
 }
 
+/// The impact at time `t` with weights `w` along `normal` (oriented by
+/// [`orient`]) if the features close in along it, else `None`.
+fn impact_if_closing(
+    t: f64,
+    w: [f64; 4],
+    normal: V3,
+    x0: &[V3; 4],
+    x1: &[V3; 4],
+) -> Option<Impact> {
+    let normal = orient(normal, &w, x0, x1);
+    closing(&normal, &w, x0, x1).then_some(Impact {
+        t,
+        weights: w,
+        normal,
+    })
+}
+
 /// The first time in the step at which vertex `x[0]` comes within `eta`
 /// of triangle `(x[1], x[2], x[3])` while closing in on it (features that
 /// touch but move apart or slide along each other are no impact), all four
@@ -207,13 +224,8 @@ pub fn vertex_face(x0: &[V3; 4], x1: &[V3; 4], eta: f64) -> Option<Impact> {
             } else {
                 V3::z()
             };
-            let normal = orient(normal, &w, x0, x1);
-            if closing(&normal, &w, x0, x1) {
-                return Some(Impact {
-                    t,
-                    weights: w,
-                    normal,
-                });
+            if let Some(impact) = impact_if_closing(t, w, normal, x0, x1) {
+                return Some(impact);
             }
         }
     }
@@ -253,13 +265,8 @@ pub fn edge_edge(x0: &[V3; 4], x1: &[V3; 4], eta: f64) -> Option<Impact> {
                 };
                 e.cross(&trial).normalize()
             };
-            let normal = orient(normal, &w, x0, x1);
-            if closing(&normal, &w, x0, x1) {
-                return Some(Impact {
-                    t,
-                    weights: w,
-                    normal,
-                });
+            if let Some(impact) = impact_if_closing(t, w, normal, x0, x1) {
+                return Some(impact);
             }
         }
     }

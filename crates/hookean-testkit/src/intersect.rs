@@ -166,6 +166,27 @@ pub fn inside_closed_mesh(p: &P, vertices: &[P], triangles: &[[usize; 3]]) -> bo
     crossings % 2 == 1
 }
 
+/// The closed box `[lo, hi]` as 8 vertices and 12 triangles,
+/// counter-clockwise seen from outside.
+pub fn box_triangles(lo: P, hi: P) -> (Vec<P>, Vec<[usize; 3]>) {
+    let v = (0..8)
+        .map(|i| [0, 1, 2].map(|c| if (i >> c) & 1 == 0 { lo[c] } else { hi[c] }))
+        .collect();
+    let quads = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    let t = quads
+        .iter()
+        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+        .collect();
+    (v, t)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -195,21 +216,7 @@ mod tests {
 
     #[test]
     fn ray_parity_finds_the_inside_of_a_box() {
-        let v: Vec<P> = (0..8)
-            .map(|i| [(i & 1) as f64, ((i >> 1) & 1) as f64, ((i >> 2) & 1) as f64])
-            .collect();
-        let quads = [
-            [0, 2, 3, 1],
-            [4, 5, 7, 6],
-            [0, 1, 5, 4],
-            [2, 6, 7, 3],
-            [0, 4, 6, 2],
-            [1, 3, 7, 5],
-        ];
-        let t: Vec<[usize; 3]> = quads
-            .iter()
-            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-            .collect();
+        let (v, t) = box_triangles([0.0; 3], [1.0; 3]);
         assert!(inside_closed_mesh(&[0.5, 0.5, 0.5], &v, &t));
         assert!(inside_closed_mesh(&[0.01, 0.99, 0.02], &v, &t));
         assert!(!inside_closed_mesh(&[1.5, 0.5, 0.5], &v, &t));

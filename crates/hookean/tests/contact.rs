@@ -18,7 +18,7 @@ use hookean::massspring::{
 };
 use hookean::prelude::*;
 use hookean::scene::Scene;
-use hookean_testkit::intersect::{inside_closed_mesh, self_intersections};
+use hookean_testkit::intersect::{box_triangles, inside_closed_mesh, self_intersections};
 
 const G: f64 = 9.81;
 
@@ -99,27 +99,7 @@ fn a_particle_on_a_slope_above_the_friction_angle_slides_at_the_coulomb_accelera
 
 /// The closed box `[lo, hi]` as 12 outward triangles.
 fn box_mesh(lo: [f64; 3], hi: [f64; 3]) -> TriMesh {
-    let v: Vec<[f64; 3]> = (0..8)
-        .map(|i| {
-            [
-                if i & 1 == 0 { lo[0] } else { hi[0] },
-                if i & 2 == 0 { lo[1] } else { hi[1] },
-                if i & 4 == 0 { lo[2] } else { hi[2] },
-            ]
-        })
-        .collect();
-    let quads = [
-        [0, 2, 3, 1],
-        [4, 5, 7, 6],
-        [0, 1, 5, 4],
-        [2, 6, 7, 3],
-        [0, 4, 6, 2],
-        [1, 3, 7, 5],
-    ];
-    let t = quads
-        .iter()
-        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-        .collect();
+    let (v, t) = box_triangles(lo, hi);
     TriMesh::new(v, t).unwrap()
 }
 
