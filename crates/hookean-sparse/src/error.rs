@@ -108,6 +108,22 @@ pub enum SparseError {
         /// What was empty (`"matrix"`).
         what: &'static str,
     },
+    /// A preconditioner for symmetric matrices was given a scalar CSR matrix
+    /// that stores only one triangle. `sprs::CsMat` holds exactly what it is
+    /// given, and the scalar-CSR paths read both triangles: half of a
+    /// symmetric matrix would be factored (IC(0)) or smoothed (SSOR,
+    /// multigrid) as a different, triangular matrix.
+    #[error(
+        "{preconditioner} needs both triangles of a symmetric matrix, but only the {stored} \
+         triangle is stored: add the transpose of its off-diagonal part (a + a^T - diag(a)), \
+         or use Jacobi or a direct solver for a triangular system"
+    )]
+    OneTriangle {
+        /// The preconditioner that refused the matrix.
+        preconditioner: &'static str,
+        /// `"upper"` or `"lower"`: the triangle that holds every off-diagonal entry.
+        stored: &'static str,
+    },
     /// A preconditioner needs a positive diagonal and found otherwise.
     #[error("{preconditioner} needs a positive diagonal, but entry {row} is {value:?}")]
     NonPositiveDiagonal {

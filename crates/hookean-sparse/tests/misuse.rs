@@ -239,3 +239,55 @@ fn amg_options_out_of_range_are_errors() {
         assert!(p.setup(&a).is_err(), "accepted {opts:?} (or a panic above)");
     }
 }
+
+/// A symmetric matrix handed over as its upper (or lower) half: the
+/// symmetric preconditioners refuse it naming the stored triangle, where
+/// before IC(0) factored only the diagonal and SSOR smoothed a triangular
+/// matrix. Jacobi reads the diagonal only and accepts it; both triangles
+/// pass everywhere.
+#[test]
+fn symmetric_preconditioners_refuse_a_matrix_stored_as_one_triangle() {
+    let full = small().to_csr();
+    let upper = {
+        let mut t = sprs::TriMat::new((6, 6));
+        for (&v, (r, c)) in full.iter() {
+            if c >= r {
+                t.add_triplet(r, c, v);
+            }
+        }
+        t.to_csr::<usize>()
+    };
+    let lower = upper.transpose_view().to_csr();
+    for kind in [
+        PrecondKind::Ssor { omega: 1.0 },
+        PrecondKind::Ic0,
+        PrecondKind::Amg,
+    ] {
+        for (m, stored) in [(&upper, "upper"), (&lower, "lower")] {
+            let mut p = AnyPreconditioner::new(kind).unwrap();
+            match p.setup(m) {
+                Err(SparseError::OneTriangle {
+                    stored: s,
+                    preconditioner,
+                }) => {
+                    assert_eq!(s, stored, "{kind}");
+                    let msg = SparseError::OneTriangle {
+                        stored: s,
+                        preconditioner,
+                    }
+                    .to_string();
+                    assert!(
+                        msg.contains(stored) && msg.contains("both triangles"),
+                        "{msg}"
+                    );
+                }
+                other => panic!("{kind} on the {stored} triangle: {other:?}"),
+            }
+        }
+        let mut p = AnyPreconditioner::new(kind).unwrap();
+        p.setup(&full)
+            .unwrap_or_else(|e| panic!("{kind} on both triangles: {e}"));
+    }
+    let mut jacobi = Jacobi::new();
+    jacobi.setup(&upper).unwrap();
+}

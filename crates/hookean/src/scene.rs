@@ -1309,11 +1309,24 @@ impl Scene {
         Self::with_overrides(file, text, &[])
     }
 
-    /// Reads a scene file.
+    /// Reads a scene file and applies `key=value` overrides as
+    /// [`with_overrides`](Self::with_overrides) does.
+    ///
+    /// ```
+    /// use hookean::scene::Scene;
+    /// let scene = Scene::from_file(
+    ///     concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/drape.toml"),
+    ///     &["cloth.n=16", "duration=0.1"],
+    /// )?;
+    /// let mut sim = scene.build()?;
+    /// sim.run_until(scene.duration, |_, _| std::ops::ControlFlow::Continue(()))?;
+    /// # Ok::<(), hookean::HookeanError>(())
+    /// ```
     ///
     /// # Errors
-    /// [`HookeanError::Io`] if it cannot be read; as [`from_toml_str`](Self::from_toml_str).
-    pub fn from_file(path: &Path, overrides: &[String]) -> Result<Self, HookeanError> {
+    /// [`HookeanError::Io`] if it cannot be read; as [`with_overrides`](Self::with_overrides).
+    pub fn from_file(path: impl AsRef<Path>, overrides: &[&str]) -> Result<Self, HookeanError> {
+        let path = path.as_ref();
         // A scene is a few kilobytes: 16 MiB is far beyond any, and /dev/zero stops there.
         let text = std::fs::File::open(path)
             .map_err(|e| HookeanError::io(path, e))
@@ -1347,7 +1360,7 @@ impl Scene {
     pub fn with_overrides(
         file: &str,
         text: &str,
-        overrides: &[String],
+        overrides: &[&str],
     ) -> Result<Self, HookeanError> {
         let scene: Scene = toml::from_str(text).map_err(|e| scene_error(file, text, &e))?;
         if overrides.is_empty() {
@@ -1365,7 +1378,7 @@ impl Scene {
         for o in overrides {
             let blame = |message: String| HookeanError::Override {
                 file: file.to_string(),
-                arg: o.clone(),
+                arg: o.to_string(),
                 message,
             };
             apply_override(&mut table, o).map_err(blame)?;
@@ -1374,10 +1387,11 @@ impl Scene {
                 .try_into()
                 .map_err(|e: toml::de::Error| blame(e.message().trim().to_string()))?;
         }
-        // The model-table rule holds for the result, not each intermediate.
+        // The model-table rule holds for the result, not each intermediate:
+        // the scene after the last override breaks it.
         scene.check().map_err(|message| HookeanError::Override {
             file: file.to_string(),
-            arg: overrides.join(" --set "),
+            arg: overrides.last().map_or_else(String::new, |o| o.to_string()),
             message,
         })?;
         Ok(scene)
@@ -1961,7 +1975,7 @@ mod tests {
         assert_eq!(opts.solver.h, default.solver.h);
         assert_eq!(opts.solver.newton, default.solver.newton);
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/drape.toml");
-        let shipped = Scene::from_file(Path::new(path), &[]).unwrap();
+        let shipped = Scene::from_file(path, &[]).unwrap();
         assert_eq!(shipped.simulation_options(), bare.simulation_options());
         assert_eq!(shipped.duration, bare.duration);
     }
@@ -2092,23 +2106,23 @@ mod tests {
         let s = Scene::with_overrides(
             "s.toml",
             "[cloth]\nn = 8\n",
-            &["cloth.n=5".into(), "integrator.method=fb-euler".into()],
+            &["cloth.n=5", "integrator.method=fb-euler"],
         )
         .unwrap();
         assert_eq!(s.cloth.unwrap().n, 5);
         assert_eq!(s.integrator.method, Method::FbEuler);
         // The error names the override that broke the scene, not a
         // position in a merged text.
-        let overrides = ["cloth.n=4".into(), "cloth.n=1".into(), "cloth.n=3".into()];
+        let overrides = ["cloth.n=4", "cloth.n=1", "cloth.n=3"];
         match Scene::with_overrides("s.toml", "[cloth]\n", &overrides) {
             Err(e @ HookeanError::Override { .. }) => {
                 let m = e.to_string();
-                assert!(m.starts_with("s.toml: --set cloth.n=1: "), "{m}");
+                assert!(m.starts_with("s.toml: override cloth.n=1: "), "{m}");
                 assert!(m.contains("at least 2"), "{m}");
             }
             other => panic!("{other:?}"),
         }
-        match Scene::with_overrides("s.toml", "[cloth]\n", &["cloth.n".into()]) {
+        match Scene::with_overrides("s.toml", "[cloth]\n", &["cloth.n"]) {
             Err(HookeanError::Override { arg, message, .. }) => {
                 assert_eq!(arg, "cloth.n");
                 assert!(message.contains("key=value"), "{message}");

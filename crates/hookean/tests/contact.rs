@@ -198,8 +198,7 @@ fn scene(name: &str, overrides: &[&str]) -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../scenes")
         .join(name);
-    let o: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
-    Scene::from_file(&path, &o).unwrap()
+    Scene::from_file(&path, overrides).unwrap()
 }
 
 /// Runs `scene` on `threads` threads, calling `check(sim)` after every step;

@@ -177,7 +177,7 @@ fn every_documented_range_is_checked_at_its_ends() {
         let (refused, accepted) = probes(*range);
         for value in &refused {
             let set = format!("{key}={value}");
-            match Scene::with_overrides("s.toml", text, std::slice::from_ref(&set)) {
+            match Scene::with_overrides("s.toml", text, &[set.as_str()]) {
                 Ok(_) => failures.push(format!("{set}: accepted, outside {range:?}")),
                 Err(e) if !e.to_string().contains(&set) => {
                     failures.push(format!("{set}: the error does not name it: {e}"))
@@ -187,7 +187,7 @@ fn every_documented_range_is_checked_at_its_ends() {
         }
         for value in &accepted {
             let set = format!("{key}={value}");
-            let scene = match Scene::with_overrides("s.toml", text, std::slice::from_ref(&set)) {
+            let scene = match Scene::with_overrides("s.toml", text, &[set.as_str()]) {
                 Ok(s) => s,
                 Err(e) => {
                     failures.push(format!("{set}: refused inside {range:?}: {e}"));

@@ -396,6 +396,7 @@ impl PreconditionerSetup<sprs::CsMat<f64>> for IncompleteCholesky {
         let same = matches!(&self.source,
             Source::Csr { indptr: p, indices: i } if p.as_slice() == &*indptr && i.as_slice() == a.indices());
         if !same {
+            super::check_both_triangles(&indptr, a.indices(), "IC(0)")?;
             self.symbolic_csr(n, &indptr, a.indices());
         }
         self.numeric(a.data())

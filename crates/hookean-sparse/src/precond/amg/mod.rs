@@ -687,6 +687,9 @@ impl PreconditionerSetup<sprs::CsMat<f64>> for Amg {
             (Inner::Csr3(c), 3) => c.same_pattern(a),
             _ => false,
         };
+        if !same {
+            super::check_both_triangles(&a.proper_indptr(), a.indices(), "AMG")?;
+        }
         let Some(refill) = self.plan(same) else {
             return Ok(());
         };
