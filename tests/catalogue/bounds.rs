@@ -347,4 +347,43 @@ pub(crate) const BOUNDS: &[Case] = &[
         2,
         "a.mtx:1: the input is larger than",
     ),
+    case(
+        "bench: --repeat 0",
+        &[("a.mtx", SPD)],
+        &["bench", "{}/a.mtx", "--repeat", "0", "--out", "{}/out"],
+        2,
+        "--repeat must lie in 1 to 1000",
+    )
+    .absent(&["out"]),
+    case(
+        "bench: --cloth 1 and 513, outside 2..=512",
+        &[],
+        &["bench", "--cloth", "1,513", "--out", "{}/out"],
+        2,
+        "--cloth: size 1 must lie in 2..=512",
+    )
+    .absent(&["out"]),
+    case(
+        "bench: --block-size 4",
+        &[("a.mtx", SPD)],
+        &["bench", "{}/a.mtx", "--block-size", "4", "--out", "{}/out"],
+        2,
+        "--block-size must be 1, 2 or 3",
+    ),
+    case(
+        "bench: an input that does not exist",
+        &[],
+        &["bench", "{}/none.mtx", "--out", "{}/out"],
+        2,
+        "none.mtx: no such file or folder",
+    )
+    .absent(&["out"]),
+    case(
+        "bench: a malformed file and a solver missing its tolerance are rows, not a failed run",
+        &[("m/a.mtx", SPD), ("m/bad.mtx", "%%MatrixMarket matrix coordinate real symmetric\n3 3 1\n9 9 1\n")],
+        &["bench", "{}/m", "--precond", "jacobi", "--max-iter", "0", "--out", "{}/out", "--quiet"],
+        0,
+        "",
+    )
+    .creates(&["out/bench.md", "out/bench.csv", "out/residual-a.svg"]),
 ];

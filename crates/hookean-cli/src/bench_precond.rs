@@ -20,7 +20,7 @@ use indicatif::ProgressBar;
 use serde::Serialize;
 
 use crate::CliError;
-use crate::solve::{Matrix, SolveRecord, Solver, SolverArgs, run_solver};
+use crate::solve::{Matrix, RunOptions, SolveRecord, Solver, SolverArgs, run_solver};
 
 /// The implicit-Euler step size of the benchmark systems.
 pub const H: f64 = 0.01;
@@ -168,7 +168,15 @@ pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
             let nnz = csr.nnz();
             let matrix = Matrix::Block(a);
             for solver in &solvers {
-                let record = run_solver(solver, &matrix, &csr, &b, &params, &args.solver);
+                let record = run_solver(
+                    solver,
+                    &matrix,
+                    &csr,
+                    &b,
+                    &params,
+                    &args.solver,
+                    &RunOptions::default(),
+                );
                 let record = SolveRecord {
                     matrix: format!("cloth{n}-k{k:e}"),
                     rows,

@@ -39,6 +39,8 @@ use clap::{Parser, Subcommand};
 
 pub use bench_precond::deformed_cloth_system;
 
+pub mod alloc;
+mod bench;
 mod bench_precond;
 mod export_system;
 mod filter_analysis;
@@ -86,6 +88,9 @@ enum Command {
     Stability(stability::StabilityArgs),
     /// Preconditioner comparison on cloth implicit-Euler systems: JSON lines on stdout, a table on stderr.
     BenchPrecond(bench_precond::BenchPrecondArgs),
+    /// Compare preconditioners over Matrix Market files or folders (and built-in cloth systems):
+    /// bench.md, bench.csv and a residual-against-time SVG per system in the output folder.
+    Bench(bench::BenchArgs),
     /// The filtering paper's figures 4, 5 and 6 for a cloth scene: PNGs, an SVG and analysis.json.
     FilterAnalysis(filter_analysis::FilterAnalysisArgs),
     /// Write view.html (a self-contained WebGL player) for the output folder of an earlier `hookean run`.
@@ -282,6 +287,7 @@ fn dispatch(command: Command, threads: Option<usize>) -> Result<(), CliError> {
         Command::Workprecision(args) => workprecision::run(&args),
         Command::Stability(args) => stability::run(&args),
         Command::BenchPrecond(args) => bench_precond::run(&args),
+        Command::Bench(args) => bench::run(&args),
         Command::ExportSystem(args) => export_system::run(&args),
         Command::FilterAnalysis(args) => filter_analysis::run(&args),
         Command::View(args) => view::run(&args),

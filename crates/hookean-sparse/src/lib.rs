@@ -99,7 +99,7 @@ pub use constraints::Constraints;
 pub use direct::DirectCholesky;
 pub use error::SparseError;
 pub use iso::{IsoBlockMatrix, IsoSlot};
-pub use matrix::{BlockPattern, Slot, SymBlockMatrix};
+pub use matrix::{BlockPattern, Slot, SymBlockMatrix, check_csr_symmetric};
 pub use mtx::{
     MatrixMarket, ReadOptions, read_matrix_market, read_matrix_market_file,
     read_matrix_market_file_with, read_matrix_market_with, write_matrix_market,

@@ -32,13 +32,14 @@ pub struct BlockPattern {
     lower_slot: Vec<usize>,
 }
 
-/// `Ok` when the square CSR matrix `a` is finite and symmetric: every entry
-/// equals its transpose to `1e-12` of the largest entry.
+/// `Ok` when the square `sprs` matrix `a` is finite and symmetric: every
+/// entry equals its transpose to `1e-12` of the largest entry (what the
+/// symmetric solvers, PCG and the Cholesky factorisation, need).
 ///
 /// # Errors
 /// [`SparseError::NonFinite`] or [`SparseError::NotSymmetric`] naming the
 /// first offending entry.
-pub(crate) fn check_csr_symmetric(a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
+pub fn check_csr_symmetric(a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
     let cols = a.cols();
     let mut max_abs = 0.0_f64;
     for (&v, (r, c)) in a.iter() {
