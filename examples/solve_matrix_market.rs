@@ -16,8 +16,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut jacobi = Jacobi::new();
     jacobi.setup(&a)?;
     // Cloth has 3 unknowns per particle: aggregate 3x3 blocks.
-    let mut options = AmgOptions::default();
-    options.block_size = 3;
+    let options = AmgOptions {
+        block_size: 3,
+        ..AmgOptions::default()
+    };
     let mut amg = Amg::with_options(options)?;
     amg.setup(&a)?;
 
