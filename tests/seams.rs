@@ -175,12 +175,9 @@ fn the_krylov_adapter_solves_for_corrections_that_keep_the_constraints() {
     a.add_to_block(0, 1, &scaled(-1.0)).unwrap();
     let mut c = Constraints::new(2);
     c.pin(0, [1.0, 2.0, 3.0]).unwrap();
-    let mut pcg = PcgSolver::new(Identity).with_constraints(c);
-    let options = NewtonOptions {
-        linear_max_iter: Some(50),
-        ..NewtonOptions::default()
-    };
-    LinearSolver::<SymBlockMatrix>::configure(&mut pcg, &options).unwrap();
+    let mut pcg = PcgSolver::new(Identity)
+        .with_max_iter(Some(50))
+        .with_constraints(c);
     pcg.setup(&a).unwrap();
     let rhs = [0.5, -1.0, 2.0, 8.0, 4.0, -4.0];
     let mut s = [0.0; 6];

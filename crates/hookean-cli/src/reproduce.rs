@@ -687,8 +687,11 @@ fn inexact_newton(ctx: &Ctx) -> Result<Outcome, CliError> {
                 method,
                 rtol: 1e-6,
                 max_iter: 30,
-                preconditioner: PrecondKind::BlockJacobi,
                 ..SolverOptions::default_newton()
+            },
+            linear: hookean::ode::PcgOptions {
+                preconditioner: PrecondKind::BlockJacobi,
+                ..Default::default()
             },
             ..SolverOptions::default()
         };
@@ -1143,7 +1146,7 @@ fn figure8(ctx: &Ctx) -> Result<Outcome, CliError> {
     };
     let k0_panel_n = if ctx.quick { 8 } else { 16 };
     let mut best = SimulationOptions::drape_solver();
-    best.newton.preconditioner = PrecondKind::Mic0 {
+    best.linear.preconditioner = PrecondKind::Mic0 {
         omega: PrecondKind::MIC_OMEGA,
     };
     let methods = Figure8Method::ALL;

@@ -24,7 +24,7 @@
 use std::time::Instant;
 
 use hookean_massspring::{ClothParams, cloth};
-use hookean_ode::{Method, NewtonOptions, SolverOptions};
+use hookean_ode::{Method, NewtonOptions, PcgOptions, SolverOptions};
 use hookean_sparse::{PowerParams, PrecondKind};
 
 use crate::error::FilterError;
@@ -276,9 +276,12 @@ fn bw98_options() -> SolverOptions {
             max_iter: 1,
             rtol: 0.9,
             linear_rtol: 1e-2,
-            linear_max_iter: Some(10_000),
-            preconditioner: PrecondKind::BlockJacobi,
             ..SolverOptions::default_newton()
+        },
+        linear: PcgOptions {
+            max_iter: Some(10_000),
+            preconditioner: PrecondKind::BlockJacobi,
+            ..PcgOptions::default()
         },
         ..SolverOptions::with_h(0.01)
     }

@@ -167,13 +167,14 @@ fn an_indefinite_exact_jacobian_is_solved_by_truncating_cg() {
         // MIC(0) stays positive definite on an indefinite matrix (its
         // shift), so truncated CG has a usable first direction.
         let mic = hookean_sparse::IncompleteCholesky::modified(0.99).unwrap();
-        let pcg = PcgSolver::new(mic).with_constraints(step.correction_constraints());
+        let pcg = PcgSolver::new(mic)
+            .with_negative_curvature(negative_curvature)
+            .with_constraints(step.correction_constraints());
         let options = NewtonOptions {
             method: NewtonMethod::Inexact(ForcingTerm::Constant(1e-3)),
             rtol: 1e-9,
             atol: 0.0,
             max_iter: 200,
-            negative_curvature,
             ..Default::default()
         };
         let storage = step.jacobian_storage();

@@ -105,7 +105,7 @@ pub use control::{
 pub use error::OdeError;
 /// The dense linear algebra crate of the first-order Newton matrices.
 pub use faer;
-pub use hookean_nonlinear::{ForcingTerm, NewtonMethod, NewtonOptions};
+pub use hookean_nonlinear::{ForcingTerm, NewtonMethod, NewtonOptions, PcgOptions};
 pub use hookean_problem::{FirstOrderProblem, SecondOrderProblem};
 /// The preconditioners of [`BdfLinearSolver::Gmres`].
 pub use hookean_sparse::PrecondKind;

@@ -1,6 +1,6 @@
 //! Options, statistics and step reports of the integrators.
 
-use hookean_nonlinear::NewtonOptions;
+use hookean_nonlinear::{NewtonOptions, PcgOptions};
 
 use crate::control::{IterationControllerOptions, PiControllerOptions};
 
@@ -101,6 +101,10 @@ pub struct SolverOptions {
     /// particle mass, so that the same `k/m` gives the same motion in any
     /// mass unit.
     pub newton: NewtonOptions,
+    /// The linear solver of second-order Newton steps: PCG's preconditioner,
+    /// multigrid options, iteration limit and curvature policy
+    /// (`hookean-nonlinear`'s [`PcgOptions`]).
+    pub linear: PcgOptions,
     /// Starting guess of implicit Euler's Newton iteration. Default
     /// [`Predictor::Previous`].
     pub predictor: Predictor,
@@ -132,6 +136,7 @@ impl Default for SolverOptions {
             control: StepControl::default(),
             max_retries: 6,
             newton: Self::default_newton(),
+            linear: PcgOptions::default(),
             predictor: Predictor::Previous,
             warm_start: false,
             max_growth: DEFAULT_MAX_GROWTH,

@@ -717,7 +717,7 @@ impl<P: SecondOrderProblem> SecondSys<P> {
                 found: pattern.dim(),
             });
         }
-        let linear = PcgSolver::from_options(&opts.newton)?;
+        let linear = PcgSolver::from_options(&opts.linear)?;
         let mass = problem.mass();
         let mean_mass = mass.iter().sum::<f64>() / mass.len().max(1) as f64;
         let newton = Newton::new(
@@ -763,7 +763,7 @@ impl<P: SecondOrderProblem> SecondSys<P> {
     ) -> Option<Result<StageInfo, StageFailure>> {
         let nopts = momentum_options(&opts.newton, self.mean_mass);
         if self.linearized.is_none() {
-            let built = PcgSolver::from_options(&opts.newton)
+            let built = PcgSolver::from_options(&opts.linear)
                 .and_then(|linear| LinearizedNewton::new(&self.problem, nopts.clone(), linear));
             self.linearized = Some(match built {
                 Ok(Some(l)) => Ok(Box::new(l)),

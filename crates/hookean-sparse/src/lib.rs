@@ -22,6 +22,9 @@
 //! - [`pcg`] and [`filtered_pcg`] (Baraff-Witkin's filtered CG, the
 //!   tutorial's Algorithm 4) with [`CgParams`], a reusable [`CgWorkspace`]
 //!   and an optional per-iteration callback; they return [`CgInfo`].
+//! - [`gmres`]: restarted, right-preconditioned GMRES for nonsymmetric
+//!   systems, with [`GmresParams`] and a reusable [`GmresWorkspace`]; it
+//!   returns [`GmresInfo`].
 //! - [`power_method`] with a hook between iterations (the filtering paper's
 //!   modified power method).
 //! - [`read_matrix_market`] / [`write_matrix_market`], and `DirectCholesky`
@@ -65,6 +68,7 @@ mod constraints;
 #[cfg(feature = "faer")]
 mod direct;
 mod error;
+mod gmres;
 mod iso;
 mod matrix;
 mod mtx;
@@ -83,6 +87,7 @@ pub use constraints::Constraints;
 #[cfg(feature = "faer")]
 pub use direct::DirectCholesky;
 pub use error::SparseError;
+pub use gmres::{GmresInfo, GmresParams, GmresWorkspace, gmres};
 pub use iso::{IsoBlockMatrix, IsoSlot};
 pub use matrix::{BlockPattern, Slot, SymBlockMatrix};
 pub use mtx::{

@@ -35,7 +35,7 @@ fn main() -> Result<(), HookeanError> {
         options.solver.newton.rtol = r;
     }
     if let Some(p) = args.next().and_then(|s| s.parse().ok()) {
-        options.solver.newton.preconditioner = p;
+        options.solver.linear.preconditioner = p;
     }
     if let Some(f) = args.next().and_then(|s| s.parse().ok()) {
         options.solver.newton.method =

@@ -1259,13 +1259,13 @@ impl Scene {
             NewtonScene::Exact | NewtonScene::Simplified => s.cg_rtol,
             _ => solver.newton.linear_rtol,
         };
-        solver.newton.linear_max_iter = Some(s.max_cg);
+        solver.linear.max_iter = Some(s.max_cg);
         solver.warm_start = s.warm_start;
-        solver.newton.preconditioner = self.preconditioner();
-        solver.newton.amg = s.amg.as_ref().map(AmgScene::options).unwrap_or_default();
+        solver.linear.preconditioner = self.preconditioner();
+        solver.linear.amg = s.amg.as_ref().map(AmgScene::options).unwrap_or_default();
         // The exact stiffness Jacobian may be indefinite where springs are
         // compressed: PCG then truncates (Newton-CG) instead of failing.
-        solver.newton.negative_curvature = if self.model.clamp_stiffness {
+        solver.linear.negative_curvature = if self.model.clamp_stiffness {
             NegativeCurvature::Error
         } else {
             NegativeCurvature::Truncate
@@ -1667,17 +1667,17 @@ mod tests {
              sweeps = 2\nreuse = \"keep\"\nkeep_updates = 3\n",
         )
         .unwrap();
-        let newton = s.simulation_options().solver.newton;
-        assert_eq!(newton.preconditioner, PrecondKind::Amg);
-        assert_eq!(newton.amg.smoother, AmgSmoother::BlockIc0);
-        assert_eq!(newton.amg.sweeps, 2);
-        assert_eq!(newton.amg.reuse, AmgReuse::Keep { updates: 3 });
-        assert_eq!(newton.amg.coarse_size, AmgOptions::default().coarse_size);
+        let linear = s.simulation_options().solver.linear;
+        assert_eq!(linear.preconditioner, PrecondKind::Amg);
+        assert_eq!(linear.amg.smoother, AmgSmoother::BlockIc0);
+        assert_eq!(linear.amg.sweeps, 2);
+        assert_eq!(linear.amg.reuse, AmgReuse::Keep { updates: 3 });
+        assert_eq!(linear.amg.coarse_size, AmgOptions::default().coarse_size);
         // Without the table: the library's defaults.
         let s = Scene::from_toml_str("s.toml", "[cloth]\n[solver]\npreconditioner = \"amg\"\n")
             .unwrap();
         assert_eq!(
-            s.simulation_options().solver.newton.amg,
+            s.simulation_options().solver.linear.amg,
             AmgOptions::default()
         );
         let text = "[cloth]\n[solver]\npreconditioner = \"amg\"\n[solver.amg]\n";

@@ -8,7 +8,8 @@ use std::time::{Duration, Instant};
 use hookean_filter::{FilterCoupling, FilterOptions, ModelIntegrator};
 use hookean_massspring::{Energies, MassSpringModel, State};
 use hookean_ode::{
-    ForcingTerm, Method, NewtonMethod, NewtonOptions, Predictor, SolverOptions, Stats, StepReport,
+    ForcingTerm, Method, NewtonMethod, NewtonOptions, PcgOptions, Predictor, SolverOptions, Stats,
+    StepReport,
 };
 use hookean_sparse::{PowerParams, PrecondKind};
 
@@ -74,11 +75,14 @@ impl SimulationOptions {
                 // cannot be met.
                 atol: 1e-8,
                 linear_rtol: 0.1,
-                linear_max_iter: Some(500),
+                ..SolverOptions::default_newton()
+            },
+            linear: PcgOptions {
+                max_iter: Some(500),
                 preconditioner: PrecondKind::Mic0 {
                     omega: PrecondKind::MIC_OMEGA,
                 },
-                ..SolverOptions::default_newton()
+                ..PcgOptions::default()
             },
             predictor: Predictor::Previous,
             warm_start: true,
