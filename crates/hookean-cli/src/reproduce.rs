@@ -645,7 +645,7 @@ fn verlet_best(_: &Ctx) -> Result<Outcome, CliError> {
         let evals = rows
             .iter()
             .filter(|r| r.error <= target)
-            .map(|r| r.stats.f_evals)
+            .map(|r| r.stats.num_rhs_evals_total())
             .min();
         work.push((m, evals));
     }
@@ -700,7 +700,7 @@ fn inexact_newton(ctx: &Ctx) -> Result<Outcome, CliError> {
         for _ in 0..10 {
             sim.step().map_err(failed)?;
         }
-        Ok(sim.stats().linear_iterations)
+        Ok(sim.stats().num_lin_iters)
     };
     let exact = cg(NewtonMethod::Exact)?;
     let inexact = cg(NewtonMethod::Inexact(ForcingTerm::Constant(0.02)))?;

@@ -209,8 +209,8 @@ pub fn figure8_runs(
             k0_run,
             method: Figure8Method::BackwardEuler,
             h: 0.01,
-            steps: sim.stats().steps,
-            linear_iterations: sim.stats().linear_iterations,
+            steps: sim.stats().num_steps,
+            linear_iterations: sim.stats().num_lin_iters,
             bounded,
             seconds,
         };
@@ -255,7 +255,7 @@ pub fn figure8_runs(
             method,
             h,
             steps: out.steps,
-            linear_iterations: sim.stats().linear_iterations,
+            linear_iterations: sim.stats().num_lin_iters,
             bounded: out.bounded,
             seconds: start.elapsed().as_secs_f64(),
         };

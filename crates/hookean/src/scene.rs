@@ -1241,9 +1241,9 @@ impl Scene {
         // "auto" needs the model: `build` replaces this placeholder.
         solver.h = self.integrator.h.value().unwrap_or_else(d_h);
         solver.rtol = self.integrator.rtol;
-        solver.atol = self.integrator.atol;
-        solver.h_max = self.integrator.h_max;
-        solver.control = match self.integrator.control {
+        solver.atol = self.integrator.atol.into();
+        solver.step.h_max = self.integrator.h_max;
+        solver.step.control = match self.integrator.control {
             ControlScene::Error => StepControl::error_based(),
             ControlScene::Newton => StepControl::newton_iterations(),
         };

@@ -159,7 +159,7 @@ pub trait Sink {
 /// let (model, state) = cloth(&ClothParams { nu: 16, nv: 16, ..Default::default() })?;
 /// let mut sim = Simulation::new(model, state, SimulationOptions::default())?;
 /// let summary = sim.run_until(0.1, |_, _| std::ops::ControlFlow::Continue(()))?;
-/// assert_eq!(summary.stats.steps, 10);
+/// assert_eq!(summary.stats.num_steps, 10);
 /// assert!(sim.x().iter().all(|v| v.is_finite()));
 /// # Ok::<(), hookean::HookeanError>(())
 /// ```
@@ -323,7 +323,7 @@ impl Simulation {
             };
             return Err(HookeanError::BlowUp {
                 t: self.t(),
-                step: self.stats().steps,
+                step: self.stats().num_steps,
                 energy,
                 bound,
                 factor: self.guard.factor,
