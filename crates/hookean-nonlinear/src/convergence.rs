@@ -28,7 +28,12 @@ pub enum Convergence {
     /// - converged when `rho < 1` and `rho / (1 - rho) ||s_k|| <= tol` (an
     ///   estimate of the distance to the solution), or when `||s_k|| = 0`; in
     ///   the first iteration, where no rate is measured yet and the carried
-    ///   one may be stale, also only if `||s_0|| <= tol`;
+    ///   one may be stale (a step-size change, a transient: accepting on it
+    ///   cost the stiff test set up to 40 times its error), also only if
+    ///   `||s_0|| <= tol`, unless the caller knows the rate
+    ///   ([`Newton::set_known_rate`](crate::Newton::set_known_rate): `0` for
+    ///   a linear system with its exact Newton matrix, whose first correction
+    ///   solves it);
     /// - failed when `rho_k >= 1`, or when `rho_k` cannot reach `tol` in the
     ///   iterations left: `rho_k^(max_iter - k) / (1 - rho_k) ||s_k|| > tol`
     ///   (SciPy's BDF rule).
@@ -54,19 +59,24 @@ impl Convergence {
     }
 }
 
-/// The carried rate estimate of [`Convergence::Rate`] below which the rate
-/// decays per call without a new measurement (CVODE's `CRDOWN`).
+/// The carried rate estimate decays by at most this factor per measured
+/// call (CVODE's `CRDOWN`).
 const RATE_DECAY: f64 = 0.3;
 
-/// The state of the rate test across calls: CVODE's `crate`.
+/// The state of the rate test across calls: CVODE's carried estimate
+/// `crate`, and the rate the caller knows ([`Newton::set_known_rate`](crate::Newton::set_known_rate)).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct RateEstimate {
     pub rate: f64,
+    pub known: Option<f64>,
 }
 
 impl Default for RateEstimate {
     fn default() -> Self {
-        Self { rate: 1.0 }
+        Self {
+            rate: 1.0,
+            known: None,
+        }
     }
 }
 
@@ -110,7 +120,12 @@ impl RateEstimate {
     /// Whether iteration `k`, whose correction had the norm `norm`, converged.
     pub fn converged(&self, k: usize, norm: f64, tol: f64) -> bool {
         let rho = self.rate;
-        norm == 0.0 || (rho < 1.0 && rho / (1.0 - rho) * norm < tol && (k > 0 || norm < tol))
+        let estimated = rho < 1.0 && rho / (1.0 - rho) * norm < tol && (k > 0 || norm < tol);
+        let known = k == 0
+            && self
+                .known
+                .is_some_and(|r| r < 1.0 && r / (1.0 - r) * norm < tol);
+        norm == 0.0 || estimated || known
     }
 }
 
@@ -150,9 +165,13 @@ mod tests {
         // The estimate decays by 0.3 per measurement of a faster rate.
         r.measure(1, 4, 1e-6, 1.0, tol);
         approx::assert_abs_diff_eq!(r.rate, 0.09, epsilon = 1e-15);
-        // In the first iteration a small carried rate counts only with ||s|| < tol.
+        // In the first iteration a small carried rate counts only with ||s|| < tol ...
         assert!(!r.converged(0, 0.1, tol));
         assert!(r.converged(0, 0.01, tol));
+        // ... unless the caller knows the rate (0: a linear system, exact matrix).
+        r.known = Some(0.0);
+        assert!(r.converged(0, 5.0, tol));
+        assert!(!r.converged(0, f64::NAN, tol));
         r.reset();
         assert_eq!(r.rate, 1.0);
     }

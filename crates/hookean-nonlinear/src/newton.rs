@@ -124,6 +124,14 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
         self.rate.rate
     }
 
+    /// Tells [`Convergence::Rate`] the contraction rate of the next calls'
+    /// iterations when the caller knows it (`None`: measure it): `Some(0.0)`
+    /// for a linear system solved with its exact Newton matrix, whose first
+    /// correction then converges without a second iteration to measure it.
+    pub fn set_known_rate(&mut self, rate: Option<f64>) {
+        self.rate.known = rate;
+    }
+
     /// Whether the next call will reuse a kept Jacobian.
     pub fn jacobian_is_kept(&self) -> bool {
         self.jacobian_valid
@@ -409,7 +417,8 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
     /// One run of simplified Newton with [`Convergence::Rate`] from `y` (see
     /// there): the residual is evaluated at the start and after every
     /// correction that does not end the iteration, the corrections are
-    /// measured in the weighted norm. Returns whether a Jacobian was
+    /// measured in the weighted norm; `|G|` is never formed (the residual
+    /// norms of the statistics stay NaN). Returns whether a Jacobian was
     /// evaluated or reused.
     fn attempt_rate<S>(
         &mut self,
@@ -426,9 +435,7 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
         let eta = self.options.linear_rtol;
         system.residual(y, &mut self.g)?;
         stats.residual_evaluations += 1;
-        let gnorm = norm2(&self.g);
-        stats.push_residual(gnorm);
-        if !gnorm.is_finite() {
+        if !self.g.iter().all(|v| v.is_finite()) {
             return Err(Stop::NonFinite);
         }
         if !use_kept {
@@ -476,19 +483,16 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
             if k + 1 == max_iter {
                 break;
             }
+            // A non-finite residual makes the next correction non-finite.
             system.residual(y, &mut self.g)?;
             stats.residual_evaluations += 1;
-            let gnorm = norm2(&self.g);
-            stats.push_residual(gnorm);
-            if !gnorm.is_finite() {
-                return Err(Stop::NonFinite);
-            }
         }
         Err(Stop::MaxIterations)
     }
 
-    /// Solves `J s = rhs` into `s` from zero with relative tolerance `eta`,
-    /// through the system's products for a matrix-free solver.
+    /// Solves `J s = rhs` into `s` with relative tolerance `eta` (every
+    /// solver overwrites `s`; iterative ones start from zero unless a guess
+    /// was armed), through the system's products for a matrix-free solver.
     fn linear_solve<S>(
         &mut self,
         system: &mut S,
@@ -498,7 +502,6 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
     where
         S: NonlinearSystem<Jacobian = J> + ?Sized,
     {
-        self.s.fill(0.0);
         if !self.linear.is_matrix_free() {
             return self
                 .linear

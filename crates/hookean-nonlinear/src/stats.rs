@@ -90,7 +90,10 @@ impl NewtonStats {
     /// Empty statistics; with `record`, histories with room for `max_iter`
     /// iterations (this allocates).
     pub(crate) fn new(max_iter: usize, record: bool) -> Self {
-        let cap = if record { max_iter + 1 } else { 0 };
+        if !record {
+            return Self::default();
+        }
+        let cap = max_iter + 1;
         Self {
             residual_norms: Vec::with_capacity(cap),
             step_norms: Vec::with_capacity(cap),

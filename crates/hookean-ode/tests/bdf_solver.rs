@@ -114,6 +114,14 @@ fn spring_chain_dense_and_sparse() {
     let (e_dense, s_dense) = solve(&SpringChain::new(false), 1e-6).unwrap();
     let (e_sparse, s_sparse) = solve(&SpringChain::new(true), 1e-6).unwrap();
     assert_eq!(s_dense.num_steps, s_sparse.num_steps);
+    // The chain is linear: its Jacobian is the same at every evaluation, so
+    // the solver sets the Newton matrix up at every change of c and takes the
+    // first correction, which solves the corrector (about one Newton
+    // iteration per step; two or more on the nonlinear problems).
+    assert!(
+        10 * s_sparse.num_nonlin_solv_iters <= 13 * s_sparse.num_steps,
+        "{s_sparse:?}"
+    );
     assert!(
         (e_dense - e_sparse).abs() < 1e-2 * e_dense,
         "{e_dense:e} {e_sparse:e}"
@@ -514,9 +522,15 @@ fn preconditioned_gmres_on_the_sparse_chain() {
         assert_eq!(st.num_lin_conv_fails, 0, "{kind:?}");
         if let PrecondKind::Ssor { .. } = kind {
             // SSOR (of the lower and diagonal part) cuts the Krylov
-            // iterations per Newton iteration of the unpreconditioned run.
-            let per = |s: &Stats| s.num_lin_iters as f64 / s.num_nonlin_solv_iters as f64;
-            assert!(per(&st) < per(&plain), "{} vs {}", per(&st), per(&plain));
+            // iterations of the unpreconditioned run. (The chain is linear:
+            // with a Jacobian the solver notices and takes one Newton
+            // iteration per step, so the Krylov iterations per Newton
+            // iteration are not comparable; their totals are.)
+            assert!(
+                st.num_lin_iters < plain.num_lin_iters,
+                "{st:?} vs {plain:?}"
+            );
+            assert!(st.num_nonlin_solv_iters < plain.num_nonlin_solv_iters);
         }
     }
 }

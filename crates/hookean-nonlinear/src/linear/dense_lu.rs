@@ -25,8 +25,8 @@ use crate::error::{NonlinearError, check_len};
 /// A pivot `|u_kk| <= n eps max |u_ij|` is reported as
 /// [`NonlinearError::SingularJacobian`].
 pub struct DenseLu {
-    /// `A`, overwritten by its factors.
-    lu: faer::Mat<f64>,
+    /// `A`, overwritten by its factors, column-major `n x n`.
+    lu: Vec<f64>,
     /// The forward row permutation, `(P b)_i = b[perm[i]]`, and its inverse.
     perm: Vec<usize>,
     perm_inv: Vec<usize>,
@@ -55,7 +55,7 @@ impl DenseLu {
     /// An empty solver.
     pub fn new() -> Self {
         Self {
-            lu: faer::Mat::zeros(0, 0),
+            lu: Vec::new(),
             perm: Vec::new(),
             perm_inv: Vec::new(),
             mem: MemBuffer::new(faer::dyn_stack::StackReq::EMPTY),
@@ -66,10 +66,10 @@ impl DenseLu {
 
     /// Storage for dimension `n` (allocates only when `n` changes).
     fn reserve(&mut self, n: usize) {
-        if self.lu.nrows() == n && self.perm.len() == n {
+        if self.lu.len() == n * n && self.perm.len() == n {
             return;
         }
-        self.lu = faer::Mat::zeros(n, n);
+        self.lu = vec![0.0; n * n];
         self.perm = vec![0; n];
         self.perm_inv = vec![0; n];
         let req = lu_in_place_scratch::<usize, f64>(n, n, faer::Par::Seq, Default::default());
@@ -86,7 +86,7 @@ impl LinearSolver<faer::Mat<f64>> for DenseLu {
         }
         self.reserve(r);
         for j in 0..c {
-            let (src, dst) = (jac.col_as_slice(j), self.lu.col_as_slice_mut(j));
+            let (src, dst) = (jac.col_as_slice(j), &mut self.lu[j * r..(j + 1) * r]);
             if let Some(i) = src.iter().position(|v| !v.is_finite()) {
                 return Err(SparseError::NonFinite {
                     what: "Jacobian",
@@ -97,7 +97,7 @@ impl LinearSolver<faer::Mat<f64>> for DenseLu {
             dst.copy_from_slice(src);
         }
         lu_in_place(
-            self.lu.as_mut(),
+            faer::MatMut::from_column_major_slice_mut(&mut self.lu, r, c),
             &mut self.perm,
             &mut self.perm_inv,
             faer::Par::Seq,
@@ -106,13 +106,13 @@ impl LinearSolver<faer::Mat<f64>> for DenseLu {
         );
         let mut umax = 0.0f64;
         for j in 0..c {
-            for &u in &self.lu.col_as_slice(j)[..=j] {
+            for &u in &self.lu[j * r..j * r + j + 1] {
                 umax = umax.max(u.abs());
             }
         }
         let tiny = r as f64 * f64::EPSILON * umax;
         for k in 0..r {
-            let p = self.lu[(k, k)];
+            let p = self.lu[k * r + k];
             if !(p.abs() > tiny) {
                 return Err(NonlinearError::SingularJacobian { pivot: k, value: p });
             }
@@ -140,21 +140,22 @@ impl LinearSolver<faer::Mat<f64>> for DenseLu {
         for (xi, &p) in x.iter_mut().zip(&self.perm) {
             *xi = rhs[p];
         }
-        for j in 0..n {
-            let xj = x[j];
+        // L y = P b by columns (unit diagonal), then U x = y by columns.
+        for (j, col) in self.lu.chunks_exact(n).enumerate() {
+            let (head, tail) = x.split_at_mut(j + 1);
+            let xj = head[j];
             if xj != 0.0 {
-                let col = &self.lu.col_as_slice(j)[j + 1..n];
-                for (xi, lij) in x[j + 1..].iter_mut().zip(col) {
+                for (xi, lij) in tail.iter_mut().zip(&col[j + 1..]) {
                     *xi -= lij * xj;
                 }
             }
         }
-        for j in (0..n).rev() {
-            let col = self.lu.col_as_slice(j);
-            x[j] /= col[j];
-            let xj = x[j];
+        for (j, col) in self.lu.chunks_exact(n).enumerate().rev() {
+            let (head, tail) = x.split_at_mut(j);
+            let xj = tail[0] / col[j];
+            tail[0] = xj;
             if xj != 0.0 {
-                for (xi, uij) in x[..j].iter_mut().zip(&col[..j]) {
+                for (xi, uij) in head.iter_mut().zip(&col[..j]) {
                     *xi -= uij * xj;
                 }
             }

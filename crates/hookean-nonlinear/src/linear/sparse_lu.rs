@@ -1,9 +1,11 @@
-//! [`SparseLu`]: faer's sparse LU for general sparse Jacobians.
+//! [`SparseLu`]: faer's sparse LU for general sparse Jacobians, refactored
+//! and solved in storage it keeps.
 
-use faer::linalg::solvers::Solve;
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::sparse::linalg::LuError;
-use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
+use faer::sparse::linalg::lu::{LuRef, NumericLu, SymbolicLu, factorize_symbolic_lu};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, MatMut, Par};
 use hookean_sparse::SparseError;
 
 use super::{LinearSolveStats, LinearSolver};
@@ -12,22 +14,62 @@ use crate::error::{NonlinearError, check_len, invalid};
 /// Sparse LU with partial pivoting (faer, COLAMD ordering) for general
 /// sparse Jacobians stored as `sprs::CsMat<f64>` (CSR or CSC).
 ///
-/// The symbolic analysis is kept while the sparsity pattern is unchanged,
-/// so a setup after a refill redoes only the numeric factorisation.
-#[derive(Debug, Default)]
+/// The symbolic analysis, the numeric factors' storage, faer's workspace
+/// and, for a CSR input, the map of its entries onto the column-major
+/// copy are kept while the sparsity pattern is unchanged: a setup after a
+/// refill redoes only the numeric factorisation, and neither it nor a
+/// solve allocates once the factors have grown to their size.
 pub struct SparseLu {
+    /// The input's pattern as given, to notice a change.
+    input_indptr: Vec<usize>,
+    input_indices: Vec<usize>,
+    input_csr: bool,
+    /// The column-major copy `A` factors.
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     values: Vec<f64>,
+    /// For a CSR input: `values[k] = data[to_csc[k]]`.
+    to_csc: Vec<usize>,
     symbolic: Option<SymbolicLu<usize>>,
-    lu: Option<Lu<usize, f64>>,
+    numeric: NumericLu<usize, f64>,
+    mem: MemBuffer,
     n: usize,
+    ready: bool,
+}
+
+impl std::fmt::Debug for SparseLu {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SparseLu")
+            .field("n", &self.n)
+            .field("nnz", &self.values.len())
+            .field("ready", &self.ready)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Default for SparseLu {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 impl SparseLu {
     /// An empty solver.
     pub fn new() -> Self {
-        Self::default()
+        Self {
+            input_indptr: Vec::new(),
+            input_indices: Vec::new(),
+            input_csr: false,
+            col_ptr: Vec::new(),
+            row_idx: Vec::new(),
+            values: Vec::new(),
+            to_csc: Vec::new(),
+            symbolic: None,
+            numeric: NumericLu::new(),
+            mem: MemBuffer::new(StackReq::EMPTY),
+            n: 0,
+            ready: false,
+        }
     }
 
     /// Whether a symbolic analysis is cached (it is reused by the next
@@ -35,43 +77,90 @@ impl SparseLu {
     pub fn has_symbolic(&self) -> bool {
         self.symbolic.is_some()
     }
+
+    /// The column-major structure of `jac`'s pattern, its symbolic analysis
+    /// and the workspace of the numeric factorisation and of a solve.
+    fn analyse(&mut self, jac: &sprs::CsMat<f64>) -> Result<(), NonlinearError> {
+        let n = jac.rows();
+        let (indptr, indices) = (jac.indptr(), jac.indices());
+        let indptr = indptr.raw_storage();
+        self.input_indptr.clear();
+        self.input_indptr.extend_from_slice(indptr);
+        self.input_indices.clear();
+        self.input_indices.extend_from_slice(indices);
+        self.input_csr = jac.is_csr();
+        self.to_csc.clear();
+        if self.input_csr {
+            // The transpose's structure by counting, and where each entry goes.
+            let offset = indptr[0];
+            self.col_ptr.clear();
+            self.col_ptr.resize(n + 1, 0);
+            for &j in indices {
+                self.col_ptr[j + 1] += 1;
+            }
+            for j in 0..n {
+                self.col_ptr[j + 1] += self.col_ptr[j];
+            }
+            let nnz = indices.len();
+            self.row_idx.clear();
+            self.row_idx.resize(nnz, 0);
+            self.to_csc.resize(nnz, 0);
+            let mut next = self.col_ptr[..n].to_vec();
+            for i in 0..n {
+                for k in indptr[i] - offset..indptr[i + 1] - offset {
+                    let j = indices[k];
+                    self.row_idx[next[j]] = i;
+                    self.to_csc[next[j]] = k;
+                    next[j] += 1;
+                }
+            }
+        } else {
+            let offset = indptr[0];
+            self.col_ptr.clear();
+            self.col_ptr.extend(indptr.iter().map(|p| p - offset));
+            self.row_idx.clear();
+            self.row_idx.extend_from_slice(indices);
+        }
+        let sym = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
+        let symbolic = factorize_symbolic_lu(sym, Default::default()).map_err(|e| {
+            invalid(
+                "Jacobian",
+                format!("sparse LU symbolic analysis failed: {e:?}"),
+            )
+        })?;
+        let req = StackReq::any_of(&[
+            symbolic.factorize_numeric_lu_scratch::<f64>(Par::Seq, Default::default()),
+            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
+        ]);
+        self.mem = MemBuffer::new(req);
+        self.symbolic = Some(symbolic);
+        self.n = n;
+        Ok(())
+    }
 }
 
 impl LinearSolver<sprs::CsMat<f64>> for SparseLu {
     fn setup(&mut self, jac: &sprs::CsMat<f64>) -> Result<(), NonlinearError> {
-        self.lu = None;
+        self.ready = false;
         let (r, c) = jac.shape();
         if r != c {
             return Err(SparseError::NotSquare { rows: r, cols: c }.into());
         }
-        let csc_owned;
-        let csc = if jac.is_csc() {
-            jac
-        } else {
-            csc_owned = jac.to_other_storage();
-            &csc_owned
-        };
         let same_pattern = self.symbolic.is_some()
             && self.n == r
-            && self.col_ptr.as_slice() == csc.indptr().raw_storage()
-            && self.row_idx.as_slice() == csc.indices();
+            && self.input_csr == jac.is_csr()
+            && self.input_indptr.as_slice() == jac.indptr().raw_storage()
+            && self.input_indices.as_slice() == jac.indices();
         if !same_pattern {
-            self.col_ptr.clear();
-            self.col_ptr.extend_from_slice(csc.indptr().raw_storage());
-            self.row_idx.clear();
-            self.row_idx.extend_from_slice(csc.indices());
-            let sym =
-                SymbolicSparseColMatRef::new_checked(r, r, &self.col_ptr, None, &self.row_idx);
-            let symbolic = SymbolicLu::try_new(sym).map_err(|e| {
-                invalid(
-                    "Jacobian",
-                    format!("sparse LU symbolic analysis failed: {e:?}"),
-                )
-            })?;
-            self.symbolic = Some(symbolic);
+            self.analyse(jac)?;
         }
+        let data = jac.data();
         self.values.clear();
-        self.values.extend_from_slice(csc.data());
+        if self.input_csr {
+            self.values.extend(self.to_csc.iter().map(|&k| data[k]));
+        } else {
+            self.values.extend_from_slice(data);
+        }
         if let Some(i) = self.values.iter().position(|v| !v.is_finite()) {
             return Err(SparseError::NonFinite {
                 what: "Jacobian",
@@ -79,18 +168,24 @@ impl LinearSolver<sprs::CsMat<f64>> for SparseLu {
             }
             .into());
         }
+        let symbolic = self.symbolic.as_ref().expect("analysed above");
         let sym = SymbolicSparseColMatRef::new_checked(r, r, &self.col_ptr, None, &self.row_idx);
-        let mat = SparseColMatRef::new(sym, &self.values);
-        let symbolic = self.symbolic.clone().expect("symbolic analysis set above");
-        let lu = Lu::try_new_with_symbolic(symbolic, mat).map_err(|e| match e {
-            LuError::SymbolicSingular { index } => NonlinearError::SingularJacobian {
-                pivot: index,
-                value: 0.0,
-            },
-            LuError::Generic(g) => invalid("Jacobian", format!("sparse LU failed: {g:?}")),
-        })?;
-        self.lu = Some(lu);
-        self.n = r;
+        symbolic
+            .factorize_numeric_lu(
+                &mut self.numeric,
+                SparseColMatRef::new(sym, &self.values),
+                Par::Seq,
+                MemStack::new(&mut self.mem),
+                Default::default(),
+            )
+            .map_err(|e| match e {
+                LuError::SymbolicSingular { index } => NonlinearError::SingularJacobian {
+                    pivot: index,
+                    value: 0.0,
+                },
+                LuError::Generic(g) => invalid("Jacobian", format!("sparse LU failed: {g:?}")),
+            })?;
+        self.ready = true;
         Ok(())
     }
 
@@ -101,13 +196,22 @@ impl LinearSolver<sprs::CsMat<f64>> for SparseLu {
         x: &mut [f64],
         _rtol: f64,
     ) -> Result<LinearSolveStats, NonlinearError> {
-        let lu = self.lu.as_ref().ok_or(NonlinearError::NotReady(
-            "SparseLu::solve before a successful setup",
-        ))?;
+        let (true, Some(symbolic)) = (self.ready, self.symbolic.as_ref()) else {
+            return Err(NonlinearError::NotReady(
+                "SparseLu::solve before a successful setup",
+            ));
+        };
         check_len("right-hand side", rhs, self.n)?;
         check_len("solution", x, self.n)?;
         x.copy_from_slice(rhs);
-        lu.solve_in_place(faer::ColMut::from_slice_mut(x));
+        // The factors come from `factorize_numeric_lu` with this symbolic
+        // analysis (setup), as `new_unchecked` requires.
+        LuRef::new_unchecked(symbolic, &self.numeric).solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(x, self.n, 1),
+            Par::Seq,
+            MemStack::new(&mut self.mem),
+        );
         // A numerically zero pivot shows up as inf/NaN in the solution.
         if x.iter().any(|v| !v.is_finite()) && rhs.iter().all(|v| v.is_finite()) {
             return Err(NonlinearError::SingularJacobian {

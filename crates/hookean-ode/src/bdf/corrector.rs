@@ -25,6 +25,10 @@ pub(crate) struct CorrectorStep<'a> {
     /// Set up the Newton matrix again (with the kept Jacobian and this `c`)
     /// before the iteration.
     pub refactor: bool,
+    /// The contraction rate of the Newton iteration when it is known: `0`
+    /// for a linear problem (a constant Jacobian) with the Newton matrix
+    /// set up at this `c`, whose first correction solves the corrector.
+    pub known_rate: Option<f64>,
     /// CVODE's correction `2 / (1 + c / c_lu)` of an update solved with a
     /// Newton matrix factored at `c_lu != c` (1 otherwise).
     pub scale: f64,
@@ -109,6 +113,11 @@ pub(crate) trait Corrector: System {
         y: &[f64],
         stats: &mut Stats,
     ) -> Result<bool, OdeError>;
+
+    /// Whether the last two Jacobian evaluations gave the same values
+    /// bitwise: the problem is linear (affine) in the state, at least where
+    /// it has been.
+    fn jacobian_is_constant(data: &Self::Data) -> bool;
 
     /// Solves the corrector from `d = 0`, writing `dcor = d = K - y^(0)`
     /// on success.

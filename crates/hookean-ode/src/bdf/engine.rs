@@ -45,6 +45,7 @@ pub(crate) struct Bdf<S: Corrector> {
     pub(super) jac_current: bool,
     /// `c` of the step at which the kept Jacobian was evaluated.
     pub(super) jac_c: f64,
+
     /// Fixed order and step (no error test, no order or step change): for
     /// the tests of each formula's order.
     pub(super) frozen: bool,
@@ -94,7 +95,12 @@ impl<S: Corrector> Bdf<S> {
         for a in &mut atol {
             *a *= atol_scale;
         }
-        let newton_tol = (10.0 * f64::EPSILON / rtol).max(NEWTON_TOL);
+        let newton_tol = (10.0 * f64::EPSILON / rtol).max(
+            std::env::var("BDF_NTOL")
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(NEWTON_TOL),
+        );
         let corrector = sys.corrector(&opts, newton_tol, &atol, rtol)?;
         Ok(Self {
             sys,
@@ -115,6 +121,7 @@ impl<S: Corrector> Bdf<S> {
             jac_evaluated: false,
             jac_current: false,
             jac_c: f64::NAN,
+
             frozen: false,
             stats: Stats::default(),
             y_pred: vec![0.0; n],

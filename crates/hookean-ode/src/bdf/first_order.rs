@@ -35,6 +35,10 @@ pub(crate) struct FirstCorrector {
     /// The mapped tolerances, for the increments of difference-quotient Jacobians.
     atol: Vec<f64>,
     rtol: f64,
+    /// The values of the previous Jacobian evaluation, and whether the
+    /// last one repeated them.
+    previous: Vec<f64>,
+    constant: bool,
 }
 
 /// The Newton matrix `I - c J` and its solver.
@@ -61,15 +65,14 @@ enum Matrices {
     },
 }
 
-/// Refills the sparse Jacobian `jac` (of `nnz` entries) at `(t, y)`;
-/// `Ok(false)` if it is not finite.
+/// Refills the sparse Jacobian `jac` (of `nnz` entries) at `(t, y)`.
 fn sparse_jacobian<P: FirstOrderProblem>(
     problem: &P,
     t: f64,
     y: &[f64],
     jac: &mut sprs::CsMat<f64>,
     nnz: usize,
-) -> Result<bool, OdeError> {
+) -> Result<(), OdeError> {
     if !problem.jacobian_sparse(t, y, jac) {
         return Err(OdeError::InvalidParameter {
             name: "jacobian_sparse",
@@ -84,7 +87,7 @@ fn sparse_jacobian<P: FirstOrderProblem>(
             found: jac.nnz(),
         });
     }
-    Ok(jac.data().iter().all(|v| v.is_finite()))
+    Ok(())
 }
 
 impl<P: FirstOrderProblem> Corrector for FirstSys<P> {
@@ -176,6 +179,8 @@ impl<P: FirstOrderProblem> Corrector for FirstSys<P> {
             col: vec![0.0; n],
             atol: atol.to_vec(),
             rtol,
+            previous: Vec::new(),
+            constant: false,
         })
     }
 
@@ -188,7 +193,7 @@ impl<P: FirstOrderProblem> Corrector for FirstSys<P> {
     ) -> Result<bool, OdeError> {
         let problem = &self.problem;
         let n = y.len();
-        let finite = match &mut data.matrices {
+        let values: &[f64] = match &mut data.matrices {
             Matrices::Krylov { jac, .. } if jac.nnz() == 0 => return Ok(true),
             Matrices::Dense { jac, .. } => {
                 stats.num_jac_evals += 1;
@@ -210,15 +215,24 @@ impl<P: FirstOrderProblem> Corrector for FirstSys<P> {
                     );
                     stats.num_lin_rhs_evals += n + 1;
                 }
-                jac.iter().all(|v| v.is_finite())
+                jac
             }
             Matrices::Sparse { jac, .. } | Matrices::Krylov { jac, .. } => {
                 stats.num_jac_evals += 1;
                 let nnz = jac.nnz();
-                sparse_jacobian(problem, t, y, jac, nnz)?
+                sparse_jacobian(problem, t, y, jac, nnz)?;
+                jac.data()
             }
         };
+        let finite = values.iter().all(|v| v.is_finite());
+        data.constant = finite && data.previous.as_slice() == values;
+        data.previous.clear();
+        data.previous.extend_from_slice(values);
         Ok(finite)
+    }
+
+    fn jacobian_is_constant(data: &FirstCorrector) -> bool {
+        data.constant
     }
 
     fn solve_corrector(
@@ -251,6 +265,7 @@ impl<P: FirstOrderProblem> Corrector for FirstSys<P> {
                 if step.refactor {
                     newton.invalidate_jacobian();
                 }
+                newton.set_known_rate(step.known_rate);
                 newton.linear_solver_mut().scale = step.scale;
                 let mut stage = FirstStage {
                     problem,
@@ -274,6 +289,7 @@ impl<P: FirstOrderProblem> Corrector for FirstSys<P> {
                 if step.refactor {
                     newton.invalidate_jacobian();
                 }
+                newton.set_known_rate(step.known_rate);
                 newton.linear_solver_mut().scale = step.scale;
                 let mut stage = SparseFirstStage {
                     problem,
@@ -304,6 +320,7 @@ impl<P: FirstOrderProblem> Corrector for FirstSys<P> {
                 if step.refactor {
                     newton.invalidate_jacobian();
                 }
+                newton.set_known_rate(step.known_rate);
                 let mut stage = SparseFirstStage {
                     problem,
                     tau: t,

@@ -73,6 +73,8 @@ pub(crate) struct History {
     /// Steps taken with this spacing and order.
     pub n_equal_steps: usize,
     work: Vec<f64>,
+    /// `U = R(1)` of every order (constant).
+    u: [[[f64; MAX_ORDER + 1]; MAX_ORDER + 1]; MAX_ORDER + 1],
 }
 
 impl History {
@@ -87,6 +89,7 @@ impl History {
             order: 1,
             n_equal_steps: 0,
             work: vec![0.0; (MAX_ORDER + 1) * n],
+            u: std::array::from_fn(|k| interpolation_matrix(k, 1.0)),
         }
     }
 
@@ -106,15 +109,17 @@ impl History {
     pub fn rescale(&mut self, rho: f64) {
         let k = self.order;
         let r = interpolation_matrix(k, rho);
-        let u = interpolation_matrix(k, 1.0);
+        let u = &self.u[k];
         let n = self.d[0].len();
         for j in 0..=k {
             let out = &mut self.work[j * n..(j + 1) * n];
             out.fill(0.0);
-            for i in 0..=k {
-                let ru: f64 = (0..=k).map(|m| r[i][m] * u[m][j]).sum();
+            for (i, d_i) in self.d[..=k].iter().enumerate() {
+                // U is upper triangular (R(1)_mj = 0 for m > j): the terms
+                // m > j of (R U)_ij are exact zeros.
+                let ru: f64 = (0..=j).map(|m| r[i][m] * u[m][j]).sum();
                 if ru != 0.0 {
-                    for (o, v) in out.iter_mut().zip(&self.d[i]) {
+                    for (o, v) in out.iter_mut().zip(d_i) {
                         *o += ru * v;
                     }
                 }

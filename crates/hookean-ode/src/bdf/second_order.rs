@@ -32,6 +32,10 @@ pub(crate) struct SecondCorrector {
     newton: Newton<SymBlockMatrix, PcgSolver<AnyPreconditioner>>,
     dfdx: SymBlockMatrix,
     dfdv: SymBlockMatrix,
+    /// The values of the previous Jacobian evaluation (`df/dx` then
+    /// `df/dv`), and whether the last one repeated them.
+    previous: Vec<f64>,
+    constant: bool,
     /// The new velocity `V` (Newton's unknown), the stage's `psi`,
     /// positions, force.
     v: Vec<f64>,
@@ -63,6 +67,8 @@ impl<P: SecondOrderProblem> Corrector for SecondSys<P> {
             newton: Newton::new(options, SymBlockMatrix::new(pattern.clone()), linear)?,
             dfdx: SymBlockMatrix::new(pattern.clone()),
             dfdv: SymBlockMatrix::new(pattern),
+            previous: Vec::new(),
+            constant: false,
             v: vec![0.0; n],
             psi: vec![0.0; 2 * n],
             x: vec![0.0; n],
@@ -81,9 +87,27 @@ impl<P: SecondOrderProblem> Corrector for SecondSys<P> {
         let (x, v) = y.split_at(y.len() / 2);
         self.problem
             .force_jacobians(t, x, v, &mut data.dfdx, &mut data.dfdv);
-        let finite =
-            |m: &SymBlockMatrix| m.values().iter().flatten().flatten().all(|v| v.is_finite());
-        Ok(finite(&data.dfdx) && finite(&data.dfdv))
+        let values = || {
+            data.dfdx
+                .values()
+                .iter()
+                .chain(data.dfdv.values())
+                .flatten()
+                .flatten()
+                .copied()
+        };
+        let finite = values().all(|v| v.is_finite());
+        let constant = finite && data.previous.iter().copied().eq(values());
+        let mut previous = std::mem::take(&mut data.previous);
+        previous.clear();
+        previous.extend(values());
+        data.previous = previous;
+        data.constant = constant;
+        Ok(finite)
+    }
+
+    fn jacobian_is_constant(data: &SecondCorrector) -> bool {
+        data.constant
     }
 
     fn solve_corrector(
@@ -103,6 +127,7 @@ impl<P: SecondOrderProblem> Corrector for SecondSys<P> {
         if step.refactor {
             data.newton.invalidate_jacobian();
         }
+        data.newton.set_known_rate(step.known_rate);
         // The stage `K = psi + c F(t, K)` with `psi = y^(0) - psi_bdf`.
         for ((p, y), q) in data.psi.iter_mut().zip(step.y_pred).zip(step.psi) {
             *p = y - q;

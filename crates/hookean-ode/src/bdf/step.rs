@@ -125,11 +125,17 @@ impl<S: Corrector> Bdf<S> {
                 self.jac_c = c;
                 refactor = true;
             }
+            // A linear problem (a constant Jacobian) is solved by the first
+            // correction with the Newton matrix of this very c: set it up
+            // again at every change of c and take that one correction.
+            let linear = usable && S::jacobian_is_constant(&self.corrector);
+            refactor |= linear && c != self.lu_c;
             let attempt = if usable {
                 let step = CorrectorStep {
                     t: t_new,
                     c,
                     refactor,
+                    known_rate: linear.then_some(0.0),
                     scale: if refactor || c == self.lu_c {
                         1.0
                     } else {
@@ -145,6 +151,7 @@ impl<S: Corrector> Bdf<S> {
                     &mut self.dcor,
                     &mut self.stats,
                 )?;
+
                 if refactor {
                     self.lu_age = 0;
                     self.lu_c = f64::NAN;
