@@ -95,12 +95,7 @@ impl<S: Corrector> Bdf<S> {
         for a in &mut atol {
             *a *= atol_scale;
         }
-        let newton_tol = (10.0 * f64::EPSILON / rtol).max(
-            std::env::var("BDF_NTOL")
-                .ok()
-                .and_then(|v| v.parse().ok())
-                .unwrap_or(NEWTON_TOL),
-        );
+        let newton_tol = (10.0 * f64::EPSILON / rtol).max(NEWTON_TOL);
         let corrector = sys.corrector(&opts, newton_tol, &atol, rtol)?;
         Ok(Self {
             sys,
