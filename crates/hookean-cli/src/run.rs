@@ -383,7 +383,13 @@ fn run_model(
         )),
         e => CliError::Input(format!("{}: {e}", args.scene.display())),
     })?;
-    check_work(args, scene, sim.model().n_particles(), sim.h_next())?;
+    // The variable-order BDF picks its first step itself (h_next is NaN
+    // before it): its work is estimated at the scene's step.
+    let h = match sim.h_next() {
+        h if h.is_finite() => h,
+        _ => scene.simulation_options().solver.h,
+    };
+    check_work(args, scene, sim.model().n_particles(), h)?;
 
     let mut csv = StepsCsv::create(out.join("steps.csv")).map_err(failed)?;
     let mut frames = ObjFrames {
