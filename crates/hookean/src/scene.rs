@@ -478,8 +478,9 @@ pub enum DampingScene {
 #[serde(deny_unknown_fields)]
 pub struct IntegratorScene {
     /// A method name of `hookean-ode` (`implicit-euler`, `implicit-midpoint`,
-    /// `bdf1`..`bdf6`, `bdf2-variable`, `explicit-euler`, `midpoint`, `rk4`,
-    /// `fb-euler`, `verlet`). Default `implicit-euler`.
+    /// `bdf1`..`bdf6`, `bdf2-variable`, `bdf` (variable-order BDF with error
+    /// control, its first step from `rtol`/`atol`), `explicit-euler`,
+    /// `midpoint`, `rk4`, `fb-euler`, `verlet`). Default `implicit-euler`.
     #[serde(default = "d_method", deserialize_with = "method")]
     pub method: Method,
     /// (Initial) step size (s), or `"auto"` for an explicit method: the
@@ -496,13 +497,14 @@ pub struct IntegratorScene {
     /// Step control of `bdf2-variable`: `"error"` (default) or `"newton"` (Newton iterations).
     #[serde(default)]
     pub control: ControlScene,
-    /// Relative error tolerance of error control. Default 1e-3.
+    /// Relative error tolerance of `bdf2-variable` and `bdf`. Default 1e-3.
     #[serde(default = "d_rtol", deserialize_with = "positive")]
     pub rtol: f64,
-    /// Absolute error tolerance. Default 1e-4.
+    /// Absolute error tolerance of `bdf2-variable` and `bdf` (m for
+    /// positions, m/s for velocities). Default 1e-4.
     #[serde(default = "d_atol", deserialize_with = "positive")]
     pub atol: f64,
-    /// Largest step (s). Default 0.05.
+    /// Largest step (s) of `bdf2-variable` and `bdf`. Default 0.05.
     #[serde(default = "d_hmax", deserialize_with = "positive")]
     pub h_max: f64,
 }
