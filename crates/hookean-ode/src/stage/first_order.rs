@@ -69,8 +69,8 @@ fn first_order_stage_residual<P: FirstOrderProblem>(
     g: &mut [f64],
 ) {
     problem.rhs(tau, stage_point(offset, u), f);
-    for i in 0..g.len() {
-        g[i] = u[i] - psi[i] - gh * f[i];
+    for (((gi, ui), pi), fi) in g.iter_mut().zip(u).zip(psi).zip(f.iter()) {
+        *gi = ui - pi - gh * fi;
     }
 }
 
