@@ -102,7 +102,7 @@ pub mod tutorial;
 pub mod workprecision;
 
 pub use bdf::{
-    BdfCoefficients, BdfConfig, BdfLinearSolver, BdfSolver, Formula, TOLERANCE_EXPONENT,
+    BdfCoefficients, BdfConfig, BdfLinearSolver, BdfSolver, Formula, MAX_ORDER, TOLERANCE_EXPONENT,
 };
 pub use control::{
     IterationController, IterationControllerOptions, NewtonOutcome, PiController,

@@ -507,6 +507,14 @@ pub struct IntegratorScene {
     /// Largest step (s) of `bdf2-variable` and `bdf`. Default 0.05.
     #[serde(default = "d_hmax", deserialize_with = "positive")]
     pub h_max: f64,
+    /// Highest order of `bdf`, 1 to 5. Default 2: the orders above 2 are not
+    /// A-stable (stability angles 86, 73 and 52 degrees for BDF3-5, less for
+    /// the NDFs), and the lightly damped springs of a cloth have eigenvalues
+    /// within a few degrees of the imaginary axis, so orders 3-5 hold the
+    /// step to the springs' periods (docs/PERFORMANCE.md: the drape at
+    /// order 5 takes 14 000-20 000 steps per simulated second at any `rtol`).
+    #[serde(default = "d_max_order", deserialize_with = "bdf_order")]
+    pub max_order: usize,
 }
 
 /// `integrator.h`: a step size in seconds or `"auto"`.
@@ -590,6 +598,7 @@ impl Default for IntegratorScene {
             rtol: d_rtol(),
             atol: d_atol(),
             h_max: d_hmax(),
+            max_order: d_max_order(),
         }
     }
 }
@@ -608,6 +617,21 @@ fn d_atol() -> f64 {
 }
 fn d_hmax() -> f64 {
     0.05
+}
+fn d_max_order() -> usize {
+    2
+}
+
+fn bdf_order<'de, D: Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
+    let v = usize::deserialize(d)?;
+    if (1..=hookean_ode::MAX_ORDER).contains(&v) {
+        Ok(v)
+    } else {
+        Err(D::Error::custom(format!(
+            "must lie in 1 to {}, got {v}",
+            hookean_ode::MAX_ORDER
+        )))
+    }
 }
 
 /// Step-size control of variable-step methods.
@@ -1245,6 +1269,7 @@ impl Scene {
         solver.rtol = self.integrator.rtol;
         solver.atol = self.integrator.atol.into();
         solver.step.h_max = self.integrator.h_max;
+        solver.bdf.max_order = self.integrator.max_order;
         solver.step.control = match self.integrator.control {
             ControlScene::Error => StepControl::error_based(),
             ControlScene::Newton => StepControl::newton_iterations(),
