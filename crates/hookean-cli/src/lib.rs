@@ -23,7 +23,15 @@
 //! reported in its JSON line and the command exits with 1.
 
 // No panic reachable from user input: failures are `CliError`s.
-#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used))]
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::print_stderr,
+        clippy::print_stdout
+    )
+)]
 
 use std::process::ExitCode;
 
@@ -35,6 +43,7 @@ mod bench_precond;
 mod export_system;
 mod filter_analysis;
 mod lineplot;
+mod memory;
 mod output;
 mod plot;
 mod regions;
@@ -43,6 +52,7 @@ mod reproduce;
 mod run;
 mod solve;
 mod stability;
+mod thin;
 mod threads;
 mod tutorial_run;
 mod view;
@@ -139,6 +149,23 @@ pub fn write_line(line: std::fmt::Arguments<'_>) -> Result<(), CliError> {
     }
 }
 
+/// Writes one line to standard error, ignoring a failure: a report or an
+/// error message that cannot be written (stderr on a full disk, closed)
+/// must not turn into a panic or change the exit code.
+pub fn write_error_line(line: std::fmt::Arguments<'_>) {
+    use std::io::Write;
+    let mut err = std::io::stderr().lock();
+    let _ = err.write_fmt(line).and_then(|()| err.write_all(b"\n"));
+}
+
+/// `eprintln!` that cannot panic (see [`write_error_line`]).
+macro_rules! errln {
+    ($($arg:tt)*) => {
+        $crate::write_error_line(format_args!($($arg)*))
+    };
+}
+pub(crate) use errln;
+
 /// `println!` for command output: `outln!(...)?` (see [`write_line`]).
 macro_rules! outln {
     ($($arg:tt)*) => {
@@ -155,6 +182,21 @@ pub fn to_json<T: serde::Serialize>(record: &T, pretty: bool) -> Result<String, 
         serde_json::to_string(record)
     };
     json.map_err(|e| CliError::Failed(format!("cannot write a record as JSON: {e}")))
+}
+
+/// Reads a scene file with the command's `--set` overrides; errors are bad
+/// input (exit 2), an override's named as the `--set` the user typed.
+pub(crate) fn read_scene(
+    path: &std::path::Path,
+    set: &[String],
+) -> Result<hookean::scene::Scene, CliError> {
+    let set: Vec<&str> = set.iter().map(String::as_str).collect();
+    hookean::scene::Scene::from_file(path, &set).map_err(|e| match e {
+        hookean::HookeanError::Override { file, arg, message } => {
+            CliError::Input(format!("{file}: --set {arg}: {message}"))
+        }
+        e => CliError::Input(e.to_string()),
+    })
 }
 
 /// A progress bar's style from an indicatif template (the default bar if
@@ -191,7 +233,7 @@ fn argument_error(e: &clap::Error) -> ExitCode {
                 .collect();
             let joined = paragraph.join(" ");
             let message = joined.strip_prefix("error: ").unwrap_or(&joined);
-            eprintln!("hookean: error: {message} (see hookean --help)");
+            errln!("hookean: error: {message} (see hookean --help)");
             ExitCode::from(2)
         }
     }
@@ -208,16 +250,24 @@ pub fn main() -> ExitCode {
         Err(e) => return argument_error(&e),
     };
     let threads = cli.threads;
-    let result = threads::install(threads, || dispatch(cli.command, threads)).and_then(|r| r);
+    // RAYON_NUM_THREADS matters only without --threads.
+    let env = if threads.is_none() {
+        threads::check_env()
+    } else {
+        Ok(())
+    };
+    let result = env
+        .and_then(|()| threads::install(threads, || dispatch(cli.command, threads)))
+        .and_then(|r| r);
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(CliError::Input(message)) => {
-            eprintln!("hookean: error: {message}");
+            errln!("hookean: error: {message}");
             ExitCode::from(2)
         }
         Err(CliError::SolverFailed) => ExitCode::from(1),
         Err(CliError::Failed(message)) => {
-            eprintln!("hookean: error: {message}");
+            errln!("hookean: error: {message}");
             ExitCode::from(1)
         }
         Err(CliError::OutputClosed) => ExitCode::from(141),

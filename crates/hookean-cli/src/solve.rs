@@ -7,8 +7,8 @@ use std::time::Instant;
 use clap::Args;
 use hookean_sparse::{
     AmgOptions, AmgSmoother, AmgStats, AnyPreconditioner, CgParams, CgWorkspace, DirectCholesky,
-    LinearOperator, PrecondKind, PreconditionerSetup, SymBlockMatrix, pcg, read_matrix_market_file,
-    vecops::norm2,
+    LinearOperator, PrecondKind, PreconditionerSetup, ReadOptions, SymBlockMatrix, pcg,
+    read_matrix_market_file_with, vecops::norm2,
 };
 use serde::Serialize;
 
@@ -33,6 +33,11 @@ pub struct SolveArgs {
     block_size: usize,
 }
 
+/// The most runs `--repeat` asks for.
+const MAX_REPEAT: usize = 1000;
+/// The largest `--max-iter`.
+const MAX_ITER: usize = 10_000_000;
+
 /// The solver options `hookean solve` and `hookean bench-precond` share.
 #[derive(Debug, Args)]
 pub struct SolverArgs {
@@ -44,35 +49,51 @@ pub struct SolverArgs {
     /// SSOR relaxation, in (0, 2).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub omega: f64,
-    /// Relative residual tolerance |r| / |b| of PCG.
+    /// Relative residual tolerance |r| / |b| of PCG, in [0, 1).
     #[arg(long, default_value_t = 1e-8, allow_negative_numbers = true)]
     pub rtol: f64,
-    /// PCG iteration limit (default 2 n).
+    /// PCG iteration limit, 0 to 10^7 (default 2 n).
     #[arg(long)]
     pub max_iter: Option<usize>,
-    /// Run each solver this many times and report the best times.
+    /// Run each solver this many times (1 to 1000) and report the best times.
     #[arg(long, default_value_t = 1)]
     pub repeat: usize,
     /// The smoother of `amg`: block-jacobi, gauss-seidel (symmetric) or ic0 (block IC(0)).
     #[arg(long, default_value = "block-jacobi")]
     pub amg_smoother: String,
+    /// Refuse a matrix, system or direct factor that would need more memory than this (GiB),
+    /// in (0, the machine's memory].
+    #[arg(
+        long,
+        value_name = "GIB",
+        default_value_t = 8.0,
+        allow_negative_numbers = true
+    )]
+    pub max_memory: f64,
 }
 
 impl SolverArgs {
     /// Checks the options; returns the solvers to run and PCG's parameters.
     pub fn resolve(&self) -> Result<(Vec<Solver>, CgParams), CliError> {
         let (repeat, omega, rtol) = (self.repeat, self.omega, self.rtol);
-        if repeat == 0 {
-            return Err(CliError::Input("--repeat must be at least 1".into()));
+        if !(1..=MAX_REPEAT).contains(&repeat) {
+            return Err(CliError::Input(format!(
+                "--repeat must lie in 1 to {MAX_REPEAT}, got {repeat}"
+            )));
+        }
+        if let Some(m) = self.max_iter.filter(|&m| m > MAX_ITER) {
+            return Err(CliError::Input(format!(
+                "--max-iter must lie in 0 to {MAX_ITER}, got {m}"
+            )));
         }
         if !(omega > 0.0 && omega < 2.0) {
             return Err(CliError::Input(format!(
                 "--omega must lie in (0, 2), got {omega:?}"
             )));
         }
-        if !(rtol >= 0.0 && rtol.is_finite()) {
+        if !(0.0..1.0).contains(&rtol) {
             return Err(CliError::Input(format!(
-                "--rtol must be a non-negative number, got {rtol:?}"
+                "--rtol must lie in [0, 1), got {rtol:?}"
             )));
         }
         let params = CgParams {
@@ -81,6 +102,7 @@ impl SolverArgs {
             ..Default::default()
         };
         self.smoother()?;
+        crate::memory::cap_bytes(self.max_memory)?;
         Ok((parse_solvers(&self.precond, omega)?, params))
     }
 
@@ -230,13 +252,24 @@ pub fn run_solver(
                 "csr",
             ),
         },
-        Solver::Direct => run_direct(original, b, params.rtol, repeat),
+        Solver::Direct => {
+            // The factor gets what the cap leaves beside the matrix's copies
+            // (CSR, block storage, the direct solver's own: about 40 bytes a nonzero).
+            let cap = crate::memory::cap_bytes(args.max_memory).unwrap_or(0);
+            let budget = cap.saturating_sub(40 * original.nnz() as u64);
+            run_direct(original, b, params.rtol, repeat, budget)
+        }
     }
 }
 
 pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let (solvers, params) = args.solver.resolve()?;
-    let a = read_matrix_market_file(&args.matrix)?.into_csr();
+    let cap = crate::memory::cap_bytes(args.solver.max_memory)?;
+    let opts = ReadOptions {
+        max_bytes: cap,
+        ..ReadOptions::default()
+    };
+    let a = read_matrix_market_file_with(&args.matrix, &opts)?.into_csr();
     let (rows, cols) = a.shape();
     if rows != cols {
         return Err(CliError::Input(format!(
@@ -244,9 +277,15 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             args.matrix.display()
         )));
     }
+    if rows == 0 {
+        return Err(CliError::Input(format!(
+            "{}: the matrix is empty (0 x 0): there is nothing to solve",
+            args.matrix.display()
+        )));
+    }
     let b = match &args.rhs {
         Some(path) => {
-            let b = read_matrix_market_file(path)?
+            let b = read_matrix_market_file_with(path, &opts)?
                 .into_vector()
                 .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
             if b.len() != rows {
@@ -264,6 +303,16 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             b
         }
     };
+    // Powers of two scale A and b exactly to largest entries near 1, so a
+    // system of tiny or huge numbers (entries of 1e-308) solves as its
+    // scaled copy does; every reported number (iterations, relative
+    // residual) is the same for both.
+    let (a, b) = (scale_to_unit(a), {
+        let mut b = b;
+        let e = unit_exponent(b.iter().copied());
+        b.iter_mut().for_each(|v| *v = times_pow2(*v, -e));
+        b
+    });
     if !(1..=3).contains(&args.block_size) {
         return Err(CliError::Input(format!(
             "--block-size must be 1, 2 or 3, got {:?}",
@@ -321,6 +370,40 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         return Err(CliError::SolverFailed);
     }
     Ok(())
+}
+
+/// The exponent `e` with `2^e <= max |v| < 2^(e+1)` (0 for no non-zero entry).
+fn unit_exponent(values: impl Iterator<Item = f64>) -> i32 {
+    let m = values.fold(0.0_f64, |m, v| m.max(v.abs()));
+    if m > 0.0 && m.is_finite() {
+        m.log2().floor() as i32
+    } else {
+        0
+    }
+}
+
+/// `v * 2^e`, exact unless the result leaves the normal range, in steps
+/// that stay representable (2^e alone may not be).
+fn times_pow2(v: f64, e: i32) -> f64 {
+    let mut v = v;
+    let mut e = e;
+    while e != 0 {
+        let k = e.clamp(-1000, 1000);
+        v *= 2f64.powi(k);
+        e -= k;
+    }
+    v
+}
+
+/// `a` scaled by a power of two to a largest entry in [1, 2).
+fn scale_to_unit(mut a: sprs::CsMat<f64>) -> sprs::CsMat<f64> {
+    let e = unit_exponent(a.data().iter().copied());
+    if e != 0 {
+        a.data_mut()
+            .iter_mut()
+            .for_each(|v| *v = times_pow2(*v, -e));
+    }
+    a
 }
 
 fn relative_residual(a: &sprs::CsMat<f64>, x: &[f64], b: &[f64]) -> f64 {
@@ -407,13 +490,19 @@ where
     record
 }
 
-fn run_direct(a: &sprs::CsMat<f64>, b: &[f64], rtol: f64, repeat: usize) -> SolveRecord {
+fn run_direct(
+    a: &sprs::CsMat<f64>,
+    b: &[f64],
+    rtol: f64,
+    repeat: usize,
+    max_bytes: u64,
+) -> SolveRecord {
     let mut record = empty_record("faer-cholesky", "direct".into(), "csc-lower");
     let mut x = vec![0.0; b.len()];
     let mut best_setup = f64::INFINITY;
     let mut best_solve = f64::INFINITY;
     for _ in 0..repeat {
-        let mut d = DirectCholesky::new();
+        let mut d = DirectCholesky::with_max_bytes(max_bytes);
         let t0 = Instant::now();
         if let Err(e) = d.factor_csr(a) {
             record.error = Some(e.to_string());

@@ -93,7 +93,9 @@ impl NewtonStats {
         if !record {
             return Self::default();
         }
-        let cap = max_iter + 1;
+        // At most 16 iterations reserved: the histories grow as they go, so an
+        // iteration limit of 10^9 does not reserve 10^9 entries (issue 28).
+        let cap = max_iter.min(16) + 1;
         Self {
             residual_norms: Vec::with_capacity(cap),
             step_norms: Vec::with_capacity(cap),

@@ -28,6 +28,12 @@
 
 use std::sync::Arc;
 
+/// `hookean-sparse`, whose matrices this API speaks ([`SymBlockMatrix`],
+/// [`Constraints`]), and `sprs` (the sparse Jacobian of
+/// [`FirstOrderProblem::jacobian_sparse`]): use these re-exports to get the
+/// same versions.
+pub use hookean_sparse::{self, sprs};
+
 use hookean_sparse::{BlockPattern, Constraints, IsoBlockMatrix, SparseError, SymBlockMatrix};
 
 /// A first-order system `y' = f(t, y)` (the tutorial's eq. 7).

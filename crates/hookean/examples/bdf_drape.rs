@@ -26,6 +26,7 @@ fn run(n: usize, t_end: f64, overrides: &[String]) -> Result<(Vec<f64>, String),
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/drape.toml");
     let mut all = vec![format!("cloth.n={n}"), format!("duration={t_end}")];
     all.extend_from_slice(overrides);
+    let all: Vec<&str> = all.iter().map(String::as_str).collect();
     let scene = Scene::from_file(&path, &all)?;
     let mut sim = scene.build()?;
     let start = Instant::now();
