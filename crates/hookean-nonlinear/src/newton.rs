@@ -4,7 +4,7 @@
 
 use hookean_sparse::vecops::norm2;
 
-use crate::convergence::{Convergence, RateEstimate, RateVerdict, weighted_rms};
+use crate::convergence::{Convergence, RateEstimate, RateVerdict};
 use crate::error::{DivergenceReason, NonlinearError, check_len};
 use crate::forcing::forcing_term;
 use crate::linear::LinearSolver;
@@ -456,7 +456,14 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
                 });
             }
             stats.iterations += 1;
-            let norm = weighted_rms(&self.s, &self.weights);
+            // The update and its weighted norm in one pass (on a failure
+            // below `y` is the caller's to discard: `solve` returns an error).
+            let mut sum = 0.0;
+            for ((yi, si), wi) in y.iter_mut().zip(&self.s).zip(&self.weights) {
+                *yi += si;
+                sum += (si / wi) * (si / wi);
+            }
+            let norm = (sum / self.s.len().max(1) as f64).sqrt();
             stats.push_step(norm);
             if !norm.is_finite() {
                 return Err(Stop::NonFinite);
@@ -471,9 +478,6 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
             }
             if k > 0 {
                 stats.contraction_rate = Some(norm / previous);
-            }
-            for (yi, si) in y.iter_mut().zip(&self.s) {
-                *yi += si;
             }
             if self.rate.converged(k, norm, tol) {
                 stats.converged_by = Some(ConvergedBy::Rate);
