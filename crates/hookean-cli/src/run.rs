@@ -8,8 +8,8 @@ use clap::Args;
 use hookean::scene::Scene;
 use hookean::sinks::{self, ObjFrames, ProgressInfo, StepsCsv};
 use hookean::{HookeanError, RunSummary, Simulation, Sink};
-use hookean_ode::{Method, StepReport};
 use hookean_ode::tutorial::LinearOscillator;
+use hookean_ode::{Method, StepReport};
 use indicatif::{ProgressBar, ProgressDrawTarget};
 use serde::Serialize;
 
