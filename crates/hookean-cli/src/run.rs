@@ -176,12 +176,15 @@ fn exact_example3(scene: &Scene) -> Option<LinearOscillator> {
         .then(LinearOscillator::example3)
 }
 
+/// What the facade's progress sink calls with each report.
+type OnProgress = Box<dyn FnMut(&ProgressInfo)>;
+
 /// The progress bar of a simulation up to `t_end`: simulated time, steps
 /// per second, current step size (the facade's [`sinks::Progress`], drawn
 /// by indicatif). Drawn only on a terminal, never if `quiet`.
 pub struct Progress {
     bar: ProgressBar,
-    inner: sinks::Progress<Box<dyn FnMut(&ProgressInfo)>>,
+    inner: sinks::Progress<OnProgress>,
 }
 
 impl Progress {

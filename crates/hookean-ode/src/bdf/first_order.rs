@@ -5,7 +5,7 @@
 //! LU, faer's sparse LU on the problem's pattern, or matrix-free GMRES
 //! (CVODE's choices).
 
-use hookean_nonlinear::{DenseLu, GmresSolver, Newton, SparseLu};
+use hookean_nonlinear::{DenseLu, GmresSolver, LinearSolver, Newton, SparseLu};
 use hookean_problem::FirstOrderProblem;
 use hookean_sparse::{GmresParams, PrecondKind};
 
@@ -261,12 +261,7 @@ impl<P: FirstOrderProblem> Corrector for FirstSys<P> {
         let offset = Some((step.y_pred, &mut y[..]));
         let result = match matrices {
             Matrices::Dense { newton, jac } => {
-                newton.weights_mut(k.len()).copy_from_slice(step.weights);
-                if step.refactor {
-                    newton.invalidate_jacobian();
-                }
-                newton.set_known_rate(step.known_rate);
-                newton.linear_solver_mut().scale = step.scale;
+                arm(newton, step, k.len());
                 let mut stage = FirstStage {
                     problem,
                     tau: t,
@@ -285,12 +280,7 @@ impl<P: FirstOrderProblem> Corrector for FirstSys<P> {
                 result
             }
             Matrices::Sparse { newton, jac, diag } => {
-                newton.weights_mut(k.len()).copy_from_slice(step.weights);
-                if step.refactor {
-                    newton.invalidate_jacobian();
-                }
-                newton.set_known_rate(step.known_rate);
-                newton.linear_solver_mut().scale = step.scale;
+                arm(newton, step, k.len());
                 let mut stage = SparseFirstStage {
                     problem,
                     tau: t,
@@ -359,4 +349,20 @@ fn newton_stats(
         Ok(s) => Some(s),
         Err(e) => e.stats(),
     }
+}
+
+/// Readies a direct corrector's Newton for one step: the error weights of
+/// the rate test, a refactorisation when the step asks for one, the known
+/// contraction rate of a linear problem, and CVODE's stale-`gamma` scale.
+fn arm<J, L: LinearSolver<J>>(
+    newton: &mut Newton<J, Rescaled<L>>,
+    step: &CorrectorStep<'_>,
+    n: usize,
+) {
+    newton.weights_mut(n).copy_from_slice(step.weights);
+    if step.refactor {
+        newton.invalidate_jacobian();
+    }
+    newton.set_known_rate(step.known_rate);
+    newton.linear_solver_mut().scale = step.scale;
 }
