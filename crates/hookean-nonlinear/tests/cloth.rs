@@ -132,7 +132,7 @@ fn isotropic_storage_of_the_linearised_jacobian_gives_the_same_iteration() {
     // 3x3-block storage.
     let mut sys = ClothStep::new(N, 1e4, 0.1, 0.001, 0.02, 7);
     let pcg = PcgSolver::new(BlockJacobi::new()).with_constraints(sys.correction_constraints());
-    let mut newton = Newton::new(options.clone(), sys.jacobian_storage(), pcg).unwrap();
+    let mut newton = Newton::new(options, sys.jacobian_storage(), pcg).unwrap();
     let mut dv1 = vec![0.0; sys.dim()];
     let s1 = newton.solve(&mut sys, &mut dv1).unwrap();
     // Isotropic storage: one scalar per block, a third of the nonzeros.

@@ -936,7 +936,7 @@ fn gmres_solves_a_nonsymmetric_newton_problem_stored_or_matrix_free() {
         .matrix_free();
     let mut newton = Newton::new(tight(), j, gmres).unwrap();
     assert!(matches!(
-        newton.solve(&mut sys, &mut vec![0.0; 20]),
+        newton.solve(&mut sys, &mut [0.0; 20]),
         Err(NonlinearError::NotReady(_))
     ));
 }
