@@ -25,9 +25,9 @@ fn main() -> Result<(), hookean::HookeanError> {
     let s = summary.stats;
     println!(
         "{} steps, {} Newton and {} CG iterations in {:.2} s; {} frames in {}",
-        s.steps,
-        s.newton_iterations,
-        s.linear_iterations,
+        s.num_steps,
+        s.num_nonlin_solv_iters,
+        s.num_lin_iters,
         summary.wall.as_secs_f64(),
         frames.times().len(),
         out.display()

@@ -15,9 +15,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let b = read_matrix_market_file(b_path)?.into_vector()?;
     let mut jacobi = Jacobi::new();
     jacobi.setup(&a)?;
-    let block_size = 3; // cloth: 3 unknowns per particle, aggregated as 3x3 blocks
     let mut amg = Amg::with_options(AmgOptions {
-        block_size,
+        block_size: 3, // cloth has 3 unknowns per particle: aggregate 3x3 blocks
         ..AmgOptions::default()
     })?;
     amg.setup(&a)?;

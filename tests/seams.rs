@@ -85,12 +85,12 @@ fn every_driver_lands_exactly_on_an_end_time_that_is_not_a_multiple_of_h() {
     let summary = sim
         .run_until(t_end, |_, _| ControlFlow::Continue(()))
         .unwrap();
-    assert_eq!((summary.stats.steps, summary.t), (3, t_end));
+    assert_eq!((summary.stats.num_steps, summary.t), (3, t_end));
     // Nothing left to do: a second call takes no step.
     let again = sim
         .run_until(t_end, |_, _| ControlFlow::Continue(()))
         .unwrap();
-    assert_eq!(again.stats.steps, 3);
+    assert_eq!(again.stats.num_steps, 3);
 }
 
 /// A nominal step far longer than the run (h = 1e300 s for a 0.02 s run)
@@ -111,7 +111,7 @@ fn a_step_longer_than_the_run_is_shortened_not_skipped() {
     let report = ode.step_to(0.02).unwrap().expect("one step");
     assert_eq!((report.t, report.h), (0.02, 0.02));
     assert!(ode.step_to(0.02).unwrap().is_none());
-    assert_eq!(ode.stats().steps, 1);
+    assert_eq!(ode.stats().num_steps, 1);
 }
 
 /// The Newton options are one type with one validation, whichever layer
@@ -175,12 +175,9 @@ fn the_krylov_adapter_solves_for_corrections_that_keep_the_constraints() {
     a.add_to_block(0, 1, &scaled(-1.0)).unwrap();
     let mut c = Constraints::new(2);
     c.pin(0, [1.0, 2.0, 3.0]).unwrap();
-    let mut pcg = PcgSolver::new(Identity).with_constraints(c);
-    let options = NewtonOptions {
-        linear_max_iter: Some(50),
-        ..NewtonOptions::default()
-    };
-    LinearSolver::<SymBlockMatrix>::configure(&mut pcg, &options).unwrap();
+    let mut pcg = PcgSolver::new(Identity)
+        .with_max_iter(Some(50))
+        .with_constraints(c);
     pcg.setup(&a).unwrap();
     let rhs = [0.5, -1.0, 2.0, 8.0, 4.0, -4.0];
     let mut s = [0.0; 6];

@@ -1,31 +1,36 @@
 //! Wall time to reach a mixed error <= 1e-4 at t_end on the stiff test set,
 //! for hookean-ode's BdfSolver and diffsol's BDF (dense nalgebra matrices and
-//! LU, the Jacobian from analytic Jacobian-vector products), with the
-//! statistics of that run. For each solver and problem the loosest `rtol`
+//! LU, the Jacobian from analytic Jacobian-vector products; on the spring
+//! chain also faer's sparse matrices and sparse LU, the sparsity detected
+//! from the same products), with the statistics of that run. For each solver and problem the loosest `rtol`
 //! of the ladder 1e-2, 3e-3, 1e-3, ..., 1e-10 whose error is <= 1e-4 is
 //! taken and timed (median of `repeats` runs), and the time at exactly
 //! 1e-4 is interpolated on the work-precision curve (see `compare`).
 //!
 //! usage: stiff-compare [repeats]
-//! CSV columns: problem,solver,rtol,error,steps,jac_evals,lu_setups,rhs_evals,wall_s,wall_s_at_1e-4
+//! CSV columns: problem,solver,rtol,error,steps,jac_evals,lu_setups,rhs_evals,newton_iters,wall_s,wall_s_at_1e-4
 //! (the statistics and `wall_s` of the first rung meeting the target; the last column interpolated).
 
 use std::cell::RefCell;
 use std::time::Instant;
 
-use diffsol::{NalgebraLU, NalgebraMat, OdeBuilder, OdeSolverMethod, OdeSolverStopReason, Vector};
-use hookean_ode::BdfSolver;
+use diffsol::{
+    FaerSparseLU, FaerSparseMat, NalgebraLU, NalgebraMat, OdeBuilder, OdeSolverMethod,
+    OdeSolverStopReason, Vector,
+};
+use hookean_ode::{BdfSolver, Integrator};
 use hookean_ode::testset::{
     E5, Hires, Orego, Robertson, SpringChain, TestProblem, VanDerPol, mixed_error, options,
 };
 
-/// One run's result: the final state and (steps, jac_evals, lu_setups, rhs_evals).
-type Run = Option<(Vec<f64>, [usize; 4])>;
+/// One run's result: the final state and (steps, jac_evals, lu_setups,
+/// rhs_evals, newton_iters).
+type Run = Option<(Vec<f64>, [usize; 5])>;
 
 fn ours<P: TestProblem + Clone>(p: &P, rtol: f64) -> Run {
     let opts = options(p, rtol);
     let mut s = BdfSolver::new(p.clone(), 0.0, &p.y0(), opts).ok()?;
-    let st = s.solve_to(p.t_end()).ok()?;
+    let st = s.integrate(p.t_end()).ok()?.stats;
     Some((
         s.y().to_vec(),
         [
@@ -33,6 +38,7 @@ fn ours<P: TestProblem + Clone>(p: &P, rtol: f64) -> Run {
             st.num_jac_evals,
             st.num_lin_solv_setups,
             st.num_rhs_evals,
+            st.num_nonlin_solv_iters,
         ],
     ))
 }
@@ -80,6 +86,59 @@ fn diffsol_bdf<P: TestProblem + Clone + 'static>(p: &P, rtol: f64) -> Run {
             st.number_of_linear_solver_setups,
             st.number_of_linear_solver_setups,
             0,
+            st.number_of_nonlinear_solver_iterations,
+        ],
+    ))
+}
+
+/// diffsol's BDF with faer's sparse matrices and sparse LU, the Jacobian
+/// assembled from products with the problem's sparse Jacobian (diffsol
+/// detects the pattern from them).
+fn diffsol_bdf_sparse<P: TestProblem + Clone + 'static>(p: &P, rtol: f64) -> Run {
+    let n = p.dim();
+    let y0 = p.y0();
+    let atol: Vec<f64> = p.floor().iter().map(|f| f * rtol).collect();
+    let (pr, pj) = (p.clone(), p.clone());
+    let jac = RefCell::new(p.sparse_jacobian_pattern()?);
+    let problem = OdeBuilder::<FaerSparseMat<f64>>::new()
+        .rtol(rtol)
+        .atol(atol)
+        .rhs_implicit(
+            move |x: &[f64], _p: &[f64], t: f64, y: &mut [f64]| pr.rhs(t, x, y),
+            move |x: &[f64], _p: &[f64], t: f64, v: &[f64], y: &mut [f64]| {
+                let mut j = jac.borrow_mut();
+                pj.jacobian_sparse(t, x, &mut j);
+                y.fill(0.0);
+                for (&val, (r, c)) in j.iter() {
+                    y[r] += val * v[c];
+                }
+            },
+        )
+        .init(
+            move |_p: &[f64], _t: f64, y: &mut [f64]| y.copy_from_slice(&y0),
+            n,
+        )
+        .build()
+        .ok()?;
+    let mut solver = problem.bdf::<FaerSparseLU<f64>>().ok()?;
+    solver.set_stop_time(p.t_end()).ok()?;
+    loop {
+        match solver.step() {
+            Ok(OdeSolverStopReason::TstopReached) => break,
+            Ok(_) => {}
+            Err(_) => return None,
+        }
+    }
+    let y = solver.state().y.clone_as_vec();
+    let st = solver.get_statistics();
+    Some((
+        y,
+        [
+            st.number_of_steps,
+            st.number_of_linear_solver_setups,
+            st.number_of_linear_solver_setups,
+            0,
+            st.number_of_nonlinear_solver_iterations,
         ],
     ))
 }
@@ -123,8 +182,15 @@ fn compare<P: TestProblem + Clone + 'static>(p: &P, repeats: usize) {
     );
 }
 
-fn compare_ours_only<P: TestProblem + Clone + 'static>(p: &P, repeats: usize) {
-    compare_with(p, repeats, &[("hookean-ode", ours::<P>)]);
+fn compare_sparse<P: TestProblem + Clone + 'static>(p: &P, repeats: usize) {
+    compare_with(
+        p,
+        repeats,
+        &[
+            ("hookean-ode sparse LU", ours::<P>),
+            ("diffsol faer sparse LU", diffsol_bdf_sparse::<P>),
+        ],
+    );
 }
 
 type Solver<P> = fn(&P, f64) -> Run;
@@ -158,18 +224,19 @@ fn compare_with<P: TestProblem + Clone + 'static>(
                 _ => t,
             };
             println!(
-                "{},{name},{rtol:e},{err:.3e},{},{},{},{},{t:.6e},{at_target:.6e}",
+                "{},{name},{rtol:e},{err:.3e},{},{},{},{},{},{t:.6e},{at_target:.6e}",
                 p.name(),
                 stats[0],
                 stats[1],
                 stats[2],
                 stats[3],
+                stats[4],
             );
             found = true;
             break;
         }
         if !found {
-            println!("{},{name},,,,,,,,failed at every rtol", p.name());
+            println!("{},{name},,,,,,,,,failed at every rtol", p.name());
         }
     }
 }
@@ -179,7 +246,9 @@ fn main() {
         .nth(1)
         .and_then(|a| a.parse().ok())
         .unwrap_or(11);
-    println!("problem,solver,rtol,error,steps,jac_evals,lu_setups,rhs_evals,wall_s,wall_s_at_1e-4");
+    println!(
+        "problem,solver,rtol,error,steps,jac_evals,lu_setups,rhs_evals,newton_iters,wall_s,wall_s_at_1e-4"
+    );
     compare(&Robertson { t_end: 40.0 }, repeats);
     compare(&Robertson { t_end: 1e5 }, repeats);
     compare(&VanDerPol, repeats);
@@ -187,6 +256,6 @@ fn main() {
     compare(&Orego, repeats);
     compare(&E5, repeats);
     compare(&SpringChain::new(false), repeats);
-    // Ours with the sparse LU on the chain's pattern (diffsol's row above is dense).
-    compare_ours_only(&SpringChain::new(true), repeats);
+    // Both with a sparse LU on the chain's pattern (the rows above are dense).
+    compare_sparse(&SpringChain::new(true), repeats);
 }

@@ -101,7 +101,7 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
                 args.at
             ))
         })?;
-        steps = summary.stats.steps;
+        steps = summary.stats.num_steps;
     }
     let (a_path, b_path) = (args.out.join("A.mtx"), args.out.join("b.mtx"));
     let dir = staging.dir();

@@ -645,7 +645,7 @@ fn verlet_best(_: &Ctx) -> Result<Outcome, CliError> {
         let evals = rows
             .iter()
             .filter(|r| r.error <= target)
-            .map(|r| r.stats.f_evals)
+            .map(|r| r.stats.num_rhs_evals_total())
             .min();
         work.push((m, evals));
     }
@@ -687,8 +687,11 @@ fn inexact_newton(ctx: &Ctx) -> Result<Outcome, CliError> {
                 method,
                 rtol: 1e-6,
                 max_iter: 30,
-                preconditioner: PrecondKind::BlockJacobi,
                 ..SolverOptions::default_newton()
+            },
+            linear: hookean::ode::PcgOptions {
+                preconditioner: PrecondKind::BlockJacobi,
+                ..Default::default()
             },
             ..SolverOptions::default()
         };
@@ -697,7 +700,7 @@ fn inexact_newton(ctx: &Ctx) -> Result<Outcome, CliError> {
         for _ in 0..10 {
             sim.step().map_err(failed)?;
         }
-        Ok(sim.stats().linear_iterations)
+        Ok(sim.stats().num_lin_iters)
     };
     let exact = cg(NewtonMethod::Exact)?;
     let inexact = cg(NewtonMethod::Inexact(ForcingTerm::Constant(0.02)))?;
@@ -1143,7 +1146,7 @@ fn figure8(ctx: &Ctx) -> Result<Outcome, CliError> {
     };
     let k0_panel_n = if ctx.quick { 8 } else { 16 };
     let mut best = SimulationOptions::drape_solver();
-    best.newton.preconditioner = PrecondKind::Mic0 {
+    best.linear.preconditioner = PrecondKind::Mic0 {
         omega: PrecondKind::MIC_OMEGA,
     };
     let methods = Figure8Method::ALL;

@@ -8,8 +8,8 @@ use clap::Args;
 use hookean::scene::Scene;
 use hookean::sinks::{self, ObjFrames, ProgressInfo, StepsCsv};
 use hookean::{HookeanError, RunSummary, Simulation, Sink};
-use hookean_ode::StepReport;
 use hookean_ode::tutorial::LinearOscillator;
+use hookean_ode::{Method, StepReport};
 use indicatif::{ProgressBar, ProgressDrawTarget};
 use serde::Serialize;
 
@@ -176,16 +176,16 @@ fn exact_example3(scene: &Scene) -> Option<LinearOscillator> {
         .then(LinearOscillator::example3)
 }
 
+/// What the facade's progress sink calls with each report.
+type OnProgress = Box<dyn FnMut(&ProgressInfo)>;
+
 /// The progress bar of a simulation up to `t_end`: simulated time, steps
 /// per second, current step size (the facade's [`sinks::Progress`], drawn
 /// by indicatif). Drawn only on a terminal, never if `quiet`.
 pub struct Progress {
     bar: ProgressBar,
-    inner: sinks::Progress<Draw>,
+    inner: sinks::Progress<OnProgress>,
 }
-
-/// What the bar does with each progress report.
-type Draw = Box<dyn FnMut(&ProgressInfo)>;
 
 impl Progress {
     /// A bar over `[0, t_end]` simulated seconds.
@@ -200,7 +200,7 @@ impl Progress {
             "{bar:40} {percent:>3}% {msg} [{elapsed_precise}]",
         ));
         let drawn = bar.clone();
-        let draw: Draw = Box::new(move |p: &ProgressInfo| {
+        let draw: OnProgress = Box::new(move |p: &ProgressInfo| {
             drawn.set_position((p.t * 1000.0) as u64);
             drawn.set_message(format!(
                 "t = {:.3} s, {:.0} steps/s, h = {:.2e}",
@@ -321,8 +321,10 @@ fn run_model(
         )),
         e => CliError::Input(format!("{}: {e}", args.scene.display())),
     })?;
-    // A variable-step method takes at least duration / h_max steps.
-    let h = if sim.method().is_variable_step() {
+    // A variable-step method takes at least duration / h_max steps (the
+    // variable-order BDF picks its first step itself: h_next is NaN before
+    // it, and `max` takes h_max).
+    let h = if sim.method().is_variable_step() || *sim.method() == Method::VariableBdf {
         scene.integrator.h_max.max(sim.h_next())
     } else {
         sim.h_next()
@@ -386,10 +388,10 @@ fn run_model(
                     "scene": args.scene.display().to_string(),
                     "method": sim.method().to_string(),
                     "error": message,
-                    "steps": stats.steps,
-                    "rejected_steps": stats.rejected_steps,
-                    "newton_iterations": stats.newton_iterations,
-                    "cg_iterations": stats.linear_iterations,
+                    "steps": stats.num_steps,
+                    "rejected_steps": stats.num_rejected_steps(),
+                    "newton_iterations": stats.num_nonlin_solv_iters,
+                    "cg_iterations": stats.num_lin_iters,
                 });
                 let view = view_of(&sim, summary, frames.view.take());
                 if view.write(&out.join("view.html")).is_ok() {
@@ -409,13 +411,13 @@ fn run_model(
         method: sim.method().to_string(),
         particles: sim.model().n_particles(),
         springs: sim.model().springs().len(),
-        steps: s.steps,
-        rejected_steps: s.rejected_steps,
-        newton_iterations: s.newton_iterations,
-        cg_iterations: s.linear_iterations,
-        f_evals: s.f_evals,
-        jacobian_evals: s.jacobian_evals,
-        linear_setups: s.linear_setups,
+        steps: s.num_steps,
+        rejected_steps: s.num_rejected_steps(),
+        newton_iterations: s.num_nonlin_solv_iters,
+        cg_iterations: s.num_lin_iters,
+        f_evals: s.num_rhs_evals_total(),
+        jacobian_evals: s.num_jac_evals,
+        linear_setups: s.num_lin_solv_setups,
         wall_s: summary.wall.as_secs_f64(),
         threads: crate::threads::current(),
         simulated_s: summary.simulated,
@@ -484,9 +486,9 @@ fn run_model(
     Ok(Some(format!(
         "{}: {} steps, {} Newton and {} CG iterations, {:.2} s wall for {:.2} s simulated ({:.2}x real time)",
         name,
-        s.steps,
-        s.newton_iterations,
-        s.linear_iterations,
+        s.num_steps,
+        s.num_nonlin_solv_iters,
+        s.num_lin_iters,
         record.wall_s,
         record.simulated_s,
         record.simulated_s_per_wall_s,

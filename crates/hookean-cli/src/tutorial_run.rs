@@ -131,11 +131,11 @@ fn integrate<P: FirstOrderProblem>(
         scene: scene_path.display().to_string(),
         example,
         method: ode.method().to_string(),
-        steps: s.steps,
-        rejected_steps: s.rejected_steps,
-        newton_iterations: s.newton_iterations,
-        f_evals: s.f_evals,
-        jacobian_evals: s.jacobian_evals,
+        steps: s.num_steps,
+        rejected_steps: s.num_rejected_steps(),
+        newton_iterations: s.num_nonlin_solv_iters,
+        f_evals: s.num_rhs_evals_total(),
+        jacobian_evals: s.num_jac_evals,
         wall_s: wall,
         simulated_s: ode.t(),
         y_final: y,
@@ -162,7 +162,7 @@ fn integrate<P: FirstOrderProblem>(
     Ok((!quiet).then(|| {
         format!(
             "tutorial example {example}: {} steps, y({:.3}) = {y:.6e}, exact {e:.6e}, error {:.2e}",
-            s.steps,
+            s.num_steps,
             ode.t(),
             (y - e).abs(),
         )

@@ -275,14 +275,14 @@ pub fn run(args: &WorkPrecisionArgs) -> Result<(), CliError> {
             "| {m} | {} | {} | {} | {:.3e} |",
             m.order(),
             observed_order(tail).map_or("-".to_string(), |q| format!("{q:.2}")),
-            last.stats.f_evals,
+            last.stats.num_rhs_evals_total(),
             last.error
         )?;
         series.push(Series {
             name: m.to_string(),
             points: rows
                 .iter()
-                .map(|r| (r.stats.f_evals as f64, r.error))
+                .map(|r| (r.stats.num_rhs_evals_total() as f64, r.error))
                 .collect(),
         });
         all.extend(rows);

@@ -24,7 +24,7 @@
 use std::time::Instant;
 
 use hookean_massspring::{ClothParams, cloth};
-use hookean_ode::{Method, NewtonOptions, SolverOptions};
+use hookean_ode::{Method, NewtonOptions, PcgOptions, SolverOptions};
 use hookean_sparse::{PowerParams, PrecondKind};
 
 use crate::error::FilterError;
@@ -209,8 +209,8 @@ pub fn figure8_runs(
             k0_run,
             method: Figure8Method::BackwardEuler,
             h: 0.01,
-            steps: sim.stats().steps,
-            linear_iterations: sim.stats().linear_iterations,
+            steps: sim.stats().num_steps,
+            linear_iterations: sim.stats().num_lin_iters,
             bounded,
             seconds,
         };
@@ -255,7 +255,7 @@ pub fn figure8_runs(
             method,
             h,
             steps: out.steps,
-            linear_iterations: sim.stats().linear_iterations,
+            linear_iterations: sim.stats().num_lin_iters,
             bounded: out.bounded,
             seconds: start.elapsed().as_secs_f64(),
         };
@@ -276,9 +276,12 @@ fn bw98_options() -> SolverOptions {
             max_iter: 1,
             rtol: 0.9,
             linear_rtol: 1e-2,
-            linear_max_iter: Some(10_000),
-            preconditioner: PrecondKind::BlockJacobi,
             ..SolverOptions::default_newton()
+        },
+        linear: PcgOptions {
+            max_iter: Some(10_000),
+            preconditioner: PrecondKind::BlockJacobi,
+            ..PcgOptions::default()
         },
         ..SolverOptions::with_h(0.01)
     }

@@ -3,7 +3,7 @@
 use hookean_sparse::SparseError;
 use thiserror::Error;
 
-use crate::newton::NewtonStats;
+use crate::stats::NewtonStats;
 
 /// Why an iteration was declared divergent.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -107,13 +107,24 @@
 // `!(x > 0.0)` is deliberate: it also rejects NaN parameters.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+mod convergence;
 mod error;
+mod forcing;
 mod linear;
 mod newton;
+mod options;
+mod stats;
 mod system;
 
+pub use convergence::{Convergence, weighted_rms};
 pub use error::{DivergenceReason, NonlinearError};
-pub use hookean_sparse::NegativeCurvature;
-pub use linear::{DenseLu, LinearSolveStats, LinearSolver, PcgSolver, SparseLu};
-pub use newton::{ConvergedBy, ForcingTerm, Newton, NewtonMethod, NewtonOptions, NewtonStats};
+pub use forcing::ForcingTerm;
+pub use hookean_sparse::{NegativeCurvature, PrecondKind};
+pub use linear::{
+    DenseLu, GmresCounters, GmresSolver, JacobianProduct, LinearSolveStats, LinearSolver,
+    PcgOptions, PcgSolver, SparseLu,
+};
+pub use newton::Newton;
+pub use options::{NewtonMethod, NewtonOptions};
+pub use stats::{ConvergedBy, NewtonStats};
 pub use system::NonlinearSystem;

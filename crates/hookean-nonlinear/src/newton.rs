@@ -1,381 +1,23 @@
-//! Newton's method and its variants: the tutorial's Algorithm 1 (Newton),
-//! Algorithm 2 (inexact Newton with residual control, section 3.2) and
-//! Algorithm 3 (inexact simplified Newton, section 3.3).
+//! [`Newton`]: the iteration of the tutorial's Algorithms 1-3 (Newton,
+//! inexact Newton with residual control, inexact simplified Newton) and the
+//! simplified Newton of stiff ODE solvers with CVODE's rate-based test.
 
 use hookean_sparse::vecops::norm2;
-use hookean_sparse::{AmgOptions, NegativeCurvature, PrecondKind};
 
-use crate::error::{DivergenceReason, NonlinearError, check_len, invalid};
+use crate::convergence::{Convergence, RateEstimate, RateVerdict};
+use crate::error::{DivergenceReason, NonlinearError, check_len};
+use crate::forcing::forcing_term;
 use crate::linear::LinearSolver;
+use crate::options::{NewtonMethod, NewtonOptions};
+use crate::stats::{ConvergedBy, NewtonStats};
 use crate::system::NonlinearSystem;
-
-/// The golden ratio `(1 + sqrt 5) / 2`, the exponent of Eisenstat-Walker
-/// choice 1 and of its safeguard.
-const GOLDEN: f64 = 1.618_033_988_749_895;
-
-/// How the forcing term `eta_k` of an inexact Newton method is chosen: the
-/// linear solve of iteration `k` stops when `|J s_k + G(Y_k)| <= eta_k |G(Y_k)|`
-/// (the tutorial's Algorithm 2, step 4).
-///
-/// The adaptive choices are those of Eisenstat and Walker (SIAM J. Sci.
-/// Comput. 17, 1996) with the safeguards KINSOL documents; every `eta_k` is
-/// then capped by [`NewtonOptions::eta_max`] and, for the adaptive choices,
-/// raised to at least `0.5 tol / |G(Y_k)|` (Kelley's guard against
-/// oversolving the last iteration, `tol = atol + rtol |G(Y_0)|`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum ForcingTerm {
-    /// A constant `eta` in `(0, 1)`; the tutorial uses `0.02` (section 3.2).
-    Constant(f64),
-    /// Eisenstat-Walker choice 1:
-    /// `eta_k = | |G(Y_k)| - |G(Y_{k-1}) + J_{k-1} s_{k-1}| | / |G(Y_{k-1})|`,
-    /// safeguarded by `eta_k >= eta_{k-1}^phi` when `eta_{k-1}^phi > 0.1`,
-    /// `phi = (1 + sqrt 5) / 2`. Convergence is superlinear (q-order phi).
-    EisenstatWalker1,
-    /// Eisenstat-Walker choice 2: `eta_k = gamma (|G(Y_k)| / |G(Y_{k-1})|)^alpha`,
-    /// safeguarded by `eta_k >= gamma eta_{k-1}^alpha` when that is `> 0.1`.
-    /// KINSOL's defaults are `gamma = 0.9`, `alpha = 2`
-    /// ([`ForcingTerm::EW2_DEFAULT`]).
-    EisenstatWalker2 {
-        /// Factor `gamma` in `(0, 1]`.
-        gamma: f64,
-        /// Exponent `alpha` in `(1, 2]`.
-        alpha: f64,
-    },
-}
-
-impl ForcingTerm {
-    /// The tutorial's constant forcing term `eta = 0.02` (section 3.2).
-    pub const TUTORIAL: Self = Self::Constant(0.02);
-    /// Eisenstat-Walker choice 2 with KINSOL's `gamma = 0.9`, `alpha = 2`.
-    pub const EW2_DEFAULT: Self = Self::EisenstatWalker2 {
-        gamma: 0.9,
-        alpha: 2.0,
-    };
-
-    fn validate(&self) -> Result<(), NonlinearError> {
-        match *self {
-            Self::Constant(eta) if !(eta > 0.0 && eta < 1.0) => Err(invalid(
-                "ForcingTerm::Constant",
-                format!("eta must lie in (0, 1), got {eta:?}"),
-            )),
-            Self::EisenstatWalker2 { gamma, alpha }
-                if !(gamma > 0.0 && gamma <= 1.0 && alpha > 1.0 && alpha <= 2.0) =>
-            {
-                Err(invalid(
-                    "ForcingTerm::EisenstatWalker2",
-                    format!("need gamma in (0, 1] and alpha in (1, 2], got {gamma:?}, {alpha:?}"),
-                ))
-            }
-            _ => Ok(()),
-        }
-    }
-}
-
-/// Which Newton variant [`Newton::solve`] runs.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum NewtonMethod {
-    /// Algorithm 1: the Jacobian is evaluated at every iterate and
-    /// `J s = -G` is solved "exactly" (an iterative solver to
-    /// [`NewtonOptions::linear_rtol`]). Quadratic convergence.
-    Exact,
-    /// Algorithm 2: Jacobian at every iterate, linear solves only to
-    /// `|r_k| <= eta_k |G(Y_k)|` with the given forcing term.
-    Inexact(ForcingTerm),
-    /// Simplified Newton: the Jacobian of the first iterate is kept and
-    /// solved exactly; it is re-evaluated at the current iterate when the
-    /// contraction rate `theta_k = |s_k| / |s_{k-1}|` exceeds
-    /// [`NewtonOptions::refresh_theta`], and kept across calls while the
-    /// last solve contracted faster than [`NewtonOptions::keep_jacobian_theta`]
-    /// and the caller does not call [`Newton::invalidate_jacobian`] (RADAU5's
-    /// rule). A failure with a kept Jacobian is retried once with a fresh one.
-    Simplified,
-    /// Algorithm 3: the system's cheap approximate Jacobian
-    /// ([`NonlinearSystem::approximate_jacobian`], for cloth the constant
-    /// linearised Jacobian of eq. 50; the exact one at the first iterate if
-    /// the system has none) is evaluated once and kept across calls until
-    /// [`Newton::invalidate_jacobian`] (call it when `h` or the material
-    /// changes); linear solves use the forcing term. If the system has no
-    /// approximation, a failure with a kept Jacobian is retried once with a
-    /// freshly evaluated one.
-    InexactSimplified(ForcingTerm),
-}
-
-impl NewtonMethod {
-    fn forcing(&self) -> Option<ForcingTerm> {
-        match *self {
-            Self::Inexact(f) | Self::InexactSimplified(f) => Some(f),
-            _ => None,
-        }
-    }
-
-    fn keeps_jacobian(&self) -> bool {
-        matches!(self, Self::Simplified | Self::InexactSimplified(_))
-    }
-}
-
-/// Options of [`Newton`]; every field has a documented default.
-#[derive(Debug, Clone, PartialEq)]
-pub struct NewtonOptions {
-    /// The variant. Default [`NewtonMethod::Exact`].
-    pub method: NewtonMethod,
-    /// Converged when `|G(Y_k)| <= atol + rtol |G(Y_0)|` (Euclidean norms).
-    /// Default `1e-12`.
-    pub atol: f64,
-    /// See [`atol`](Self::atol). Default `1e-8`.
-    pub rtol: f64,
-    /// Also converged when `|s_k| theta_k / (1 - theta_k) <= step_tol`
-    /// (Hairer-Wanner, Solving ODEs II, section IV.8: an estimate of the
-    /// remaining error `|Y_{k+1} - Y*|`), for `k >= 1` and `theta_k < 1`. `0` disables it.
-    /// Default `0`.
-    pub step_tol: f64,
-    /// Newton iteration limit per solve. Default `50`.
-    pub max_iter: usize,
-    /// Relative tolerance of the linear solves of [`NewtonMethod::Exact`]
-    /// and [`NewtonMethod::Simplified`] with an iterative solver. Default `1e-10`.
-    pub linear_rtol: f64,
-    /// First forcing term `eta_0` of the Eisenstat-Walker choices. Default `0.5`.
-    pub eta_initial: f64,
-    /// Upper bound `eta_max` of every adaptive forcing term. Default `0.9`.
-    pub eta_max: f64,
-    /// [`NewtonMethod::Simplified`] re-evaluates the Jacobian at the current
-    /// iterate when `theta_k > refresh_theta`. Default `0.5`.
-    pub refresh_theta: f64,
-    /// [`NewtonMethod::Simplified`] keeps its Jacobian for the next call
-    /// when the last contraction rate of a converged solve is at most this
-    /// (RADAU5's `THET`, whose default is `0.001`). Default `0.001`.
-    pub keep_jacobian_theta: f64,
-    /// Diverged when `|G(Y_k)| > max_residual_growth |G(Y_0)|`. Default `1e6`.
-    pub max_residual_growth: f64,
-    /// Iteration limit of each iterative linear solve ([`PcgSolver`](crate::PcgSolver));
-    /// `None` means `2 n`. Default `None`.
-    pub linear_max_iter: Option<usize>,
-    /// The preconditioner of a [`PcgSolver`](crate::PcgSolver) over
-    /// [`AnyPreconditioner`](hookean_sparse::AnyPreconditioner) (the integrators of `hookean-ode` use one);
-    /// solvers with a fixed preconditioner type ignore it. Default block-Jacobi.
-    pub preconditioner: PrecondKind,
-    /// The multigrid's options when `preconditioner` is [`PrecondKind::Amg`]
-    /// (including what every `setup` of a new Jacobian does: refill, keep,
-    /// rebuild). Default [`AmgOptions::default`].
-    pub amg: AmgOptions,
-    /// What a [`PcgSolver`](crate::PcgSolver) does on a direction of
-    /// non-positive curvature: fail the solve (the Newton iteration stops,
-    /// default), or truncate it and take the iterate so far as the Newton
-    /// correction, shortened by a backtracking line search until `|G|`
-    /// falls ([`NegativeCurvature::Truncate`], Newton-CG), which lets Newton
-    /// use an exact Jacobian that is indefinite (compressed springs:
-    /// `model.clamp_stiffness = false`). The preconditioner must stay
-    /// positive definite (MIC(0)'s shift keeps it so).
-    pub negative_curvature: NegativeCurvature,
-}
-
-impl Default for NewtonOptions {
-    fn default() -> Self {
-        Self {
-            method: NewtonMethod::Exact,
-            atol: 1e-12,
-            rtol: 1e-8,
-            step_tol: 0.0,
-            max_iter: 50,
-            linear_rtol: 1e-10,
-            eta_initial: 0.5,
-            eta_max: 0.9,
-            refresh_theta: 0.5,
-            keep_jacobian_theta: 1e-3,
-            max_residual_growth: 1e6,
-            linear_max_iter: None,
-            preconditioner: PrecondKind::BlockJacobi,
-            amg: AmgOptions::default(),
-            negative_curvature: NegativeCurvature::Error,
-        }
-    }
-}
-
-impl NewtonOptions {
-    /// Options with the given method and the other defaults.
-    pub fn with_method(method: NewtonMethod) -> Self {
-        Self {
-            method,
-            ..Self::default()
-        }
-    }
-
-    /// Checks every field's range.
-    ///
-    /// # Errors
-    /// [`NonlinearError::InvalidParameter`] naming the first bad field.
-    pub fn validate(&self) -> Result<(), NonlinearError> {
-        let nonneg = |name, v: f64| {
-            if v >= 0.0 && v.is_finite() {
-                Ok(())
-            } else {
-                Err(invalid(name, format!("must be finite and >= 0, got {v:?}")))
-            }
-        };
-        nonneg("atol", self.atol)?;
-        nonneg("rtol", self.rtol)?;
-        nonneg("step_tol", self.step_tol)?;
-        nonneg("keep_jacobian_theta", self.keep_jacobian_theta)?;
-        if self.max_iter == 0 {
-            return Err(invalid("max_iter", "must be at least 1"));
-        }
-        if !(self.linear_rtol >= 0.0 && self.linear_rtol < 1.0) {
-            return Err(invalid(
-                "linear_rtol",
-                format!("must lie in [0, 1), got {:?}", self.linear_rtol),
-            ));
-        }
-        for (name, v) in [("eta_initial", self.eta_initial), ("eta_max", self.eta_max)] {
-            if !(v > 0.0 && v < 1.0) {
-                return Err(invalid(name, format!("must lie in (0, 1), got {v:?}")));
-            }
-        }
-        if !(self.refresh_theta > 0.0) {
-            return Err(invalid(
-                "refresh_theta",
-                format!("must be > 0, got {:?}", self.refresh_theta),
-            ));
-        }
-        if !(self.max_residual_growth > 1.0) {
-            return Err(invalid(
-                "max_residual_growth",
-                format!("must be > 1, got {:?}", self.max_residual_growth),
-            ));
-        }
-        if let Some(f) = self.method.forcing() {
-            f.validate()?;
-        }
-        Ok(())
-    }
-}
-
-/// Which test declared convergence.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ConvergedBy {
-    /// `|G(Y_k)| <= atol + rtol |G(Y_0)|`.
-    Residual,
-    /// `|s_k| theta_k / (1 - theta_k) <= step_tol`.
-    Step,
-}
-
-/// Statistics of one [`Newton::solve`] call (plain counters and histories).
-///
-/// Histories hold one entry per evaluation, in order; they include the
-/// attempt that failed when a kept Jacobian was refreshed and the solve
-/// restarted ([`restarts`](Self::restarts)).
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct NewtonStats {
-    /// Newton iterations (linear solves and updates `Y <- Y + s`).
-    pub iterations: usize,
-    /// Evaluations of `G`.
-    pub residual_evaluations: usize,
-    /// Evaluations of the Jacobian (exact or approximate).
-    pub jacobian_evaluations: usize,
-    /// Linear-solver setups (factorisations, preconditioner setups).
-    pub linear_setups: usize,
-    /// Linear iterations in total (CG iterations; 0 for direct solvers).
-    pub linear_iterations: usize,
-    /// `|G(Y_k)|` for `k = 0, 1, ...`.
-    pub residual_norms: Vec<f64>,
-    /// `|s_k|` for `k = 0, 1, ...`.
-    pub step_norms: Vec<f64>,
-    /// The forcing terms `eta_k` handed to the linear solver (empty for
-    /// direct solvers; `linear_rtol` for the exact variants).
-    pub forcing_terms: Vec<f64>,
-    /// The last contraction rate `theta_k = |s_k| / |s_{k-1}|` (`None`
-    /// before the second iteration): the convergence rate estimate.
-    pub contraction_rate: Option<f64>,
-    /// Which test stopped the iteration (`None` unless converged).
-    pub converged_by: Option<ConvergedBy>,
-    /// Whether the solve started with a Jacobian kept from an earlier call.
-    pub jacobian_reused: bool,
-    /// Restarts from `Y_0` with a fresh Jacobian after a failure with a kept one.
-    pub restarts: usize,
-    /// Linear solves truncated on a direction of non-positive curvature
-    /// ([`NewtonOptions::negative_curvature`]) whose iterate so far was
-    /// taken as the correction, with a backtracking line search on `|G|`.
-    pub truncated_solves: usize,
-}
-
-impl NewtonStats {
-    /// Room for `n` iterations, at most 16: the histories grow as they go,
-    /// so an iteration limit of 10^9 does not reserve 10^9 entries.
-    fn with_capacity(n: usize) -> Self {
-        let n = n.min(16);
-        Self {
-            residual_norms: Vec::with_capacity(n + 1),
-            step_norms: Vec::with_capacity(n),
-            forcing_terms: Vec::with_capacity(n),
-            ..Self::default()
-        }
-    }
-
-    /// The last residual norm `|G(Y_k)|` (NaN if none was computed).
-    pub fn final_residual(&self) -> f64 {
-        self.residual_norms.last().copied().unwrap_or(f64::NAN)
-    }
-
-    /// `|G(Y_0)|` (NaN if none was computed).
-    pub fn initial_residual(&self) -> f64 {
-        self.residual_norms.first().copied().unwrap_or(f64::NAN)
-    }
-
-    /// Whether the solve converged.
-    pub fn converged(&self) -> bool {
-        self.converged_by.is_some()
-    }
-}
-
-/// Why one attempt stopped without converging (wrapped with the statistics
-/// into a [`NonlinearError`] by [`Newton::solve`]).
-enum Stop {
-    Diverged(DivergenceReason),
-    MaxIterations,
-    NonFinite,
-    LinearNotConverged {
-        iterations: usize,
-        tolerance: f64,
-        relative_residual: f64,
-    },
-    Other(NonlinearError),
-}
-
-impl From<NonlinearError> for Stop {
-    fn from(e: NonlinearError) -> Self {
-        Stop::Other(e)
-    }
-}
-
-impl Stop {
-    fn into_error(self, stats: NewtonStats) -> NonlinearError {
-        let stats = Box::new(stats);
-        match self {
-            Stop::Diverged(reason) => NonlinearError::Diverged { reason, stats },
-            Stop::MaxIterations => NonlinearError::MaxIterations { stats },
-            Stop::NonFinite => NonlinearError::NonFinite { stats },
-            Stop::LinearNotConverged {
-                iterations,
-                tolerance,
-                relative_residual,
-            } => NonlinearError::LinearNotConverged {
-                iterations,
-                tolerance,
-                relative_residual,
-                stats,
-            },
-            Stop::Other(e) => e,
-        }
-    }
-
-    fn retry_with_fresh_jacobian(&self) -> bool {
-        !matches!(self, Stop::Other(_))
-    }
-}
 
 /// A reusable Newton solver: options, the Jacobian's storage `J`, a linear
 /// solver `L` and the work vectors. Once warmed up (first call at a given
-/// dimension), iterations with [`PcgSolver`](crate::PcgSolver) allocate
-/// nothing (faer's LU factorisations allocate their factors at each
-/// setup); a call allocates only the statistics' history vectors.
+/// dimension), a call allocates nothing with [`PcgSolver`](crate::PcgSolver)
+/// or [`DenseLu`](crate::DenseLu) (faer's sparse LU allocates its factors at
+/// each setup), unless the histories are recorded
+/// ([`NewtonOptions::record_history`]).
 ///
 /// ```
 /// use hookean_nonlinear::*;
@@ -411,6 +53,10 @@ pub struct Newton<J, L> {
     s: Vec<f64>,
     rhs: Vec<f64>,
     y0: Vec<f64>,
+    /// The weights of the norm of [`Convergence::Rate`].
+    weights: Vec<f64>,
+    /// The carried contraction rate of [`Convergence::Rate`] (CVODE's `crate`).
+    rate: RateEstimate,
     /// A Jacobian kept for the next call (simplified variants).
     jacobian_valid: bool,
     /// Whether the Jacobian storage holds the system's approximation.
@@ -424,9 +70,8 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
     ///
     /// # Errors
     /// [`NonlinearError::InvalidParameter`] for out-of-range options.
-    pub fn new(options: NewtonOptions, jacobian: J, mut linear: L) -> Result<Self, NonlinearError> {
+    pub fn new(options: NewtonOptions, jacobian: J, linear: L) -> Result<Self, NonlinearError> {
         options.validate()?;
-        linear.configure(&options)?;
         Ok(Self {
             options,
             jacobian,
@@ -435,6 +80,8 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
             s: Vec::new(),
             rhs: Vec::new(),
             y0: Vec::new(),
+            weights: Vec::new(),
+            rate: RateEstimate::default(),
             jacobian_valid: false,
             approximated: false,
         })
@@ -454,7 +101,6 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
         if options.method != self.options.method {
             self.jacobian_valid = false;
         }
-        self.linear.configure(&options)?;
         self.options = options;
         Ok(())
     }
@@ -463,6 +109,27 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
     /// material or the problem changed): the next call evaluates a new one.
     pub fn invalidate_jacobian(&mut self) {
         self.jacobian_valid = false;
+    }
+
+    /// The weights `w_i` of the norm of [`Convergence::Rate`], to be filled
+    /// by the caller before a solve (length `n`, all positive).
+    pub fn weights_mut(&mut self, n: usize) -> &mut [f64] {
+        self.weights.resize(n, 1.0);
+        &mut self.weights
+    }
+
+    /// The contraction rate estimate carried by [`Convergence::Rate`]
+    /// (1 after a set-up of the linear solver).
+    pub fn rate_estimate(&self) -> f64 {
+        self.rate.rate
+    }
+
+    /// Tells [`Convergence::Rate`] the contraction rate of the next calls'
+    /// iterations when the caller knows it (`None`: measure it): `Some(0.0)`
+    /// for a linear system solved with its exact Newton matrix, whose first
+    /// correction then converges without a second iteration to measure it.
+    pub fn set_known_rate(&mut self, rate: Option<f64>) {
+        self.rate.known = rate;
     }
 
     /// Whether the next call will reuse a kept Jacobian.
@@ -515,7 +182,10 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
             self.y0 = vec![0.0; n];
             self.jacobian_valid = false;
         }
-        let mut stats = NewtonStats::with_capacity(self.options.max_iter);
+        if matches!(self.options.convergence, Convergence::Rate { .. }) {
+            check_len("weights (Newton::weights_mut)", &self.weights, n)?;
+        }
+        let mut stats = NewtonStats::new(self.options.max_iter, self.options.record_history);
         if y.iter().any(|v| !v.is_finite()) {
             return Err(NonlinearError::NonFinite {
                 stats: Box::new(stats),
@@ -530,6 +200,7 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
         let mut outcome = self.attempt(system, y, &mut stats, reuse);
         if let Err(stop) = &outcome
             && reuse
+            && self.options.retry_fresh
             && !self.approximated
             && stop.retry_with_fresh_jacobian()
         {
@@ -579,6 +250,7 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
         stats.jacobian_evaluations += 1;
         self.linear.setup(&self.jacobian)?;
         stats.linear_setups += 1;
+        self.rate.reset();
         Ok(())
     }
 
@@ -594,14 +266,17 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
     where
         S: NonlinearSystem<Jacobian = J> + ?Sized,
     {
-        let opts = self.options.clone();
+        let opts = self.options;
+        if let Convergence::Rate { tol } = opts.convergence {
+            return self.attempt_rate(system, y, stats, use_kept, tol);
+        }
         let direct = self.linear.is_direct();
         let forcing = opts.method.forcing();
 
         system.residual(y, &mut self.g)?;
         stats.residual_evaluations += 1;
         let mut gnorm = norm2(&self.g);
-        stats.residual_norms.push(gnorm);
+        stats.push_residual(gnorm);
         if !gnorm.is_finite() {
             return Err(Stop::NonFinite);
         }
@@ -632,13 +307,10 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
             for (r, g) in self.rhs.iter_mut().zip(&self.g) {
                 *r = -g;
             }
-            self.s.fill(0.0);
-            let lin = self
-                .linear
-                .solve(&self.jacobian, &self.rhs, &mut self.s, eta)?;
+            let lin = self.linear_solve(system, y, eta)?;
             stats.linear_iterations += lin.iterations;
             if !direct {
-                stats.forcing_terms.push(eta);
+                stats.push_forcing(eta);
             }
             if lin.truncated {
                 stats.truncated_solves += 1;
@@ -657,7 +329,7 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
                 *yi += si;
             }
             stats.iterations += 1;
-            stats.step_norms.push(snorm);
+            stats.push_step(snorm);
 
             gnorm_prev = gnorm;
             linres_prev = if direct { 0.0 } else { lin.residual_norm };
@@ -680,10 +352,8 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
                     stats.residual_evaluations += 1;
                     gnorm = norm2(&self.g);
                 }
-                if lambda < 1.0
-                    && let Some(last) = stats.step_norms.last_mut()
-                {
-                    *last *= lambda;
+                if lambda < 1.0 {
+                    stats.scale_last_step(lambda);
                 }
             }
             let snorm = lambda * snorm;
@@ -694,7 +364,7 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
             if theta.is_some() {
                 stats.contraction_rate = theta;
             }
-            stats.residual_norms.push(gnorm);
+            stats.push_residual(gnorm);
             if !gnorm.is_finite() {
                 return Err(Stop::NonFinite);
             }
@@ -743,154 +413,160 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
         }
         Err(Stop::MaxIterations)
     }
-}
 
-/// The forcing term `eta_k` (see [`ForcingTerm`]).
-#[allow(clippy::too_many_arguments)]
-fn forcing_term(
-    f: ForcingTerm,
-    k: usize,
-    opts: &NewtonOptions,
-    gnorm: f64,
-    gnorm_prev: f64,
-    linres_prev: f64,
-    eta_prev: f64,
-    tol: f64,
-) -> f64 {
-    let eta = match f {
-        ForcingTerm::Constant(eta) => return eta,
-        _ if k == 0 => opts.eta_initial,
-        ForcingTerm::EisenstatWalker1 => {
-            let mut eta = (gnorm - linres_prev).abs() / gnorm_prev;
-            let safe = eta_prev.powf(GOLDEN);
-            if safe > 0.1 {
-                eta = eta.max(safe);
-            }
-            eta
+    /// One run of simplified Newton with [`Convergence::Rate`] from `y` (see
+    /// there): the residual is evaluated at the start and after every
+    /// correction that does not end the iteration, the corrections are
+    /// measured in the weighted norm; `|G|` is never formed (the residual
+    /// norms of the statistics stay NaN). Returns whether a Jacobian was
+    /// evaluated or reused.
+    fn attempt_rate<S>(
+        &mut self,
+        system: &mut S,
+        y: &mut [f64],
+        stats: &mut NewtonStats,
+        use_kept: bool,
+        tol: f64,
+    ) -> Result<bool, Stop>
+    where
+        S: NonlinearSystem<Jacobian = J> + ?Sized,
+    {
+        let max_iter = self.options.max_iter;
+        let eta = self.options.linear_rtol;
+        system.residual(y, &mut self.g)?;
+        stats.residual_evaluations += 1;
+        if !self.g.iter().all(|v| v.is_finite()) {
+            return Err(Stop::NonFinite);
         }
-        ForcingTerm::EisenstatWalker2 { gamma, alpha } => {
-            let mut eta = gamma * (gnorm / gnorm_prev).powf(alpha);
-            let safe = gamma * eta_prev.powf(alpha);
-            if safe > 0.1 {
-                eta = eta.max(safe);
-            }
-            eta
+        if !use_kept {
+            self.evaluate_jacobian(system, y, stats, false)?;
         }
-    };
-    let eta = eta.min(opts.eta_max);
-    // Kelley: do not oversolve the last linear system.
-    eta.max(0.5 * tol / gnorm).min(opts.eta_max)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn forcing_terms_follow_eisenstat_walker_with_safeguards() {
-        let opts = NewtonOptions::default();
-        // First iteration: eta_initial.
-        assert_eq!(
-            forcing_term(
-                ForcingTerm::EW2_DEFAULT,
-                0,
-                &opts,
-                1.0,
-                f64::NAN,
-                f64::NAN,
-                0.5,
-                0.0
-            ),
-            0.5
-        );
-        // Choice 2: gamma (|G_k|/|G_{k-1}|)^alpha = 0.9 * 0.01 = 0.009, but the
-        // safeguard gamma eta_prev^alpha = 0.9 * 0.25 = 0.225 > 0.1 wins.
-        let e = forcing_term(ForcingTerm::EW2_DEFAULT, 1, &opts, 0.1, 1.0, 0.0, 0.5, 0.0);
-        approx::assert_abs_diff_eq!(e, 0.225, epsilon = 1e-15);
-        // With eta_prev = 0.3 the safeguard is 0.081 < 0.1: not applied.
-        let e = forcing_term(ForcingTerm::EW2_DEFAULT, 1, &opts, 0.1, 1.0, 0.0, 0.3, 0.0);
-        approx::assert_abs_diff_eq!(e, 0.009, epsilon = 1e-15);
-        // Choice 1: | |G_k| - |lin res| | / |G_{k-1}| = |0.1 - 0.05| / 1 = 0.05;
-        // safeguard 0.3^phi = 0.1431 > 0.1 wins.
-        let e = forcing_term(
-            ForcingTerm::EisenstatWalker1,
-            2,
-            &opts,
-            0.1,
-            1.0,
-            0.05,
-            0.3,
-            0.0,
-        );
-        approx::assert_abs_diff_eq!(e, 0.3f64.powf(GOLDEN), epsilon = 1e-15);
-        let e = forcing_term(
-            ForcingTerm::EisenstatWalker1,
-            2,
-            &opts,
-            0.1,
-            1.0,
-            0.05,
-            0.2,
-            0.0,
-        );
-        approx::assert_abs_diff_eq!(e, 0.05, epsilon = 1e-15);
-        // eta_max caps: |G| grew.
-        let e = forcing_term(ForcingTerm::EW2_DEFAULT, 1, &opts, 3.0, 1.0, 0.0, 0.2, 0.0);
-        assert_eq!(e, 0.9);
-        // Kelley's oversolving guard: 0.5 tol / |G_k| = 0.5 * 1e-3 / 1e-3 = 0.5.
-        let e = forcing_term(
-            ForcingTerm::EW2_DEFAULT,
-            1,
-            &opts,
-            1e-3,
-            1.0,
-            0.0,
-            0.2,
-            1e-3,
-        );
-        assert_eq!(e, 0.5);
-        // Constant is constant.
-        assert_eq!(
-            forcing_term(ForcingTerm::TUTORIAL, 5, &opts, 1e-3, 1.0, 0.0, 0.2, 1e-3),
-            0.02
-        );
+        let mut previous = f64::NAN;
+        for k in 0..max_iter {
+            for (r, g) in self.rhs.iter_mut().zip(&self.g) {
+                *r = -g;
+            }
+            let lin = self.linear_solve(system, y, eta)?;
+            stats.linear_iterations += lin.iterations;
+            if !lin.converged {
+                return Err(Stop::LinearNotConverged {
+                    iterations: lin.iterations,
+                    tolerance: eta,
+                    relative_residual: lin.relative_residual,
+                });
+            }
+            stats.iterations += 1;
+            // The update and its weighted norm in one pass (on a failure
+            // below `y` is the caller's to discard: `solve` returns an error).
+            let mut sum = 0.0;
+            for ((yi, si), wi) in y.iter_mut().zip(&self.s).zip(&self.weights) {
+                *yi += si;
+                sum += (si / wi) * (si / wi);
+            }
+            let norm = (sum / self.s.len().max(1) as f64).sqrt();
+            stats.push_step(norm);
+            if !norm.is_finite() {
+                return Err(Stop::NonFinite);
+            }
+            if let RateVerdict::Diverged { rate } =
+                self.rate.measure(k, max_iter, norm, previous, tol)
+            {
+                stats.contraction_rate = Some(rate);
+                return Err(Stop::Diverged(DivergenceReason::Contraction {
+                    theta: rate,
+                }));
+            }
+            if k > 0 {
+                stats.contraction_rate = Some(norm / previous);
+            }
+            if self.rate.converged(k, norm, tol) {
+                stats.converged_by = Some(ConvergedBy::Rate);
+                return Ok(true);
+            }
+            previous = norm;
+            if k + 1 == max_iter {
+                break;
+            }
+            // A non-finite residual makes the next correction non-finite.
+            system.residual(y, &mut self.g)?;
+            stats.residual_evaluations += 1;
+        }
+        Err(Stop::MaxIterations)
     }
 
-    #[test]
-    fn options_are_validated() {
-        assert!(NewtonOptions::default().validate().is_ok());
-        let bad = [
-            NewtonOptions {
-                rtol: -1.0,
-                ..Default::default()
-            },
-            NewtonOptions {
-                max_iter: 0,
-                ..Default::default()
-            },
-            NewtonOptions {
-                linear_rtol: 1.0,
-                ..Default::default()
-            },
-            NewtonOptions {
-                eta_max: 1.0,
-                ..Default::default()
-            },
-            NewtonOptions::with_method(NewtonMethod::Inexact(ForcingTerm::Constant(1.5))),
-            NewtonOptions::with_method(NewtonMethod::Inexact(ForcingTerm::EisenstatWalker2 {
-                gamma: 0.9,
-                alpha: 3.0,
-            })),
-            NewtonOptions {
-                atol: f64::NAN,
-                ..Default::default()
-            },
-        ];
-        for o in bad {
-            assert!(
-                matches!(o.validate(), Err(NonlinearError::InvalidParameter { .. })),
-                "{o:?}"
-            );
+    /// Solves `J s = rhs` into `s` with relative tolerance `eta` (every
+    /// solver overwrites `s`; iterative ones start from zero unless a guess
+    /// was armed), through the system's products for a matrix-free solver.
+    fn linear_solve<S>(
+        &mut self,
+        system: &mut S,
+        y: &[f64],
+        eta: f64,
+    ) -> Result<crate::LinearSolveStats, NonlinearError>
+    where
+        S: NonlinearSystem<Jacobian = J> + ?Sized,
+    {
+        if !self.linear.is_matrix_free() {
+            return self
+                .linear
+                .solve(&self.jacobian, &self.rhs, &mut self.s, eta);
         }
+        let mut product = |v: &[f64], out: &mut [f64]| {
+            if system.jacobian_product(y, v, out)? {
+                Ok(())
+            } else {
+                Err(NonlinearError::NotReady(
+                    "a matrix-free linear solver needs NonlinearSystem::jacobian_product",
+                ))
+            }
+        };
+        self.linear
+            .solve_with_product(&self.jacobian, &mut product, &self.rhs, &mut self.s, eta)
+    }
+}
+
+/// Why one attempt stopped without converging (wrapped with the statistics
+/// into a [`NonlinearError`] by [`Newton::solve`]).
+enum Stop {
+    Diverged(DivergenceReason),
+    MaxIterations,
+    NonFinite,
+    LinearNotConverged {
+        iterations: usize,
+        tolerance: f64,
+        relative_residual: f64,
+    },
+    Other(NonlinearError),
+}
+
+impl From<NonlinearError> for Stop {
+    fn from(e: NonlinearError) -> Self {
+        Stop::Other(e)
+    }
+}
+
+impl Stop {
+    fn into_error(self, stats: NewtonStats) -> NonlinearError {
+        let stats = Box::new(stats);
+        match self {
+            Stop::Diverged(reason) => NonlinearError::Diverged { reason, stats },
+            Stop::MaxIterations => NonlinearError::MaxIterations { stats },
+            Stop::NonFinite => NonlinearError::NonFinite { stats },
+            Stop::LinearNotConverged {
+                iterations,
+                tolerance,
+                relative_residual,
+            } => NonlinearError::LinearNotConverged {
+                iterations,
+                tolerance,
+                relative_residual,
+                stats,
+            },
+            Stop::Other(e) => e,
+        }
+    }
+
+    fn retry_with_fresh_jacobian(&self) -> bool {
+        !matches!(self, Stop::Other(_))
     }
 }

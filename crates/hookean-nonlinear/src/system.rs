@@ -55,6 +55,26 @@ pub trait NonlinearSystem {
         let _ = (y, jac);
         Ok(false)
     }
+
+    /// Writes the product `out = J(y) v` of the Jacobian at `y` with `v`
+    /// without the matrix, and returns `true`; `false` (the default) if the
+    /// system has no such product. Matrix-free linear solvers
+    /// ([`GmresSolver::matrix_free`](crate::GmresSolver::matrix_free)) use
+    /// it, with `y` the iterate of the last [`residual`](Self::residual)
+    /// call (a system may reuse what that call computed, such as `f(y)`
+    /// for a difference quotient).
+    ///
+    /// # Errors
+    /// Whatever the system cannot evaluate.
+    fn jacobian_product(
+        &mut self,
+        y: &[f64],
+        v: &[f64],
+        out: &mut [f64],
+    ) -> Result<bool, NonlinearError> {
+        let _ = (y, v, out);
+        Ok(false)
+    }
 }
 
 impl<S: NonlinearSystem + ?Sized> NonlinearSystem for &mut S {
@@ -74,5 +94,13 @@ impl<S: NonlinearSystem + ?Sized> NonlinearSystem for &mut S {
         jac: &mut Self::Jacobian,
     ) -> Result<bool, NonlinearError> {
         (**self).approximate_jacobian(y, jac)
+    }
+    fn jacobian_product(
+        &mut self,
+        y: &[f64],
+        v: &[f64],
+        out: &mut [f64],
+    ) -> Result<bool, NonlinearError> {
+        (**self).jacobian_product(y, v, out)
     }
 }

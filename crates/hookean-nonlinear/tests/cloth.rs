@@ -132,7 +132,7 @@ fn isotropic_storage_of_the_linearised_jacobian_gives_the_same_iteration() {
     // 3x3-block storage.
     let mut sys = ClothStep::new(N, 1e4, 0.1, 0.001, 0.02, 7);
     let pcg = PcgSolver::new(BlockJacobi::new()).with_constraints(sys.correction_constraints());
-    let mut newton = Newton::new(options.clone(), sys.jacobian_storage(), pcg).unwrap();
+    let mut newton = Newton::new(options, sys.jacobian_storage(), pcg).unwrap();
     let mut dv1 = vec![0.0; sys.dim()];
     let s1 = newton.solve(&mut sys, &mut dv1).unwrap();
     // Isotropic storage: one scalar per block, a third of the nonzeros.
@@ -167,13 +167,14 @@ fn an_indefinite_exact_jacobian_is_solved_by_truncating_cg() {
         // MIC(0) stays positive definite on an indefinite matrix (its
         // shift), so truncated CG has a usable first direction.
         let mic = hookean_sparse::IncompleteCholesky::modified(0.99).unwrap();
-        let pcg = PcgSolver::new(mic).with_constraints(step.correction_constraints());
+        let pcg = PcgSolver::new(mic)
+            .with_negative_curvature(negative_curvature)
+            .with_constraints(step.correction_constraints());
         let options = NewtonOptions {
             method: NewtonMethod::Inexact(ForcingTerm::Constant(1e-3)),
             rtol: 1e-9,
             atol: 0.0,
             max_iter: 200,
-            negative_curvature,
             ..Default::default()
         };
         let storage = step.jacobian_storage();

@@ -185,6 +185,7 @@ fn iteration_limit_carries_statistics() {
     let mut y = [3.0, -1.0, 0.0, 1.0];
     let options = NewtonOptions {
         max_iter: 3,
+        record_history: true,
         ..Default::default()
     };
     match dense_newton(4, options).solve(&mut sys, &mut y) {
@@ -463,6 +464,7 @@ fn tight() -> NewtonOptions {
     NewtonOptions {
         atol: 0.0,
         rtol: 1e-9,
+        record_history: true,
         ..Default::default()
     }
 }
@@ -507,11 +509,7 @@ const N: usize = 2000;
 
 fn pcg_newton(options: NewtonOptions) -> (Bratu, Newton<sprs::CsMat<f64>, PcgSolver<Ssor>>) {
     let (sys, j) = Bratu::new(N, 1.0);
-    let pcg = PcgSolver::new(Ssor::new(1.9).unwrap());
-    let options = NewtonOptions {
-        linear_max_iter: Some(20 * N),
-        ..options
-    };
+    let pcg = PcgSolver::new(Ssor::new(1.9).unwrap()).with_max_iter(Some(20 * N));
     (sys, Newton::new(options, j, pcg).unwrap())
 }
 
@@ -601,7 +599,8 @@ fn bratu_simplified_newton_is_linear_with_one_jacobian() {
         NewtonOptions {
             rtol: 1e-9,
             atol: 0.0,
-            ..options.clone()
+            record_history: true,
+            ..options
         },
         j,
         SparseLu::new(),
@@ -647,12 +646,12 @@ fn bratu_simplified_newton_is_linear_with_one_jacobian() {
 #[test]
 fn bratu_inexact_simplified_with_approximate_jacobian_reuses_it() {
     let (mut sys, j) = Bratu::new(N, 1.0);
-    let pcg = PcgSolver::new(Ssor::new(1.9).unwrap());
+    let pcg = PcgSolver::new(Ssor::new(1.9).unwrap()).with_max_iter(Some(20 * N));
     let options = NewtonOptions {
-        linear_max_iter: Some(20 * N),
         method: NewtonMethod::InexactSimplified(ForcingTerm::Constant(0.05)),
         rtol: 1e-10,
         atol: 0.0,
+        record_history: true,
         ..Default::default()
     };
     let mut newton = Newton::new(options, j, pcg).unwrap();
@@ -680,11 +679,8 @@ fn bratu_inexact_simplified_with_approximate_jacobian_reuses_it() {
 fn linear_solver_failures_are_reported() {
     // PCG limited to 3 iterations cannot reach 1e-10 on Bratu.
     let (mut sys, j) = Bratu::new(200, 1.0);
-    let pcg = PcgSolver::new(Identity);
-    let options = NewtonOptions {
-        linear_max_iter: Some(3),
-        ..NewtonOptions::default()
-    };
+    let pcg = PcgSolver::new(Identity).with_max_iter(Some(3));
+    let options = NewtonOptions::default();
     let mut newton = Newton::new(options, j, pcg).unwrap();
     let err = newton.solve(&mut sys, &mut vec![0.0; 200]).unwrap_err();
     match &err {
@@ -755,9 +751,8 @@ fn matrix_free_jacobian_with_unpreconditioned_cg() {
     let n = 300;
     let (sys, _) = Bratu::new(n, 1.0);
     let mut sys = BratuMatrixFree(sys);
-    let pcg = PcgSolver::new(Identity);
+    let pcg = PcgSolver::new(Identity).with_max_iter(Some(10 * n));
     let options = NewtonOptions {
-        linear_max_iter: Some(10 * n),
         method: NewtonMethod::Inexact(ForcingTerm::EW2_DEFAULT),
         ..tight()
     };
@@ -795,4 +790,200 @@ fn step_criterion_estimates_the_remaining_error() {
     // error of the previous iterate was still above the tolerance.
     let prev = dist(&sys.iterates[sys.iterates.len() - 2], &[0.0; 4]);
     assert!(prev > 1e-6 && prev < 2.5e-6, "{prev}");
+}
+
+// ------------------------------------------------- convection-diffusion Bratu
+
+/// Bratu with a convection term, scaled by `dx^2`:
+/// `G_i = 2 u_i - u_{i-1} - u_{i+1} + (b dx / 2) (u_{i+1} - u_{i-1}) - dx^2 lambda e^{u_i}`,
+/// a nonsymmetric tridiagonal Jacobian (CSR), and its product with a vector
+/// computed from the formula (no matrix).
+struct Convection {
+    n: usize,
+    lambda: f64,
+    b: f64,
+    /// `e^{u_i}` at the iterate of the last residual.
+    exp_u: Vec<f64>,
+    residuals: usize,
+}
+
+impl Convection {
+    fn new(n: usize) -> (Self, sprs::CsMat<f64>) {
+        let mut t = sprs::TriMat::new((n, n));
+        for i in 0..n {
+            for j in i.saturating_sub(1)..(i + 2).min(n) {
+                t.add_triplet(i, j, 0.0);
+            }
+        }
+        let sys = Self {
+            n,
+            lambda: 1.0,
+            b: 30.0,
+            exp_u: vec![1.0; n],
+            residuals: 0,
+        };
+        (sys, t.to_csr())
+    }
+
+    fn coefficients(&self) -> (f64, f64, f64) {
+        let dx = 1.0 / (self.n + 1) as f64;
+        // (sub-diagonal, super-diagonal, dx^2 lambda)
+        (
+            -1.0 - 0.5 * self.b * dx,
+            -1.0 + 0.5 * self.b * dx,
+            dx * dx * self.lambda,
+        )
+    }
+}
+
+impl NonlinearSystem for Convection {
+    type Jacobian = sprs::CsMat<f64>;
+    fn dim(&self) -> usize {
+        self.n
+    }
+    fn residual(&mut self, u: &[f64], g: &mut [f64]) -> Result<(), NonlinearError> {
+        self.residuals += 1;
+        let (lo, up, c) = self.coefficients();
+        for i in 0..self.n {
+            let l = if i > 0 { u[i - 1] } else { 0.0 };
+            let r = if i + 1 < self.n { u[i + 1] } else { 0.0 };
+            self.exp_u[i] = u[i].exp();
+            g[i] = 2.0 * u[i] + lo * l + up * r - c * self.exp_u[i];
+        }
+        Ok(())
+    }
+    fn jacobian(&mut self, u: &[f64], j: &mut sprs::CsMat<f64>) -> Result<(), NonlinearError> {
+        let (lo, up, c) = self.coefficients();
+        let (indptr, cols) = (j.indptr().raw_storage().to_vec(), j.indices().to_vec());
+        let data = j.data_mut();
+        for i in 0..self.n {
+            for k in indptr[i]..indptr[i + 1] {
+                data[k] = if cols[k] + 1 == i {
+                    lo
+                } else if cols[k] == i {
+                    2.0 - c * u[i].exp()
+                } else {
+                    up
+                };
+            }
+        }
+        Ok(())
+    }
+    fn jacobian_product(
+        &mut self,
+        _u: &[f64],
+        v: &[f64],
+        out: &mut [f64],
+    ) -> Result<bool, NonlinearError> {
+        let (lo, up, c) = self.coefficients();
+        for i in 0..self.n {
+            let l = if i > 0 { v[i - 1] } else { 0.0 };
+            let r = if i + 1 < self.n { v[i + 1] } else { 0.0 };
+            out[i] = (2.0 - c * self.exp_u[i]) * v[i] + lo * l + up * r;
+        }
+        Ok(true)
+    }
+}
+
+#[test]
+fn gmres_solves_a_nonsymmetric_newton_problem_stored_or_matrix_free() {
+    let n = 200;
+    // The reference: exact Newton with the sparse LU.
+    let (mut sys, j) = Convection::new(n);
+    let mut lu = Newton::new(tight(), j, SparseLu::new()).unwrap();
+    let mut reference = vec![0.0; n];
+    lu.solve(&mut sys, &mut reference).unwrap();
+    let params = hookean_sparse::GmresParams {
+        krylov_dim: 60,
+        restarts: 20,
+        ..Default::default()
+    };
+    for (matrix_free, precond) in [
+        (false, PrecondKind::None),
+        (true, PrecondKind::None),
+        (true, PrecondKind::Jacobi),
+    ] {
+        let (mut sys, j) = Convection::new(n);
+        let mut gmres = GmresSolver::new(params.clone(), precond).unwrap();
+        if matrix_free {
+            gmres = gmres.matrix_free();
+        }
+        assert_eq!(gmres.is_matrix_free(), matrix_free);
+        let mut newton = Newton::new(tight(), j, gmres).unwrap();
+        let mut u = vec![0.0; n];
+        let stats = newton.solve(&mut sys, &mut u).unwrap();
+        assert!(stats.linear_iterations > 0);
+        assert!(
+            max_diff(&u, &reference) < 1e-9,
+            "{matrix_free} {precond:?}: {}",
+            max_diff(&u, &reference)
+        );
+        let counters = newton.linear_solver().counters();
+        assert_eq!(counters.products > 0, matrix_free);
+        assert_eq!(
+            counters.convergence_failures, 0,
+            "{matrix_free} {precond:?}"
+        );
+        assert_eq!(
+            counters.preconditioner_setups > 0,
+            precond != PrecondKind::None
+        );
+    }
+    // A matrix-free solver on a system without products is a typed error.
+    let (mut sys, j) = Bratu::new(20, 1.0);
+    let gmres = GmresSolver::new(params, PrecondKind::None)
+        .unwrap()
+        .matrix_free();
+    let mut newton = Newton::new(tight(), j, gmres).unwrap();
+    assert!(matches!(
+        newton.solve(&mut sys, &mut [0.0; 20]),
+        Err(NonlinearError::NotReady(_))
+    ));
+}
+
+#[test]
+fn the_rate_test_stops_within_its_tolerance_and_saves_the_last_residual() {
+    // Simplified Newton with the sparse LU and CVODE's rate test in the
+    // weighted norm with w_i = 1e-8 (an absolute error tolerance): the
+    // distance to the root the residual test finds is below tol w.
+    let n = 200;
+    let (mut sys, j) = Convection::new(n);
+    let mut exact = Newton::new(tight(), j, SparseLu::new()).unwrap();
+    let mut reference = vec![0.0; n];
+    exact.solve(&mut sys, &mut reference).unwrap();
+
+    let tol = 0.03;
+    let (mut sys, j) = Convection::new(n);
+    let options = NewtonOptions {
+        method: NewtonMethod::Simplified,
+        convergence: Convergence::Rate { tol },
+        max_iter: 20,
+        record_history: true,
+        ..Default::default()
+    };
+    let mut newton = Newton::new(options, j, SparseLu::new()).unwrap();
+    newton.weights_mut(n).fill(1e-8);
+    let mut u = vec![0.0; n];
+    let stats = newton.solve(&mut sys, &mut u).unwrap();
+    assert_eq!(stats.converged_by, Some(ConvergedBy::Rate));
+    assert!(
+        max_diff(&u, &reference) < tol * 1e-8,
+        "{}",
+        max_diff(&u, &reference)
+    );
+    // One residual per correction that did not end the iteration: one
+    // fewer than the residual test, which evaluates G after the last one.
+    assert_eq!(stats.residual_evaluations, stats.iterations);
+    assert_eq!(sys.residuals, stats.iterations);
+    // The carried estimate is the measured rate (max(0.3 rho, rho_k)).
+    let rates: Vec<f64> = stats.step_norms.windows(2).map(|w| w[1] / w[0]).collect();
+    assert!(rates.iter().all(|&r| r < 1.0), "{rates:?}");
+    assert!(newton.rate_estimate() >= *rates.last().unwrap());
+    // Without weights the rate test refuses to start.
+    let (mut sys, j) = Convection::new(n);
+    let mut newton = Newton::new(options, j, SparseLu::new()).unwrap();
+    assert!(matches!(
+        newton.solve(&mut sys, &mut vec![0.0; n]),
+        Err(NonlinearError::DimensionMismatch { .. })
+    ));
 }

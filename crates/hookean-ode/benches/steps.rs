@@ -48,9 +48,9 @@ fn bench_steps(c: &mut Criterion) {
         let s = ode.stats();
         eprintln!(
             "{name}: per step {:.1} Newton iterations, {:.1} PCG iterations, {:.1} force evaluations",
-            s.newton_iterations as f64 / s.steps as f64,
-            s.linear_iterations as f64 / s.steps as f64,
-            s.f_evals as f64 / s.steps as f64
+            s.num_nonlin_solv_iters as f64 / s.num_steps as f64,
+            s.num_lin_iters as f64 / s.num_steps as f64,
+            s.num_rhs_evals_total() as f64 / s.num_steps as f64
         );
         group.bench_function(name, |b| b.iter(|| ode.step().expect("step")));
     }

@@ -10,7 +10,7 @@
 //! ```
 //!
 //! `--exponent p` replaces the default
-//! [`BdfOptions::tolerance_exponent`] (for the trade-off study of
+//! [`BdfConfig::tolerance_exponent`](hookean_ode::BdfConfig::tolerance_exponent) (for the trade-off study of
 //! docs/PERFORMANCE.md, issue 17); everything else stays the defaults.
 
 use std::sync::OnceLock;
@@ -19,18 +19,18 @@ use std::time::Instant;
 use hookean_ode::testset::{
     E5, Hires, Orego, Robertson, SpringChain, TestProblem, VanDerPol, mixed_error, options,
 };
-use hookean_ode::{BdfOptions, BdfSolver, BdfStats, OdeError};
+use hookean_ode::{BdfSolver, Integrator, OdeError, SolverOptions, Stats};
 
 /// The `--exponent` argument, if given.
 static EXPONENT: OnceLock<f64> = OnceLock::new();
 
 /// The test set's options ([`options`]), with the `--exponent` override.
-fn sweep_options<P: TestProblem>(p: &P, rtol: f64) -> BdfOptions {
-    let opts = options(p, rtol);
-    BdfOptions {
-        tolerance_exponent: EXPONENT.get().copied().unwrap_or(opts.tolerance_exponent),
-        ..opts
+fn sweep_options<P: TestProblem>(p: &P, rtol: f64) -> SolverOptions {
+    let mut opts = options(p, rtol);
+    if let Some(&e) = EXPONENT.get() {
+        opts.bdf.tolerance_exponent = e;
     }
+    opts
 }
 
 /// The output times of the trajectory error, the same rule for every
@@ -53,11 +53,9 @@ fn trajectory_times(t_end: f64) -> Vec<f64> {
 /// published reference to 3e-10 in the mixed error (E5: 2.6e-8, the
 /// published reference's own accuracy; printed on stderr).
 fn reference_trajectory<P: TestProblem + Clone>(p: &P, times: &[f64]) -> Option<Vec<Vec<f64>>> {
-    let opts = BdfOptions {
-        tolerance_exponent: 1.0,
-        max_steps: 10_000_000,
-        ..options(p, 1e-12)
-    };
+    let mut opts = options(p, 1e-12);
+    opts.bdf.tolerance_exponent = 1.0;
+    opts.bdf.max_steps = 10_000_000;
     let sol = BdfSolver::new(p.clone(), 0.0, &p.y0(), opts)
         .and_then(|mut s| s.solve_at(times))
         .ok()?;
@@ -79,11 +77,11 @@ fn trajectory_error<P: TestProblem + Clone>(p: &P, rtol: f64, reference: &[Vec<f
         .unwrap_or(f64::INFINITY)
 }
 
-fn run<P: TestProblem + Clone>(p: &P, rtol: f64) -> Result<(Vec<f64>, BdfStats), OdeError> {
+fn run<P: TestProblem + Clone>(p: &P, rtol: f64) -> Result<(Vec<f64>, Stats), OdeError> {
     let opts = sweep_options(p, rtol);
     let mut s = BdfSolver::new(p.clone(), 0.0, &p.y0(), opts)?;
-    let stats = s.solve_to(p.t_end())?;
-    Ok((s.y().to_vec(), stats))
+    let info = s.integrate(p.t_end())?;
+    Ok((s.y().to_vec(), info.stats))
 }
 
 /// [`reference_trajectory`] once per problem, its `t_end` value checked

@@ -111,10 +111,10 @@ fn main() -> ExitCode {
             fmt(tail_order(&rows)),
             fmt(q2),
             fmt(q1),
-            last.stats.steps,
-            last.stats.f_evals,
-            last.stats.newton_iterations,
-            last.stats.linear_iterations,
+            last.stats.num_steps,
+            last.stats.num_rhs_evals_total(),
+            last.stats.num_nonlin_solv_iters,
+            last.stats.num_lin_iters,
         );
         all.extend(rows);
     }

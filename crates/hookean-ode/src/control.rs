@@ -89,28 +89,6 @@ fn check_h(h: f64) -> Result<(), OdeError> {
     }
 }
 
-fn check_bounds(h_min: f64, h_max: f64) -> Result<(), OdeError> {
-    if !(h_min > 0.0 && h_min <= h_max && !h_max.is_nan()) {
-        return Err(invalid(
-            "h_min/h_max",
-            format!("need 0 < h_min <= h_max, got {h_min:?}, {h_max:?}"),
-        ));
-    }
-    Ok(())
-}
-
-/// Retry size after a failure: `max(h factor, h_min)`, or an error if `h`
-/// already is at `h_min`.
-fn shrink_for_retry(h: f64, factor: f64, h_min: f64) -> Result<f64, OdeError> {
-    if h <= h_min {
-        return Err(OdeError::StepSizeTooSmall {
-            h: h * factor,
-            h_min,
-        });
-    }
-    Ok((h * factor).max(h_min))
-}
-
 /// Options of [`IterationController`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct IterationControllerOptions {
@@ -127,10 +105,6 @@ pub struct IterationControllerOptions {
     pub shrink_factor: f64,
     /// Shrink ratio for the retry after a Newton failure. Default `0.5`.
     pub failure_factor: f64,
-    /// Smallest step size. Default `1e-10`.
-    pub h_min: f64,
-    /// Largest step size. Default `f64::INFINITY`.
-    pub h_max: f64,
 }
 
 impl Default for IterationControllerOptions {
@@ -141,8 +115,6 @@ impl Default for IterationControllerOptions {
             grow_factor: 1.5,
             shrink_factor: 0.7,
             failure_factor: 0.5,
-            h_min: 1e-10,
-            h_max: f64::INFINITY,
         }
     }
 }
@@ -156,9 +128,9 @@ impl Default for IterationControllerOptions {
 /// - converged otherwise: `h_next = h`;
 /// - right after a failure, an accepted step never grows (`h_next <= h`,
 ///   Hairer-Wanner's rule after a rejection);
-/// - `h_next` is clamped to `[h_min, h_max]`;
-/// - failed: retry with `max(h failure_factor, h_min)`; if `h <= h_min`
-///   already, [`OdeError::StepSizeTooSmall`].
+/// - failed: retry with `h failure_factor`.
+///
+/// The step-size bounds are the integrator's ([`StepSizePolicy`](crate::StepSizePolicy)).
 ///
 /// ```
 /// use hookean_ode::control::*;
@@ -179,8 +151,8 @@ impl IterationController {
     ///
     /// # Errors
     /// [`OdeError::InvalidController`] unless `grow_factor >= 1`,
-    /// `0 < shrink_factor <= 1`, `0 < failure_factor < 1`,
-    /// `few_iterations < many_iterations` and `0 < h_min <= h_max`.
+    /// `0 < shrink_factor <= 1`, `0 < failure_factor < 1` and
+    /// `few_iterations < many_iterations`.
     pub fn new(options: IterationControllerOptions) -> Result<Self, OdeError> {
         let o = &options;
         if !(o.grow_factor >= 1.0 && o.grow_factor.is_finite()) {
@@ -210,7 +182,6 @@ impl IterationController {
                 ),
             ));
         }
-        check_bounds(o.h_min, o.h_max)?;
         Ok(Self {
             options,
             last_failed: false,
@@ -230,16 +201,16 @@ impl IterationController {
     /// Applies the rule (see the type's docs) to a step of size `h`.
     ///
     /// # Errors
-    /// [`OdeError::StepSizeTooSmall`] when a failure happens at `h_min`;
     /// [`OdeError::InvalidController`] for a non-positive or non-finite `h`.
     pub fn decide(&mut self, h: f64, outcome: NewtonOutcome) -> Result<StepDecision, OdeError> {
         check_h(h)?;
         let o = &self.options;
         match outcome {
             NewtonOutcome::Failed => {
-                let h = shrink_for_retry(h, o.failure_factor, o.h_min)?;
                 self.last_failed = true;
-                Ok(StepDecision::Retry { h })
+                Ok(StepDecision::Retry {
+                    h: h * o.failure_factor,
+                })
             }
             NewtonOutcome::Converged { iterations } => {
                 let mut factor = if iterations <= o.few_iterations {
@@ -253,9 +224,7 @@ impl IterationController {
                     factor = factor.min(1.0);
                 }
                 self.last_failed = false;
-                Ok(StepDecision::Accept {
-                    h_next: (h * factor).clamp(o.h_min, o.h_max),
-                })
+                Ok(StepDecision::Accept { h_next: h * factor })
             }
         }
     }
@@ -285,10 +254,6 @@ pub struct PiControllerOptions {
     /// `n_iter` of the step (RADAU5's and SciPy BDF's rule): steps whose
     /// Newton iteration struggled grow less. Default `None`.
     pub newton_max_iter: Option<usize>,
-    /// Smallest step size. Default `1e-10`.
-    pub h_min: f64,
-    /// Largest step size. Default `f64::INFINITY`.
-    pub h_max: f64,
 }
 
 impl Default for PiControllerOptions {
@@ -302,8 +267,6 @@ impl Default for PiControllerOptions {
             max_factor: 5.0,
             failure_factor: 0.5,
             newton_max_iter: None,
-            h_min: 1e-10,
-            h_max: f64::INFINITY,
         }
     }
 }
@@ -321,13 +284,12 @@ impl Default for PiControllerOptions {
 ///   for the first accepted step (no `err_prev`) the I controller
 ///   `factor = s err^(-1/k)`; `err = 0` gives `max_factor`. The factor is
 ///   clamped to `[min_factor, max_factor]`, with `max_factor` replaced by 1
-///   right after a rejection; `h_next = clamp(h factor, h_min, h_max)`.
+///   right after a rejection; `h_next = h factor`.
 /// - rejected (`err > 1`, or `err` not finite): retry with
-///   `h max(min_factor, s err^(-1/k))` (`min_factor` for non-finite `err`),
-///   at least `h_min`;
-/// - Newton failure: retry with `h failure_factor`, at least `h_min`.
+///   `h max(min_factor, s err^(-1/k))` (`min_factor` for non-finite `err`);
+/// - Newton failure: retry with `h failure_factor`.
 ///
-/// A retry requested at `h <= h_min` is [`OdeError::StepSizeTooSmall`].
+/// The step-size bounds are the integrator's ([`StepSizePolicy`](crate::StepSizePolicy)).
 #[derive(Debug, Clone)]
 pub struct PiController {
     options: PiControllerOptions,
@@ -341,8 +303,8 @@ impl PiController {
     /// # Errors
     /// [`OdeError::InvalidController`] unless `order >= 1`,
     /// `0 < safety <= 1`, `beta1 > 0`, `beta2 >= 0`,
-    /// `0 < min_factor < 1 <= max_factor`, `0 < failure_factor < 1`,
-    /// `newton_max_iter != Some(0)` and `0 < h_min <= h_max`.
+    /// `0 < min_factor < 1 <= max_factor`, `0 < failure_factor < 1` and
+    /// `newton_max_iter != Some(0)`.
     pub fn new(options: PiControllerOptions) -> Result<Self, OdeError> {
         let o = &options;
         if o.order == 0 {
@@ -385,7 +347,6 @@ impl PiController {
         if o.newton_max_iter == Some(0) {
             return Err(invalid("newton_max_iter", "must be at least 1"));
         }
-        check_bounds(o.h_min, o.h_max)?;
         Ok(Self {
             options,
             err_prev: None,
@@ -417,7 +378,6 @@ impl PiController {
     /// and whose Newton iteration converged in `newton_iterations`.
     ///
     /// # Errors
-    /// [`OdeError::StepSizeTooSmall`] for a rejection at `h_min`;
     /// [`OdeError::InvalidController`] for a bad `h` or a negative `err`.
     pub fn decide(
         &mut self,
@@ -452,9 +412,7 @@ impl PiController {
             let factor = factor.clamp(o.min_factor, max);
             self.err_prev = Some(err.max(1e-4));
             self.last_rejected = false;
-            Ok(StepDecision::Accept {
-                h_next: (h * factor).clamp(o.h_min, o.h_max),
-            })
+            Ok(StepDecision::Accept { h_next: h * factor })
         } else {
             // err > 1 or NaN/inf.
             let factor = if err.is_finite() {
@@ -462,21 +420,21 @@ impl PiController {
             } else {
                 o.min_factor
             };
-            let h = shrink_for_retry(h, factor, o.h_min)?;
             self.last_rejected = true;
-            Ok(StepDecision::Retry { h })
+            Ok(StepDecision::Retry { h: h * factor })
         }
     }
 
     /// A step whose Newton iteration failed: retry with `h failure_factor`.
     ///
     /// # Errors
-    /// [`OdeError::StepSizeTooSmall`] at `h_min`.
+    /// [`OdeError::InvalidController`] for a bad `h`.
     pub fn newton_failed(&mut self, h: f64) -> Result<StepDecision, OdeError> {
         check_h(h)?;
-        let h = shrink_for_retry(h, self.options.failure_factor, self.options.h_min)?;
         self.last_rejected = true;
-        Ok(StepDecision::Retry { h })
+        Ok(StepDecision::Retry {
+            h: h * self.options.failure_factor,
+        })
     }
 }
 
@@ -490,12 +448,7 @@ mod tests {
 
     #[test]
     fn iteration_controller_follows_its_rule_exactly() {
-        let mut c = IterationController::new(IterationControllerOptions {
-            h_min: 1e-3,
-            h_max: 0.05,
-            ..Default::default()
-        })
-        .unwrap();
+        let mut c = IterationController::new(IterationControllerOptions::default()).unwrap();
         // (h, outcome) -> expected decision, computed from the documented rule.
         let script: [(f64, NewtonOutcome, StepDecision); 10] = [
             (0.01, conv(2), StepDecision::Accept { h_next: 0.015 }), // few: x1.5
@@ -514,14 +467,14 @@ mod tests {
             ),
             (0.00525, conv(1), StepDecision::Accept { h_next: 0.00525 }), // no growth after failure
             (0.00525, conv(1), StepDecision::Accept { h_next: 0.007875 }),
-            (0.04, conv(0), StepDecision::Accept { h_next: 0.05 }), // clamped at h_max
+            (0.04, conv(0), StepDecision::Accept { h_next: 0.06 }), // few: x1.5
             (
                 0.0015,
                 NewtonOutcome::Failed,
-                StepDecision::Retry { h: 1e-3 },
-            ), // floor h_min
-            (1e-3, conv(7), StepDecision::Accept { h_next: 1e-3 }), // x0.7 clamped to h_min
-            (1e-3, conv(5), StepDecision::Accept { h_next: 1e-3 }),
+                StepDecision::Retry { h: 7.5e-4 },
+            ),
+            (7.5e-4, conv(7), StepDecision::Accept { h_next: 5.25e-4 }), // many: x0.7
+            (5.25e-4, conv(5), StepDecision::Accept { h_next: 5.25e-4 }),
         ];
         for (n, (h, outcome, expected)) in script.into_iter().enumerate() {
             let got = c.decide(h, outcome).unwrap();
@@ -531,11 +484,6 @@ mod tests {
                 "step {n}: {got:?} != {expected:?}"
             );
         }
-        // A failure at h_min is an error.
-        assert!(matches!(
-            c.decide(1e-3, NewtonOutcome::Failed),
-            Err(OdeError::StepSizeTooSmall { .. })
-        ));
         assert!(c.decide(0.0, conv(1)).is_err());
         assert!(c.decide(f64::NAN, conv(1)).is_err());
     }
@@ -553,11 +501,6 @@ mod tests {
             },
             IterationControllerOptions {
                 few_iterations: 6,
-                ..Default::default()
-            },
-            IterationControllerOptions {
-                h_min: 1.0,
-                h_max: 0.5,
                 ..Default::default()
             },
         ] {
@@ -618,19 +561,5 @@ mod tests {
         let d = c.decide(1.0, 0.125, 4).unwrap();
         // I controller: 0.675 * 0.125^(-1/3) = 1.35.
         assert!((d.step_size() - 1.35).abs() < 1e-14);
-        // Rejection at h_min is an error; retries are floored at h_min.
-        let mut c = PiController::new(PiControllerOptions {
-            h_min: 0.1,
-            ..Default::default()
-        })
-        .unwrap();
-        assert_eq!(
-            c.decide(0.15, 1e3, 1).unwrap(),
-            StepDecision::Retry { h: 0.1 }
-        );
-        assert!(matches!(
-            c.decide(0.1, 2.0, 1),
-            Err(OdeError::StepSizeTooSmall { .. })
-        ));
     }
 }

@@ -1,23 +1,20 @@
 //! The integrator core shared by the first- and second-order integrators:
 //! one state vector, one stage equation, every method of section 2.
 
-use std::ops::ControlFlow;
-
 use crate::bdf::{BdfCoefficients, variable_bdf2, variable_bdf2_error_constant};
-use crate::control::{
-    IterationController, IterationControllerOptions, NewtonOutcome, PiController,
-    PiControllerOptions, StepDecision,
-};
+use crate::control::{IterationController, NewtonOutcome, PiController, StepDecision};
 use crate::error::OdeError;
 use crate::method::Method;
-use crate::options::{IntegrateInfo, Predictor, SolverOptions, Stats, StepControl, StepReport};
+use crate::options::{Predictor, SolverOptions, StepControl};
+use crate::stats::{Stats, StepReport};
+use crate::stepping::{check_finite, check_growth, check_time, growth_bound, landing_slack};
 
 /// The step-size controller of the variable-step method.
 enum Controller {
     Pi(PiController),
     Iterations(IterationController),
 }
-use crate::system::{StageFailure, StageInfo, System};
+use crate::stage::{StageFailure, StageInfo, System};
 use crate::tableau::ButcherTableau;
 
 /// The step sizes of the extrapolated implicit midpoint rule used to start
@@ -31,6 +28,11 @@ pub(crate) struct Core<S> {
     opts: SolverOptions,
     pub t: f64,
     pub s: Vec<f64>,
+    /// The start of the last step: its state is `y0`, the dense output
+    /// interpolates between it and `s` (`t_prev = t` after a new state).
+    t_prev: f64,
+    /// `atol_i` of the variable-step method's error test.
+    atol: Vec<f64>,
     h: f64,
     pub stats: Stats,
     m: usize,
@@ -65,28 +67,6 @@ pub(crate) struct Core<S> {
     growth_bound: f64,
 }
 
-/// `max_growth * max(1, max_i |s_i|)`.
-fn opts_growth_bound(max_growth: f64, s: &[f64]) -> f64 {
-    max_growth * s.iter().fold(1.0f64, |m, x| m.max(x.abs()))
-}
-
-/// A blown-up state is an error: `max_i |s_i| > bound`.
-fn check_growth(s: &[f64], bound: f64, t: f64) -> Result<(), OdeError> {
-    let norm = s.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    if norm > bound {
-        return Err(OdeError::StateGrowth { t, norm, bound });
-    }
-    Ok(())
-}
-
-fn check_finite(v: &[f64], what: &'static str, t: f64) -> Result<(), OdeError> {
-    if v.iter().all(|x| x.is_finite()) {
-        Ok(())
-    } else {
-        Err(OdeError::NonFinite { what, t })
-    }
-}
-
 impl<S: System> Core<S> {
     pub fn new(
         sys: S,
@@ -96,7 +76,8 @@ impl<S: System> Core<S> {
         opts: SolverOptions,
     ) -> Result<Self, OdeError> {
         method.check()?;
-        opts.check()?;
+        let m = sys.state_len();
+        let atol = opts.check(m)?;
         if !t0.is_finite() {
             return Err(OdeError::InvalidParameter {
                 name: "t0",
@@ -104,7 +85,6 @@ impl<S: System> Core<S> {
                 reason: "must be finite",
             });
         }
-        let m = sys.state_len();
         if s0.len() != m {
             return Err(OdeError::DimensionMismatch {
                 what: "initial state",
@@ -136,21 +116,10 @@ impl<S: System> Core<S> {
             _ => 1,
         };
         let controller = if method.is_variable_step() {
-            let h_min = opts.h_min.max(1e-300);
-            Some(match &opts.control {
-                StepControl::ErrorBased(o) => {
-                    Controller::Pi(PiController::new(PiControllerOptions {
-                        h_min,
-                        h_max: opts.h_max,
-                        ..o.clone()
-                    })?)
-                }
+            Some(match &opts.step.control {
+                StepControl::ErrorBased(o) => Controller::Pi(PiController::new(o.clone())?),
                 StepControl::NewtonIterations(o) => {
-                    Controller::Iterations(IterationController::new(IterationControllerOptions {
-                        h_min,
-                        h_max: opts.h_max,
-                        ..o.clone()
-                    })?)
+                    Controller::Iterations(IterationController::new(o.clone())?)
                 }
             })
         } else {
@@ -165,6 +134,8 @@ impl<S: System> Core<S> {
             method,
             opts,
             t: t0,
+            t_prev: t0,
+            atol,
             stats: Stats::default(),
             m,
             tableau,
@@ -190,13 +161,9 @@ impl<S: System> Core<S> {
             t_base: t0,
             n_fixed: 0,
             controller,
-            growth_bound: opts_growth_bound(max_growth, &s0),
+            growth_bound: growth_bound(max_growth, &s0),
             s: s0,
         })
-    }
-
-    pub fn method(&self) -> &Method {
-        &self.method
     }
 
     pub fn options(&self) -> &SolverOptions {
@@ -245,7 +212,7 @@ impl<S: System> Core<S> {
         self.s.copy_from_slice(s);
         // A new state from the user sets a new scale; the per-step
         // `set_state_parts` of post-processing wrappers keeps the old one.
-        self.growth_bound = opts_growth_bound(self.opts.max_growth, s);
+        self.growth_bound = growth_bound(self.opts.max_growth, s);
         self.restart_at(t);
         Ok(())
     }
@@ -288,6 +255,7 @@ impl<S: System> Core<S> {
     /// multistep history.
     fn restart_at(&mut self, t: f64) {
         self.t = t;
+        self.t_prev = t;
         self.t_base = t;
         self.n_fixed = 0;
         self.reset_history();
@@ -307,7 +275,8 @@ impl<S: System> Core<S> {
         check_finite(&self.s, "state", self.t)?;
         self.begin_step();
         check_finite(&self.s, "state", self.t)?;
-        let t_start = self.t;
+        let t = self.t;
+        let first_of_bdf2 = self.hist_len < 2;
         let (h, err) = if self.method.is_variable_step() {
             self.variable_step(limit)?
         } else {
@@ -316,19 +285,50 @@ impl<S: System> Core<S> {
             (h, None)
         };
         // `y0` still holds the state the accepted step started from.
-        if self.sys.end_step(t_start, h, &self.y0, &mut self.s) {
+        if self.sys.end_step(t, h, &self.y0, &mut self.s) {
             self.reset_history();
             check_finite(&self.s, "state after the step", self.t)?;
         }
-        Ok(StepReport {
-            t: self.t,
+        self.t_prev = t;
+        self.stats.last_step = h;
+        self.stats.last_order = match self.method {
+            // Variable-step BDF2 starts with implicit Euler.
+            Method::Bdf2Variable if first_of_bdf2 => 1,
+            _ => self.method.order(),
+        };
+        Ok(StepReport::between(
+            &before,
+            &self.stats,
+            self.t,
             h,
-            rejected: self.stats.rejected_steps - before.rejected_steps,
-            newton_iterations: self.stats.newton_iterations - before.newton_iterations,
-            linear_iterations: self.stats.linear_iterations - before.linear_iterations,
-            error_estimate: err,
-            h_next: self.h_next(),
-        })
+            err,
+            self.h_next(),
+        ))
+    }
+
+    /// The dense output of the last step: the straight line between its
+    /// start `(t_prev, y0)` and its end `(t, s)`, first-order accurate for
+    /// every method (exact at both ends).
+    ///
+    /// # Errors
+    /// [`OdeError::InvalidParameter`] for `t` outside the last step,
+    /// [`OdeError::DimensionMismatch`] for a wrong `out`.
+    pub fn interpolate(&self, t: f64, out: &mut [f64]) -> Result<(), OdeError> {
+        crate::stepping::check_dense_output(t, self.t_prev, self.t, out.len(), self.m)?;
+        if t == self.t || self.t_prev == self.t {
+            out.copy_from_slice(&self.s);
+            return Ok(());
+        }
+        let theta = (t - self.t_prev) / (self.t - self.t_prev);
+        for ((o, a), b) in out.iter_mut().zip(&self.y0).zip(&self.s) {
+            *o = a + theta * (b - a);
+        }
+        Ok(())
+    }
+
+    /// The start of the last step.
+    pub fn t_prev(&self) -> f64 {
+        self.t_prev
     }
 
     fn failure_error(&self, fail: StageFailure, h: f64, retries: usize) -> OdeError {
@@ -349,13 +349,17 @@ impl<S: System> Core<S> {
                 source,
             },
             StageFailure::Singular { pivot } => OdeError::SingularMatrix { t: self.t, pivot },
+            StageFailure::NoLinearPart => OdeError::UnsupportedMethod {
+                method: self.method.to_string(),
+                problem: "second-order without a linear part (SecondOrderProblem::linearized_jacobians_iso, eq. 50)",
+            },
             StageFailure::Other(source) => OdeError::NewtonSolver { t: self.t, source },
         }
     }
 
     fn check_h(&self, h: f64) -> Result<(), OdeError> {
         let t = self.t;
-        if h.is_nan() || h < self.opts.h_min || t + h <= t {
+        if h.is_nan() || h < self.opts.step.h_min || t + h <= t {
             return Err(OdeError::StepSizeUnderflow { t, h });
         }
         Ok(())
@@ -375,7 +379,7 @@ impl<S: System> Core<S> {
             match res {
                 Ok(_) => break,
                 Err(fail) => {
-                    self.stats.rejected_steps += 1;
+                    self.stats.num_nonlin_solv_conv_fails += 1;
                     retries += 1;
                     let hs = h / (1usize << retries.min(60)) as f64;
                     if retries > self.opts.max_retries {
@@ -402,7 +406,7 @@ impl<S: System> Core<S> {
             self.t_base = self.t;
             self.n_fixed = 0;
         }
-        self.stats.steps += 1;
+        self.stats.num_steps += 1;
         Ok(())
     }
 
@@ -479,6 +483,7 @@ impl<S: System> Core<S> {
             Method::Bdf(k) => self.bdf_step(t, h, k),
             Method::Imex => self.sys.imex_step(t, h, &mut self.s, &mut self.stats),
             Method::Bdf2Variable => unreachable!("variable-step method in fixed_step"),
+            Method::VariableBdf => unreachable!("the variable-order BDF is not run by the core"),
         }
     }
 
@@ -680,7 +685,7 @@ impl<S: System> Core<S> {
             check_finite(&self.f_n, "right-hand side", t)?;
             self.f_valid = true;
         }
-        let mut h = self.h.min(self.opts.h_max);
+        let mut h = self.h.min(self.opts.step.h_max);
         if let Some(l) = limit {
             h = h.min(l);
         }
@@ -713,7 +718,7 @@ impl<S: System> Core<S> {
             ) {
                 Ok(info) => info,
                 Err(fail) => {
-                    self.stats.rejected_steps += 1;
+                    self.stats.num_nonlin_solv_conv_fails += 1;
                     retries += 1;
                     if retries > self.opts.max_retries {
                         return Err(self.failure_error(fail, h, retries - 1));
@@ -749,7 +754,7 @@ impl<S: System> Core<S> {
                     c * ((self.f_new[i] - self.f_n[i]) / h
                         - (self.f_n[i] - self.f_nm1[i]) / self.h_prev)
                 };
-                let sc = self.opts.atol + self.opts.rtol * self.y0[i].abs().max(self.kbuf[i].abs());
+                let sc = self.atol[i] + self.opts.rtol * self.y0[i].abs().max(self.kbuf[i].abs());
                 sum += (e / sc).powi(2);
             }
             let err = (sum / self.m.max(1) as f64).sqrt();
@@ -775,7 +780,7 @@ impl<S: System> Core<S> {
             let h_next = match decision {
                 Ok(StepDecision::Accept { h_next }) => h_next,
                 other => {
-                    self.stats.rejected_steps += 1;
+                    self.stats.num_err_test_fails += 1;
                     h = self.controller_step(other, h)?;
                     self.s.copy_from_slice(&self.y0);
                     self.sys.begin_step(t, &mut self.s);
@@ -793,41 +798,36 @@ impl<S: System> Core<S> {
             std::mem::swap(&mut self.f_n, &mut self.f_new);
             self.h_prev = h;
             self.t = t + h;
-            self.h = h_next.min(self.opts.h_max);
-            self.stats.steps += 1;
+            let policy = &self.opts.step;
+            self.h = h_next.clamp(policy.h_min, policy.h_max);
+            self.stats.num_steps += 1;
             return Ok((h, Some(err)));
         }
     }
 
-    /// The step size a controller's decision asks for; its errors as ours.
+    /// The step size a controller's decision asks for, within the policy's
+    /// bounds: a retry is floored at `h_min`, and one asked for at `h_min`
+    /// already is [`OdeError::StepSizeUnderflow`].
     fn controller_step(
         &self,
         decision: Result<StepDecision, OdeError>,
         h: f64,
     ) -> Result<f64, OdeError> {
-        match decision {
-            Ok(d) => Ok(d.step_size()),
-            Err(OdeError::StepSizeTooSmall { h: h_new, .. }) => Err(OdeError::StepSizeUnderflow {
+        let h_min = self.opts.step.h_min;
+        match decision? {
+            StepDecision::Accept { h_next } => Ok(h_next),
+            StepDecision::Retry { h: h_new } if h <= h_min => Err(OdeError::StepSizeUnderflow {
                 t: self.t,
                 h: h_new.min(h),
             }),
-            Err(e) => Err(e),
+            StepDecision::Retry { h: h_new } => Ok(h_new.max(h_min)),
         }
-    }
-
-    /// How close to `t_end` counts as on it: `max(1e-9 h, 8 eps |t_end|)`
-    /// with `h` the next nominal step, capped at `h <= max(|t_end|, t_end - t)`
-    /// so that a step far longer than the whole run (h = 1e300 for a 0.02 s
-    /// run) does not make the run a sliver to skip.
-    fn landing_slack(&self, t_end: f64) -> f64 {
-        let h = self.h_next().min(t_end.abs().max(t_end - self.t));
-        (1e-9 * h).max(8.0 * f64::EPSILON * t_end.abs())
     }
 
     /// The one rule for landing on an end time, used by every driver: one
     /// step that does not pass `t_end`, or `None` when `t_end` is reached.
     ///
-    /// - Within the slack ([`landing_slack`](Self::landing_slack)) below
+    /// - Within the slack ([`landing_slack`]) below
     ///   `t_end`, the time is set to `t_end` and no step is taken.
     /// - A nominal step that lands within the slack of `t_end` is taken as
     ///   it is (no sliver of a step is left, and no step is shortened by
@@ -843,7 +843,7 @@ impl<S: System> Core<S> {
             });
         }
         let remaining = t_end - self.t;
-        let slack = self.landing_slack(t_end);
+        let slack = landing_slack(self.t, t_end, self.h_next());
         if remaining <= slack {
             self.t = t_end;
             return Ok(None);
@@ -857,40 +857,5 @@ impl<S: System> Core<S> {
             report.t = t_end;
         }
         Ok(Some(report))
-    }
-
-    /// The driver: [`step_to`](Self::step_to) until `t_end`, calling
-    /// `callback` after every step.
-    pub fn integrate<F>(&mut self, t_end: f64, mut callback: F) -> Result<IntegrateInfo, OdeError>
-    where
-        F: FnMut(&StepReport, &[f64]) -> ControlFlow<()>,
-    {
-        while let Some(report) = self.step_to(t_end)? {
-            if callback(&report, &self.s).is_break() {
-                return Ok(IntegrateInfo {
-                    t: self.t,
-                    stopped_by_callback: true,
-                    stats: self.stats,
-                });
-            }
-        }
-        Ok(IntegrateInfo {
-            t: self.t,
-            stopped_by_callback: false,
-            stats: self.stats,
-        })
-    }
-}
-
-/// A new state's time must be finite.
-fn check_time(t: f64) -> Result<(), OdeError> {
-    if t.is_finite() {
-        Ok(())
-    } else {
-        Err(OdeError::InvalidParameter {
-            name: "t",
-            value: t,
-            reason: "must be finite",
-        })
     }
 }

@@ -3,7 +3,7 @@
 use hookean_nonlinear::NonlinearError;
 use hookean_sparse::SparseError;
 
-use crate::bdf_solver::BdfStats;
+use crate::stats::Stats;
 
 /// Everything that can go wrong in `hookean-ode`. Errors raised during a
 /// run carry the time `t` reached when they happened.
@@ -38,7 +38,8 @@ pub enum OdeError {
         /// The time reached.
         t: f64,
     },
-    /// The step size became smaller than `h_min` or too small to advance `t`.
+    /// The step size became smaller than `h_min` ([`StepSizePolicy`](crate::StepSizePolicy))
+    /// or too small to advance `t`.
     #[error("step size underflow at t = {t}: h = {h:e}")]
     StepSizeUnderflow {
         /// The time reached.
@@ -114,14 +115,6 @@ pub enum OdeError {
         /// What is wrong with it.
         message: String,
     },
-    /// A step-size controller would have to go below its `h_min`.
-    #[error("step size {h:e} would fall below h_min = {h_min:e}")]
-    StepSizeTooSmall {
-        /// The step size that was requested.
-        h: f64,
-        /// The lower bound.
-        h_min: f64,
-    },
     /// The maximum number of steps was taken before the end time was reached.
     #[error("{max_steps} steps taken without reaching the end time (at t = {t})")]
     TooManySteps {
@@ -153,17 +146,18 @@ pub enum OdeError {
         /// Failed attempts on this step.
         failures: usize,
     },
-    /// A run of the variable-order [`BdfSolver`](crate::BdfSolver) failed:
-    /// the time reached, the statistics so far and the cause.
+    /// A run of the variable-order BDF ([`BdfSolver`](crate::BdfSolver),
+    /// [`Method::VariableBdf`](crate::Method::VariableBdf)) failed: the time reached, the
+    /// statistics so far and the cause.
     #[error(
-        "BDF run failed at t = {t} after {} steps ({} Jacobians, {} LU factorisations): {source}",
+        "BDF run failed at t = {t} after {} steps ({} Jacobians, {} linear solver set-ups): {source}",
         stats.num_steps, stats.num_jac_evals, stats.num_lin_solv_setups
     )]
     Run {
         /// The time reached (the last accepted step).
         t: f64,
         /// The solver's statistics up to the failure.
-        stats: Box<BdfStats>,
+        stats: Box<Stats>,
         /// What went wrong.
         #[source]
         source: Box<OdeError>,

@@ -38,7 +38,7 @@ use hookean_sparse::{
     Preconditioner, SparseError, filtered_pcg,
 };
 
-use crate::options::Stats;
+use crate::stats::Stats;
 
 /// What the factorisation was built for.
 #[derive(Debug, Clone, PartialEq)]
@@ -114,13 +114,9 @@ impl Preconditioner for ComponentCholesky {
 pub(crate) enum ImexFailure {
     /// The problem has no linear part (eq. 50).
     NoLinearPart,
-    /// The factorisation or the solve failed.
+    /// The factorisation or the solve failed, or filtered PCG missed its
+    /// tolerance ([`SparseError::NotConverged`]).
     Sparse(SparseError),
-    /// Filtered PCG did not converge.
-    NotConverged {
-        iterations: usize,
-        relative_residual: f64,
-    },
 }
 
 impl From<SparseError> for ImexFailure {
@@ -169,7 +165,7 @@ impl Imex {
         if !problem.linearized_jacobians_iso(&mut self.k, &mut self.d) {
             return Err(ImexFailure::NoLinearPart);
         }
-        stats.jacobian_evals += 1;
+        stats.num_jac_evals += 1;
         let n = self.factor.pinned.len();
         self.a.set_zero();
         self.a.add_scaled(-h, &self.d)?;
@@ -203,7 +199,7 @@ impl Imex {
             }
         }
         self.factor.chol.factor_csr(&tri.to_csr())?;
-        stats.linear_setups += 1;
+        stats.num_lin_solv_setups += 1;
         self.key = Some(FactorKey {
             h,
             revision: problem.material_revision(),
@@ -248,7 +244,7 @@ impl Imex {
         }
         // rhs = h f(x_n, v_n) + h^2 K v_n, constrained directions removed.
         problem.force(t, x, v, force);
-        stats.f_evals += 1;
+        stats.num_rhs_evals += 1;
         self.k.apply(v, &mut self.kv);
         for ((r, f), kv) in self.rhs.iter_mut().zip(force.iter()).zip(&self.kv) {
             *r = h * f + h * h * kv;
@@ -271,14 +267,8 @@ impl Imex {
                 &mut self.workspace,
                 None,
             )?;
-            stats.linear_iterations += info.iterations;
-            if !info.converged {
-                return Err(ImexFailure::NotConverged {
-                    iterations: info.iterations,
-                    relative_residual: info.relative_residual,
-                });
-            }
-            info.iterations
+            stats.num_lin_iters += info.iterations;
+            info.ensure_converged()?.iterations
         } else {
             for &p in &self.pinned_now {
                 self.rhs[3 * p..3 * p + 3].fill(0.0);

@@ -1,6 +1,7 @@
 //! The public integrators: [`FirstOrderIntegrator`] for `y' = f(t, y)` and
-//! [`SecondOrderIntegrator`] for `M x'' = f(t, x, v)`. Both offer the
-//! step-wise API ([`step`](FirstOrderIntegrator::step)) and the driver
+//! [`SecondOrderIntegrator`] for `M x'' = f(t, x, v)`, for every
+//! [`Method`]. Both keep the stepping contract ([`Integrator`]: `step`,
+//! `step_to`, dense output, `solve_at`, events) and offer the driver
 //! ([`integrate`](FirstOrderIntegrator::integrate),
 //! [`integrate_with`](FirstOrderIntegrator::integrate_with)).
 
@@ -8,12 +9,155 @@ use std::ops::ControlFlow;
 
 use hookean_sparse::Constraints;
 
+use crate::bdf::Bdf;
 use crate::core::Core;
 use crate::error::OdeError;
 use crate::method::Method;
-use crate::options::{IntegrateInfo, SolverOptions, Stats, StepReport};
-use crate::system::{FirstSys, SecondSys};
+use crate::options::SolverOptions;
+use crate::stage::{FirstSys, SecondSys};
+use crate::stats::{IntegrateInfo, Stats, StepReport};
+use crate::stepping::Integrator;
 use hookean_problem::{FirstOrderProblem, SecondOrderProblem};
+
+/// What runs a method: the core of the one-step, fixed-step multistep and
+/// variable-step BDF2 methods, or the variable-order BDF.
+enum Engine<S: crate::bdf::Corrector> {
+    Core(Box<Core<S>>),
+    Bdf(Box<Bdf<S>>),
+}
+
+impl<S: crate::bdf::Corrector> Engine<S> {
+    fn new(
+        sys: S,
+        method: Method,
+        t0: f64,
+        s0: Vec<f64>,
+        options: SolverOptions,
+    ) -> Result<Self, OdeError> {
+        Ok(match method {
+            Method::VariableBdf => Engine::Bdf(Box::new(Bdf::new(sys, t0, &s0, options)?)),
+            _ => Engine::Core(Box::new(Core::new(sys, method, t0, s0, options)?)),
+        })
+    }
+
+    fn sys(&self) -> &S {
+        match self {
+            Engine::Core(c) => &c.sys,
+            Engine::Bdf(b) => &b.sys,
+        }
+    }
+
+    /// The system, mutably: cached values that depend on the problem are dropped.
+    fn sys_mut(&mut self) -> &mut S {
+        match self {
+            Engine::Core(c) => {
+                c.problem_changed();
+                &mut c.sys
+            }
+            Engine::Bdf(b) => {
+                b.problem_changed();
+                &mut b.sys
+            }
+        }
+    }
+
+    fn t(&self) -> f64 {
+        match self {
+            Engine::Core(c) => c.t,
+            Engine::Bdf(b) => b.t(),
+        }
+    }
+
+    fn t_prev(&self) -> f64 {
+        match self {
+            Engine::Core(c) => c.t_prev(),
+            Engine::Bdf(b) => b.t_prev(),
+        }
+    }
+
+    fn state(&self) -> &[f64] {
+        match self {
+            Engine::Core(c) => &c.s,
+            Engine::Bdf(b) => b.state(),
+        }
+    }
+
+    fn stats(&self) -> Stats {
+        match self {
+            Engine::Core(c) => c.stats,
+            Engine::Bdf(b) => *b.stats(),
+        }
+    }
+
+    fn options(&self) -> &SolverOptions {
+        match self {
+            Engine::Core(c) => c.options(),
+            Engine::Bdf(b) => b.options(),
+        }
+    }
+
+    fn h_next(&self) -> f64 {
+        match self {
+            Engine::Core(c) => c.h_next(),
+            Engine::Bdf(b) => b.h_next(),
+        }
+    }
+
+    fn step(&mut self) -> Result<StepReport, OdeError> {
+        match self {
+            Engine::Core(c) => c.step(None),
+            Engine::Bdf(b) => b.step(),
+        }
+    }
+
+    fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, OdeError> {
+        match self {
+            Engine::Core(c) => c.step_to(t_end),
+            Engine::Bdf(b) => b.step_to(t_end),
+        }
+    }
+
+    fn interpolate(&self, t: f64, out: &mut [f64]) -> Result<(), OdeError> {
+        match self {
+            Engine::Core(c) => c.interpolate(t, out),
+            Engine::Bdf(b) => b.interpolate(t, out),
+        }
+    }
+
+    fn set_state(&mut self, t: f64, s: &[f64]) -> Result<(), OdeError> {
+        match self {
+            Engine::Core(c) => c.set_state(t, s),
+            Engine::Bdf(b) => b.set_state(t, s),
+        }
+    }
+
+    fn count_event_evaluations(&mut self, n: usize) {
+        match self {
+            Engine::Core(c) => c.stats.num_g_evals += n,
+            Engine::Bdf(b) => b.count_event_evaluations(n),
+        }
+    }
+
+    fn integrate<F>(&mut self, t_end: f64, mut callback: F) -> Result<IntegrateInfo, OdeError>
+    where
+        F: FnMut(&StepReport, &[f64]) -> ControlFlow<()>,
+    {
+        while let Some(report) = self.step_to(t_end)? {
+            if callback(&report, self.state()).is_break() {
+                return Ok(IntegrateInfo {
+                    t: self.t(),
+                    stopped_by_callback: true,
+                    stats: self.stats(),
+                });
+            }
+        }
+        Ok(IntegrateInfo {
+            t: self.t(),
+            stopped_by_callback: false,
+            stats: self.stats(),
+        })
+    }
+}
 
 /// Integrates a first-order problem `y' = f(t, y)` (eq. 7) with any
 /// [`Method`] except the second-order-only ones (FB Euler, Verlet).
@@ -21,8 +165,10 @@ use hookean_problem::{FirstOrderProblem, SecondOrderProblem};
 /// (`df/dy` from [`FirstOrderProblem::jacobian`] or forward differences), or
 /// sparse LU when the problem has a
 /// [`sparse_jacobian_pattern`](FirstOrderProblem::sparse_jacobian_pattern).
+/// [`Method::VariableBdf`] runs the variable-order BDF ([`BdfSolver`](crate::BdfSolver)).
 pub struct FirstOrderIntegrator<P: FirstOrderProblem> {
-    core: Core<FirstSys<P>>,
+    engine: Engine<FirstSys<P>>,
+    method: Method,
 }
 
 impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
@@ -41,7 +187,8 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
     ) -> Result<Self, OdeError> {
         let sys = FirstSys::new(problem, &options)?;
         Ok(Self {
-            core: Core::new(sys, method, t0, y0.to_vec(), options)?,
+            engine: Engine::new(sys, method.clone(), t0, y0.to_vec(), options)?,
+            method,
         })
     }
 
@@ -54,7 +201,7 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
     /// [`OdeError::NewtonFailed`] / [`OdeError::SingularMatrix`] after the
     /// allowed retries; each carries the time reached.
     pub fn step(&mut self) -> Result<StepReport, OdeError> {
-        self.core.step(None)
+        self.engine.step()
     }
 
     /// One step that does not pass `t_end`, or `None` once `t_end` is
@@ -66,7 +213,7 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
     /// As [`step`](Self::step); [`OdeError::InvalidParameter`] for a
     /// non-finite `t_end` or one before the current time.
     pub fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, OdeError> {
-        self.core.step_to(t_end)
+        self.engine.step_to(t_end)
     }
 
     /// Integrates to `t_end` (the last step is shortened to land on it).
@@ -75,7 +222,8 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
     /// As [`step`](Self::step), and [`OdeError::InvalidParameter`] for a
     /// `t_end` before the current time.
     pub fn integrate(&mut self, t_end: f64) -> Result<IntegrateInfo, OdeError> {
-        self.core.integrate(t_end, |_, _| ControlFlow::Continue(()))
+        self.engine
+            .integrate(t_end, |_, _| ControlFlow::Continue(()))
     }
 
     /// Integrates to `t_end`, calling `callback(report, y)` after every
@@ -87,17 +235,17 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
     where
         F: FnMut(&StepReport, &[f64]) -> ControlFlow<()>,
     {
-        self.core.integrate(t_end, callback)
+        self.engine.integrate(t_end, callback)
     }
 
     /// The current time.
     pub fn t(&self) -> f64 {
-        self.core.t
+        self.engine.t()
     }
 
     /// The current state `y`.
     pub fn y(&self) -> &[f64] {
-        &self.core.s
+        self.engine.state()
     }
 
     /// Replaces time and state; multistep history restarts.
@@ -105,38 +253,38 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
     /// # Errors
     /// [`OdeError::DimensionMismatch`], [`OdeError::NonFinite`], [`OdeError::InvalidParameter`].
     pub fn set_state(&mut self, t: f64, y: &[f64]) -> Result<(), OdeError> {
-        self.core.set_state(t, y)
+        self.engine.set_state(t, y)
     }
 
     /// The counters of the run so far.
     pub fn stats(&self) -> Stats {
-        self.core.stats
+        self.engine.stats()
     }
 
     /// The method.
     pub fn method(&self) -> &Method {
-        self.core.method()
+        &self.method
     }
 
     /// The options.
     pub fn options(&self) -> &SolverOptions {
-        self.core.options()
+        self.engine.options()
     }
 
     /// The step size the next step will try.
     pub fn h_next(&self) -> f64 {
-        self.core.h_next()
+        self.engine.h_next()
     }
 
     /// The problem.
     pub fn problem(&self) -> &P {
-        &self.core.sys.problem
+        &self.engine.sys().problem
     }
 
-    /// The problem, mutably (cached right-hand-side values are dropped).
+    /// The problem, mutably (cached right-hand-side values are dropped, the
+    /// variable-order BDF evaluates its Jacobian again).
     pub fn problem_mut(&mut self) -> &mut P {
-        self.core.problem_changed();
-        &mut self.core.sys.problem
+        &mut self.engine.sys_mut().problem
     }
 }
 
@@ -165,11 +313,21 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
 /// ode.integrate(ex3.t_end)?;
 /// let [z, v] = ex3.exact(ex3.t_end);
 /// assert!((ode.x()[2] - z).abs() < 1e-5 && (ode.v()[2] - v).abs() < 1e-4);
-/// assert!(ode.stats().linear_iterations > 0); // PCG on the reduced form
+/// assert!(ode.stats().num_lin_iters > 0); // PCG on the reduced form
+///
+/// // The variable-order BDF with error control on the same problem.
+/// let opts = SolverOptions::with_tolerances(1e-6, 1e-8);
+/// let mut bdf = SecondOrderIntegrator::new(
+///     ex3.particle(), Method::VariableBdf, 0.0, &ex3.x0(), &ex3.v0_vec(), opts,
+/// )?;
+/// bdf.integrate(ex3.t_end)?;
+/// assert!((bdf.x()[2] - z).abs() < 1e-5 && (bdf.v()[2] - v).abs() < 1e-4);
+/// assert!(bdf.stats().num_steps < 1000);
 /// # Ok::<(), hookean_ode::OdeError>(())
 /// ```
 pub struct SecondOrderIntegrator<P: SecondOrderProblem> {
-    core: Core<SecondSys<P>>,
+    engine: Engine<SecondSys<P>>,
+    method: Method,
 }
 
 impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
@@ -237,7 +395,8 @@ impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
         let mut s0 = x0.to_vec();
         s0.extend_from_slice(v0);
         Ok(Self {
-            core: Core::new(sys, method, t0, s0, options)?,
+            engine: Engine::new(sys, method.clone(), t0, s0, options)?,
+            method,
         })
     }
 
@@ -247,7 +406,7 @@ impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
     /// As [`FirstOrderIntegrator::step`], plus [`OdeError::LinearSolver`]
     /// when PCG fails after the allowed retries.
     pub fn step(&mut self) -> Result<StepReport, OdeError> {
-        self.core.step(None)
+        self.engine.step()
     }
 
     /// One step that does not pass `t_end`, or `None` once `t_end` is
@@ -256,7 +415,7 @@ impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
     /// # Errors
     /// As [`FirstOrderIntegrator::step_to`].
     pub fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, OdeError> {
-        self.core.step_to(t_end)
+        self.engine.step_to(t_end)
     }
 
     /// Integrates to `t_end`.
@@ -264,7 +423,8 @@ impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
     /// # Errors
     /// As [`step`](Self::step).
     pub fn integrate(&mut self, t_end: f64) -> Result<IntegrateInfo, OdeError> {
-        self.core.integrate(t_end, |_, _| ControlFlow::Continue(()))
+        self.engine
+            .integrate(t_end, |_, _| ControlFlow::Continue(()))
     }
 
     /// Integrates to `t_end`, calling `callback(report, x, v)` after every
@@ -280,8 +440,8 @@ impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
     where
         F: FnMut(&StepReport, &[f64], &[f64]) -> ControlFlow<()>,
     {
-        let n = self.core.s.len() / 2;
-        self.core.integrate(t_end, |r, s| {
+        let n = self.engine.state().len() / 2;
+        self.engine.integrate(t_end, |r, s| {
             let (x, v) = s.split_at(n);
             callback(r, x, v)
         })
@@ -289,22 +449,24 @@ impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
 
     /// The current time.
     pub fn t(&self) -> f64 {
-        self.core.t
+        self.engine.t()
     }
 
     /// The current positions.
     pub fn x(&self) -> &[f64] {
-        &self.core.s[..self.core.s.len() / 2]
+        let s = self.engine.state();
+        &s[..s.len() / 2]
     }
 
     /// The current velocities.
     pub fn v(&self) -> &[f64] {
-        &self.core.s[self.core.s.len() / 2..]
+        let s = self.engine.state();
+        &s[s.len() / 2..]
     }
 
     /// The state `[x; v]` (the first-order form (6)).
     pub fn state(&self) -> &[f64] {
-        &self.core.s
+        self.engine.state()
     }
 
     /// Replaces time, positions and velocities; multistep history restarts.
@@ -314,7 +476,10 @@ impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
     pub fn set_state(&mut self, t: f64, x: &[f64], v: &[f64]) -> Result<(), OdeError> {
         // Copies the halves in place: no allocation, so that wrappers may
         // hand a post-processed state back after every step.
-        self.core.set_state_parts(t, x, v)
+        match &mut self.engine {
+            Engine::Core(c) => c.set_state_parts(t, x, v),
+            Engine::Bdf(b) => b.set_state_parts(t, x, v),
+        }
     }
 
     /// Edits the positions and velocities in place between steps:
@@ -325,42 +490,86 @@ impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
     /// caught by the next step ([`OdeError::NonFinite`]). Returns what `f`
     /// returns.
     pub fn modify_state<R>(&mut self, f: impl FnOnce(&mut [f64], &mut [f64]) -> R) -> R {
-        self.core.modify_state_parts(f)
+        match &mut self.engine {
+            Engine::Core(c) => c.modify_state_parts(f),
+            Engine::Bdf(b) => b.modify_state_parts(f),
+        }
     }
 
     /// The constraints set by the last [`SecondOrderProblem::begin_step`].
     pub fn constraints(&self) -> &Constraints {
-        &self.core.sys.constraints
+        &self.engine.sys().constraints
     }
 
     /// The counters of the run so far.
     pub fn stats(&self) -> Stats {
-        self.core.stats
+        self.engine.stats()
     }
 
     /// The method.
     pub fn method(&self) -> &Method {
-        self.core.method()
+        &self.method
     }
 
     /// The options.
     pub fn options(&self) -> &SolverOptions {
-        self.core.options()
+        self.engine.options()
     }
 
     /// The step size the next step will try.
     pub fn h_next(&self) -> f64 {
-        self.core.h_next()
+        self.engine.h_next()
     }
 
     /// The problem.
     pub fn problem(&self) -> &P {
-        &self.core.sys.problem
+        &self.engine.sys().problem
     }
 
-    /// The problem, mutably (cached forces are dropped).
+    /// The problem, mutably (cached forces are dropped, the variable-order
+    /// BDF evaluates its Jacobians again).
     pub fn problem_mut(&mut self) -> &mut P {
-        self.core.problem_changed();
-        &mut self.core.sys.problem
+        &mut self.engine.sys_mut().problem
     }
 }
+
+/// The stepping contract of both integrators, by delegation.
+macro_rules! integrator_impl {
+    ($ty:ident, $bound:ident) => {
+        impl<P: $bound> Integrator for $ty<P> {
+            fn t(&self) -> f64 {
+                self.engine.t()
+            }
+            fn t_prev(&self) -> f64 {
+                self.engine.t_prev()
+            }
+            fn state(&self) -> &[f64] {
+                self.engine.state()
+            }
+            fn stats(&self) -> Stats {
+                self.engine.stats()
+            }
+            fn h_next(&self) -> f64 {
+                self.engine.h_next()
+            }
+            fn step(&mut self) -> Result<StepReport, OdeError> {
+                self.engine.step()
+            }
+            fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, OdeError> {
+                self.engine.step_to(t_end)
+            }
+            fn interpolate(&self, t: f64, out: &mut [f64]) -> Result<(), OdeError> {
+                self.engine.interpolate(t, out)
+            }
+            fn restart(&mut self, t: f64, y: &[f64]) -> Result<(), OdeError> {
+                self.engine.set_state(t, y)
+            }
+            fn count_event_evaluations(&mut self, n: usize) {
+                self.engine.count_event_evaluations(n);
+            }
+        }
+    };
+}
+
+integrator_impl!(FirstOrderIntegrator, FirstOrderProblem);
+integrator_impl!(SecondOrderIntegrator, SecondOrderProblem);

@@ -1,6 +1,9 @@
 //! Time integration for soft-object simulation, after section 2 of Hauth's
 //! tutorial ("Numerical Techniques for Soft Object Simulation") and the
-//! forward-backward Euler of the filtering paper (Ahmad et al.).
+//! forward-backward Euler of the filtering paper (Ahmad et al.), with a
+//! variable-order BDF for stiff problems. One framework, as diffsol has:
+//! one options struct, one statistics struct, one stepping contract, one
+//! Newton.
 //!
 //! - The contracts, [`FirstOrderProblem`] `y' = f(t, y)` and
 //!   [`SecondOrderProblem`] `M x'' = f(t, x, v)` (lumped `M`, 3x3-block
@@ -8,23 +11,26 @@
 //!   here), so that models need not depend on the integrators.
 //! - [`Method`]: explicit Euler, explicit midpoint, RK4, any explicit
 //!   [`ButcherTableau`], FB Euler, Stoermer-Verlet, implicit Euler, implicit
-//!   midpoint, fixed-step BDF(1..6) and variable-step BDF2; by name through
-//!   `FromStr`/`Display`.
-//! - [`FirstOrderIntegrator`], [`SecondOrderIntegrator`]: the step-wise API
-//!   (`step()` returns a [`StepReport`]) and the driver (`integrate`,
-//!   `integrate_with` with a callback that can stop the run), with
-//!   [`Stats`] counters. Second-order implicit steps use the reduced velocity
-//!   form `(M - c h df/dv - (c h)^2 df/dx) dV = ...` with (filtered) PCG.
+//!   midpoint, fixed-step BDF(1..6), variable-step BDF2, IMEX, and the
+//!   variable-order BDF ([`Method::VariableBdf`], `"bdf"`, the recommended
+//!   stiff solver); by name through `FromStr`/`Display`.
+//! - [`SolverOptions`]: the one options struct of every method: step size,
+//!   tolerances (`atol` per component, [`Tolerance`]), the step-size policy
+//!   ([`StepSizePolicy`]: bounds, BDF2's controller of [`control`]), Newton's
+//!   options, the linear solver's ([`PcgOptions`]) and the variable-order
+//!   BDF's settings ([`BdfConfig`]). [`Stats`]: the one set of counters,
+//!   named after CVODE's.
+//! - [`Integrator`]: the stepping contract every method keeps: `step()`
+//!   returns a [`StepReport`], `step_to` lands on an end time (one rule),
+//!   `interpolate` gives dense output on the last step, and `integrate`,
+//!   `solve_at` and events ([`Events`]) are built on them once.
+//!   [`FirstOrderIntegrator`] and [`SecondOrderIntegrator`] run every
+//!   method; [`BdfSolver`] is the variable-order BDF/NDF for stiff
+//!   first-order problems in the quasi-constant-step form of SciPy and
+//!   ode15s with CVODE's Jacobian and Newton-matrix re-use ([`bdf`]).
 //! - [`stability`]: stability functions `R(z)`, BDF boundary loci,
 //!   [`is_a_stable`](stability::is_a_stable), region sampling (figure 4).
-//! - [`bdf`]: BDF coefficients derived from backward differences.
-//! - [`BdfSolver`] ([`bdf_solver`]): the variable-order (1-5), variable-step
-//!   BDF/NDF for stiff first-order problems, in the quasi-constant-step form
-//!   of SciPy and ode15s with CVODE's Jacobian and LU re-use: one weighted
-//!   RMS norm (per-component `atol`) for error control and Newton, automatic
-//!   initial step, dense output, [`solve_at`](BdfSolver::solve_at), events,
-//!   typed failures carrying the statistics ([`BdfStats`], named as CVODE's
-//!   counters). [`testset`]: the standard stiff test problems with published
+//! - [`testset`]: the standard stiff test problems with published
 //!   reference solutions. `sprs` and `faer` are re-exported.
 //! - [`tutorial`]: the tutorial's examples 1-3 (Dahlquist's equation, the
 //!   overdamped wave equation, the particle on a spring) with exact solutions.
@@ -32,15 +38,16 @@
 //!   (figures 3, 5, 7) and observed orders.
 //!
 //! Every implicit step is a stage equation `K = psi + c h F(tau, K)` (`c = 1`
-//! implicit Euler, `1/2` midpoint, `beta_k` BDF(k)) solved by
-//! `hookean-nonlinear`'s Newton (exact, inexact, simplified or inexact
-//! simplified, [`NewtonOptions::method`]): a dense or sparse LU for
-//! first-order problems, the reduced velocity form with (filtered) PCG for
-//! second-order ones. Fixed-step BDF(k) starts with the implicit midpoint
-//! rule extrapolated from 2, 4 and 6 substeps (local error `O(h^7)`);
-//! variable-step BDF2 starts with implicit Euler and is driven by the PI
-//! controller of [`control`] (or its Newton-iteration controller of the
-//! tutorial's section 3.4, [`StepControl`]).
+//! implicit Euler, `1/2` midpoint, `beta_k` BDF(k), `1 / alpha_k` the
+//! variable-order BDF) solved by `hookean-nonlinear`'s Newton (exact,
+//! inexact, simplified or inexact simplified, [`NewtonOptions::method`]; the
+//! variable-order BDF's simplified Newton with CVODE's rate test): a dense
+//! or sparse LU (or GMRES) for first-order problems, the reduced velocity
+//! form with (filtered) PCG for second-order ones. Fixed-step BDF(k) starts
+//! with the implicit midpoint rule extrapolated from 2, 4 and 6 substeps
+//! (local error `O(h^7)`); variable-step BDF2 starts with implicit Euler and
+//! is driven by the PI controller of [`control`] (or its Newton-iteration
+//! controller of the tutorial's section 3.4, [`StepControl`]).
 //!
 //! ```
 //! use hookean_ode::{FirstOrderIntegrator, FirstOrderProblem, Method, SolverOptions};
@@ -56,7 +63,7 @@
 //! let mut ode = FirstOrderIntegrator::new(Dahlquist(-15.0), method, 0.0, &[1.0], SolverOptions::with_h(1e-3))?;
 //! let info = ode.integrate(1.0)?;
 //! assert!((ode.y()[0] - (-15.0f64).exp()).abs() < 1e-6);
-//! assert_eq!(info.stats.steps, 1000);
+//! assert_eq!(info.stats.num_steps, 1000);
 //! # Ok::<(), hookean_ode::OdeError>(())
 //! ```
 //!
@@ -65,9 +72,9 @@
 //!
 //! ```
 //! use hookean_ode::testset::{TestProblem, VanDerPol, mixed_error};
-//! use hookean_ode::{BdfOptions, BdfSolver};
+//! use hookean_ode::{BdfSolver, Integrator, SolverOptions};
 //!
-//! let opts = BdfOptions { rtol: 1e-6, atol: 1e-6.into(), ..BdfOptions::default() };
+//! let opts = SolverOptions::with_tolerances(1e-6, 1e-6);
 //! let mut solver = BdfSolver::new(VanDerPol, 0.0, &[2.0, 0.0], opts)?;
 //! let sol = solver.solve_at(&[0.5, 1.0, 1.5, 2.0])?;
 //! // The IVP test set's reference value at t = 2 (Mazzia-Magherini).
@@ -77,44 +84,46 @@
 //! ```
 
 pub mod bdf;
-pub mod bdf_solver;
 pub mod control;
 mod core;
 pub mod error;
+pub mod events;
 pub mod imex;
 pub mod integrator;
-mod krylov;
 pub mod method;
 pub mod options;
 pub mod stability;
-mod system;
+mod stage;
+pub mod stats;
+pub mod stepping;
 pub mod tableau;
 pub mod testset;
 pub mod tutorial;
 pub mod workprecision;
 
-pub use bdf::BdfCoefficients;
-pub use bdf_solver::{
-    BdfLinearSolver, BdfOptions, BdfSolver, BdfStats, Direction, EventHit, Events, Formula,
-    Solution, TOLERANCE_EXPONENT, Tolerance,
+pub use bdf::{
+    BdfCoefficients, BdfConfig, BdfLinearSolver, BdfSolver, Formula, MAX_ORDER, TOLERANCE_EXPONENT,
 };
 pub use control::{
     IterationController, IterationControllerOptions, NewtonOutcome, PiController,
     PiControllerOptions, StepDecision,
 };
 pub use error::OdeError;
+pub use events::{Direction, EventHit, Events};
 /// The dense linear algebra crate of the first-order Newton matrices.
 pub use faer;
-pub use hookean_nonlinear::{ForcingTerm, NewtonMethod, NewtonOptions};
+pub use hookean_nonlinear::{ForcingTerm, NewtonMethod, NewtonOptions, PcgOptions};
 pub use hookean_problem::{FirstOrderProblem, SecondOrderProblem};
-/// The preconditioners of [`BdfLinearSolver::Gmres`].
+/// The preconditioners of [`PcgOptions`] and [`BdfLinearSolver::Gmres`].
 pub use hookean_sparse::PrecondKind;
 pub use integrator::{FirstOrderIntegrator, SecondOrderIntegrator};
 pub use method::Method;
-pub use options::{IntegrateInfo, Predictor, SolverOptions, Stats, StepControl, StepReport};
+pub use options::{Predictor, SolverOptions, StepControl, StepSizePolicy, Tolerance};
 /// The sparse matrix crate of [`FirstOrderProblem::sparse_jacobian_pattern`]
 /// and [`FirstOrderProblem::jacobian_sparse`], re-exported so that users
 /// need not match its version by hand.
 pub use sprs;
-pub use system::FirstOrderForm;
+pub use stage::FirstOrderForm;
+pub use stats::{IntegrateInfo, Stats, StepReport};
+pub use stepping::{Integrator, Solution, landing_slack};
 pub use tableau::ButcherTableau;

@@ -36,6 +36,15 @@ pub enum Method {
     /// `"bdf2-variable"`: BDF2 with variable step size, a local error
     /// estimate and step-size control.
     Bdf2Variable,
+    /// `"bdf"`: the variable-order (1-5), variable-step BDF/NDF with error
+    /// control, the recommended solver for stiff problems
+    /// ([`BdfSolver`](crate::BdfSolver); the NDF of ode15s by default,
+    /// [`BdfConfig::formula`](crate::BdfConfig::formula)). Second-order
+    /// problems run on the reduced stage equations with PCG. Tolerances
+    /// `rtol`, `atol` of [`SolverOptions`](crate::SolverOptions). Not in
+    /// [`Method::all_named`], whose methods the work-precision sweeps run
+    /// over step sizes: this one chooses its own.
+    VariableBdf,
     /// `"imex"`: the implicit-explicit Euler scheme of Eberhardt, Etzmuss
     /// and Hauth (2000) for second-order problems with a linear part
     /// (eq. 50): the linear force implicit, with its constant matrix
@@ -46,7 +55,9 @@ pub enum Method {
 }
 
 impl Method {
-    /// All methods that have a name, in a fixed order.
+    /// All methods that have a name and run at a given step size or by
+    /// BDF2's controller, in a fixed order (not IMEX, which needs a linear
+    /// part, nor the variable-order BDF, which chooses its steps).
     pub fn all_named() -> Vec<Method> {
         let mut v = vec![
             Method::ExplicitEuler,
@@ -64,7 +75,8 @@ impl Method {
 
     /// The classical order of convergence (for Verlet: on forces that do
     /// not depend on the velocity; for a custom tableau: its order from
-    /// the order conditions up to 4).
+    /// the order conditions up to 4; for the variable-order BDF its highest
+    /// order, 5).
     pub fn order(&self) -> usize {
         match self {
             Method::ExplicitEuler | Method::FbEuler | Method::ImplicitEuler | Method::Imex => 1,
@@ -74,6 +86,7 @@ impl Method {
             Method::Rk4 => 4,
             Method::ExplicitRk(t) => t.order(1e-12),
             Method::Bdf(k) => *k,
+            Method::VariableBdf => crate::bdf::MAX_ORDER,
         }
     }
 
@@ -87,6 +100,7 @@ impl Method {
                 | Method::ImplicitMidpoint
                 | Method::Bdf(_)
                 | Method::Bdf2Variable
+                | Method::VariableBdf
                 | Method::Imex
         )
     }
@@ -96,7 +110,8 @@ impl Method {
         matches!(self, Method::FbEuler | Method::Verlet | Method::Imex)
     }
 
-    /// True for the variable-step method.
+    /// True for variable-step BDF2, the variable-step method of the
+    /// integrators' core (the variable-order BDF is its own solver).
     pub fn is_variable_step(&self) -> bool {
         matches!(self, Method::Bdf2Variable)
     }
@@ -144,6 +159,7 @@ impl fmt::Display for Method {
             Method::ImplicitMidpoint => f.write_str("implicit-midpoint"),
             Method::Bdf(k) => write!(f, "bdf{k}"),
             Method::Bdf2Variable => f.write_str("bdf2-variable"),
+            Method::VariableBdf => f.write_str("bdf"),
             Method::Imex => f.write_str("imex"),
         }
     }
@@ -162,6 +178,7 @@ impl FromStr for Method {
             "implicit-euler" => Method::ImplicitEuler,
             "implicit-midpoint" => Method::ImplicitMidpoint,
             "bdf2-variable" => Method::Bdf2Variable,
+            "bdf" => Method::VariableBdf,
             "imex" | "imex-euler" => Method::Imex,
             _ => match s.strip_prefix("bdf").and_then(|k| k.parse::<usize>().ok()) {
                 Some(k) if (1..=6).contains(&k) => Method::Bdf(k),

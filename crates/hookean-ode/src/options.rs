@@ -1,9 +1,13 @@
-//! Options, statistics and step reports of the integrators.
+//! [`SolverOptions`]: the one options struct of every method, with the
+//! tolerances ([`Tolerance`] per component), the step-size policy
+//! ([`StepSizePolicy`]), Newton's and the linear solver's options, and the
+//! settings that belong to one method family ([`BdfConfig`] of the
+//! variable-order BDF).
 
-use hookean_nonlinear::NewtonOptions;
+use hookean_nonlinear::{NewtonOptions, PcgOptions};
 
+use crate::bdf::BdfConfig;
 use crate::control::{IterationControllerOptions, PiControllerOptions};
-
 use crate::error::OdeError;
 
 /// The default growth bound of a run of an implicit method (relative to
@@ -11,6 +15,59 @@ use crate::error::OdeError;
 /// far below a blown-up run (a fixed-step BDF4 outside its stability region
 /// reached `4e70`).
 pub const DEFAULT_MAX_GROWTH: f64 = 1e30;
+
+/// The absolute tolerance: one value for every component or one per component.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Tolerance {
+    /// The same `atol` for every component.
+    Scalar(f64),
+    /// `atol_i` per component (length: the state's, `dim` for first-order
+    /// problems, `2 dim` for second-order ones, positions first).
+    Vector(Vec<f64>),
+}
+
+impl From<f64> for Tolerance {
+    fn from(v: f64) -> Self {
+        Tolerance::Scalar(v)
+    }
+}
+
+impl From<Vec<f64>> for Tolerance {
+    fn from(v: Vec<f64>) -> Self {
+        Tolerance::Vector(v)
+    }
+}
+
+impl Tolerance {
+    /// `atol_i` for a state of length `n`.
+    ///
+    /// # Errors
+    /// [`OdeError::DimensionMismatch`] for a vector of another length,
+    /// [`OdeError::InvalidParameter`] for a negative or non-finite entry.
+    pub fn expand(&self, n: usize) -> Result<Vec<f64>, OdeError> {
+        let atol = match self {
+            Tolerance::Scalar(a) => vec![*a; n],
+            Tolerance::Vector(v) => {
+                if v.len() != n {
+                    return Err(OdeError::DimensionMismatch {
+                        what: "atol",
+                        expected: n,
+                        found: v.len(),
+                    });
+                }
+                v.clone()
+            }
+        };
+        if let Some(a) = atol.iter().find(|a| !(**a >= 0.0 && a.is_finite())) {
+            return Err(OdeError::InvalidParameter {
+                name: "atol",
+                value: *a,
+                reason: "must be finite and non-negative",
+            });
+        }
+        Ok(atol)
+    }
+}
 
 /// The starting guess `Y_0` of the Newton iteration of an implicit Euler step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -31,9 +88,8 @@ pub enum Predictor {
     Extrapolate,
 }
 
-/// How the variable-step method chooses its step sizes: one of
-/// the controllers of [`control`](crate::control). Their `h_min`/`h_max` are replaced by
-/// [`SolverOptions::h_min`] (at least `1e-300`) and [`SolverOptions::h_max`].
+/// How variable-step BDF2 chooses its step sizes: one of the controllers
+/// of [`control`](crate::control), within the bounds of [`StepSizePolicy`].
 #[derive(Debug, Clone, PartialEq)]
 pub enum StepControl {
     /// The error-based (PI) controller: accept when the weighted RMS norm
@@ -71,36 +127,67 @@ impl Default for StepControl {
     }
 }
 
-/// Options of an integrator run.
+/// The step-size policy of every method: the bounds every step size keeps,
+/// and the controller of variable-step BDF2. (The variable-order BDF picks
+/// order and step from its error estimates, Shampine-Reichelt's rule,
+/// within the same bounds.)
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepSizePolicy {
+    /// Smallest admissible step size (variable steps and retries); below it
+    /// a run fails with [`OdeError::StepSizeUnderflow`]. Default 0 (a step
+    /// too small to advance `t` still fails).
+    pub h_min: f64,
+    /// Largest step size of the variable-step methods. Default infinite.
+    pub h_max: f64,
+    /// Step-size control of variable-step BDF2. Default error-based.
+    pub control: StepControl,
+}
+
+impl Default for StepSizePolicy {
+    fn default() -> Self {
+        Self {
+            h_min: 0.0,
+            h_max: f64::INFINITY,
+            control: StepControl::default(),
+        }
+    }
+}
+
+/// Options of an integrator run: the one options struct of every method.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SolverOptions {
     /// The step size of the fixed-step methods and the initial step size
-    /// of the variable-step method. Default `1e-2` (the reference drape, docs/ARCHITECTURE.md).
+    /// of variable-step BDF2 (the variable-order BDF estimates its own
+    /// unless [`BdfConfig::initial_step`] is set). Default `1e-2` (the
+    /// reference drape, docs/ARCHITECTURE.md).
     pub h: f64,
-    /// Relative tolerance of the variable-step method. Default `1e-6`.
+    /// Relative tolerance of the variable-step methods. Default `1e-6`.
     pub rtol: f64,
-    /// Absolute tolerance of the variable-step method. Default `1e-8`.
-    pub atol: f64,
-    /// Smallest admissible step size (variable step and retries). Default `1e-14`.
-    pub h_min: f64,
-    /// Largest step size of the variable-step method. Default infinite.
-    pub h_max: f64,
-    /// Step-size control of the variable-step method. Default error-based.
-    pub control: StepControl,
+    /// Absolute tolerance of the variable-step methods, one value or one
+    /// per state component. Default `1e-8`.
+    pub atol: Tolerance,
+    /// Step-size bounds and BDF2's controller.
+    pub step: StepSizePolicy,
     /// How often a step whose Newton iteration failed is retried with a
     /// smaller step (`h/4` for the variable-step method, `2^r` substeps
     /// for the fixed-step methods; implicit Euler substeps for BDF(k)) before
-    /// the run fails. Default 6.
+    /// the run fails. Default 6. (The variable-order BDF counts its
+    /// failures per step against [`BdfConfig::max_convergence_failures`].)
     pub max_retries: usize,
     /// The Newton iteration of the implicit methods (the tutorial's
-    /// section 3) and its linear solver: `hookean-nonlinear`'s options, with
-    /// the integrators' defaults (see [`SolverOptions::default_newton`]).
-    /// For second-order problems `M x'' = f` the Newton residual
-    /// `M (V - psi_v) - gh f` is a momentum: its absolute tolerance
-    /// `newton.atol` is read as a velocity and multiplied by the mean
-    /// particle mass, so that the same `k/m` gives the same motion in any
-    /// mass unit.
+    /// section 3): `hookean-nonlinear`'s options, with the integrators'
+    /// defaults (see [`SolverOptions::default_newton`]). For second-order
+    /// problems `M x'' = f` the Newton residual `M (V - psi_v) - gh f` is a
+    /// momentum: its absolute tolerance `newton.atol` is read as a velocity
+    /// and multiplied by the mean particle mass, so that the same `k/m`
+    /// gives the same motion in any mass unit. The variable-order BDF runs
+    /// its own simplified Newton with CVODE's rate test (settings in
+    /// [`BdfConfig`]).
     pub newton: NewtonOptions,
+    /// The linear solver of second-order Newton steps: PCG's preconditioner,
+    /// multigrid options, iteration limit and curvature policy
+    /// (`hookean-nonlinear`'s [`PcgOptions`]).
+    pub linear: PcgOptions,
     /// Starting guess of implicit Euler's Newton iteration. Default
     /// [`Predictor::Previous`].
     pub predictor: Predictor,
@@ -119,6 +206,8 @@ pub struct SolverOptions {
     /// growth outside the stability region is the tutorial's demonstration
     /// (RK4 just outside its interval grows by about `1e73` in 4000 steps).
     pub max_growth: f64,
+    /// The settings of the variable-order BDF ([`Method::VariableBdf`](crate::Method::VariableBdf)).
+    pub bdf: BdfConfig,
 }
 
 impl Default for SolverOptions {
@@ -126,15 +215,15 @@ impl Default for SolverOptions {
         Self {
             h: 1e-2,
             rtol: 1e-6,
-            atol: 1e-8,
-            h_min: 1e-14,
-            h_max: f64::INFINITY,
-            control: StepControl::default(),
+            atol: Tolerance::Scalar(1e-8),
+            step: StepSizePolicy::default(),
             max_retries: 6,
             newton: Self::default_newton(),
+            linear: PcgOptions::default(),
             predictor: Predictor::Previous,
             warm_start: false,
             max_growth: DEFAULT_MAX_GROWTH,
+            bdf: BdfConfig::default(),
         }
     }
 }
@@ -148,8 +237,17 @@ impl SolverOptions {
         }
     }
 
+    /// Default options with the tolerances `rtol` and `atol`.
+    pub fn with_tolerances(rtol: f64, atol: impl Into<Tolerance>) -> Self {
+        Self {
+            rtol,
+            atol: atol.into(),
+            ..Self::default()
+        }
+    }
+
     /// The Newton options of the integrators: `hookean-nonlinear`'s
-    /// defaults (exact Newton, block-Jacobi PCG to `linear_rtol = 1e-10`)
+    /// defaults (exact Newton, linear solves to `linear_rtol = 1e-10`)
     /// with at most 10 iterations per step attempt and `rtol = 1e-10` (a
     /// failed attempt is retried with a smaller step).
     pub fn default_newton() -> NewtonOptions {
@@ -160,8 +258,13 @@ impl SolverOptions {
         }
     }
 
-    pub(crate) fn check(&self) -> Result<(), OdeError> {
-        let positive = [("h", self.h), ("rtol", self.rtol), ("h_max", self.h_max)];
+    /// Checks every field's range; `n` is the state's length (for a vector `atol`).
+    pub(crate) fn check(&self, n: usize) -> Result<Vec<f64>, OdeError> {
+        let positive = [
+            ("h", self.h),
+            ("rtol", self.rtol),
+            ("h_max", self.step.h_max),
+        ];
         for (name, value) in positive {
             if value.is_nan() || value <= 0.0 {
                 return Err(OdeError::InvalidParameter {
@@ -171,14 +274,20 @@ impl SolverOptions {
                 });
             }
         }
-        for (name, value) in [("atol", self.atol), ("h_min", self.h_min)] {
-            if !(value >= 0.0 && value.is_finite()) {
-                return Err(OdeError::InvalidParameter {
-                    name,
-                    value,
-                    reason: "must be finite and non-negative",
-                });
-            }
+        let h_min = self.step.h_min;
+        if !(h_min >= 0.0 && h_min.is_finite()) {
+            return Err(OdeError::InvalidParameter {
+                name: "h_min",
+                value: h_min,
+                reason: "must be finite and non-negative",
+            });
+        }
+        if !(self.step.h_max > h_min) {
+            return Err(OdeError::InvalidParameter {
+                name: "h_max",
+                value: self.step.h_max,
+                reason: "must exceed h_min",
+            });
         }
         if !self.h.is_finite() {
             return Err(OdeError::InvalidParameter {
@@ -195,55 +304,7 @@ impl SolverOptions {
             });
         }
         self.newton.validate()?;
-        Ok(())
+        self.bdf.check()?;
+        self.atol.expand(n)
     }
-}
-
-/// Counters of a run (cumulative since the integrator was built).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Stats {
-    /// Accepted steps.
-    pub steps: usize,
-    /// Rejected step attempts (error test or Newton failure).
-    pub rejected_steps: usize,
-    /// Evaluations of the right-hand side `f` (or of the force).
-    pub f_evals: usize,
-    /// Evaluations of the Jacobian (analytic, or by finite differences).
-    pub jacobian_evals: usize,
-    /// Newton iterations.
-    pub newton_iterations: usize,
-    /// Linear-solver iterations (PCG; 0 for direct solves).
-    pub linear_iterations: usize,
-    /// Linear-solver set-ups (LU factorisations, preconditioner set-ups).
-    pub linear_setups: usize,
-}
-
-/// What one call of `step()` did.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct StepReport {
-    /// The time reached.
-    pub t: f64,
-    /// The step size taken (the sum of the substeps for a retried fixed step).
-    pub h: f64,
-    /// Rejected attempts before this step was accepted.
-    pub rejected: usize,
-    /// Newton iterations of this step (all attempts).
-    pub newton_iterations: usize,
-    /// Linear iterations of this step (all attempts).
-    pub linear_iterations: usize,
-    /// The weighted RMS norm of the local error estimate (variable step only).
-    pub error_estimate: Option<f64>,
-    /// The step size proposed for the next step.
-    pub h_next: f64,
-}
-
-/// What `integrate()` did.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct IntegrateInfo {
-    /// The time reached.
-    pub t: f64,
-    /// True when the callback stopped the run before `t_end`.
-    pub stopped_by_callback: bool,
-    /// The integrator's counters after the run.
-    pub stats: Stats,
 }

@@ -26,7 +26,7 @@
 
 use hookean_problem::FirstOrderProblem;
 
-use crate::bdf_solver::BdfOptions;
+use crate::options::SolverOptions;
 
 /// A stiff test problem: the right-hand side with its Jacobian, the
 /// initial value, the end time and the reference solution there.
@@ -47,17 +47,9 @@ pub trait TestProblem: FirstOrderProblem {
 
 /// The one set of default options used on the whole test set: only the
 /// tolerances follow the problem, `atol_i = rtol * floor_i`.
-pub fn options<P: TestProblem>(problem: &P, rtol: f64) -> BdfOptions {
-    BdfOptions {
-        rtol,
-        atol: problem
-            .floor()
-            .iter()
-            .map(|f| f * rtol)
-            .collect::<Vec<f64>>()
-            .into(),
-        ..BdfOptions::default()
-    }
+pub fn options<P: TestProblem>(problem: &P, rtol: f64) -> SolverOptions {
+    let atol: Vec<f64> = problem.floor().iter().map(|f| f * rtol).collect();
+    SolverOptions::with_tolerances(rtol, atol)
 }
 
 /// The mixed relative error `max_i |y_i - ref_i| / (|ref_i| + floor_i)` of

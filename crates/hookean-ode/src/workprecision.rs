@@ -9,7 +9,8 @@ use std::time::Instant;
 use crate::error::OdeError;
 use crate::integrator::{FirstOrderIntegrator, SecondOrderIntegrator};
 use crate::method::Method;
-use crate::options::{SolverOptions, Stats};
+use crate::options::SolverOptions;
+use crate::stats::Stats;
 use hookean_problem::{FirstOrderProblem, SecondOrderProblem};
 
 /// What a work-precision run varies.
@@ -67,13 +68,13 @@ impl WorkPrecisionRow {
             self.tol.map_or(String::new(), |t| format!("{t:e}")),
             self.h_mean,
             self.error,
-            s.steps,
-            s.rejected_steps,
-            s.f_evals,
-            s.jacobian_evals,
-            s.newton_iterations,
-            s.linear_iterations,
-            s.linear_setups,
+            s.num_steps,
+            s.num_rejected_steps(),
+            s.num_rhs_evals_total(),
+            s.num_jac_evals,
+            s.num_nonlin_solv_iters,
+            s.num_lin_iters,
+            s.num_lin_solv_setups,
             self.wall_time_s,
             self.failure
                 .as_deref()
@@ -99,13 +100,13 @@ impl WorkPrecisionRow {
             self.tol.map_or("null".to_string(), num),
             num(self.h_mean),
             num(self.error),
-            s.steps,
-            s.rejected_steps,
-            s.f_evals,
-            s.jacobian_evals,
-            s.newton_iterations,
-            s.linear_iterations,
-            s.linear_setups,
+            s.num_steps,
+            s.num_rejected_steps(),
+            s.num_rhs_evals_total(),
+            s.num_jac_evals,
+            s.num_nonlin_solv_iters,
+            s.num_lin_iters,
+            s.num_lin_solv_setups,
             num(self.wall_time_s),
             self.failure
                 .as_ref()
@@ -207,7 +208,7 @@ fn settings(sweep: &Sweep, base: &SolverOptions, span: f64) -> Vec<(SolverOption
                 (
                     SolverOptions {
                         rtol: tol,
-                        atol: tol,
+                        atol: tol.into(),
                         ..base.clone()
                     },
                     Some(tol),
@@ -239,7 +240,7 @@ fn row(
         method: method.to_string(),
         h: opts.h,
         tol,
-        h_mean: span / stats.steps.max(1) as f64,
+        h_mean: span / stats.num_steps.max(1) as f64,
         error: if failure.is_some() {
             f64::INFINITY
         } else {
@@ -381,7 +382,7 @@ mod tests {
             h_mean: h,
             error,
             stats: Stats {
-                steps: 10,
+                num_steps: 10,
                 ..Stats::default()
             },
             wall_time_s: 0.5,

@@ -6,18 +6,18 @@ use hookean_ode::testset::{
     self, E5, Hires, Orego, Robertson, SpringChain, TestProblem, VanDerPol, mixed_error,
 };
 use hookean_ode::{
-    BdfCoefficients, BdfLinearSolver, BdfOptions, BdfSolver, BdfStats, Direction, Events,
-    FirstOrderIntegrator, FirstOrderProblem, Method, OdeError, PrecondKind, SolverOptions,
-    Tolerance,
+    BdfCoefficients, BdfLinearSolver, BdfSolver, Direction, Events, FirstOrderIntegrator,
+    FirstOrderProblem, Integrator, Method, OdeError, PrecondKind, SolverOptions, Stats,
+    StepSizePolicy,
 };
 use num_complex::Complex64;
 
 /// One set of default options; only the tolerances follow the problem
 /// (`atol = rtol * floor`).
-fn solve<P: TestProblem + Clone>(p: &P, rtol: f64) -> Result<(f64, BdfStats), OdeError> {
+fn solve<P: TestProblem + Clone>(p: &P, rtol: f64) -> Result<(f64, Stats), OdeError> {
     let opts = testset::options(p, rtol);
     let mut s = BdfSolver::new(p.clone(), 0.0, &p.y0(), opts)?;
-    let stats = s.solve_to(p.t_end())?;
+    let stats = s.integrate(p.t_end())?.stats;
     assert_eq!(s.t(), p.t_end());
     Ok((mixed_error(s.y(), &p.reference(), &p.floor()), stats))
 }
@@ -76,12 +76,10 @@ fn a_jacobian_from_a_fast_transient_is_not_kept_for_much_longer_steps() {
     // y1 / (1 - y1^2)), and the run ended 3800 rtol off.
     let p = VanDerPol;
     let rtol = 10f64.powf(-4.5);
-    let opts = BdfOptions {
-        tolerance_exponent: 1.0,
-        ..testset::options(&p, rtol)
-    };
+    let mut opts = testset::options(&p, rtol);
+    opts.bdf.tolerance_exponent = 1.0;
     let mut s = BdfSolver::new(p, 0.0, &p.y0(), opts).unwrap();
-    s.solve_to(p.t_end()).unwrap();
+    s.integrate(p.t_end()).unwrap();
     let err = mixed_error(s.y(), &p.reference(), &p.floor());
     assert!(err < 20.0 * rtol, "error {err:e}");
 }
@@ -110,11 +108,24 @@ fn e5() {
 fn spring_chain_dense_and_sparse() {
     check_problem(&SpringChain::new(false), 0.0);
     check_problem(&SpringChain::new(true), 0.0);
-    // The two linear solvers solve the same systems: the same steps.
+    // The two linear solvers solve the same systems: the same steps, and
+    // errors equal up to the LUs' round-off in the step-size choices (the
+    // last steps differ by a few per cent).
     let (e_dense, s_dense) = solve(&SpringChain::new(false), 1e-6).unwrap();
     let (e_sparse, s_sparse) = solve(&SpringChain::new(true), 1e-6).unwrap();
     assert_eq!(s_dense.num_steps, s_sparse.num_steps);
-    assert!((e_dense - e_sparse).abs() < 1e-3 * e_dense);
+    // The chain is linear: its Jacobian is the same at every evaluation, so
+    // the solver sets the Newton matrix up at every change of c and takes the
+    // first correction, which solves the corrector (about one Newton
+    // iteration per step; two or more on the nonlinear problems).
+    assert!(
+        10 * s_sparse.num_nonlin_solv_iters <= 13 * s_sparse.num_steps,
+        "{s_sparse:?}"
+    );
+    assert!(
+        (e_dense - e_sparse).abs() < 1e-2 * e_dense,
+        "{e_dense:e} {e_sparse:e}"
+    );
 }
 
 #[test]
@@ -163,16 +174,12 @@ impl FirstOrderProblem for ProtheroRobinson {
 
 #[test]
 fn solve_at_interpolates_without_extra_steps() {
-    let opts = BdfOptions {
-        rtol: 1e-8,
-        atol: Tolerance::Scalar(1e-10),
-        ..BdfOptions::default()
-    };
+    let opts = SolverOptions::with_tolerances(1e-8, 1e-10);
     let times: Vec<f64> = (0..=100).map(|i| 0.05 * i as f64).collect();
     let mut a = BdfSolver::new(ProtheroRobinson, 0.0, &[1.0], opts.clone()).unwrap();
     let sol = a.solve_at(&times).unwrap();
     let mut b = BdfSolver::new(ProtheroRobinson, 0.0, &[1.0], opts).unwrap();
-    let stats = b.solve_to(5.0).unwrap();
+    let stats = b.integrate(5.0).unwrap().stats;
     // Output times do not change the step sequence (dense output).
     assert_eq!(sol.stats.num_steps, stats.num_steps);
     assert_eq!(sol.t, times);
@@ -209,12 +216,8 @@ impl FirstOrderProblem for Oscillator {
     }
 }
 
-fn tight() -> BdfOptions {
-    BdfOptions {
-        rtol: 1e-9,
-        atol: Tolerance::Scalar(1e-12),
-        ..BdfOptions::default()
-    }
+fn tight() -> SolverOptions {
+    SolverOptions::with_tolerances(1e-9, 1e-12)
 }
 
 #[test]
@@ -267,7 +270,7 @@ fn non_terminal_events_are_all_located_with_their_direction() {
         vec![false, false],
     )
     .unwrap();
-    s.solve_to(0.1).unwrap();
+    s.integrate(0.1).unwrap();
     let sol = s.solve_at_with_events(&[10.0], &mut ev).unwrap();
     let pi = std::f64::consts::PI;
     let both: Vec<f64> = sol
@@ -301,13 +304,11 @@ fn cause(e: &OdeError) -> &OdeError {
 
 #[test]
 fn too_many_steps_is_an_error_with_the_statistics() {
-    let opts = BdfOptions {
-        max_steps: 10,
-        ..BdfOptions::default()
-    };
+    let mut opts = SolverOptions::default();
+    opts.bdf.max_steps = 10;
     let p = Robertson { t_end: 1e5 };
     let mut s = BdfSolver::new(p, 0.0, &p.y0(), opts).unwrap();
-    let e = s.solve_to(1e5).unwrap_err();
+    let e = s.integrate(1e5).unwrap_err();
     assert!(matches!(
         cause(&e),
         OdeError::TooManySteps { max_steps: 10, .. }
@@ -334,12 +335,12 @@ impl FirstOrderProblem for Growth {
 
 #[test]
 fn growth_past_the_bound_is_an_error() {
-    let opts = BdfOptions {
+    let opts = SolverOptions {
         max_growth: 1e10,
-        ..BdfOptions::default()
+        ..SolverOptions::default()
     };
     let mut s = BdfSolver::new(Growth, 0.0, &[1.0], opts).unwrap();
-    let e = s.solve_to(100.0).unwrap_err();
+    let e = s.integrate(100.0).unwrap_err();
     let OdeError::StateGrowth { t, norm, bound } = *cause(&e) else {
         panic!("{e}")
     };
@@ -350,12 +351,15 @@ fn growth_past_the_bound_is_an_error() {
 #[test]
 fn a_step_below_h_min_is_an_error() {
     // Robertson's initial transient needs steps far below 1e-2.
-    let opts = BdfOptions {
-        h_min: 1e-2,
-        ..BdfOptions::default()
+    let opts = SolverOptions {
+        step: StepSizePolicy {
+            h_min: 1e-2,
+            ..StepSizePolicy::default()
+        },
+        ..SolverOptions::default()
     };
     let mut s = BdfSolver::new(Robertson { t_end: 40.0 }, 0.0, &[1.0, 0.0, 0.0], opts).unwrap();
-    let e = s.solve_to(40.0).unwrap_err();
+    let e = s.integrate(40.0).unwrap_err();
     assert!(
         matches!(cause(&e), OdeError::StepSizeUnderflow { .. }),
         "{e}"
@@ -377,8 +381,8 @@ impl FirstOrderProblem for Broken {
 #[test]
 fn repeated_newton_failure_is_an_error() {
     // From t = 1 on, no step of any size converges.
-    let mut s = BdfSolver::new(Broken, 1.0, &[1.0], BdfOptions::default()).unwrap();
-    let e = s.solve_to(2.0).unwrap_err();
+    let mut s = BdfSolver::new(Broken, 1.0, &[1.0], SolverOptions::default()).unwrap();
+    let e = s.integrate(2.0).unwrap_err();
     assert!(matches!(cause(&e), OdeError::NewtonFailed { .. }), "{e}");
     let OdeError::Run { t, stats, .. } = &e else {
         unreachable!()
@@ -386,8 +390,8 @@ fn repeated_newton_failure_is_an_error() {
     assert!(*t == 1.0 && stats.num_nonlin_solv_conv_fails >= 10 && stats.num_steps == 0);
     // Approaching the breakdown from before it, the steps shrink until they
     // underflow at t = 1.
-    let mut s = BdfSolver::new(Broken, 0.0, &[1.0], BdfOptions::default()).unwrap();
-    let e = s.solve_to(2.0).unwrap_err();
+    let mut s = BdfSolver::new(Broken, 0.0, &[1.0], SolverOptions::default()).unwrap();
+    let e = s.integrate(2.0).unwrap_err();
     assert!(
         matches!(cause(&e), OdeError::StepSizeUnderflow { .. }),
         "{e}"
@@ -397,27 +401,20 @@ fn repeated_newton_failure_is_an_error() {
 
 #[test]
 fn bad_input_is_refused() {
-    let bad = |opts: BdfOptions| BdfSolver::new(Decay, 0.0, &[1.0], opts).is_err();
-    assert!(bad(BdfOptions {
-        rtol: 0.0,
-        ..BdfOptions::default()
-    }));
-    assert!(bad(BdfOptions {
-        atol: vec![1e-8, 1e-8].into(),
-        ..BdfOptions::default()
-    }));
-    assert!(bad(BdfOptions {
-        max_order: 6,
-        ..BdfOptions::default()
-    }));
-    assert!(bad(BdfOptions {
-        tolerance_exponent: 0.9,
-        ..BdfOptions::default()
-    }));
-    assert!(BdfSolver::new(Decay, 0.0, &[f64::NAN], BdfOptions::default()).is_err());
-    let mut s = BdfSolver::new(Decay, 0.0, &[1.0], BdfOptions::default()).unwrap();
+    let bad = |opts: SolverOptions| BdfSolver::new(Decay, 0.0, &[1.0], opts).is_err();
+    assert!(bad(SolverOptions::with_tolerances(0.0, 1e-8)));
+    assert!(bad(SolverOptions::with_tolerances(1.0, 1e-8)));
+    assert!(bad(SolverOptions::with_tolerances(1e-6, vec![1e-8, 1e-8])));
+    let mut opts = SolverOptions::default();
+    opts.bdf.max_order = 6;
+    assert!(bad(opts));
+    let mut opts = SolverOptions::default();
+    opts.bdf.tolerance_exponent = 0.9;
+    assert!(bad(opts));
+    assert!(BdfSolver::new(Decay, 0.0, &[f64::NAN], SolverOptions::default()).is_err());
+    let mut s = BdfSolver::new(Decay, 0.0, &[1.0], SolverOptions::default()).unwrap();
     assert!(s.solve_at(&[1.0, 0.5]).is_err());
-    s.solve_to(1.0).unwrap();
+    s.integrate(1.0).unwrap();
     let mut y = [0.0];
     assert!(s.interpolate(2.0, &mut y).is_err());
 }
@@ -479,15 +476,14 @@ fn solve_with<P: TestProblem + Clone>(
     p: &P,
     rtol: f64,
     linear_solver: BdfLinearSolver,
-) -> (f64, BdfStats) {
-    let opts = BdfOptions {
-        linear_solver,
-        ..testset::options(p, rtol)
-    };
+) -> (f64, Stats) {
+    let mut opts = testset::options(p, rtol);
+    opts.bdf.linear_solver = linear_solver;
     let mut s = BdfSolver::new(p.clone(), 0.0, &p.y0(), opts).unwrap();
     let st = s
-        .solve_to(p.t_end())
-        .unwrap_or_else(|e| panic!("{}: {e}", p.name()));
+        .integrate(p.t_end())
+        .unwrap_or_else(|e| panic!("{}: {e}", p.name()))
+        .stats;
     (mixed_error(s.y(), &p.reference(), &p.floor()), st)
 }
 
@@ -526,19 +522,23 @@ fn preconditioned_gmres_on_the_sparse_chain() {
         assert_eq!(st.num_lin_conv_fails, 0, "{kind:?}");
         if let PrecondKind::Ssor { .. } = kind {
             // SSOR (of the lower and diagonal part) cuts the Krylov
-            // iterations per Newton iteration of the unpreconditioned run.
-            let per = |s: &BdfStats| s.num_lin_iters as f64 / s.num_nonlin_solv_iters as f64;
-            assert!(per(&st) < per(&plain), "{} vs {}", per(&st), per(&plain));
+            // iterations of the unpreconditioned run. (The chain is linear:
+            // with a Jacobian the solver notices and takes one Newton
+            // iteration per step, so the Krylov iterations per Newton
+            // iteration are not comparable; their totals are.)
+            assert!(
+                st.num_lin_iters < plain.num_lin_iters,
+                "{st:?} vs {plain:?}"
+            );
+            assert!(st.num_nonlin_solv_iters < plain.num_nonlin_solv_iters);
         }
     }
 }
 
 #[test]
 fn a_gmres_preconditioner_needs_a_sparse_pattern() {
-    let opts = BdfOptions {
-        linear_solver: BdfLinearSolver::gmres(PrecondKind::Jacobi),
-        ..BdfOptions::default()
-    };
+    let mut opts = SolverOptions::default();
+    opts.bdf.linear_solver = BdfLinearSolver::gmres(PrecondKind::Jacobi);
     assert!(matches!(
         BdfSolver::new(Decay, 0.0, &[1.0], opts),
         Err(OdeError::InvalidParameter {
@@ -546,13 +546,11 @@ fn a_gmres_preconditioner_needs_a_sparse_pattern() {
             ..
         })
     ));
-    let opts = BdfOptions {
-        linear_solver: BdfLinearSolver::Gmres {
-            krylov_dim: 0,
-            restarts: 0,
-            preconditioner: PrecondKind::None,
-        },
-        ..BdfOptions::default()
+    let mut opts = SolverOptions::default();
+    opts.bdf.linear_solver = BdfLinearSolver::Gmres {
+        krylov_dim: 0,
+        restarts: 0,
+        preconditioner: PrecondKind::None,
     };
     assert!(BdfSolver::new(Decay, 0.0, &[1.0], opts).is_err());
 }
@@ -581,8 +579,8 @@ fn the_automatic_initial_step_follows_the_time_scale() {
     // and the step is accepted as it is.
     let first_step = |lambda: f64| {
         let mut s =
-            BdfSolver::new(Exponential(lambda), 0.0, &[1.0], BdfOptions::default()).unwrap();
-        s.step(1e3).unwrap();
+            BdfSolver::new(Exponential(lambda), 0.0, &[1.0], SolverOptions::default()).unwrap();
+        s.step_to(1e3).unwrap();
         assert_eq!(s.stats().num_err_test_fails, 0);
         assert_eq!(s.stats().num_nonlin_solv_conv_fails, 0);
         s.stats().last_step
@@ -598,14 +596,17 @@ fn the_automatic_initial_step_follows_the_time_scale() {
 
 #[test]
 fn no_step_exceeds_h_max() {
-    let opts = BdfOptions {
-        h_max: 0.01,
-        ..BdfOptions::default()
+    let opts = SolverOptions {
+        step: StepSizePolicy {
+            h_max: 0.01,
+            ..StepSizePolicy::default()
+        },
+        ..SolverOptions::default()
     };
     let mut s = BdfSolver::new(Decay, 0.0, &[1.0], opts).unwrap();
     let mut largest = 0.0f64;
     while s.t() < 2.0 {
-        s.step(2.0).unwrap();
+        s.step_to(2.0).unwrap();
         largest = largest.max(s.stats().last_step);
     }
     assert!(largest <= 0.01 * (1.0 + 1e-12), "{largest}");

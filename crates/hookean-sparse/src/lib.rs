@@ -25,6 +25,9 @@
 //!   functions [`pcg`] and [`filtered_pcg`] (Baraff-Witkin's filtered CG, the
 //!   tutorial's Algorithm 4) with [`CgParams`], a reusable [`CgWorkspace`]
 //!   and an optional per-iteration callback; they return [`CgInfo`].
+//! - [`gmres`]: restarted, right-preconditioned GMRES for nonsymmetric
+//!   systems, with [`GmresParams`] and a reusable [`GmresWorkspace`]; it
+//!   returns [`GmresInfo`].
 //! - [`SymBlockMatrix::from_blocks`] builds a matrix from block triplets
 //!   (duplicates summed); the scalar-CSR path speaks `sprs`, re-exported as
 //!   [`sprs`], and its symmetric preconditioners need both triangles stored.
@@ -75,6 +78,7 @@ mod constraints;
 #[cfg(feature = "faer")]
 mod direct;
 mod error;
+mod gmres;
 mod iso;
 mod matrix;
 mod mtx;
@@ -100,6 +104,7 @@ pub use constraints::Constraints;
 #[cfg(feature = "faer")]
 pub use direct::DirectCholesky;
 pub use error::SparseError;
+pub use gmres::{GmresInfo, GmresParams, GmresWorkspace, gmres};
 pub use iso::{IsoBlockMatrix, IsoSlot};
 pub use matrix::{BlockPattern, Slot, SymBlockMatrix, check_csr_symmetric};
 pub use mtx::{

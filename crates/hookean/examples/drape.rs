@@ -35,7 +35,7 @@ fn main() -> Result<(), HookeanError> {
         options.solver.newton.rtol = r;
     }
     if let Some(p) = args.next().and_then(|s| s.parse().ok()) {
-        options.solver.newton.preconditioner = p;
+        options.solver.linear.preconditioner = p;
     }
     if let Some(f) = args.next().and_then(|s| s.parse().ok()) {
         options.solver.newton.method =
@@ -60,9 +60,9 @@ fn main() -> Result<(), HookeanError> {
     let s = summary.stats;
     println!(
         "{n}x{n} drape, {seconds} s: {} steps, {} Newton, {} CG iterations, wall {:.2} s, {:.2} simulated s per wall s",
-        s.steps,
-        s.newton_iterations,
-        s.linear_iterations,
+        s.num_steps,
+        s.num_nonlin_solv_iters,
+        s.num_lin_iters,
         summary.wall.as_secs_f64(),
         summary.speed()
     );

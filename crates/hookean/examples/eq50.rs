@@ -56,7 +56,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let options = |method: NewtonMethod| {
         let mut o = SimulationOptions::default();
         o.solver.newton.method = method;
-        o.solver.newton.preconditioner = precond;
+        o.solver.linear.preconditioner = precond;
         o
     };
     let variants = [
@@ -99,17 +99,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (((name, _), t), (stats, _)) in variants.iter().zip(&mut times).zip(&last) {
         t.sort_by(f64::total_cmp);
         let med = t[t.len() / 2];
-        let it = med / stats.newton_iterations.max(1) as f64;
+        let it = med / stats.num_nonlin_solv_iters.max(1) as f64;
         per_it.push((med, it));
         println!(
             "| {name} | {:.1} | {} | {} | {} | {} | {:.1} | {:.2} |",
             1e3 * med,
-            stats.newton_iterations,
-            stats.linear_iterations,
-            stats.jacobian_evals,
-            stats.rejected_steps,
+            stats.num_nonlin_solv_iters,
+            stats.num_lin_iters,
+            stats.num_jac_evals,
+            stats.num_rejected_steps(),
             1e6 * it,
-            1e6 * med / stats.linear_iterations.max(1) as f64
+            1e6 * med / stats.num_lin_iters.max(1) as f64
         );
     }
     let diff = last[0]

@@ -25,7 +25,7 @@
 //! let summary = sim.run_until(0.5, |_, _| std::ops::ControlFlow::Continue(()))?;
 //! let lowest = sim.x().chunks(3).map(|p| p[2]).fold(f64::INFINITY, f64::min);
 //! assert!(lowest < -0.1, "the free corners fall");
-//! println!("{} steps, {} CG iterations", summary.stats.steps, summary.stats.linear_iterations);
+//! println!("{} steps, {} CG iterations", summary.stats.num_steps, summary.stats.num_lin_iters);
 //! # Ok::<(), hookean::HookeanError>(())
 //! ```
 

@@ -591,8 +591,9 @@ pub enum DampingScene {
 #[serde(deny_unknown_fields)]
 pub struct IntegratorScene {
     /// A method name of `hookean-ode` (`implicit-euler`, `implicit-midpoint`,
-    /// `bdf1`..`bdf6`, `bdf2-variable`, `explicit-euler`, `midpoint`, `rk4`,
-    /// `fb-euler`, `verlet`). Default `implicit-euler`.
+    /// `bdf1`..`bdf6`, `bdf2-variable`, `bdf` (variable-order BDF with error
+    /// control, its first step from `rtol`/`atol`), `explicit-euler`,
+    /// `midpoint`, `rk4`, `fb-euler`, `verlet`). Default `implicit-euler`.
     #[serde(default = "d_method", deserialize_with = "method")]
     pub method: Method,
     /// (Initial) step size (s), or `"auto"` for an explicit method: the
@@ -609,15 +610,24 @@ pub struct IntegratorScene {
     /// Step control of `bdf2-variable`: `"error"` (default) or `"newton"` (Newton iterations).
     #[serde(default)]
     pub control: ControlScene,
-    /// Relative error tolerance of error control. Range (0, inf). Default 1e-3.
+    /// Relative error tolerance of `bdf2-variable` and `bdf`. Range (0, inf). Default 1e-3.
     #[serde(default = "d_rtol", deserialize_with = "positive")]
     pub rtol: f64,
-    /// Absolute error tolerance. Range (0, inf). Default 1e-4.
+    /// Absolute error tolerance of `bdf2-variable` and `bdf` (m for
+    /// positions, m/s for velocities). Range (0, inf). Default 1e-4.
     #[serde(default = "d_atol", deserialize_with = "positive")]
     pub atol: f64,
-    /// Largest step (s). Range (0, inf). Default 0.05.
+    /// Largest step (s) of `bdf2-variable` and `bdf`. Range (0, inf). Default 0.05.
     #[serde(default = "d_hmax", deserialize_with = "positive")]
     pub h_max: f64,
+    /// Highest order of `bdf`. Range 1 to 5. Default 2: the orders above 2 are not
+    /// A-stable (stability angles 86, 73 and 52 degrees for BDF3-5, less for
+    /// the NDFs), and the lightly damped springs of a cloth have eigenvalues
+    /// within a few degrees of the imaginary axis, so orders 3-5 hold the
+    /// step to the springs' periods (docs/PERFORMANCE.md: the drape at
+    /// order 5 takes 14 000-20 000 steps per simulated second at any `rtol`).
+    #[serde(default = "d_max_order", deserialize_with = "int_in::<_, 1, 5>")]
+    pub max_order: usize,
 }
 
 /// `integrator.h`: a step size in seconds or `"auto"`.
@@ -701,6 +711,7 @@ impl Default for IntegratorScene {
             rtol: d_rtol(),
             atol: d_atol(),
             h_max: d_hmax(),
+            max_order: d_max_order(),
         }
     }
 }
@@ -719,6 +730,9 @@ fn d_atol() -> f64 {
 }
 fn d_hmax() -> f64 {
     0.05
+}
+fn d_max_order() -> usize {
+    2
 }
 
 /// Step-size control of variable-step methods.
@@ -1476,9 +1490,10 @@ impl Scene {
         // "auto" needs the model: `build` replaces this placeholder.
         solver.h = self.integrator.h.value().unwrap_or_else(d_h);
         solver.rtol = self.integrator.rtol;
-        solver.atol = self.integrator.atol;
-        solver.h_max = self.integrator.h_max;
-        solver.control = match self.integrator.control {
+        solver.atol = self.integrator.atol.into();
+        solver.step.h_max = self.integrator.h_max;
+        solver.bdf.max_order = self.integrator.max_order;
+        solver.step.control = match self.integrator.control {
             ControlScene::Error => StepControl::error_based(),
             ControlScene::Newton => StepControl::newton_iterations(),
         };
@@ -1494,13 +1509,13 @@ impl Scene {
             NewtonScene::Exact | NewtonScene::Simplified => s.cg_rtol,
             _ => solver.newton.linear_rtol,
         };
-        solver.newton.linear_max_iter = Some(s.max_cg);
+        solver.linear.max_iter = Some(s.max_cg);
         solver.warm_start = s.warm_start;
-        solver.newton.preconditioner = self.preconditioner();
-        solver.newton.amg = s.amg.as_ref().map(AmgScene::options).unwrap_or_default();
+        solver.linear.preconditioner = self.preconditioner();
+        solver.linear.amg = s.amg.as_ref().map(AmgScene::options).unwrap_or_default();
         // The exact stiffness Jacobian may be indefinite where springs are
         // compressed: PCG then truncates (Newton-CG) instead of failing.
-        solver.newton.negative_curvature = if self.model.clamp_stiffness {
+        solver.linear.negative_curvature = if self.model.clamp_stiffness {
             NegativeCurvature::Error
         } else {
             NegativeCurvature::Truncate
@@ -2008,17 +2023,17 @@ mod tests {
              sweeps = 2\nreuse = \"keep\"\nkeep_updates = 3\n",
         )
         .unwrap();
-        let newton = s.simulation_options().solver.newton;
-        assert_eq!(newton.preconditioner, PrecondKind::Amg);
-        assert_eq!(newton.amg.smoother, AmgSmoother::BlockIc0);
-        assert_eq!(newton.amg.sweeps, 2);
-        assert_eq!(newton.amg.reuse, AmgReuse::Keep { updates: 3 });
-        assert_eq!(newton.amg.coarse_size, AmgOptions::default().coarse_size);
+        let linear = s.simulation_options().solver.linear;
+        assert_eq!(linear.preconditioner, PrecondKind::Amg);
+        assert_eq!(linear.amg.smoother, AmgSmoother::BlockIc0);
+        assert_eq!(linear.amg.sweeps, 2);
+        assert_eq!(linear.amg.reuse, AmgReuse::Keep { updates: 3 });
+        assert_eq!(linear.amg.coarse_size, AmgOptions::default().coarse_size);
         // Without the table: the library's defaults.
         let s = Scene::from_toml_str("s.toml", "[cloth]\n[solver]\npreconditioner = \"amg\"\n")
             .unwrap();
         assert_eq!(
-            s.simulation_options().solver.newton.amg,
+            s.simulation_options().solver.linear.amg,
             AmgOptions::default()
         );
         let text = "[cloth]\n[solver]\npreconditioner = \"amg\"\n[solver.amg]\n";

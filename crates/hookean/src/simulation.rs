@@ -8,7 +8,8 @@ use std::time::{Duration, Instant};
 use hookean_filter::{FilterCoupling, FilterOptions, ModelIntegrator};
 use hookean_massspring::{Energies, MassSpringModel, State};
 use hookean_ode::{
-    ForcingTerm, Method, NewtonMethod, NewtonOptions, Predictor, SolverOptions, Stats, StepReport,
+    ForcingTerm, Method, NewtonMethod, NewtonOptions, PcgOptions, Predictor, SolverOptions, Stats,
+    StepReport,
 };
 use hookean_sparse::{PowerParams, PrecondKind};
 
@@ -74,11 +75,14 @@ impl SimulationOptions {
                 // cannot be met.
                 atol: 1e-8,
                 linear_rtol: 0.1,
-                linear_max_iter: Some(500),
+                ..SolverOptions::default_newton()
+            },
+            linear: PcgOptions {
+                max_iter: Some(500),
                 preconditioner: PrecondKind::Mic0 {
                     omega: PrecondKind::MIC_OMEGA,
                 },
-                ..SolverOptions::default_newton()
+                ..PcgOptions::default()
             },
             predictor: Predictor::Previous,
             warm_start: true,
@@ -164,7 +168,7 @@ pub trait Sink {
 /// let (model, state) = cloth(&ClothParams { nu: 16, nv: 16, ..Default::default() })?;
 /// let mut sim = Simulation::new(model, state, SimulationOptions::default())?;
 /// let summary = sim.run_until(0.1, |_, _| std::ops::ControlFlow::Continue(()))?;
-/// assert_eq!(summary.stats.steps, 10);
+/// assert_eq!(summary.stats.num_steps, 10);
 /// assert!(sim.x().iter().all(|v| v.is_finite()));
 /// # Ok::<(), hookean::HookeanError>(())
 /// ```
@@ -328,7 +332,7 @@ impl Simulation {
             };
             return Err(HookeanError::BlowUp {
                 t: self.t(),
-                step: self.stats().steps,
+                step: self.stats().num_steps,
                 energy,
                 bound,
                 factor: self.guard.factor,

@@ -246,9 +246,9 @@ fn cloth_table(overrides: &[&str], rests: bool) {
             .count();
     });
     assert_eq!(inside, 0, "particles inside the table over {steps} states");
-    assert_eq!(stats.rejected_steps, 0);
+    assert_eq!(stats.num_rejected_steps(), 0);
     assert!(
-        stats.newton_iterations as f64 <= 3.0 * stats.steps as f64,
+        stats.num_nonlin_solv_iters as f64 <= 3.0 * stats.num_steps as f64,
         "{stats:?}"
     );
     // Over the middle of the top, the cloth is above the top (and below
@@ -309,9 +309,9 @@ fn cloth_fold(overrides: &[&str]) {
     );
     // The cloth did fold onto itself: layers came within the thickness.
     assert!(pairs > 100, "{pairs} proximity pairs in all");
-    assert_eq!(stats.rejected_steps, 0);
+    assert_eq!(stats.num_rejected_steps(), 0);
     assert!(
-        stats.newton_iterations as f64 <= 3.0 * stats.steps as f64,
+        stats.num_nonlin_solv_iters as f64 <= 3.0 * stats.num_steps as f64,
         "{stats:?}"
     );
     let (again, _) = run_checked(&s, 2, |_| {});
@@ -334,7 +334,7 @@ fn cloth_fold_64_has_no_self_intersection_in_any_step_and_is_deterministic() {
 fn cloth_slope_rests_on_its_slope() {
     let s = scene("cloth-slope.toml", &[]);
     let (x1, stats) = run_checked(&s, 2, |_| {});
-    assert_eq!(stats.rejected_steps, 0);
+    assert_eq!(stats.num_rejected_steps(), 0);
     // After landing (by 0.5 s) the cloth does not move down the slope: its
     // centroid moves less than 1 mm over the last 1.5 s.
     let short = scene("cloth-slope.toml", &["duration=0.5"]);

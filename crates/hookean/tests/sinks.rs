@@ -57,7 +57,7 @@ fn frames_csv_and_progress_record_the_run() {
     let rows: Vec<Vec<f64>> = lines
         .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
         .collect();
-    assert_eq!(rows.len(), summary.stats.steps);
+    assert_eq!(rows.len(), summary.stats.num_steps);
     for r in &rows {
         let sum = r[4] + r[5] + r[6];
         assert!((r[7] - sum).abs() <= 1e-12 * sum.abs().max(1.0), "{r:?}");
@@ -65,7 +65,7 @@ fn frames_csv_and_progress_record_the_run() {
     assert!((rows.last().unwrap()[0] - 0.35).abs() < 1e-12);
 
     // Every step reported (every = 0) plus the end, the fraction reaching 1.
-    assert_eq!(reports.len(), summary.stats.steps + 1);
+    assert_eq!(reports.len(), summary.stats.num_steps + 1);
     assert_eq!(reports.last().unwrap().fraction(), 1.0);
     assert!(reports.windows(2).all(|w| w[0].t <= w[1].t));
     std::fs::remove_dir_all(&dir).unwrap();

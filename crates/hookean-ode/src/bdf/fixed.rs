@@ -1,5 +1,6 @@
-//! Coefficients of the backward differentiation formulas (the tutorial's
-//! eqs. 34, 36, 37 and table 3), derived rather than copied: BDF(k) is
+//! The coefficients of the fixed-step BDF(k) and of variable-step BDF2 that
+//! `core.rs` runs: the backward differentiation formulas of the tutorial's
+//! eqs. 34, 36, 37 and table 3, derived rather than copied: BDF(k) is
 //! `sum_{j=1..k} (1/j) nabla^j y_{n+1} = h f_{n+1}` (Hairer-Wanner III.1), with the
 //! backward difference `nabla^j y_{n+1} = sum_{i=0..j} (-1)^i C(j, i) y_{n+1-i}`.
 

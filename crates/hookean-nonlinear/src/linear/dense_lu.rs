@@ -1,0 +1,231 @@
+//! [`DenseLu`]: faer's dense LU with partial pivoting, factored in place
+//! into storage kept between setups, so that neither a refactorisation nor
+//! a solve allocates.
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::lu::partial_pivoting::factor::{lu_in_place, lu_in_place_scratch};
+use hookean_sparse::SparseError;
+
+use super::{LinearSolveStats, LinearSolver};
+use crate::error::{NonlinearError, check_len};
+
+/// Dense LU with partial pivoting (faer's `lu_in_place`), for small general
+/// Jacobians (`faer::Mat<f64>`): the tutorial's scalar examples, first-order
+/// systems with up to a few hundred unknowns.
+///
+/// The factors, the permutation and faer's workspace are kept and reused
+/// while the dimension stays: a [`setup`](LinearSolver::setup) after the
+/// first and every [`solve`](LinearSolver::solve) allocate nothing. A solve
+/// is the permutation, then forward and back substitution by columns on the
+/// factors `P A = L U` (unit `L` below the diagonal, `U` on and above it):
+/// the operations of faer's `solve_in_place` without its dispatch, which
+/// cost about 900 instructions per solve of a 2 x 2 system (callgrind,
+/// docs/PERFORMANCE.md).
+///
+/// A pivot `|u_kk| <= n eps max |u_ij|` is reported as
+/// [`NonlinearError::SingularJacobian`].
+pub struct DenseLu {
+    /// `A`, overwritten by its factors, column-major `n x n`.
+    lu: Vec<f64>,
+    /// The forward row permutation, `(P b)_i = b[perm[i]]`, and its inverse.
+    perm: Vec<usize>,
+    perm_inv: Vec<usize>,
+    mem: MemBuffer,
+    n: usize,
+    ready: bool,
+}
+
+impl std::fmt::Debug for DenseLu {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("DenseLu")
+            .field("n", &self.n)
+            .field("ready", &self.ready)
+            .field("perm", &self.perm)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Default for DenseLu {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl DenseLu {
+    /// An empty solver.
+    pub fn new() -> Self {
+        Self {
+            lu: Vec::new(),
+            perm: Vec::new(),
+            perm_inv: Vec::new(),
+            mem: MemBuffer::new(faer::dyn_stack::StackReq::EMPTY),
+            n: 0,
+            ready: false,
+        }
+    }
+
+    /// Storage for dimension `n` (allocates only when `n` changes).
+    fn reserve(&mut self, n: usize) {
+        if self.lu.len() == n * n && self.perm.len() == n {
+            return;
+        }
+        self.lu = vec![0.0; n * n];
+        self.perm = vec![0; n];
+        self.perm_inv = vec![0; n];
+        let req = lu_in_place_scratch::<usize, f64>(n, n, faer::Par::Seq, Default::default());
+        self.mem = MemBuffer::new(req);
+    }
+}
+
+impl LinearSolver<faer::Mat<f64>> for DenseLu {
+    fn setup(&mut self, jac: &faer::Mat<f64>) -> Result<(), NonlinearError> {
+        self.ready = false;
+        let (r, c) = (jac.nrows(), jac.ncols());
+        if r != c {
+            return Err(SparseError::NotSquare { rows: r, cols: c }.into());
+        }
+        self.reserve(r);
+        for j in 0..c {
+            let (src, dst) = (jac.col_as_slice(j), &mut self.lu[j * r..(j + 1) * r]);
+            if let Some(i) = src.iter().position(|v| !v.is_finite()) {
+                return Err(SparseError::NonFinite {
+                    what: "Jacobian",
+                    index: Some(j * r + i),
+                }
+                .into());
+            }
+            dst.copy_from_slice(src);
+        }
+        lu_in_place(
+            faer::MatMut::from_column_major_slice_mut(&mut self.lu, r, c),
+            &mut self.perm,
+            &mut self.perm_inv,
+            faer::Par::Seq,
+            MemStack::new(&mut self.mem),
+            Default::default(),
+        );
+        let mut umax = 0.0f64;
+        for j in 0..c {
+            for &u in &self.lu[j * r..j * r + j + 1] {
+                umax = umax.max(u.abs());
+            }
+        }
+        let tiny = r as f64 * f64::EPSILON * umax;
+        for k in 0..r {
+            let p = self.lu[k * r + k];
+            if !(p.abs() > tiny) {
+                return Err(NonlinearError::SingularJacobian { pivot: k, value: p });
+            }
+        }
+        self.n = r;
+        self.ready = true;
+        Ok(())
+    }
+
+    fn solve(
+        &mut self,
+        _jac: &faer::Mat<f64>,
+        rhs: &[f64],
+        x: &mut [f64],
+        _rtol: f64,
+    ) -> Result<LinearSolveStats, NonlinearError> {
+        if !self.ready {
+            return Err(NonlinearError::NotReady(
+                "DenseLu::solve before a successful setup",
+            ));
+        }
+        check_len("right-hand side", rhs, self.n)?;
+        check_len("solution", x, self.n)?;
+        let n = self.n;
+        for (xi, &p) in x.iter_mut().zip(&self.perm) {
+            *xi = rhs[p];
+        }
+        // L y = P b by columns (unit diagonal), then U x = y by columns.
+        for (j, col) in self.lu.chunks_exact(n).enumerate() {
+            let (head, tail) = x.split_at_mut(j + 1);
+            let xj = head[j];
+            if xj != 0.0 {
+                for (xi, lij) in tail.iter_mut().zip(&col[j + 1..]) {
+                    *xi -= lij * xj;
+                }
+            }
+        }
+        for (j, col) in self.lu.chunks_exact(n).enumerate().rev() {
+            let (head, tail) = x.split_at_mut(j);
+            let xj = tail[0] / col[j];
+            tail[0] = xj;
+            if xj != 0.0 {
+                for (xi, uij) in head.iter_mut().zip(&col[..j]) {
+                    *xi -= uij * xj;
+                }
+            }
+        }
+        Ok(LinearSolveStats {
+            converged: true,
+            ..Default::default()
+        })
+    }
+
+    fn is_direct(&self) -> bool {
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dense_lu_solves_and_detects_singularity() {
+        let a = faer::mat![[0.0, 2.0, 1.0], [1.0, 1.0, 0.0], [3.0, 0.0, 1.0]];
+        let mut lu = DenseLu::new();
+        lu.setup(&a).unwrap();
+        let mut x = [0.0; 3];
+        lu.solve(&a, &[3.0, 2.0, 4.0], &mut x, 0.0).unwrap();
+        // Solution (1, 1, 1) by inspection.
+        for v in x {
+            approx::assert_abs_diff_eq!(v, 1.0, epsilon = 1e-14);
+        }
+        let s = faer::mat![[1.0, 2.0], [2.0, 4.0]];
+        assert!(matches!(
+            lu.setup(&s),
+            Err(NonlinearError::SingularJacobian { pivot: 1, .. })
+        ));
+        assert!(lu.solve(&s, &[1.0, 1.0], &mut [0.0; 2], 0.0).is_err());
+        let nan = faer::mat![[f64::NAN]];
+        assert!(lu.setup(&nan).is_err());
+        assert!(lu.setup(&faer::Mat::<f64>::zeros(2, 3)).is_err());
+    }
+
+    #[test]
+    fn dense_lu_pivots_and_matches_an_independent_solve() {
+        // A 5 x 5 matrix whose first column needs a row exchange; the
+        // solution is checked against Gaussian elimination of the testkit.
+        let rows = [
+            [0.0, 2.0, -1.0, 0.5, 3.0],
+            [4.0, -1.0, 0.0, 2.0, 1.0],
+            [-2.0, 3.0, 1.0, 0.0, -4.0],
+            [1.0, 0.0, 5.0, -3.0, 2.0],
+            [0.5, -2.0, 1.5, 1.0, 0.0],
+        ];
+        let a = faer::Mat::from_fn(5, 5, |i, j| rows[i][j]);
+        let b = [1.0, -2.0, 0.5, 3.0, -1.5];
+        let mut lu = DenseLu::new();
+        lu.setup(&a).unwrap();
+        assert!(lu.perm.iter().enumerate().any(|(i, &p)| i != p), "pivoting");
+        let mut x = [0.0; 5];
+        lu.solve(&a, &b, &mut x, 0.0).unwrap();
+        let dense: Vec<Vec<f64>> = rows.iter().map(|r| r.to_vec()).collect();
+        let exact = hookean_testkit::dense::solve(&dense, &b);
+        for i in 0..5 {
+            approx::assert_abs_diff_eq!(x[i], exact[i], epsilon = 1e-13);
+        }
+        // A refill of the same size reuses the storage: the factors follow.
+        let a2 = faer::Mat::from_fn(5, 5, |i, j| 2.0 * rows[i][j]);
+        lu.setup(&a2).unwrap();
+        lu.solve(&a2, &b, &mut x, 0.0).unwrap();
+        for i in 0..5 {
+            approx::assert_abs_diff_eq!(x[i], exact[i] / 2.0, epsilon = 1e-13);
+        }
+    }
+}

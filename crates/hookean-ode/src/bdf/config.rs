@@ -1,0 +1,216 @@
+//! [`BdfConfig`]: the settings that belong to the variable-order BDF alone
+//! (the formula, the order limit, Newton's limits, the re-use of the
+//! Jacobian and of the Newton matrix, the tolerance mapping, the linear
+//! solver); the tolerances and step bounds are [`SolverOptions`](crate::SolverOptions)'.
+
+use hookean_sparse::PrecondKind;
+
+use crate::error::OdeError;
+
+/// The highest order of the variable-order BDF.
+pub const MAX_ORDER: usize = 5;
+
+/// The default [`BdfConfig::tolerance_exponent`]: the local error test runs
+/// at `rtol^1.2`. With error per step `tol`, order `k` takes steps
+/// `h ~ tol^(1/(k+1))`, so the global error, the sum of the local errors,
+/// grows like `tol^(k/(k+1))`; `tol = rtol^((k+1)/k)` makes it follow
+/// `rtol`. The steps of the stiff test set are mostly of order 5: `6/5`.
+/// (Measured with exponent 1: the error grows like `rtol^0.84..rtol^1.03`
+/// and is 2.6 to 45 times `rtol` at `rtol = 1e-8`; with 1.2 at most 4.9
+/// times over 25 tolerances from 1e-4 to 1e-8, E5's reference-limited 12.8
+/// apart; docs/PERFORMANCE.md, issue 17.)
+pub const TOLERANCE_EXPONENT: f64 = 1.2;
+
+/// The multistep family.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Formula {
+    /// The numerical differentiation formulas of Klopfenstein and Shampine
+    /// (more accurate than the BDF at the same stability for orders 1-4).
+    #[default]
+    Ndf,
+    /// The classical backward differentiation formulas.
+    Bdf,
+}
+
+/// The linear solver of the Newton systems `(I - c J) x = r` of a
+/// first-order problem. (Second-order problems always solve the reduced
+/// stage equations by PCG, with [`SolverOptions::linear`](crate::SolverOptions::linear).)
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum BdfLinearSolver {
+    /// LU factors kept across steps: faer's dense LU, or faer's sparse LU
+    /// on the problem's pattern when it gives one
+    /// ([`FirstOrderProblem::sparse_jacobian_pattern`](crate::FirstOrderProblem::sparse_jacobian_pattern)).
+    /// The default.
+    #[default]
+    Direct,
+    /// Matrix-free GMRES(`krylov_dim`) ([Saad-Schultz 1986], hookean-sparse's
+    /// [`gmres`](hookean_sparse::gmres) through
+    /// [`GmresSolver`](hookean_nonlinear::GmresSolver)): each product
+    /// `J v` is one evaluation of `f`, `(f(y + s v) - f(y)) / s` with
+    /// `s = 1 / ||v||` (CVODE's difference-quotient `jtimes`); right
+    /// preconditioned by a hookean-sparse preconditioner set up on the
+    /// sparse `I - c J` when it is kept (the problem must give its sparse
+    /// pattern and values unless `preconditioner` is
+    /// [`PrecondKind::None`]); run on the system scaled by the error
+    /// weights and stopped at 0.05 of the Newton tolerance (CVODE's
+    /// `eplifac`). The products use the current iterate and `c`, so Newton
+    /// is an inexact Newton rather than the simplified one.
+    Gmres {
+        /// Krylov dimension per cycle (CVODE's `maxl`, 5 there).
+        krylov_dim: usize,
+        /// Restarts after the first cycle (CVODE's `maxrs`, 0 there).
+        restarts: usize,
+        /// The preconditioner, set up on `I - c J`.
+        preconditioner: PrecondKind,
+    },
+}
+
+impl BdfLinearSolver {
+    /// GMRES with Krylov dimension 10, two restarts and `preconditioner`.
+    pub fn gmres(preconditioner: PrecondKind) -> Self {
+        BdfLinearSolver::Gmres {
+            krylov_dim: 10,
+            restarts: 2,
+            preconditioner,
+        }
+    }
+}
+
+/// The settings of the variable-order BDF ([`BdfSolver`](crate::BdfSolver),
+/// [`Method::VariableBdf`](crate::Method::VariableBdf)). The defaults are meant to serve
+/// the whole stiff test set; only the tolerances of
+/// [`SolverOptions`](crate::SolverOptions) are problem-dependent.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BdfConfig {
+    /// NDF (default) or BDF.
+    pub formula: Formula,
+    /// Highest order used, 1 to 5. Default 5. Orders above 2 are not
+    /// A-stable (stability angles 86, 73 and 52 degrees for BDF3-5, smaller
+    /// for the NDFs): on lightly damped oscillators (springs, whose
+    /// eigenvalues lie near the imaginary axis) they hold the step to the
+    /// oscillation periods, where 2 lets accuracy alone set it (the scenes'
+    /// `integrator.max_order` defaults to 2).
+    pub max_order: usize,
+    /// Initial step size; `None` (default) for Hairer-Wanner's estimate.
+    pub initial_step: Option<f64>,
+    /// The run fails after this many steps. Default 100 000.
+    pub max_steps: usize,
+    /// Newton iterations per attempt. Default 4.
+    pub max_newton_iterations: usize,
+    /// Newton failures on one step before the run fails. Default 10 (CVODE's `MXNCF`).
+    pub max_convergence_failures: usize,
+    /// Error test failures on one step before the run fails. Default 20
+    /// (CVODE's `MXNEF` is 7, SciPy has no limit; 7 stopped Van der Pol at
+    /// `rtol = 1.5e-4` in its steep transition, where 20 gets through).
+    pub max_error_test_failures: usize,
+    /// The Newton matrix `I - c J` is set up again (refactored) when
+    /// `|c / c_lu - 1|` exceeds this. Default 0.3 (CVODE's `DGMAX`).
+    pub max_gamma_change: f64,
+    /// The Newton matrix is set up again after this many steps. Default 20 (CVODE's `MSBP`).
+    pub steps_per_factorization: usize,
+    /// The Jacobian is re-evaluated after this many steps (CVODE's `MSBJ`,
+    /// 50 there). Default `None`: only when Newton fails with a Jacobian of
+    /// an earlier step (as SciPy does), which needs fewer evaluations on the
+    /// test set at the same accuracy.
+    pub steps_per_jacobian: Option<usize>,
+    /// The local error test runs with the tolerances
+    /// `rtol_local = rtol^p` and `atol_local = atol rtol^(p - 1)` for this
+    /// exponent `p` (a tolerance-proportional mapping, as RADAU5 maps its
+    /// tolerances): with a local error per step of `rtol_local`, the global
+    /// error of order `k` grows like `rtol_local^(k/(k+1))` (times the number
+    /// of steps), so `p = (k+1)/k` makes the achieved error follow `rtol`
+    /// itself. Default [`TOLERANCE_EXPONENT`] (1.2, for order 5; see
+    /// docs/PERFORMANCE.md); 1 gives the plain error-per-step
+    /// control of SciPy and CVODE.
+    pub tolerance_exponent: f64,
+    /// The linear solver of first-order problems' Newton systems. Default
+    /// [`BdfLinearSolver::Direct`].
+    pub linear_solver: BdfLinearSolver,
+    /// The relative residual to which PCG solves each Newton correction of a
+    /// second-order problem (the preconditioner and iteration limit are
+    /// [`SolverOptions::linear`](crate::SolverOptions::linear)'s). The rate
+    /// test needs corrections accurate well below its tolerance: a
+    /// correction `s` with `|A s + G| <= eta |G|` contracts the Newton
+    /// iteration by about `eta` more. Default `1e-3`.
+    pub linear_rtol: f64,
+}
+
+impl Default for BdfConfig {
+    fn default() -> Self {
+        Self {
+            formula: Formula::Ndf,
+            max_order: MAX_ORDER,
+            initial_step: None,
+            max_steps: 100_000,
+            max_newton_iterations: 4,
+            max_convergence_failures: 10,
+            max_error_test_failures: 20,
+            max_gamma_change: 0.3,
+            steps_per_factorization: 20,
+            steps_per_jacobian: None,
+            tolerance_exponent: TOLERANCE_EXPONENT,
+            linear_solver: BdfLinearSolver::Direct,
+            linear_rtol: 1e-3,
+        }
+    }
+}
+
+fn invalid(name: &'static str, value: f64, reason: &'static str) -> OdeError {
+    OdeError::InvalidParameter {
+        name,
+        value,
+        reason,
+    }
+}
+
+impl BdfConfig {
+    /// Checks every field's range.
+    pub(crate) fn check(&self) -> Result<(), OdeError> {
+        if !(1..=MAX_ORDER).contains(&self.max_order) {
+            return Err(invalid("max_order", self.max_order as f64, "must be 1..=5"));
+        }
+        if let Some(h0) = self.initial_step
+            && !(h0 > 0.0 && h0.is_finite())
+        {
+            return Err(invalid("initial_step", h0, "must be positive and finite"));
+        }
+        if !(self.max_gamma_change >= 0.0) {
+            return Err(invalid(
+                "max_gamma_change",
+                self.max_gamma_change,
+                "must be non-negative",
+            ));
+        }
+        if !(1.0..=2.0).contains(&self.tolerance_exponent) {
+            return Err(invalid(
+                "tolerance_exponent",
+                self.tolerance_exponent,
+                "must be in [1, 2]",
+            ));
+        }
+        if !(self.linear_rtol > 0.0 && self.linear_rtol < 1.0) {
+            return Err(invalid(
+                "linear_rtol",
+                self.linear_rtol,
+                "must be in (0, 1)",
+            ));
+        }
+        if let BdfLinearSolver::Gmres { krylov_dim, .. } = self.linear_solver
+            && krylov_dim == 0
+        {
+            return Err(invalid("krylov_dim", 0.0, "must be at least 1"));
+        }
+        for (name, v) in [
+            ("max_newton_iterations", self.max_newton_iterations),
+            ("max_convergence_failures", self.max_convergence_failures),
+            ("max_error_test_failures", self.max_error_test_failures),
+            ("steps_per_factorization", self.steps_per_factorization),
+            ("steps_per_jacobian", self.steps_per_jacobian.unwrap_or(1)),
+        ] {
+            if v == 0 {
+                return Err(invalid(name, 0.0, "must be at least 1"));
+            }
+        }
+        Ok(())
+    }
+}

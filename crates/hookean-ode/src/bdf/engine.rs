@@ -1,0 +1,470 @@
+//! [`Bdf`]: the variable-order BDF on any problem kind with a
+//! [`Corrector`]: its state, construction, the stepping contract
+//! (`step`, `step_to`, dense output, restart) and the failure report; the
+//! step itself is `step.rs`.
+
+use super::config::MAX_ORDER;
+use super::corrector::Corrector;
+use super::history::{Coefficients, History};
+use crate::error::OdeError;
+use crate::options::SolverOptions;
+use crate::stats::{Stats, StepReport};
+use crate::stepping::{check_dense_output, check_time, growth_bound, landing_slack};
+
+/// The Newton tolerance as a fraction of the local error tolerance (the
+/// error test is `||err|| <= 1` in the same norm). CVODE's test is
+/// `0.1 / tq[4]`-scaled, about the same; SciPy uses `min(0.03, sqrt(rtol))`,
+/// which at tight tolerances costs Newton failures and Jacobians for no
+/// measurable gain in accuracy (docs/PERFORMANCE.md).
+const NEWTON_TOL: f64 = 0.03;
+
+/// The variable-order, variable-step BDF/NDF on a problem kind `S` (see
+/// the module docs).
+pub(crate) struct Bdf<S: Corrector> {
+    pub sys: S,
+    pub(super) corrector: S::Data,
+    pub(super) opts: SolverOptions,
+    pub(super) n: usize,
+    /// The mapped `atol_i` and `rtol` of the local error test (`rtol^p`, see
+    /// [`BdfConfig::tolerance_exponent`](super::BdfConfig::tolerance_exponent)).
+    pub(super) atol: Vec<f64>,
+    pub(super) rtol: f64,
+    pub(super) coef: Coefficients,
+    /// `max_growth * max(1, max |y0|)`: a larger state is a blow-up.
+    pub(super) bound: f64,
+    pub(super) t: f64,
+    pub(super) t_prev: f64,
+    /// False until the history is started (first step, or after a restart).
+    pub(super) started: bool,
+    pub(super) hist: History,
+    /// `c` of the kept Newton matrix (NaN: none).
+    pub(super) lu_c: f64,
+    pub(super) lu_age: usize,
+    pub(super) jac_age: usize,
+    pub(super) jac_evaluated: bool,
+    pub(super) jac_current: bool,
+    /// `c` of the step at which the kept Jacobian was evaluated.
+    pub(super) jac_c: f64,
+
+    /// Fixed order and step (no error test, no order or step change): for
+    /// the tests of each formula's order.
+    pub(super) frozen: bool,
+    pub(super) stats: Stats,
+    pub(super) y_pred: Vec<f64>,
+    /// `psi = sum_j gamma_j D_j / alpha_k`.
+    pub(super) psi: Vec<f64>,
+    pub(super) y_new: Vec<f64>,
+    pub(super) dcor: Vec<f64>,
+    pub(super) f: Vec<f64>,
+    pub(super) w: Vec<f64>,
+    pub(super) scratch: Vec<f64>,
+    /// The state after a step, for the model's end-of-step correction.
+    pub(super) end_state: Vec<f64>,
+}
+
+impl<S: Corrector> Bdf<S> {
+    /// The solver for the system `sys` from `(t0, y0)`.
+    ///
+    /// # Errors
+    /// [`OdeError::InvalidParameter`] / [`OdeError::DimensionMismatch`] for
+    /// bad options or sizes; [`OdeError::NonFinite`] for a non-finite `t0`
+    /// or `y0`.
+    pub fn new(sys: S, t0: f64, y0: &[f64], opts: SolverOptions) -> Result<Self, OdeError> {
+        let n = sys.state_len();
+        let mut atol = opts.check(n)?;
+        if !(opts.rtol > 0.0 && opts.rtol < 1.0) {
+            return Err(OdeError::InvalidParameter {
+                name: "rtol",
+                value: opts.rtol,
+                reason: "must be in (0, 1)",
+            });
+        }
+        if y0.len() != n {
+            return Err(OdeError::DimensionMismatch {
+                what: "initial state",
+                expected: n,
+                found: y0.len(),
+            });
+        }
+        if !t0.is_finite() || y0.iter().any(|v| !v.is_finite()) {
+            return Err(OdeError::NonFinite {
+                what: "initial time or state",
+                t: t0,
+            });
+        }
+        let rtol = opts.rtol.powf(opts.bdf.tolerance_exponent);
+        let atol_scale = rtol / opts.rtol;
+        for a in &mut atol {
+            *a *= atol_scale;
+        }
+        let newton_tol = (10.0 * f64::EPSILON / rtol).max(NEWTON_TOL);
+        let corrector = sys.corrector(&opts, newton_tol, &atol, rtol)?;
+        Ok(Self {
+            sys,
+            corrector,
+            coef: Coefficients::new(opts.bdf.formula),
+            bound: growth_bound(opts.max_growth, y0),
+            opts,
+            n,
+            atol,
+            rtol,
+            t: t0,
+            t_prev: t0,
+            started: false,
+            hist: History::new(y0),
+            lu_c: f64::NAN,
+            lu_age: 0,
+            jac_age: 0,
+            jac_evaluated: false,
+            jac_current: false,
+            jac_c: f64::NAN,
+
+            frozen: false,
+            stats: Stats::default(),
+            y_pred: vec![0.0; n],
+            psi: vec![0.0; n],
+            y_new: vec![0.0; n],
+            dcor: vec![0.0; n],
+            f: vec![0.0; n],
+            w: vec![0.0; n],
+            scratch: vec![0.0; n],
+            end_state: vec![0.0; n],
+        })
+    }
+
+    /// The current time (the end of the last accepted step).
+    pub fn t(&self) -> f64 {
+        self.t
+    }
+
+    /// The start of the last step.
+    pub fn t_prev(&self) -> f64 {
+        self.t_prev
+    }
+
+    /// The current state.
+    pub fn state(&self) -> &[f64] {
+        &self.hist.d[0]
+    }
+
+    /// The options.
+    pub fn options(&self) -> &SolverOptions {
+        &self.opts
+    }
+
+    /// The statistics so far.
+    pub fn stats(&self) -> &Stats {
+        &self.stats
+    }
+
+    /// The order the next step will use.
+    pub fn order(&self) -> usize {
+        self.hist.order
+    }
+
+    /// The step size the next step will try (NaN before the first step).
+    pub fn h_next(&self) -> f64 {
+        self.hist.h
+    }
+
+    /// Adds event-function evaluations to the counters.
+    pub fn count_event_evaluations(&mut self, n: usize) {
+        self.stats.num_g_evals += n;
+    }
+
+    /// The problem changed between steps: the kept Jacobian and Newton
+    /// matrix are evaluated again at the next step.
+    pub fn problem_changed(&mut self) {
+        self.jac_evaluated = false;
+        self.lu_c = f64::NAN;
+    }
+
+    /// Restarts the method at `(t, y)` (order 1, a new initial step; the
+    /// Jacobian and the Newton matrix are kept), e.g. after a discontinuity.
+    ///
+    /// # Errors
+    /// [`OdeError::DimensionMismatch`], [`OdeError::NonFinite`].
+    pub fn restart(&mut self, t: f64, y: &[f64]) -> Result<(), OdeError> {
+        if y.len() != self.n {
+            return Err(OdeError::DimensionMismatch {
+                what: "state",
+                expected: self.n,
+                found: y.len(),
+            });
+        }
+        check_time(t)?;
+        if y.iter().any(|v| !v.is_finite()) {
+            return Err(OdeError::NonFinite {
+                what: "restart time or state",
+                t,
+            });
+        }
+        self.hist.d[0].copy_from_slice(y);
+        self.t = t;
+        self.restart_here();
+        Ok(())
+    }
+
+    /// A new state from the user: a restart that also sets a new scale of
+    /// the growth bound.
+    pub fn set_state(&mut self, t: f64, y: &[f64]) -> Result<(), OdeError> {
+        self.restart(t, y)?;
+        self.bound = growth_bound(self.opts.max_growth, y);
+        Ok(())
+    }
+
+    /// A new state from its halves `[x; v]` (second-order problems), copied
+    /// in place; a restart that keeps the growth bound.
+    ///
+    /// # Errors
+    /// [`OdeError::DimensionMismatch`], [`OdeError::NonFinite`],
+    /// [`OdeError::InvalidParameter`].
+    pub fn set_state_parts(&mut self, t: f64, x: &[f64], v: &[f64]) -> Result<(), OdeError> {
+        let n = self.n / 2;
+        if x.len() != n || v.len() != n {
+            return Err(OdeError::DimensionMismatch {
+                what: "state",
+                expected: n,
+                found: if x.len() != n { x.len() } else { v.len() },
+            });
+        }
+        check_time(t)?;
+        if x.iter().chain(v).any(|a| !a.is_finite()) {
+            return Err(OdeError::NonFinite { what: "state", t });
+        }
+        let (dx, dv) = self.hist.d[0].split_at_mut(n);
+        dx.copy_from_slice(x);
+        dv.copy_from_slice(v);
+        self.t = t;
+        self.restart_here();
+        Ok(())
+    }
+
+    /// Edits the halves `[x; v]` of the state in place between steps; the
+    /// history restarts there (the next step checks the state is finite).
+    pub fn modify_state_parts<R>(&mut self, f: impl FnOnce(&mut [f64], &mut [f64]) -> R) -> R {
+        let n = self.n / 2;
+        let (x, v) = self.hist.d[0].split_at_mut(n);
+        let r = f(x, v);
+        self.restart_here();
+        r
+    }
+
+    /// Restarts the method at the current `(t, D_0)`.
+    fn restart_here(&mut self) {
+        self.t_prev = self.t;
+        self.started = false;
+        self.hist.order = 1;
+        self.hist.n_equal_steps = 0;
+    }
+
+    /// The dense output: the interpolating polynomial of the history,
+    /// `p(t) = D_0 + sum_{j=1..k} D_j prod_{m=0..j-1} (t - t_n + m h) / ((m + 1) h)`,
+    /// at `t` in the last step `[t_prev, t_n]`, written into `out`.
+    ///
+    /// # Errors
+    /// [`OdeError::InvalidParameter`] for `t` outside the last step,
+    /// [`OdeError::DimensionMismatch`] for a wrong `out`.
+    pub fn interpolate(&self, t: f64, out: &mut [f64]) -> Result<(), OdeError> {
+        check_dense_output(t, self.t_prev, self.t, out.len(), self.n)?;
+        if !self.started {
+            out.copy_from_slice(&self.hist.d[0]);
+            return Ok(());
+        }
+        self.hist.interpolate(t, self.t, out);
+        Ok(())
+    }
+
+    /// Wraps a failure of the run with the time and the statistics.
+    pub(super) fn fail(&self, source: OdeError) -> OdeError {
+        OdeError::Run {
+            t: self.t,
+            stats: Box::new(self.stats),
+            source: Box::new(source),
+        }
+    }
+
+    /// One accepted step.
+    ///
+    /// # Errors
+    /// [`OdeError::Run`] with the time, the statistics and the cause:
+    /// [`OdeError::TooManySteps`], [`OdeError::StepSizeUnderflow`],
+    /// [`OdeError::NewtonFailed`], [`OdeError::LinearSolver`],
+    /// [`OdeError::ErrorTestFailed`], [`OdeError::NonFinite`],
+    /// [`OdeError::StateGrowth`], or an error of the problem's Jacobian or
+    /// of the linear solver.
+    pub fn step(&mut self) -> Result<StepReport, OdeError> {
+        self.step_bounded(f64::INFINITY)
+    }
+
+    /// One step that does not pass `t_end`, or `None` once `t_end` is
+    /// reached: within [`landing_slack`] below `t_end` the time is set to
+    /// it; a step that would pass it is shortened (the history
+    /// re-interpolated) to end on it exactly.
+    ///
+    /// # Errors
+    /// As [`step`](Self::step); [`OdeError::InvalidParameter`] for a
+    /// non-finite `t_end` or one before the current time.
+    pub fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, OdeError> {
+        if !t_end.is_finite() || t_end < self.t {
+            return Err(OdeError::InvalidParameter {
+                name: "t_end",
+                value: t_end,
+                reason: "must be finite and not before the current time",
+            });
+        }
+        if t_end - self.t <= landing_slack(self.t, t_end, self.hist.h) {
+            self.t = t_end;
+            return Ok(None);
+        }
+        self.step_bounded(t_end).map(Some)
+    }
+
+    /// One accepted step that does not pass `t_bound` (`t_bound > t`).
+    fn step_bounded(&mut self, t_bound: f64) -> Result<StepReport, OdeError> {
+        if self.stats.num_steps >= self.opts.bdf.max_steps {
+            return Err(self.fail(OdeError::TooManySteps {
+                t: self.t,
+                max_steps: self.opts.bdf.max_steps,
+            }));
+        }
+        let before = self.stats;
+        let t = self.t;
+        self.begin_step().map_err(|e| self.fail(e))?;
+        let err = self.step_inner(t_bound).map_err(|e| self.fail(e))?;
+        self.end_step(t).map_err(|e| self.fail(e))?;
+        Ok(StepReport::between(
+            &before,
+            &self.stats,
+            self.t,
+            self.t - t,
+            Some(err),
+            self.hist.h,
+        ))
+    }
+
+    /// Lets the model set the step's constraints (second-order problems);
+    /// a state it moved (a collision) restarts the history there.
+    fn begin_step(&mut self) -> Result<(), OdeError> {
+        if !self.sys.is_second_order() {
+            return Ok(());
+        }
+        self.scratch.copy_from_slice(&self.hist.d[0]);
+        self.sys.begin_step(self.t, &mut self.scratch);
+        if self.scratch != self.hist.d[0] {
+            let y = std::mem::take(&mut self.scratch);
+            let result = self.restart(self.t, &y);
+            self.scratch = y;
+            result?;
+        }
+        Ok(())
+    }
+
+    /// Lets the model correct the state after the step from `t_start`
+    /// (second-order problems: the collision pass of contact); a state it
+    /// moved restarts the history there. `scratch` still holds the state
+    /// the step started from ([`begin_step`](Self::begin_step)).
+    fn end_step(&mut self, t_start: f64) -> Result<(), OdeError> {
+        if !self.sys.is_second_order() {
+            return Ok(());
+        }
+        self.end_state.copy_from_slice(&self.hist.d[0]);
+        let h = self.t - t_start;
+        if self
+            .sys
+            .end_step(t_start, h, &self.scratch, &mut self.end_state)
+        {
+            let y = std::mem::take(&mut self.end_state);
+            let result = self.restart(self.t, &y);
+            self.end_state = y;
+            result?;
+        }
+        Ok(())
+    }
+
+    /// The highest order the history may use.
+    pub(super) fn max_order(&self) -> usize {
+        self.opts.bdf.max_order.min(MAX_ORDER)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bdf::Formula;
+    use crate::stage::FirstSys;
+    use hookean_problem::FirstOrderProblem;
+
+    /// `y' = -y^2 + sin^2 t + cos t`, exact solution `y = sin t`.
+    struct Sine;
+    impl FirstOrderProblem for Sine {
+        fn dim(&self) -> usize {
+            1
+        }
+        fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+            dy[0] = -y[0] * y[0] + t.sin().powi(2) + t.cos();
+        }
+        fn jacobian(&self, _t: f64, y: &[f64], j: &mut [f64]) -> bool {
+            j[0] = -2.0 * y[0];
+            true
+        }
+    }
+
+    /// `N` steps of order `k` and step `h = 1/N` from `t0 = 1` with the
+    /// exact history `D_j = nabla^j y(t0)`; returns the errors at `t0 + 1`
+    /// and of the dense output at the middle of the last step.
+    fn frozen_run(formula: Formula, k: usize, n: usize) -> (f64, f64) {
+        let (t0, h) = (1.0f64, 1.0 / n as f64);
+        let mut opts = SolverOptions::with_tolerances(1e-12, 1e-12);
+        opts.bdf.formula = formula;
+        opts.bdf.max_order = k;
+        opts.bdf.max_newton_iterations = 20;
+        let sys = FirstSys::new(Sine, &opts).unwrap();
+        let mut s = Bdf::new(sys, t0, &[t0.sin()], opts).unwrap();
+        // Backward differences of the exact values y(t0 - i h), i = 0..=k.
+        let mut diff: Vec<f64> = (0..=k).map(|i| (t0 - i as f64 * h).sin()).collect();
+        for j in 0..=k {
+            s.hist.d[j][0] = diff[0];
+            for i in 0..k - j {
+                diff[i] -= diff[i + 1];
+            }
+        }
+        s.hist.h = h;
+        s.hist.order = k;
+        s.started = true;
+        s.frozen = true;
+        let t_end = t0 + 1.0;
+        while s.t() < t_end - 0.5 * h {
+            s.step_to(t_end + 1.0).unwrap();
+        }
+        assert!((s.t() - t_end).abs() < 1e-12 && s.order() == k);
+        assert_eq!(s.stats().num_nonlin_solv_conv_fails, 0);
+        let mut mid = [0.0];
+        let tm = s.t() - 0.5 * h;
+        s.interpolate(tm, &mut mid).unwrap();
+        (
+            (s.state()[0] - t_end.sin()).abs(),
+            (mid[0] - tm.sin()).abs(),
+        )
+    }
+
+    #[test]
+    fn each_order_converges_with_its_order_and_so_does_the_dense_output() {
+        for formula in [Formula::Bdf, Formula::Ndf] {
+            for k in 1..=MAX_ORDER {
+                let (e1, m1) = frozen_run(formula, k, 80);
+                let (e2, m2) = frozen_run(formula, k, 160);
+                let p = (e1 / e2).log2();
+                let q = (m1 / m2).log2();
+                assert!(
+                    (p - k as f64).abs() < 0.3,
+                    "{formula:?} order {k}: observed {p}"
+                );
+                assert!(
+                    (q - k as f64).abs() < 0.4,
+                    "{formula:?} order {k}: dense output {q}"
+                );
+            }
+        }
+    }
+}

@@ -1,0 +1,184 @@
+//! Eq. 50's path of the reduced velocity form: inexact simplified Newton
+//! (the tutorial's Algorithm 3) on the isotropic linearised Newton matrix
+//! `A = M - gh D - gh^2 K`, kept until `gh` or the material changes.
+
+use hookean_nonlinear::{Newton, NewtonOptions, NonlinearError, NonlinearSystem, PcgSolver};
+use hookean_problem::SecondOrderProblem;
+use hookean_sparse::{AnyPreconditioner, IsoBlockMatrix};
+
+use super::second_order::{SecondSys, end_stage, momentum_options};
+use super::{JacobianSource, ReducedStage, StageFailure, StageInfo, account, begin_stage};
+use crate::options::SolverOptions;
+use crate::stats::Stats;
+
+/// The stage equation of [`ReducedStage`] with the tutorial's linearised
+/// Jacobian (eq. 50) as its Newton matrix, stored isotropically (one
+/// scalar per 3x3 block): `A = M - gh D - gh^2 K` with the constant `K`
+/// and `D` of [`SecondOrderProblem::linearized_jacobians_iso`]. Inexact
+/// simplified Newton (algorithm 3) keeps `A` until `gh` or the material
+/// changes, so a Newton iteration costs a force evaluation and CG
+/// iterations on a third of the nonzeros, and no assembly.
+struct ReducedStageIso<'a, 'b, P> {
+    stage: ReducedStage<'a, P>,
+    k: &'b IsoBlockMatrix,
+    d: &'b IsoBlockMatrix,
+    /// The particles' masses (one per particle: isotropic).
+    particle_mass: &'b [f64],
+}
+
+impl<P: SecondOrderProblem> NonlinearSystem for ReducedStageIso<'_, '_, P> {
+    type Jacobian = IsoBlockMatrix;
+
+    fn dim(&self) -> usize {
+        self.stage.dim()
+    }
+
+    fn residual(&mut self, v: &[f64], g: &mut [f64]) -> Result<(), NonlinearError> {
+        self.stage.residual(v, g)
+    }
+
+    /// The linearised matrix is the only one this form has.
+    fn jacobian(&mut self, v: &[f64], a: &mut IsoBlockMatrix) -> Result<(), NonlinearError> {
+        self.approximate_jacobian(v, a).map(|_| ())
+    }
+
+    fn approximate_jacobian(
+        &mut self,
+        _v: &[f64],
+        a: &mut IsoBlockMatrix,
+    ) -> Result<bool, NonlinearError> {
+        let gh = self.stage.gh;
+        a.set_zero();
+        a.add_scaled(-gh * gh, self.k)?;
+        a.add_scaled(-gh, self.d)?;
+        a.add_to_diagonal(self.particle_mass)?;
+        Ok(true)
+    }
+}
+
+/// Eq. 50's path of [`SecondSys`]: its own Newton on isotropic storage,
+/// the constant `K`, `D` and the material revision they belong to.
+pub(super) struct LinearizedNewton {
+    newton: Newton<IsoBlockMatrix, PcgSolver<AnyPreconditioner>>,
+    k: IsoBlockMatrix,
+    d: IsoBlockMatrix,
+    particle_mass: Vec<f64>,
+    revision: u64,
+    last_gh: f64,
+}
+
+impl LinearizedNewton {
+    /// `None` if the problem has no isotropic linearisation or its masses
+    /// differ between the coordinates of a particle.
+    fn new<P: SecondOrderProblem>(
+        problem: &P,
+        options: NewtonOptions,
+        linear: PcgSolver<AnyPreconditioner>,
+    ) -> Result<Option<Self>, NonlinearError> {
+        let pattern = problem.jacobian_pattern();
+        let mut k = IsoBlockMatrix::new(pattern.clone());
+        let mut d = IsoBlockMatrix::new(pattern.clone());
+        if !problem.linearized_jacobians_iso(&mut k, &mut d) {
+            return Ok(None);
+        }
+        let mass = problem.mass();
+        let (m3, _) = mass.as_chunks::<3>();
+        if m3.iter().any(|m| m[0] != m[1] || m[1] != m[2]) {
+            return Ok(None);
+        }
+        let particle_mass = m3.iter().map(|m| m[0]).collect();
+        Ok(Some(Self {
+            newton: Newton::new(options, IsoBlockMatrix::new(pattern), linear)?,
+            k,
+            d,
+            particle_mass,
+            revision: problem.material_revision(),
+            last_gh: f64::NAN,
+        }))
+    }
+}
+
+impl<P: SecondOrderProblem> SecondSys<P> {
+    /// [`System::solve_stage`](super::System::solve_stage) by inexact simplified Newton on eq. 50's
+    /// isotropic matrix ([`ReducedStageIso`]), kept until `gh` or the
+    /// material revision changes; `None` if the problem has no isotropic
+    /// linearisation (then the full-block path runs, with
+    /// [`SecondOrderProblem::linearized_jacobians`] if it has that).
+    pub(super) fn solve_stage_linearized(
+        &mut self,
+        tau: f64,
+        gh: f64,
+        psi: &[f64],
+        k: &mut [f64],
+        opts: &SolverOptions,
+        stats: &mut Stats,
+    ) -> Option<Result<StageInfo, StageFailure>> {
+        let nopts = momentum_options(&opts.newton, self.mean_mass);
+        if self.linearized.is_none() {
+            let built = PcgSolver::from_options(&opts.linear)
+                .and_then(|linear| LinearizedNewton::new(&self.problem, nopts, linear));
+            self.linearized = Some(match built {
+                Ok(Some(l)) => Ok(Box::new(l)),
+                Ok(None) => Err(()),
+                Err(e) => return Some(Err(StageFailure::Other(e))),
+            });
+        }
+        let Some(Ok(lin)) = self.linearized.as_mut() else {
+            return None;
+        };
+        let lin = &mut **lin;
+        let revision = self.problem.material_revision();
+        if revision != lin.revision {
+            if !self
+                .problem
+                .linearized_jacobians_iso(&mut lin.k, &mut lin.d)
+            {
+                self.linearized = Some(Err(()));
+                return None;
+            }
+            lin.revision = revision;
+            lin.newton.invalidate_jacobian();
+        }
+        if gh != lin.last_gh {
+            lin.newton.invalidate_jacobian();
+            lin.last_gh = gh;
+        }
+        let n = self.n;
+        let (psi_x, psi_v) = psi.split_at(n);
+        let (kx, kv) = k.split_at_mut(n);
+        begin_stage(
+            lin.newton.linear_solver_mut(),
+            &self.constraints,
+            kv,
+            psi_v,
+            (opts.warm_start && self.last_delta_gh == gh).then_some(&self.last_delta),
+        );
+        let mut stage = ReducedStageIso {
+            stage: ReducedStage {
+                problem: &self.problem,
+                tau,
+                gh,
+                psi_x,
+                psi_v,
+                x: &mut self.xs,
+                force: &mut self.force,
+                dfdx: &mut self.dfdx,
+                dfdv: &mut self.dfdv,
+                source: JacobianSource::Evaluate,
+                constraints: &self.constraints,
+            },
+            k: &lin.k,
+            d: &lin.d,
+            particle_mass: &lin.particle_mass,
+        };
+        let result = lin.newton.solve(&mut stage, kv);
+        lin.newton.linear_solver_mut().disarm_guess();
+        let info = match account(result, 0, stats) {
+            Ok(info) => info,
+            Err(e) => return Some(Err(e)),
+        };
+        end_stage(kx, kv, psi_x, psi_v, gh, &mut self.last_delta);
+        self.last_delta_gh = gh;
+        Some(Ok(info))
+    }
+}
