@@ -174,6 +174,12 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
         S: NonlinearSystem<Jacobian = J> + ?Sized,
     {
         let n = system.dim();
+        if n == 0 {
+            return Err(NonlinearError::InvalidParameter {
+                name: "system",
+                message: "it has no unknowns (dim = 0): there is nothing to solve".into(),
+            });
+        }
         check_len("iterate y", y, n)?;
         if self.g.len() != n {
             self.g = vec![0.0; n];

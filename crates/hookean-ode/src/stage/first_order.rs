@@ -316,6 +316,13 @@ pub(crate) struct FirstSys<P> {
 impl<P: FirstOrderProblem> FirstSys<P> {
     pub fn new(problem: P, opts: &SolverOptions) -> Result<Self, OdeError> {
         let n = problem.dim();
+        if n == 0 {
+            return Err(OdeError::InvalidParameter {
+                name: "problem.dim()",
+                value: 0.0,
+                reason: "the problem has no unknowns: there is nothing to integrate",
+            });
+        }
         let (newton, jac) = match problem.sparse_jacobian_pattern() {
             None => (FirstNewton::Dense(None), vec![0.0; n * n]),
             Some(pattern) => {

@@ -146,6 +146,13 @@ pub(super) fn momentum_options(user: &NewtonOptions, mean_mass: f64) -> NewtonOp
 impl<P: SecondOrderProblem> SecondSys<P> {
     pub fn new(problem: P, opts: &SolverOptions) -> Result<Self, OdeError> {
         let n = problem.dim();
+        if n == 0 {
+            return Err(OdeError::InvalidParameter {
+                name: "problem.dim()",
+                value: 0.0,
+                reason: "the problem has no unknowns: there is nothing to integrate",
+            });
+        }
         let pattern = problem.jacobian_pattern();
         if pattern.dim() != n {
             return Err(OdeError::DimensionMismatch {
