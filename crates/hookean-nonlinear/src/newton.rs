@@ -2,6 +2,8 @@
 //! Algorithm 2 (inexact Newton with residual control, section 3.2) and
 //! Algorithm 3 (inexact simplified Newton, section 3.3).
 
+use std::time::Instant;
+
 use hookean_sparse::vecops::norm2;
 use hookean_sparse::{AmgOptions, NegativeCurvature, PrecondKind};
 
@@ -294,6 +296,13 @@ pub struct NewtonStats {
     /// ([`NewtonOptions::negative_curvature`]) whose iterate so far was
     /// taken as the correction, with a backtracking line search on `|G|`.
     pub truncated_solves: usize,
+    /// Wall time of the Jacobian evaluations (assembly), seconds.
+    pub jacobian_seconds: f64,
+    /// Wall time of the linear solver's set-ups (factorisations,
+    /// preconditioner set-ups), seconds.
+    pub setup_seconds: f64,
+    /// Wall time of the linear solves, seconds.
+    pub solve_seconds: f64,
 }
 
 impl NewtonStats {
@@ -568,13 +577,18 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
         S: NonlinearSystem<Jacobian = J> + ?Sized,
     {
         self.approximated = false;
+        let start = Instant::now();
         let approximated = approximate && system.approximate_jacobian(y, &mut self.jacobian)?;
         if !approximated {
             system.jacobian(y, &mut self.jacobian)?;
         }
         self.approximated = approximated;
         stats.jacobian_evaluations += 1;
-        self.linear.setup(&self.jacobian)?;
+        let assembled = Instant::now();
+        stats.jacobian_seconds += (assembled - start).as_secs_f64();
+        let setup = self.linear.setup(&self.jacobian);
+        stats.setup_seconds += assembled.elapsed().as_secs_f64();
+        setup?;
         stats.linear_setups += 1;
         Ok(())
     }
@@ -630,9 +644,12 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
                 *r = -g;
             }
             self.s.fill(0.0);
+            let start = Instant::now();
             let lin = self
                 .linear
-                .solve(&self.jacobian, &self.rhs, &mut self.s, eta)?;
+                .solve(&self.jacobian, &self.rhs, &mut self.s, eta);
+            stats.solve_seconds += start.elapsed().as_secs_f64();
+            let lin = lin?;
             stats.linear_iterations += lin.iterations;
             if !direct {
                 stats.forcing_terms.push(eta);

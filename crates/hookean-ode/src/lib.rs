@@ -86,6 +86,7 @@ pub mod integrator;
 mod krylov;
 pub mod method;
 pub mod options;
+mod phases;
 pub mod stability;
 mod system;
 pub mod tableau;
@@ -112,6 +113,7 @@ pub use hookean_sparse::PrecondKind;
 pub use integrator::{FirstOrderIntegrator, SecondOrderIntegrator};
 pub use method::Method;
 pub use options::{IntegrateInfo, Predictor, SolverOptions, Stats, StepControl, StepReport};
+pub use phases::PhaseTimes;
 /// The sparse matrix crate of [`FirstOrderProblem::sparse_jacobian_pattern`]
 /// and [`FirstOrderProblem::jacobian_sparse`], re-exported so that users
 /// need not match its version by hand.

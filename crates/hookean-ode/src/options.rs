@@ -216,6 +216,9 @@ pub struct Stats {
     pub linear_iterations: usize,
     /// Linear-solver set-ups (LU factorisations, preconditioner set-ups).
     pub linear_setups: usize,
+    /// Wall time of the Newton solves' phases (assembly, linear-solver
+    /// set-up, linear solves).
+    pub phases: crate::phases::PhaseTimes,
 }
 
 /// What one call of `step()` did.

@@ -122,6 +122,9 @@ fn account(
         stats.newton_iterations += ns.iterations;
         stats.linear_iterations += ns.linear_iterations;
         stats.linear_setups += ns.linear_setups;
+        stats
+            .phases
+            .add_seconds(ns.jacobian_seconds, ns.setup_seconds, ns.solve_seconds);
     }
     match result {
         Ok(ns) => Ok(StageInfo {
