@@ -31,7 +31,9 @@ use hookean_massspring::{
     SpringMaterial,
 };
 use hookean_ode::{ForcingTerm, Method, NewtonMethod, SolverOptions, StepControl};
-use hookean_sparse::{AmgOptions, AmgReuse, AmgSmoother, NegativeCurvature, PrecondKind};
+use hookean_sparse::{
+    AmgOptions, AmgPrecision, AmgReuse, AmgSmoother, NegativeCurvature, PrecondKind,
+};
 use serde::Deserialize;
 use serde::de::{Deserializer, Error as _};
 
@@ -707,6 +709,22 @@ pub struct AmgScene {
     /// Set-ups that keep the hierarchy with `reuse = "keep"`. Default 4.
     #[serde(default = "d_amg_keep", deserialize_with = "at_least_one")]
     pub keep_updates: usize,
+    /// Storage of the hierarchy's matrices: `"single"` (default: f32, half
+    /// the memory traffic of a V-cycle) or `"double"` (f64, as before issue
+    /// 25); the arithmetic is f64 either way.
+    #[serde(default)]
+    pub precision: AmgPrecisionScene,
+}
+
+/// The storage precision of the multigrid's matrices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AmgPrecisionScene {
+    /// f32 entries.
+    #[default]
+    Single,
+    /// f64 entries.
+    Double,
 }
 
 /// The multigrid's smoother.
@@ -759,6 +777,10 @@ impl AmgScene {
                 AmgReuseScene::Keep => AmgReuse::Keep {
                     updates: self.keep_updates,
                 },
+            },
+            precision: match self.precision {
+                AmgPrecisionScene::Single => AmgPrecision::Single,
+                AmgPrecisionScene::Double => AmgPrecision::Double,
             },
             ..AmgOptions::default()
         }
