@@ -152,11 +152,13 @@ fn mic_omega<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
 }
 
 /// From this many particles on, `preconditioner = "auto"` takes AMG
-/// instead of MIC(0): on the drape AMG's set-up at every Newton iteration
-/// costs more than it saves at 64 x 64 (4 096 particles) and wins 1.35-1.56x
-/// at 128 x 128 (16 384; docs/PERFORMANCE.md, issues 15 and 16). The
-/// crossover between the two was not measured more finely.
-pub const AUTO_AMG_PARTICLES: usize = 10_000;
+/// instead of MIC(0). Measured on the drape with the hierarchy in f32
+/// (issue 25, docs/PERFORMANCE.md), 5 s, wall clock: 32 x 32 (1 024
+/// particles) MIC(0) 0.62 s against AMG 1.78 s; 48 x 48 (2 304) a tie within
+/// the noise (1.67-1.83 s against 1.42-1.96 s); 64 x 64 (4 096) AMG 2.66-2.76 s
+/// against MIC(0) 3.04-3.35 s. (With the f64 hierarchy the crossover lay
+/// between 64 x 64 and 128 x 128.)
+pub const AUTO_AMG_PARTICLES: usize = 4_000;
 
 /// Every scene key with its units and default, as `hookean scene-keys`
 /// prints it: generated from the field docs below by
@@ -1654,7 +1656,12 @@ mod tests {
         let (opts, default) = (bare.simulation_options(), SimulationOptions::default());
         assert_eq!(opts.method, default.method);
         assert_eq!(opts.solver.h, default.solver.h);
-        assert_eq!(opts.solver.newton, default.solver.newton);
+        // ... except the preconditioner: `auto` takes AMG for the drape's
+        // 64 x 64 particles (the library default is MIC(0)).
+        const { assert!(64 * 64 >= AUTO_AMG_PARTICLES) };
+        let mut expected = default.solver.newton.clone();
+        expected.preconditioner = PrecondKind::Amg;
+        assert_eq!(opts.solver.newton, expected);
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/drape.toml");
         let shipped = Scene::from_file(Path::new(path), &[]).unwrap();
         assert_eq!(shipped.simulation_options(), bare.simulation_options());
