@@ -153,12 +153,12 @@ fn mic_omega<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
 
 /// From this many particles on, `preconditioner = "auto"` takes AMG
 /// instead of MIC(0). Measured on the drape with the hierarchy in f32
-/// (issue 25, docs/PERFORMANCE.md), 5 s, wall clock: 32 x 32 (1 024
-/// particles) MIC(0) 0.62 s against AMG 1.78 s; 48 x 48 (2 304) a tie within
-/// the noise (1.67-1.83 s against 1.42-1.96 s); 64 x 64 (4 096) AMG 2.66-2.76 s
-/// against MIC(0) 3.04-3.35 s. (With the f64 hierarchy the crossover lay
-/// between 64 x 64 and 128 x 128.)
-pub const AUTO_AMG_PARTICLES: usize = 4_000;
+/// (issue 25, docs/PERFORMANCE.md), 5 s, wall clock, MIC(0) against AMG:
+/// 32 x 32 (1 024 particles) 0.65 s against 1.76 s; 40 x 40 (1 600) a tie
+/// (1.05-1.07 s against 1.03-1.12 s); 48 x 48 (2 304) 1.61-1.68 s against
+/// 1.31-1.37 s; 64 x 64 (4 096) 3.08-3.18 s against 2.56-2.67 s. (With the
+/// f64 hierarchy the crossover lay between 64 x 64 and 128 x 128.)
+pub const AUTO_AMG_PARTICLES: usize = 2_000;
 
 /// Every scene key with its units and default, as `hookean scene-keys`
 /// prints it: generated from the field docs below by
