@@ -5,6 +5,7 @@
 //! cargo bench --bench preconditioners -- --table-only # just the tables and bars
 //! cargo bench --bench preconditioners -- --table-only --bars-only
 //! cargo bench --bench preconditioners -- --bandwidth  # kernels against the memory bound
+//! cargo bench --bench preconditioners -- --spmv-files A.mtx...  # CSR SpMV on files (JSON lines)
 //! ```
 //!
 //! Criterion groups: SpMV of the symmetric block matrix against sprs and
@@ -330,9 +331,52 @@ fn bandwidth() {
     }
 }
 
+/// `--spmv-files A.mtx...`: the CSR SpMV `hookean solve --format csr` runs
+/// (the [`LinearOperator`] of `sprs::CsMat`, 8-byte indices) on each file, best
+/// of about a second of runs, and STREAM's triad on vectors as large as the bytes
+/// the SpMV must stream (values and indices, row pointers, `x` read, `y`
+/// written), in the current pool (`RAYON_NUM_THREADS=1` for one thread). One JSON
+/// line per file, for scripts/peers/compare.sh (issue 29).
+fn spmv_files(paths: &[String]) {
+    for path in paths {
+        let a = match hookean_sparse::read_matrix_market_file(path) {
+            Ok(m) => m.into_csr(),
+            Err(e) => {
+                eprintln!("{path}: {e}");
+                std::process::exit(2);
+            }
+        };
+        let (n, nnz) = (a.rows(), a.nnz());
+        let x = vec![1.0; n];
+        let mut y = vec![0.0; n];
+        let once = best_of(1, || a.apply(black_box(&x), &mut y));
+        let reps = ((1.0 / once) as usize).clamp(10, 100_000);
+        let t = best_of(reps, || a.apply(black_box(&x), &mut y));
+        let word = std::mem::size_of::<usize>() as f64;
+        let bytes = nnz as f64 * (8.0 + word) + (n + 1) as f64 * word + 16.0 * n as f64;
+        let len = (bytes / 24.0) as usize;
+        let triad = triad_gbs(len.max(1024), reps.min(1000));
+        println!(
+            "{{\"kind\":\"spmv\",\"matrix\":\"{path}\",\"tool\":\"hookean CSR\",\"index_bytes\":{word},\"rows\":{n},\"nnz\":{nnz},\"spmv_s\":{t:.6e},\"bytes\":{bytes:.0},\"triad_gbs\":{triad:.2},\"check\":{:.6e}}}",
+            y.iter().sum::<f64>()
+        );
+    }
+}
+
 fn main() {
     if std::env::args().any(|a| a == "--bandwidth") {
         bandwidth();
+        return;
+    }
+    let args: Vec<String> = std::env::args().collect();
+    if let Some(i) = args.iter().position(|a| a == "--spmv-files") {
+        // (cargo bench appends `--bench`)
+        let files: Vec<String> = args[i + 1..]
+            .iter()
+            .filter(|a| !a.starts_with("--"))
+            .cloned()
+            .collect();
+        spmv_files(&files);
         return;
     }
     let table_only = std::env::args().any(|a| a == "--table-only");

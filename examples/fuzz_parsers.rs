@@ -99,7 +99,10 @@ fn main() -> ExitCode {
         "| parser | cases | accepted | refused (typed error) | panics | slowest case | wall |"
     );
     println!("|---|---|---|---|---|---|---|");
-    let opts = ReadOptions { max_bytes: 1 << 20 };
+    let opts = ReadOptions {
+        max_bytes: 1 << 20,
+        max_line_bytes: 1 << 16,
+    };
     let tallies = [
         fuzz("Matrix Market", MTX, n, |b| {
             read_matrix_market_with(b, &opts).is_ok_and(|m| {

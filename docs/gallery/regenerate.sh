@@ -20,6 +20,8 @@ for problem in tutorial1 tutorial2 tutorial3 wave; do
   "$hookean" workprecision --problem "$problem" --out "$out/wp-$problem.csv" --plot "$g/workprecision-$problem.svg" --force > /dev/null
 done
 "$hookean" stability --plot "$g/stability.svg" --force > /dev/null
+"$hookean" bench data --cloth 64 --out "$out/bench" --quiet > /dev/null
+cp "$out/bench/residual-cloth16-A.svg" "$out/bench/residual-cloth64.svg" "$g/"
 
 # view.html of the reference drape, first and last frame.
 chrome() {

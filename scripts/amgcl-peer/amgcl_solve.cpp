@@ -1,17 +1,23 @@
 // amgcl_solve: AMGCL (smoothed aggregation + CG) on a Matrix Market system,
-// for the peer comparison of docs/perf/amgcl-peer.md. Built and run by
-// scripts/amgcl-compare.sh against AMGCL's headers, which that script
-// clones at run time (nothing of AMGCL is in this repository). AMGCL 1.4.x,
+// for the peer comparisons of docs/perf/amgcl-peer.md and of issue 29
+// (docs/PERFORMANCE.md). Built and run by scripts/amgcl-compare.sh and
+// scripts/peers/compare.sh against AMGCL's headers, which those scripts
+// clone at run time (nothing of AMGCL is in this repository). AMGCL 1.4.x,
 // header-only, compiled with AMGCL_NO_BOOST (no Boost needed).
 //
 //   amgcl_solve A.mtx b.mtx --value block3|scalar --relax spai0|damped_jacobi|ilu0|chebyshev[,...]
 //               [--rtol 1e-8] [--repeat 3] [--label NAME] [--esr POWER_STEPS]
+//               [--block-size B] [--nullspace N.mtx] [--eps-strong E]
 //
 // --value block3: 3x3 block values (amgcl::static_matrix<double,3,3>),
 //   the block-valued builtin backend; the near-nullspace is the constant
 //   per block (the three translations).
-// --value scalar: scalar values with aggregation on 3x3 point blocks
-//   (coarsening.aggr.block_size = 3).
+// --value scalar: scalar values with aggregation on B x B point blocks
+//   (coarsening.aggr.block_size = B, default 3); with --nullspace, the
+//   columns of N.mtx (a dense Matrix Market array, one column per mode, e.g.
+//   the rigid-body modes) are the near-nullspace (coarsening.nullspace);
+//   without, the constant per unknown of a block.
+// --eps-strong E: the aggregation's strength threshold (AMGCL's default 0.08).
 // --esr S: smooth the prolongator with omega = (4/3) / rho(D^-1 A), rho from
 //   S power steps (AMGCL's estimate_spectral_radius; default off: omega = 2/3).
 // --relax takes a comma-separated list (run in that order, in one process).
@@ -131,8 +137,18 @@ static Result run_block3(const Csr &a, const std::vector<double> &b, double rtol
     return r;
 }
 
+// The aggregation of --value scalar: unknowns per block, the near-nullspace
+// (row-major, `modes` columns; none when 0), the strength threshold (< 0: AMGCL's).
+struct Aggregation {
+    int block_size = 3;
+    std::vector<double> nullspace;
+    int modes = 0;
+    double eps_strong = -1;
+};
+
 template <template <class> class Relax>
-static Result run_scalar(const Csr &a, const std::vector<double> &b, double rtol, int esr) {
+static Result run_scalar(const Csr &a, const std::vector<double> &b, double rtol, int esr,
+                         const Aggregation &ag) {
     typedef amgcl::backend::builtin<double> Backend;
     typedef amgcl::make_solver<
         amgcl::amg<Backend, amgcl::coarsening::smoothed_aggregation, Relax>,
@@ -144,7 +160,12 @@ static Result run_scalar(const Csr &a, const std::vector<double> &b, double rtol
         prm.precond.coarsening.estimate_spectral_radius = true;
         prm.precond.coarsening.power_iters = esr;
     }
-    prm.precond.coarsening.aggr.block_size = 3;
+    prm.precond.coarsening.aggr.block_size = ag.block_size;
+    if (ag.eps_strong >= 0) prm.precond.coarsening.aggr.eps_strong = ag.eps_strong;
+    if (ag.modes > 0) {
+        prm.precond.coarsening.nullspace.cols = ag.modes;
+        prm.precond.coarsening.nullspace.B = ag.nullspace;
+    }
     Result r;
     auto t0 = std::chrono::steady_clock::now();
     auto A = std::tie(a.n, a.ptr, a.col, a.val);
@@ -167,17 +188,19 @@ static Result run_scalar(const Csr &a, const std::vector<double> &b, double rtol
 static int usage() {
     std::cerr << "usage: amgcl_solve A.mtx b.mtx --value block3|scalar "
                  "--relax spai0|damped_jacobi|ilu0|chebyshev[,...] [--rtol 1e-8] [--repeat 3] "
-                 "[--label NAME] [--esr POWER_STEPS]\n";
+                 "[--label NAME] [--esr POWER_STEPS] [--block-size B] [--nullspace N.mtx] "
+                 "[--eps-strong E]\n";
     return 2;
 }
 
 int main(int argc, char **argv) {
     if (argc < 3) return usage();
     std::string a_path = argv[1], b_path = argv[2], value = "block3", relax_list = "damped_jacobi",
-                label = a_path;
+                label = a_path, nullspace_path;
     double rtol = 1e-8;
     int repeat = 3;
     int esr = 0;
+    Aggregation ag;
     for (int i = 3; i + 1 < argc; i += 2) {
         std::string k = argv[i], v = argv[i + 1];
         if (k == "--value") value = v;
@@ -186,8 +209,14 @@ int main(int argc, char **argv) {
         else if (k == "--repeat") repeat = std::atoi(v.c_str());
         else if (k == "--label") label = v;
         else if (k == "--esr") esr = std::atoi(v.c_str());
+        else if (k == "--block-size") ag.block_size = std::atoi(v.c_str());
+        else if (k == "--nullspace") nullspace_path = v;
+        else if (k == "--eps-strong") ag.eps_strong = std::atof(v.c_str());
         else return usage();
     }
+    const int block_size = ag.block_size;
+    if (block_size < 1 || (value == "block3" && (block_size != 3 || !nullspace_path.empty())))
+        return usage();
     Csr a;
     std::vector<double> b;
     try {
@@ -199,11 +228,22 @@ int main(int argc, char **argv) {
         amgcl::io::mm_reader rb(b_path);
         size_t brows, bcols;
         std::tie(brows, bcols) = rb(b);
-        if (rows != cols || brows != rows || bcols != 1 || rows % 3 != 0) {
+        if (rows != cols || brows != rows || bcols != 1 || rows % block_size != 0) {
             std::cerr << "error: " << a_path << " is " << rows << "x" << cols << ", " << b_path
-                      << " is " << brows << "x" << bcols
-                      << " (need a square matrix with 3k rows and a matching column)\n";
+                      << " is " << brows << "x" << bcols << " (need a square matrix with "
+                      << block_size << "k rows and a matching column)\n";
             return 2;
+        }
+        if (!nullspace_path.empty()) {
+            amgcl::io::mm_reader rn(nullspace_path);
+            size_t nrows, ncols;
+            std::tie(nrows, ncols) = rn(ag.nullspace);  // row-major, as AMGCL wants it
+            if (nrows != rows || ncols == 0) {
+                std::cerr << "error: " << nullspace_path << " is " << nrows << "x" << ncols
+                          << " (need " << rows << " rows)\n";
+                return 2;
+            }
+            ag.modes = int(ncols);
         }
         // The reader keeps the file's order within a row; sort each row by
         // column (the builtin backend and the block adapter expect it).
@@ -240,10 +280,10 @@ int main(int argc, char **argv) {
                 else if (relax == "chebyshev") r = run_block3<amgcl::relaxation::chebyshev>(a, b, rtol, esr);
                 else return usage();
             } else if (value == "scalar") {
-                if (relax == "spai0") r = run_scalar<amgcl::relaxation::spai0>(a, b, rtol, esr);
-                else if (relax == "damped_jacobi") r = run_scalar<amgcl::relaxation::damped_jacobi>(a, b, rtol, esr);
-                else if (relax == "ilu0") r = run_scalar<amgcl::relaxation::ilu0>(a, b, rtol, esr);
-                else if (relax == "chebyshev") r = run_scalar<amgcl::relaxation::chebyshev>(a, b, rtol, esr);
+                if (relax == "spai0") r = run_scalar<amgcl::relaxation::spai0>(a, b, rtol, esr, ag);
+                else if (relax == "damped_jacobi") r = run_scalar<amgcl::relaxation::damped_jacobi>(a, b, rtol, esr, ag);
+                else if (relax == "ilu0") r = run_scalar<amgcl::relaxation::ilu0>(a, b, rtol, esr, ag);
+                else if (relax == "chebyshev") r = run_scalar<amgcl::relaxation::chebyshev>(a, b, rtol, esr, ag);
                 else return usage();
             } else {
                 return usage();
@@ -256,10 +296,12 @@ int main(int argc, char **argv) {
         std::printf("{\"matrix\":\"%s\",\"solver\":\"amgcl\",\"value\":\"%s\",\"relax\":\"%s\","
                     "\"threads\":%d,\"rows\":%zu,\"nnz\":%td,\"iterations\":%zu,\"setup_s\":%.6f,"
                     "\"solve_s\":%.6f,\"amgcl_resid\":%.3e,\"rel_residual\":%.3e,\"levels\":%zu,"
-                    "\"operator_complexity\":%.2f,\"esr\":%d}\n",
+                    "\"operator_complexity\":%.2f,\"esr\":%d,\"block_size\":%d,\"nullspace_cols\":%d,"
+                    "\"converged\":%s}\n",
                     label.c_str(), value.c_str(), relax.c_str(), omp_get_max_threads(), a.n,
                     a.ptr[a.n], r.iterations, r.setup_s, r.solve_s, r.amgcl_resid,
-                    r.rel_residual, r.levels, r.op_complexity, esr);
+                    r.rel_residual, r.levels, r.op_complexity, esr, block_size, ag.modes,
+                    r.amgcl_resid <= rtol ? "true" : "false");
         std::fflush(stdout);
     }
     return failed ? 1 : 0;

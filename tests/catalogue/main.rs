@@ -59,6 +59,8 @@ pub(crate) struct Case {
     absent: &'static [&'static str],
     /// Folders (relative) whose earlier hookean output the case may replace.
     replaces: &'static [&'static str],
+    /// Environment variables of the command (`RAYON_NUM_THREADS`).
+    env: &'static [(&'static str, &'static str)],
 }
 
 pub(crate) const fn case(
@@ -79,6 +81,7 @@ pub(crate) const fn case(
         creates: &[],
         absent: &[],
         replaces: &[],
+        env: &[],
     }
 }
 
@@ -103,10 +106,16 @@ impl Case {
         self.replaces = folders;
         self
     }
+    pub(crate) const fn env(mut self, vars: &'static [(&'static str, &'static str)]) -> Self {
+        self.env = vars;
+        self
+    }
 }
 
+mod bounds;
 mod commands;
 mod files;
+mod fuzz;
 mod races;
 mod run;
 mod solve;
@@ -191,6 +200,14 @@ pub(crate) fn names_hidden_entry(text: &str) -> bool {
         .any(|t| text.contains(t))
 }
 
+/// Whether `text` holds a number of 20 or more digits in a row that the
+/// user did not write in `given` (messages print numbers short: `1e300`,
+/// never 300 digits; quoting the user's own input is fine).
+pub(crate) fn has_long_number(text: &str, given: &[&str]) -> bool {
+    text.split(|c: char| !c.is_ascii_digit())
+        .any(|run| run.len() >= 20 && !given.iter().any(|g| g.contains(run)))
+}
+
 /// Hidden staging, aside or temporary entries hookean left under `dir`.
 pub(crate) fn leftovers(dir: &Path) -> Vec<PathBuf> {
     snapshot(dir)
@@ -238,7 +255,11 @@ fn check(index: usize, c: &Case) -> Result<(), String> {
     }
     let before = snapshot(&dir);
     let args = expand(c.args, &dir);
-    let mut child = hookean(&dir, &args).spawn().unwrap();
+    let mut command = hookean(&dir, &args);
+    for (k, v) in c.env {
+        command.env(k, v);
+    }
+    let mut child = command.spawn().unwrap();
     let start = Instant::now();
     while child.try_wait().unwrap().is_none() {
         if start.elapsed() > TIME_LIMIT {
@@ -271,6 +292,15 @@ fn check(index: usize, c: &Case) -> Result<(), String> {
         && !(stderr.starts_with("hookean: error: ") && stderr.trim_end().lines().count() == 1)
     {
         problems.push("bad input is not one 'hookean: error:' line".into());
+    }
+    let given: Vec<&str> = args
+        .iter()
+        .map(String::as_str)
+        .chain(c.files.iter().map(|(_, text)| *text))
+        .chain(c.env.iter().map(|(_, v)| *v))
+        .collect();
+    if has_long_number(&stderr, &given) {
+        problems.push("a message prints a number of 20 or more digits".into());
     }
     // Staging folders are never named; none is left behind.
     if names_hidden_entry(&stderr) {
@@ -336,13 +366,15 @@ fn every_case_of_the_catalogue_exits_as_promised_and_keeps_the_user_files() {
         GLOBAL,
         // Cases 84-92 (issue 18).
         REPRODUCE,
-        // Issue 28: output files and folders.
+        // Issue 28: output files and folders, bounds, readers, exit codes.
         files::FILES,
+        bounds::BOUNDS,
     ]
     .iter()
     .flat_map(|cases| cases.iter())
     .collect();
-    assert!(all.len() >= 60, "the catalogue holds {} cases", all.len());
+    // 92 cases before issue 28, at least 60 more since.
+    assert!(all.len() >= 152, "the catalogue holds {} cases", all.len());
     // Cases are independent (each in its own folder): two at a time.
     let next = std::sync::atomic::AtomicUsize::new(0);
     let failures = std::sync::Mutex::new(Vec::new());

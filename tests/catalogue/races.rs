@@ -170,3 +170,46 @@ fn a_signal_removes_the_staging_folder_and_keeps_the_earlier_run() {
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
+
+/// With stderr on a full disk (`2>/dev/full`) every report and error
+/// message fails to write: the exit code stays what it would have been
+/// (it was 101, a panic, for every command).
+#[test]
+fn stderr_on_a_full_disk_changes_no_exit_code() {
+    let dir = case_dir("stderr-full");
+    std::fs::write(dir.join("s.toml"), QUICK).unwrap();
+    let cases: [(&[&str], i32); 5] = [
+        (&["run", "{}/s.toml", "--out", "{}/out"], 0),
+        (&["run", "{}/none.toml", "--out", "{}/out2"], 2),
+        (&["solve", "{}/none.mtx"], 2),
+        (&["--threads", "0", "scene-keys"], 2),
+        (
+            &[
+                "run",
+                "{}/s.toml",
+                "--out",
+                "{}/out3",
+                "--set",
+                "integrator.method=fb-euler",
+                "--set",
+                "integrator.h=0.05",
+                "--set",
+                "duration=5",
+            ],
+            1,
+        ),
+    ];
+    for (args, code) in cases {
+        let args = expand(args, &dir);
+        let out = Command::new("sh")
+            .arg("-c")
+            .arg("exec \"$0\" \"$@\" 2>/dev/full")
+            .arg(env!("CARGO_BIN_EXE_hookean-suite-cli"))
+            .args(&args)
+            .current_dir(&dir)
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(code), "{args:?}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -20,7 +20,7 @@ use indicatif::ProgressBar;
 use serde::Serialize;
 
 use crate::CliError;
-use crate::solve::{Matrix, SolveRecord, SolverArgs, run_solver};
+use crate::solve::{Matrix, RunOptions, SolveRecord, Solver, SolverArgs, run_solver};
 
 /// The implicit-Euler step size of the benchmark systems.
 pub const H: f64 = 0.01;
@@ -102,6 +102,14 @@ pub fn deformed_cloth_system(
     Ok((sys.a, sys.b))
 }
 
+/// Memory of the benchmark's system per particle (measured 3.1 KB at
+/// N = 256 and 512, peak RSS of `--precond none`).
+const BYTES_PER_PARTICLE: u64 = 4096;
+/// What `direct` adds per particle before its factor (whose fill is
+/// checked on its own): 117 nonzeros a particle, about 40 bytes each in the
+/// CSC copies and the symbolic analysis (peak RSS 7.9 GB at N = 1024).
+const DIRECT_BYTES_PER_PARTICLE: u64 = 4800;
+
 pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
     let (solvers, params) = args.solver.resolve()?;
     if let Some(&n) = args.n.iter().find(|&&n| !(2..=1024).contains(&n)) {
@@ -112,6 +120,27 @@ pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
     if let Some(&k) = args.k.iter().find(|k| !(**k > 0.0 && k.is_finite())) {
         return Err(CliError::Input(format!(
             "--k: stiffness {k} must be positive and finite"
+        )));
+    }
+    // The system of each N (the model, the matrix, its CSR copy and the
+    // vectors), and with `direct` the copies and symbolic analysis of the
+    // factorisation, within --max-memory and what the process can get.
+    let cap = crate::memory::cap_bytes(args.solver.max_memory)?;
+    let per_particle = BYTES_PER_PARTICLE
+        + if solvers.iter().any(|s| matches!(s, Solver::Direct)) {
+            DIRECT_BYTES_PER_PARTICLE
+        } else {
+            0
+        };
+    if let Some(&n) = args
+        .n
+        .iter()
+        .find(|&&n| (n * n) as u64 * per_particle > cap)
+    {
+        return Err(CliError::Input(format!(
+            "--n {n}: the system would need about {:.1} GiB, more than the {:.1} GiB allowed (--max-memory, or the process's memory limit)",
+            ((n * n) as u64 * per_particle) as f64 / (1u64 << 30) as f64,
+            cap as f64 / (1u64 << 30) as f64
         )));
     }
     if args.n.is_empty() || args.k.is_empty() {
@@ -139,14 +168,23 @@ pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
             let nnz = csr.nnz();
             let matrix = Matrix::Block(a);
             for solver in &solvers {
-                let record = run_solver(solver, &matrix, &csr, &b, &params, &args.solver);
+                let record = run_solver(
+                    solver,
+                    &matrix,
+                    &csr,
+                    &b,
+                    &params,
+                    &args.solver,
+                    &RunOptions::default(),
+                );
                 let record = SolveRecord {
                     matrix: format!("cloth{n}-k{k:e}"),
                     rows,
                     nnz,
                     ..record
                 };
-                failed |= record.error.is_some();
+                // A solver that failed or missed the tolerance fails the command (exit 1).
+                failed |= record.error.is_some() || !record.converged;
                 table.push(format!(
                     "| {n} | {k:e} | {rows} | {} | {} | {:.3} | {:.3} | {:.1e} |{}",
                     record.precond,
@@ -166,7 +204,7 @@ pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
     }
     bar.finish_and_clear();
     for line in table {
-        eprintln!("{line}");
+        crate::errln!("{line}");
     }
     if failed {
         return Err(CliError::SolverFailed);

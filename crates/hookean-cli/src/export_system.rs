@@ -13,7 +13,6 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use hookean::scene::Scene;
 use serde::Serialize;
 
 use crate::CliError;
@@ -63,7 +62,7 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
     }
     // Refused before the simulation: an --out that exists (or holds the scene).
     let staging = crate::output::Staging::new(&args.out, "--out", args.force, &[&args.scene])?;
-    let scene = Scene::from_file(&args.scene, &args.set).map_err(input)?;
+    let scene = crate::read_scene(&args.scene, &args.set)?;
     let (particles, _) = scene.particle_count();
     let check_work = |h: f64| {
         args.work.check(

@@ -89,16 +89,12 @@ fn step_choice(h: f64, fraction: f64, dt_max: f64) -> String {
     )
 }
 
-fn input(e: impl std::fmt::Display) -> CliError {
-    CliError::Input(e.to_string())
-}
-
 fn failed(e: impl std::fmt::Display) -> CliError {
     CliError::Failed(e.to_string())
 }
 
 pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
-    let scene = Scene::from_file(&args.scene, &[]).map_err(input)?;
+    let scene = crate::read_scene(&args.scene, &[])?;
     let cloth = scene.cloth_params().ok_or_else(|| {
         CliError::Input(format!(
             "{}: filter-analysis needs a [cloth] scene",

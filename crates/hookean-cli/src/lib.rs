@@ -23,7 +23,15 @@
 //! reported in its JSON line and the command exits with 1.
 
 // No panic reachable from user input: failures are `CliError`s.
-#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used))]
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::print_stderr,
+        clippy::print_stdout
+    )
+)]
 
 use std::process::ExitCode;
 
@@ -31,10 +39,13 @@ use clap::{Parser, Subcommand};
 
 pub use bench_precond::deformed_cloth_system;
 
+pub mod alloc;
+mod bench;
 mod bench_precond;
 mod export_system;
 mod filter_analysis;
 mod lineplot;
+mod memory;
 mod output;
 mod plot;
 mod regions;
@@ -43,6 +54,7 @@ mod reproduce;
 mod run;
 mod solve;
 mod stability;
+mod thin;
 mod threads;
 mod tutorial_run;
 mod view;
@@ -76,6 +88,9 @@ enum Command {
     Stability(stability::StabilityArgs),
     /// Preconditioner comparison on cloth implicit-Euler systems: JSON lines on stdout, a table on stderr.
     BenchPrecond(bench_precond::BenchPrecondArgs),
+    /// Compare preconditioners over Matrix Market files or folders (and built-in cloth systems):
+    /// bench.md, bench.csv and a residual-against-time SVG per system in the output folder.
+    Bench(bench::BenchArgs),
     /// The filtering paper's figures 4, 5 and 6 for a cloth scene: PNGs, an SVG and analysis.json.
     FilterAnalysis(filter_analysis::FilterAnalysisArgs),
     /// Write view.html (a self-contained WebGL player) for the output folder of an earlier `hookean run`.
@@ -139,6 +154,23 @@ pub fn write_line(line: std::fmt::Arguments<'_>) -> Result<(), CliError> {
     }
 }
 
+/// Writes one line to standard error, ignoring a failure: a report or an
+/// error message that cannot be written (stderr on a full disk, closed)
+/// must not turn into a panic or change the exit code.
+pub fn write_error_line(line: std::fmt::Arguments<'_>) {
+    use std::io::Write;
+    let mut err = std::io::stderr().lock();
+    let _ = err.write_fmt(line).and_then(|()| err.write_all(b"\n"));
+}
+
+/// `eprintln!` that cannot panic (see [`write_error_line`]).
+macro_rules! errln {
+    ($($arg:tt)*) => {
+        $crate::write_error_line(format_args!($($arg)*))
+    };
+}
+pub(crate) use errln;
+
 /// `println!` for command output: `outln!(...)?` (see [`write_line`]).
 macro_rules! outln {
     ($($arg:tt)*) => {
@@ -155,6 +187,21 @@ pub fn to_json<T: serde::Serialize>(record: &T, pretty: bool) -> Result<String, 
         serde_json::to_string(record)
     };
     json.map_err(|e| CliError::Failed(format!("cannot write a record as JSON: {e}")))
+}
+
+/// Reads a scene file with the command's `--set` overrides; errors are bad
+/// input (exit 2), an override's named as the `--set` the user typed.
+pub(crate) fn read_scene(
+    path: &std::path::Path,
+    set: &[String],
+) -> Result<hookean::scene::Scene, CliError> {
+    let set: Vec<&str> = set.iter().map(String::as_str).collect();
+    hookean::scene::Scene::from_file(path, &set).map_err(|e| match e {
+        hookean::HookeanError::Override { file, arg, message } => {
+            CliError::Input(format!("{file}: --set {arg}: {message}"))
+        }
+        e => CliError::Input(e.to_string()),
+    })
 }
 
 /// A progress bar's style from an indicatif template (the default bar if
@@ -191,7 +238,7 @@ fn argument_error(e: &clap::Error) -> ExitCode {
                 .collect();
             let joined = paragraph.join(" ");
             let message = joined.strip_prefix("error: ").unwrap_or(&joined);
-            eprintln!("hookean: error: {message} (see hookean --help)");
+            errln!("hookean: error: {message} (see hookean --help)");
             ExitCode::from(2)
         }
     }
@@ -208,16 +255,24 @@ pub fn main() -> ExitCode {
         Err(e) => return argument_error(&e),
     };
     let threads = cli.threads;
-    let result = threads::install(threads, || dispatch(cli.command, threads)).and_then(|r| r);
+    // RAYON_NUM_THREADS matters only without --threads.
+    let env = if threads.is_none() {
+        threads::check_env()
+    } else {
+        Ok(())
+    };
+    let result = env
+        .and_then(|()| threads::install(threads, || dispatch(cli.command, threads)))
+        .and_then(|r| r);
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(CliError::Input(message)) => {
-            eprintln!("hookean: error: {message}");
+            errln!("hookean: error: {message}");
             ExitCode::from(2)
         }
         Err(CliError::SolverFailed) => ExitCode::from(1),
         Err(CliError::Failed(message)) => {
-            eprintln!("hookean: error: {message}");
+            errln!("hookean: error: {message}");
             ExitCode::from(1)
         }
         Err(CliError::OutputClosed) => ExitCode::from(141),
@@ -232,6 +287,7 @@ fn dispatch(command: Command, threads: Option<usize>) -> Result<(), CliError> {
         Command::Workprecision(args) => workprecision::run(&args),
         Command::Stability(args) => stability::run(&args),
         Command::BenchPrecond(args) => bench_precond::run(&args),
+        Command::Bench(args) => bench::run(&args),
         Command::ExportSystem(args) => export_system::run(&args),
         Command::FilterAnalysis(args) => filter_analysis::run(&args),
         Command::View(args) => view::run(&args),

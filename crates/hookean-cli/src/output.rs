@@ -530,7 +530,7 @@ impl Staging {
         live().retain(|d| d != &aside);
         self.forget();
         if !removed {
-            eprintln!(
+            crate::errln!(
                 "hookean: warning: the earlier output moved aside to {} kept entries hookean did \
                  not write; it was left there",
                 aside.display()

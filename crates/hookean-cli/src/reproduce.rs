@@ -238,7 +238,7 @@ pub fn run(args: &ReproduceArgs) -> Result<(), CliError> {
                 .filter(|c| !c.pass)
                 .map(|c| c.id.to_string())
                 .collect();
-            eprintln!(
+            crate::errln!(
                 "reproduce: {} of {} claims hold in {:.1} s; wrote {}",
                 record.passed,
                 record.total,

@@ -1,13 +1,12 @@
 //! `hookean run SCENE`: simulate a scene file and write its statistics,
 //! per-step CSV, OBJ frames and a rendered picture of the last frame.
 
-use std::fs::File;
-use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::time::Duration;
 
 use clap::Args;
 use hookean::scene::Scene;
+use hookean::sinks::{self, ObjFrames, ProgressInfo, StepsCsv};
 use hookean::{HookeanError, RunSummary, Simulation, Sink};
 use hookean_ode::StepReport;
 use hookean_ode::tutorial::LinearOscillator;
@@ -16,6 +15,7 @@ use serde::Serialize;
 
 use crate::CliError;
 use crate::render::{RenderScene, render};
+use crate::thin::Thinned;
 use crate::view::{FrameEnergies, ViewCollider, ViewFrame, ViewRun};
 
 #[derive(Debug, Args)]
@@ -35,7 +35,7 @@ pub struct RunArgs {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
-    /// Refuse scenes whose model would need more memory than this (GiB).
+    /// Refuse scenes whose model would need more memory than this (GiB), in (0, the machine's memory].
     #[arg(
         long,
         value_name = "GIB",
@@ -45,17 +45,6 @@ pub struct RunArgs {
     max_memory: f64,
     #[command(flatten)]
     work: crate::work::WorkCap,
-}
-
-/// `--max-memory` in bytes.
-pub fn max_memory_bytes(gib: f64) -> Result<u64, CliError> {
-    if gib > 0.0 && gib.is_finite() {
-        Ok((gib * (1u64 << 30) as f64).min(u64::MAX as f64) as u64)
-    } else {
-        Err(CliError::Input(format!(
-            "--max-memory must be a positive number of GiB, got {gib:?}"
-        )))
-    }
 }
 
 /// The statistics of a run, as written to `summary.json`.
@@ -122,69 +111,29 @@ impl PhaseSeconds {
     }
 }
 
-/// One row per accepted step.
-struct StepsCsv {
-    out: BufWriter<File>,
-    path: PathBuf,
+/// The OBJ frames of a run ([`ObjFrames`]) and the same frames kept for
+/// `view.html` (thinned within `thin::VIEW_BYTES`).
+struct Frames {
+    obj: ObjFrames,
+    view: Thinned<ViewFrame>,
 }
 
-impl StepsCsv {
-    fn create(path: PathBuf) -> Result<Self, HookeanError> {
-        let file = crate::output::new_file(&path).map_err(|e| io_error(&path, e))?;
-        let mut out = BufWriter::new(file);
-        writeln!(
-            out,
-            "t,h,newton_iterations,cg_iterations,kinetic,gravitational,spring,total"
-        )
-        .map_err(|e| io_error(&path, e))?;
-        Ok(Self { out, path })
-    }
-}
-
-impl Sink for StepsCsv {
-    fn step(&mut self, sim: &Simulation, r: &StepReport) -> Result<(), HookeanError> {
-        let e = sim.energies()?;
-        writeln!(
-            self.out,
-            "{},{},{},{},{},{},{},{}",
-            r.t,
-            r.h,
-            r.newton_iterations,
-            r.linear_iterations,
-            e.kinetic,
-            e.gravitational,
-            e.spring,
-            e.total()
-        )
-        .map_err(|e| io_error(&self.path, e))
-    }
-
-    fn finish(&mut self, _: &Simulation, _: &RunSummary) -> Result<(), HookeanError> {
-        self.out.flush().map_err(|e| io_error(&self.path, e))
-    }
-}
-
-/// OBJ frames at a fixed rate of simulated time, coloured by speed, and the
-/// same frames kept for `view.html`.
-struct ObjFrames {
-    dir: PathBuf,
-    interval: f64,
-    next: f64,
-    count: usize,
-    view: Vec<ViewFrame>,
-}
-
-impl ObjFrames {
-    fn write(&mut self, sim: &Simulation) -> Result<(), HookeanError> {
-        let path = self.dir.join(format!("frame-{:04}.obj", self.count));
-        let file = crate::output::new_file(&path).map_err(|e| io_error(&path, e))?;
-        let colours = hookean::massspring::speed_colours(sim.v(), 0.0);
-        sim.model()
-            .write_obj(BufWriter::new(file), sim.x(), Some(&colours))?;
-        self.view.push(view_frame(sim)?);
-        self.count += 1;
-        self.next += self.interval;
+impl Frames {
+    fn write_if_due(&mut self, sim: &Simulation) -> Result<(), HookeanError> {
+        if self.obj.write_if_due(sim)? {
+            self.view.push(view_frame(sim)?);
+        }
         Ok(())
+    }
+}
+
+impl Sink for Frames {
+    fn start(&mut self, sim: &Simulation) -> Result<(), HookeanError> {
+        self.write_if_due(sim)
+    }
+
+    fn step(&mut self, sim: &Simulation, _: &StepReport) -> Result<(), HookeanError> {
+        self.write_if_due(sim)
     }
 }
 
@@ -205,15 +154,6 @@ fn view_frame(sim: &Simulation) -> Result<ViewFrame, HookeanError> {
             spring: e.spring,
         }),
     })
-}
-
-impl Sink for ObjFrames {
-    fn step(&mut self, sim: &Simulation, _: &StepReport) -> Result<(), HookeanError> {
-        if sim.t() >= self.next - 1e-9 * self.interval {
-            self.write(sim)?;
-        }
-        Ok(())
-    }
 }
 
 /// The model's colliders as viewers draw them.
@@ -238,9 +178,10 @@ fn view_of(sim: &Simulation, summary: serde_json::Value, frames: Vec<ViewFrame>)
     }
 }
 
-/// `(t, z, exact z)` of the moving particle of the tutorial's example 3.
+/// `(t, z, exact z)` of the moving particle of the tutorial's example 3
+/// (thinned within `thin::PLOT_POINTS`).
 struct ParticleTrace {
-    points: Vec<(f64, f64, f64)>,
+    points: Thinned<(f64, f64, f64)>,
     exact: Option<LinearOscillator>,
 }
 
@@ -271,11 +212,11 @@ fn exact_example3(scene: &Scene) -> Option<LinearOscillator> {
 }
 
 /// The progress bar of a simulation up to `t_end`: simulated time, steps
-/// per second, current step size. Drawn only on a terminal, never if `quiet`.
+/// per second, current step size (the facade's [`sinks::Progress`], drawn
+/// by indicatif). Drawn only on a terminal, never if `quiet`.
 pub struct Progress {
     bar: ProgressBar,
-    start: Instant,
-    steps: usize,
+    inner: sinks::Progress<Box<dyn FnMut(&ProgressInfo)>>,
 }
 
 impl Progress {
@@ -290,25 +231,24 @@ impl Progress {
         bar.set_style(crate::bar_style(
             "{bar:40} {percent:>3}% {msg} [{elapsed_precise}]",
         ));
+        let drawn = bar.clone();
+        let draw: Box<dyn FnMut(&ProgressInfo)> = Box::new(move |p: &ProgressInfo| {
+            drawn.set_position((p.t * 1000.0) as u64);
+            drawn.set_message(format!(
+                "t = {:.3} s, {:.0} steps/s, h = {:.2e}",
+                p.t, p.steps_per_s, p.h
+            ));
+        });
         Self {
             bar,
-            start: Instant::now(),
-            steps: 0,
+            inner: sinks::Progress::new(t_end, Duration::from_millis(100), draw),
         }
     }
 
-    /// Records an accepted step (redraws every 8 steps).
+    /// Records an accepted step.
     pub fn update(&mut self, sim: &Simulation, r: &StepReport) {
-        self.steps += 1;
-        if self.steps.is_multiple_of(8) {
-            let rate = self.steps as f64 / self.start.elapsed().as_secs_f64().max(1e-9);
-            self.bar.set_position((sim.t() * 1000.0) as u64);
-            self.bar.set_message(format!(
-                "t = {:.3} s, {rate:.0} steps/s, h = {:.2e}",
-                sim.t(),
-                r.h
-            ));
-        }
+        // The facade's progress never fails.
+        let _ = self.inner.step(sim, r);
     }
 
     /// Removes the bar.
@@ -329,22 +269,17 @@ impl Sink for Progress {
     }
 }
 
-fn io_error(path: &Path, e: std::io::Error) -> HookeanError {
-    HookeanError::Io {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    }
-}
-
 fn failed(e: impl std::fmt::Display) -> CliError {
     CliError::Failed(e.to_string())
 }
 
+/// The most OBJ frames one run writes (10 000 s at the default 10 per second).
+pub(crate) const MAX_FRAMES: usize = 100_000;
+
 /// `hookean run`; `threads` is the command's `--threads`, which wins over
 /// the scene's `threads` key.
 pub fn run(args: &RunArgs, threads: Option<usize>) -> Result<(), CliError> {
-    let scene =
-        Scene::from_file(&args.scene, &args.set).map_err(|e| CliError::Input(e.to_string()))?;
+    let scene = crate::read_scene(&args.scene, &args.set)?;
     match (threads, scene.threads) {
         (None, Some(t)) => crate::threads::install(Some(t), || run_scene(args, &scene))?,
         _ => run_scene(args, &scene),
@@ -352,7 +287,7 @@ pub fn run(args: &RunArgs, threads: Option<usize>) -> Result<(), CliError> {
 }
 
 fn run_scene(args: &RunArgs, scene: &Scene) -> Result<(), CliError> {
-    let max_bytes = max_memory_bytes(args.max_memory)?;
+    let max_bytes = crate::memory::cap_bytes(args.max_memory)?;
     if scene.tutorial.is_some() {
         // A [tutorial] scene's step is a number (the scene refuses "auto").
         let h = scene.integrator.h.value().unwrap_or(f64::MIN_POSITIVE);
@@ -376,7 +311,7 @@ fn run_scene(args: &RunArgs, scene: &Scene) -> Result<(), CliError> {
         Ok(report) => {
             staging.commit()?;
             if let Some(line) = report {
-                eprintln!("{line}; wrote {}", out.display());
+                crate::errln!("{line}; wrote {}", out.display());
             }
             Ok(())
         }
@@ -418,27 +353,37 @@ fn run_model(
         )),
         e => CliError::Input(format!("{}: {e}", args.scene.display())),
     })?;
-    check_work(args, scene, sim.model().n_particles(), sim.h_next())?;
+    // A variable-step method takes at least duration / h_max steps.
+    let h = if sim.method().is_variable_step() {
+        scene.integrator.h_max.max(sim.h_next())
+    } else {
+        sim.h_next()
+    };
+    check_work(args, scene, sim.model().n_particles(), h)?;
+    // At most one OBJ frame per step and MAX_FRAMES in all.
+    let frames = (scene.duration * scene.output.frame_rate).min(scene.duration / h) + 1.0;
+    if scene.output.frame_rate > 0.0 && !(frames <= MAX_FRAMES as f64) {
+        return Err(CliError::Input(format!(
+            "{}: output.frame_rate = {:?} for duration = {:?} s is about {frames:.3e} frames, more than {MAX_FRAMES}; lower output.frame_rate",
+            args.scene.display(),
+            scene.output.frame_rate,
+            scene.duration
+        )));
+    }
 
     let mut csv = StepsCsv::create(out.join("steps.csv")).map_err(failed)?;
-    let mut frames = ObjFrames {
-        dir: out.clone(),
-        interval: if scene.output.frame_rate > 0.0 {
-            1.0 / scene.output.frame_rate
-        } else {
-            f64::INFINITY
-        },
-        next: 0.0,
-        count: 0,
-        view: Vec::new(),
+    // No frames at output.frame_rate = 0.
+    let mut frames = match scene.output.frame_rate {
+        r if r > 0.0 => Some(Frames {
+            obj: ObjFrames::new(&out, r).map_err(failed)?,
+            view: Thinned::new(crate::thin::max_view_frames(sim.model().n_particles())),
+        }),
+        _ => None,
     };
-    if scene.output.frame_rate > 0.0 {
-        frames.write(&sim).map_err(failed)?;
-    }
     let mut progress = Progress::new(scene.duration, args.quiet);
     // The tutorial's example 3 ([particle]) is pictured as z(t) against its exact solution.
     let mut trace = scene.particle.as_ref().map(|_| ParticleTrace {
-        points: vec![],
+        points: Thinned::new(crate::thin::PLOT_POINTS),
         exact: exact_example3(scene),
     });
     if let Some(t) = &mut trace {
@@ -449,8 +394,8 @@ fn run_model(
         if let Some(t) = &mut trace {
             sinks.push(t);
         }
-        if scene.output.frame_rate > 0.0 {
-            sinks.push(&mut frames);
+        if let Some(f) = &mut frames {
+            sinks.push(f);
         }
         sim.run_with_sinks(scene.duration, &mut sinks)
     };
@@ -467,7 +412,7 @@ fn run_model(
                 )
             };
             // The frames up to the failure show how it went wrong.
-            if !frames.view.is_empty() {
+            if let Some(frames) = frames.as_mut().filter(|f| !f.view.items().is_empty()) {
                 let stats = sim.stats();
                 let summary = serde_json::json!({
                     "scene": args.scene.display().to_string(),
@@ -478,7 +423,7 @@ fn run_model(
                     "newton_iterations": stats.newton_iterations,
                     "cg_iterations": stats.linear_iterations,
                 });
-                let view = view_of(&sim, summary, std::mem::take(&mut frames.view));
+                let view = view_of(&sim, summary, frames.view.take());
                 if view.write(&out.join("view.html")).is_ok() {
                     message += &format!(
                         "; {} shows the frames before",
@@ -510,8 +455,10 @@ fn run_model(
         simulated_s_per_wall_s: summary.speed(),
         final_kinetic_energy: energies.kinetic,
         final_total_energy: energies.total(),
-        frames: frames.count,
-        frame_times: frames.view.iter().map(|f| f.t).collect(),
+        frames: frames.as_ref().map_or(0, |f| f.obj.times().len()),
+        frame_times: frames
+            .as_ref()
+            .map_or_else(Vec::new, |f| f.obj.times().to_vec()),
         colliders: colliders(&sim),
     };
     let json = crate::to_json(&record, true)?;
@@ -519,7 +466,7 @@ fn run_model(
     crate::output::write_text(&summary_path, &(json + "\n"))?;
 
     // view.html: the recorded frames (the last state alone without frames).
-    let mut view_frames = std::mem::take(&mut frames.view);
+    let mut view_frames = frames.as_mut().map_or_else(Vec::new, |f| f.view.take());
     let last = view_frame(&sim).map_err(failed)?;
     let last_is_a_frame = view_frames.last().is_some_and(|f| f.t == last.t);
     if !last_is_a_frame {
@@ -537,7 +484,7 @@ fn run_model(
             title: "Tutorial example 3: particle on a damped spring",
             y_label: "height z (m)",
             numerical: &format!("{} (h = {} s)", sim.method(), sim.h_next()),
-            points,
+            points: points.items(),
         }
         .draw(scene.output.width, scene.output.height),
         None => render(

@@ -1,14 +1,15 @@
 //! `hookean solve`: PCG with every preconditioner, and the direct baseline,
 //! on a Matrix Market system.
 
+use std::ops::ControlFlow;
 use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
 use hookean_sparse::{
-    AmgOptions, AmgSmoother, AmgStats, AnyPreconditioner, CgParams, CgWorkspace, DirectCholesky,
-    LinearOperator, PrecondKind, PreconditionerSetup, SymBlockMatrix, pcg, read_matrix_market_file,
-    vecops::norm2,
+    AmgOptions, AmgSmoother, AmgStats, AnyPreconditioner, CgParams, CgProgress, CgWorkspace,
+    DirectCholesky, LinearOperator, PrecondKind, PreconditionerSetup, ReadOptions, SymBlockMatrix,
+    SymCsrMatrix, pcg, read_matrix_market_file_with, vecops::norm2,
 };
 use serde::Serialize;
 
@@ -33,8 +34,13 @@ pub struct SolveArgs {
     block_size: usize,
 }
 
+/// The most runs `--repeat` asks for.
+const MAX_REPEAT: usize = 1000;
+/// The largest `--max-iter`.
+const MAX_ITER: usize = 10_000_000;
+
 /// The solver options `hookean solve` and `hookean bench-precond` share.
-#[derive(Debug, Args)]
+#[derive(Debug, Clone, Args)]
 pub struct SolverArgs {
     /// none, jacobi, block-jacobi, ssor, ic0, mic0 (block storage only), amg (smoothed-aggregation
     /// multigrid: 3x3 blocks on block storage, scalar on csr), direct (faer sparse Cholesky), all,
@@ -44,35 +50,51 @@ pub struct SolverArgs {
     /// SSOR relaxation, in (0, 2).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub omega: f64,
-    /// Relative residual tolerance |r| / |b| of PCG.
+    /// Relative residual tolerance |r| / |b| of PCG, in [0, 1).
     #[arg(long, default_value_t = 1e-8, allow_negative_numbers = true)]
     pub rtol: f64,
-    /// PCG iteration limit (default 2 n).
+    /// PCG iteration limit, 0 to 10^7 (default 2 n).
     #[arg(long)]
     pub max_iter: Option<usize>,
-    /// Run each solver this many times and report the best times.
+    /// Run each solver this many times (1 to 1000) and report the best times.
     #[arg(long, default_value_t = 1)]
     pub repeat: usize,
     /// The smoother of `amg`: block-jacobi, gauss-seidel (symmetric) or ic0 (block IC(0)).
     #[arg(long, default_value = "block-jacobi")]
     pub amg_smoother: String,
+    /// Refuse a matrix, system or direct factor that would need more memory than this (GiB),
+    /// in (0, the machine's memory].
+    #[arg(
+        long,
+        value_name = "GIB",
+        default_value_t = 8.0,
+        allow_negative_numbers = true
+    )]
+    pub max_memory: f64,
 }
 
 impl SolverArgs {
     /// Checks the options; returns the solvers to run and PCG's parameters.
     pub fn resolve(&self) -> Result<(Vec<Solver>, CgParams), CliError> {
         let (repeat, omega, rtol) = (self.repeat, self.omega, self.rtol);
-        if repeat == 0 {
-            return Err(CliError::Input("--repeat must be at least 1".into()));
+        if !(1..=MAX_REPEAT).contains(&repeat) {
+            return Err(CliError::Input(format!(
+                "--repeat must lie in 1 to {MAX_REPEAT}, got {repeat}"
+            )));
+        }
+        if let Some(m) = self.max_iter.filter(|&m| m > MAX_ITER) {
+            return Err(CliError::Input(format!(
+                "--max-iter must lie in 0 to {MAX_ITER}, got {m}"
+            )));
         }
         if !(omega > 0.0 && omega < 2.0) {
             return Err(CliError::Input(format!(
                 "--omega must lie in (0, 2), got {omega:?}"
             )));
         }
-        if !(rtol >= 0.0 && rtol.is_finite()) {
+        if !(0.0..1.0).contains(&rtol) {
             return Err(CliError::Input(format!(
-                "--rtol must be a non-negative number, got {rtol:?}"
+                "--rtol must lie in [0, 1), got {rtol:?}"
             )));
         }
         let params = CgParams {
@@ -81,6 +103,7 @@ impl SolverArgs {
             ..Default::default()
         };
         self.smoother()?;
+        crate::memory::cap_bytes(self.max_memory)?;
         Ok((parse_solvers(&self.precond, omega)?, params))
     }
 
@@ -116,6 +139,17 @@ pub struct SolveRecord {
     pub amg: Option<AmgRecord>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
+    /// `(seconds since the set-up started, |r| / |b|)` of the best run when
+    /// traced (`hookean bench`'s residual-against-time plots): the start of
+    /// the solve, then every iteration (PCG's recursive residual), or the
+    /// end of the solve for the direct solver.
+    #[serde(skip)]
+    pub trace: Vec<(f64, f64)>,
+    /// Heap bytes allocated by the set-up and still held after it (the
+    /// `hookean` binary counts them): what the preconditioner (or the
+    /// factor) keeps.
+    #[serde(skip)]
+    pub setup_bytes: Option<u64>,
 }
 
 /// The statistics of an AMG hierarchy in `hookean solve`'s JSON.
@@ -187,18 +221,34 @@ fn parse_solver(name: &str, omega: f64, out: &mut Vec<Solver>) -> Result<(), Cli
 pub enum Matrix {
     /// Symmetric 3x3-block storage.
     Block(SymBlockMatrix),
-    /// Plain CSR, with the unknowns per node multigrid groups into blocks.
+    /// Plain CSR, with the unknowns per node multigrid groups into blocks;
+    /// the preconditioners are built from `a`, and PCG's products use its
+    /// upper triangle (`product`, [`SymCsrMatrix`]) when `a` is symmetric.
     Csr {
         a: sprs::CsMat<f64>,
         block_size: usize,
+        product: Option<SymCsrMatrix>,
     },
+}
+
+impl Matrix {
+    /// CSR storage of `a`, with the symmetric product when `a` is symmetric.
+    pub fn csr(a: sprs::CsMat<f64>, block_size: usize) -> Self {
+        let product = SymCsrMatrix::from_csr(&a).ok();
+        Matrix::Csr {
+            a,
+            block_size,
+            product,
+        }
+    }
 }
 
 /// Runs one solver on `A x = b` (`matrix` in PCG's storage, `original` the
 /// same matrix as CSR, for the residual and the direct solver), the best
 /// times of `repeat` runs, as a record with an empty `matrix` name and
-/// zero `rows` / `nnz` for the caller to fill in. Shared by `hookean solve`
-/// and `hookean bench-precond`.
+/// zero `rows` / `nnz` for the caller to fill in. Shared by `hookean solve`,
+/// `hookean bench-precond` and `hookean bench`; only the last traces
+/// (`run.trace`), so the others' timings carry no per-iteration callback.
 pub fn run_solver(
     solver: &Solver,
     matrix: &Matrix,
@@ -206,47 +256,97 @@ pub fn run_solver(
     b: &[f64],
     params: &CgParams,
     args: &SolverArgs,
+    run: &RunOptions,
 ) -> SolveRecord {
     let repeat = args.repeat;
     let amg = |block_size| AmgOptions {
         block_size,
         smoother: args.smoother().unwrap_or_default(),
+        near_nullspace: run.near_nullspace.clone(),
         ..Default::default()
     };
     match solver {
-        Solver::Pcg(kind) => match matrix {
-            Matrix::Block(m) => {
-                let format = "sym-block-3x3";
-                run_pcg(m, original, b, *kind, &amg(3), params, repeat, format)
-            }
-            Matrix::Csr { a, block_size } => run_pcg(
-                a,
+        Solver::Pcg(kind) => {
+            let (amg, format) = match matrix {
+                Matrix::Block(_) => (amg(3), "sym-block-3x3"),
+                Matrix::Csr { block_size, .. } => (amg(*block_size), "csr"),
+            };
+            let pcg = PcgRun {
                 original,
                 b,
-                *kind,
-                &amg(*block_size),
+                kind: *kind,
+                amg: &amg,
                 params,
                 repeat,
-                "csr",
-            ),
-        },
-        Solver::Direct => run_direct(original, b, params.rtol, repeat),
+                format,
+                trace: run.trace,
+            };
+            match matrix {
+                Matrix::Block(m) => pcg.run(m, m),
+                Matrix::Csr {
+                    a,
+                    product: Some(s),
+                    ..
+                } => pcg.run(s, a),
+                Matrix::Csr { a, .. } => pcg.run(a, a),
+            }
+        }
+        Solver::Direct => {
+            // The factor gets what the cap leaves beside the matrix's copies
+            // (CSR, block storage, the direct solver's own: about 40 bytes a nonzero).
+            let cap = crate::memory::cap_bytes(args.max_memory).unwrap_or(0);
+            let budget = cap.saturating_sub(40 * original.nnz() as u64);
+            run_direct(original, b, params.rtol, repeat, budget, run.trace)
+        }
     }
 }
 
-pub fn run(args: &SolveArgs) -> Result<(), CliError> {
-    let (solvers, params) = args.solver.resolve()?;
-    let a = read_matrix_market_file(&args.matrix)?.into_csr();
+/// A system read from Matrix Market files, scaled and in PCG's storage.
+pub struct System {
+    /// `A`, scaled by a power of two to a largest entry in [1, 2).
+    pub a: sprs::CsMat<f64>,
+    /// `b` (from its file, or `A * ones`), scaled the same way.
+    pub b: Vec<f64>,
+    /// `A` in the storage PCG runs on.
+    pub matrix: Matrix,
+}
+
+/// Reads `A` from `matrix` and `b` from `rhs` (default `A * ones`) within
+/// `cap` bytes, and stores `A` as `format` (`block`, `csr` or `auto`) with
+/// `block_size` unknowns per node for the multigrid on CSR.
+///
+/// Powers of two scale A and b exactly to largest entries near 1, so a
+/// system of tiny or huge numbers (entries of 1e-308) solves as its scaled
+/// copy does; every reported number (iterations, relative residual) is the
+/// same for both.
+pub fn load_system(
+    matrix: &std::path::Path,
+    rhs: Option<&std::path::Path>,
+    format: &str,
+    block_size: usize,
+    cap: u64,
+) -> Result<System, CliError> {
+    let opts = ReadOptions {
+        max_bytes: cap,
+        ..ReadOptions::default()
+    };
+    let a = read_matrix_market_file_with(matrix, &opts)?.into_csr();
     let (rows, cols) = a.shape();
     if rows != cols {
         return Err(CliError::Input(format!(
             "{}: matrix is not square ({rows} x {cols})",
-            args.matrix.display()
+            matrix.display()
         )));
     }
-    let b = match &args.rhs {
+    if rows == 0 {
+        return Err(CliError::Input(format!(
+            "{}: the matrix is empty (0 x 0): there is nothing to solve",
+            matrix.display()
+        )));
+    }
+    let b = match rhs {
         Some(path) => {
-            let b = read_matrix_market_file(path)?
+            let b = read_matrix_market_file_with(path, &opts)?
                 .into_vector()
                 .map_err(|e| CliError::Input(format!("{}: {e}", path.display())))?;
             if b.len() != rows {
@@ -264,29 +364,28 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             b
         }
     };
-    if !(1..=3).contains(&args.block_size) {
+    let (a, b) = (scale_to_unit(a), {
+        let mut b = b;
+        let e = unit_exponent(b.iter().copied());
+        b.iter_mut().for_each(|v| *v = times_pow2(*v, -e));
+        b
+    });
+    if !(1..=3).contains(&block_size) {
         return Err(CliError::Input(format!(
-            "--block-size must be 1, 2 or 3, got {:?}",
-            args.block_size
+            "--block-size must be 1, 2 or 3, got {block_size:?}"
         )));
     }
-    let matrix = match args.format.as_str() {
-        "csr" => Matrix::Csr {
-            a: a.clone(),
-            block_size: args.block_size,
-        },
+    let matrix = match format {
+        "csr" => Matrix::csr(a.clone(), block_size),
         "block" => Matrix::Block(SymBlockMatrix::from_csr(&a).map_err(|e| {
             CliError::Input(format!(
                 "{}: cannot use block storage: {e}",
-                args.matrix.display()
+                matrix.display()
             ))
         })?),
         "auto" => match SymBlockMatrix::from_csr(&a) {
             Ok(m) => Matrix::Block(m),
-            Err(_) => Matrix::Csr {
-                a: a.clone(),
-                block_size: args.block_size,
-            },
+            Err(_) => Matrix::csr(a.clone(), block_size),
         },
         other => {
             return Err(CliError::Input(format!(
@@ -294,6 +393,20 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             )));
         }
     };
+    Ok(System { a, b, matrix })
+}
+
+pub fn run(args: &SolveArgs) -> Result<(), CliError> {
+    let (solvers, params) = args.solver.resolve()?;
+    let cap = crate::memory::cap_bytes(args.solver.max_memory)?;
+    let System { a, b, matrix } = load_system(
+        &args.matrix,
+        args.rhs.as_deref(),
+        &args.format,
+        args.block_size,
+        cap,
+    )?;
+    let rows = a.rows();
     // MIC(0) exists for block storage only: "all" skips it on CSR.
     let solvers: Vec<Solver> = solvers
         .into_iter()
@@ -306,7 +419,15 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let name = args.matrix.display().to_string();
     let mut failed = false;
     for solver in &solvers {
-        let record = run_solver(solver, &matrix, &a, &b, &params, &args.solver);
+        let record = run_solver(
+            solver,
+            &matrix,
+            &a,
+            &b,
+            &params,
+            &args.solver,
+            &RunOptions::default(),
+        );
         let record = SolveRecord {
             matrix: name.clone(),
             rows,
@@ -321,6 +442,40 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         return Err(CliError::SolverFailed);
     }
     Ok(())
+}
+
+/// The exponent `e` with `2^e <= max |v| < 2^(e+1)` (0 for no non-zero entry).
+fn unit_exponent(values: impl Iterator<Item = f64>) -> i32 {
+    let m = values.fold(0.0_f64, |m, v| m.max(v.abs()));
+    if m > 0.0 && m.is_finite() {
+        m.log2().floor() as i32
+    } else {
+        0
+    }
+}
+
+/// `v * 2^e`, exact unless the result leaves the normal range, in steps
+/// that stay representable (2^e alone may not be).
+fn times_pow2(v: f64, e: i32) -> f64 {
+    let mut v = v;
+    let mut e = e;
+    while e != 0 {
+        let k = e.clamp(-1000, 1000);
+        v *= 2f64.powi(k);
+        e -= k;
+    }
+    v
+}
+
+/// `a` scaled by a power of two to a largest entry in [1, 2).
+fn scale_to_unit(mut a: sprs::CsMat<f64>) -> sprs::CsMat<f64> {
+    let e = unit_exponent(a.data().iter().copied());
+    if e != 0 {
+        a.data_mut()
+            .iter_mut()
+            .for_each(|v| *v = times_pow2(*v, -e));
+    }
+    a
 }
 
 fn relative_residual(a: &sprs::CsMat<f64>, x: &[f64], b: &[f64]) -> f64 {
@@ -346,80 +501,161 @@ fn empty_record(solver: &'static str, precond: String, format: &'static str) -> 
         converged: false,
         amg: None,
         error: None,
+        trace: Vec::new(),
+        setup_bytes: None,
     }
 }
 
-#[allow(clippy::too_many_arguments)]
-fn run_pcg<M>(
-    m: &M,
-    original: &sprs::CsMat<f64>,
-    b: &[f64],
+/// The unknowns per node `d` a near-nullspace implies: its first vector (a
+/// translation along the first axis, or the constant) is non-zero exactly
+/// at the entries `i` with `i % d == 0`. 1 for a vector without zeros (the
+/// constant of a scalar problem); `None` for another pattern.
+pub fn nullspace_block_size(nullspace: &[Vec<f64>]) -> Option<usize> {
+    let first = nullspace.first()?;
+    (1..=3).find(|&d| {
+        first.len().is_multiple_of(d)
+            && first
+                .iter()
+                .enumerate()
+                .all(|(i, v)| (*v != 0.0) == i.is_multiple_of(d))
+    })
+}
+
+/// What [`run_solver`] does besides solving.
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Record [`SolveRecord::trace`] (a callback and a clock read per iteration).
+    pub trace: bool,
+    /// The multigrid's near-nullspace vectors (empty: its default).
+    pub near_nullspace: Vec<Vec<f64>>,
+}
+
+/// The heap bytes live now, where the binary counts them.
+fn live_heap_bytes() -> Option<u64> {
+    crate::alloc::live_bytes().map(|b| b as u64)
+}
+
+/// The heap growth from `before` to now: what was allocated and kept.
+fn growth_since(before: Option<u64>) -> Option<u64> {
+    Some(live_heap_bytes()?.saturating_sub(before?))
+}
+
+/// One PCG solver of the comparison, run `repeat` times.
+struct PcgRun<'a> {
+    original: &'a sprs::CsMat<f64>,
+    b: &'a [f64],
     kind: PrecondKind,
-    amg: &AmgOptions,
-    params: &CgParams,
+    amg: &'a AmgOptions,
+    params: &'a CgParams,
     repeat: usize,
     format: &'static str,
-) -> SolveRecord
-where
-    M: LinearOperator,
-    AnyPreconditioner: PreconditionerSetup<M>,
-{
-    let mut record = empty_record("hookean-pcg", kind.to_string(), format);
-    let n = b.len();
-    let mut ws = CgWorkspace::new(n);
-    let mut x = vec![0.0; n];
-    let mut best_setup = f64::INFINITY;
-    let mut best_solve = f64::INFINITY;
-    for _ in 0..repeat {
-        let t0 = Instant::now();
-        let new = AnyPreconditioner::with_amg_options(kind, amg);
-        let setup = new.and_then(|mut p| p.setup(m).map(|()| p));
-        let setup_s = t0.elapsed().as_secs_f64();
-        let p = match setup {
-            Ok(p) => p,
-            Err(e) => {
-                record.error = Some(format!("preconditioner setup: {e}"));
-                return record;
-            }
-        };
-        let t0 = Instant::now();
-        let result = pcg(m, &p, b, &mut x, params, &mut ws, None);
-        let solve_s = t0.elapsed().as_secs_f64();
-        match result {
-            Ok(info) => {
-                record.iterations = info.iterations;
-                record.converged = info.converged;
-            }
-            Err(e) => {
-                record.error = Some(e.to_string());
-                return record;
-            }
-        }
-        best_setup = best_setup.min(setup_s);
-        best_solve = best_solve.min(solve_s);
-        if let AnyPreconditioner::Amg(amg) = &p {
-            record.amg = Some(amg.stats().into());
-        }
-    }
-    record.setup_s = best_setup;
-    record.solve_s = best_solve;
-    record.rel_residual = relative_residual(original, &x, b);
-    record
+    trace: bool,
 }
 
-fn run_direct(a: &sprs::CsMat<f64>, b: &[f64], rtol: f64, repeat: usize) -> SolveRecord {
+impl PcgRun<'_> {
+    /// PCG on the operator `m` with a preconditioner built from `source`
+    /// (the same matrix in the storage the preconditioners take).
+    fn run<M, S>(&self, m: &M, source: &S) -> SolveRecord
+    where
+        M: LinearOperator,
+        AnyPreconditioner: PreconditionerSetup<S>,
+    {
+        let (b, kind, params) = (self.b, self.kind, self.params);
+        let mut record = empty_record("hookean-pcg", kind.to_string(), self.format);
+        let n = b.len();
+        let mut ws = CgWorkspace::new(n);
+        let mut x = vec![0.0; n];
+        let mut best_setup = f64::INFINITY;
+        let mut best_solve = f64::INFINITY;
+        let mut best_total = f64::INFINITY;
+        // At most this many iterations are traced (pre-reserved: no
+        // allocation while timing).
+        let trace_len = if self.trace {
+            params.max_iter.unwrap_or(2 * n).min(100_000) + 2
+        } else {
+            0
+        };
+        let mut trace = Vec::with_capacity(trace_len);
+        for _ in 0..self.repeat {
+            let heap = live_heap_bytes();
+            let t0 = Instant::now();
+            let new = AnyPreconditioner::with_amg_options(kind, self.amg);
+            let setup = new.and_then(|mut p| p.setup(source).map(|()| p));
+            let setup_s = t0.elapsed().as_secs_f64();
+            let p = match setup {
+                Ok(p) => p,
+                Err(e) => {
+                    record.error = Some(format!("preconditioner setup: {e}"));
+                    return record;
+                }
+            };
+            let grown = growth_since(heap);
+            record.setup_bytes = record.setup_bytes.max(grown);
+            trace.clear();
+            let t1 = Instant::now();
+            let result = if self.trace {
+                trace.push((setup_s, 1.0));
+                let mut on_iteration = |p: &CgProgress<'_>| {
+                    if trace.len() < trace_len {
+                        let t = setup_s + t1.elapsed().as_secs_f64();
+                        trace.push((t, p.relative_residual));
+                    }
+                    ControlFlow::Continue(())
+                };
+                pcg(m, &p, b, &mut x, params, &mut ws, Some(&mut on_iteration))
+            } else {
+                pcg(m, &p, b, &mut x, params, &mut ws, None)
+            };
+            let solve_s = t1.elapsed().as_secs_f64();
+            match result {
+                Ok(info) => {
+                    record.iterations = info.iterations;
+                    record.converged = info.converged;
+                }
+                Err(e) => {
+                    record.error = Some(e.to_string());
+                    return record;
+                }
+            }
+            best_setup = best_setup.min(setup_s);
+            best_solve = best_solve.min(solve_s);
+            if setup_s + solve_s < best_total {
+                best_total = setup_s + solve_s;
+                record.trace.clone_from(&trace);
+            }
+            if let AnyPreconditioner::Amg(amg) = &p {
+                record.amg = Some(amg.stats().into());
+            }
+        }
+        record.setup_s = best_setup;
+        record.solve_s = best_solve;
+        record.rel_residual = relative_residual(self.original, &x, b);
+        record
+    }
+}
+
+fn run_direct(
+    a: &sprs::CsMat<f64>,
+    b: &[f64],
+    rtol: f64,
+    repeat: usize,
+    max_bytes: u64,
+    trace: bool,
+) -> SolveRecord {
     let mut record = empty_record("faer-cholesky", "direct".into(), "csc-lower");
     let mut x = vec![0.0; b.len()];
     let mut best_setup = f64::INFINITY;
     let mut best_solve = f64::INFINITY;
     for _ in 0..repeat {
-        let mut d = DirectCholesky::new();
+        let mut d = DirectCholesky::with_max_bytes(max_bytes);
+        let heap = live_heap_bytes();
         let t0 = Instant::now();
         if let Err(e) = d.factor_csr(a) {
             record.error = Some(e.to_string());
             return record;
         }
         best_setup = best_setup.min(t0.elapsed().as_secs_f64());
+        record.setup_bytes = record.setup_bytes.max(growth_since(heap));
         let t0 = Instant::now();
         if let Err(e) = d.solve(b, &mut x) {
             record.error = Some(e.to_string());
@@ -432,5 +668,49 @@ fn run_direct(a: &sprs::CsMat<f64>, b: &[f64], rtol: f64, repeat: usize) -> Solv
     record.rel_residual = relative_residual(a, &x, b);
     // Converged means what it means for PCG: the residual meets the tolerance.
     record.converged = record.rel_residual <= rtol;
+    if trace {
+        record.trace = vec![
+            (best_setup, 1.0),
+            (best_setup + best_solve, record.rel_residual),
+        ];
+    }
     record
+}
+
+#[cfg(test)]
+mod nullspace_tests {
+    use super::nullspace_block_size;
+
+    /// The rigid-body modes of n nodes in `d` dimensions at coordinates
+    /// `(i, 2 i, ...)`: d translations, then rotations (the first vector is
+    /// the translation along x).
+    fn rigid_modes(n: usize, d: usize) -> Vec<Vec<f64>> {
+        let mut modes: Vec<Vec<f64>> = (0..d)
+            .map(|c| (0..n * d).map(|i| f64::from(i % d == c)).collect())
+            .collect();
+        // The rotation in the xy plane: (-y, x, 0).
+        modes.push(
+            (0..n * d)
+                .map(|i| match i % d {
+                    0 => -2.0 * (i / d) as f64 - 1.0,
+                    1 => (i / d) as f64 + 1.0,
+                    _ => 0.0,
+                })
+                .collect(),
+        );
+        modes
+    }
+
+    #[test]
+    fn the_first_translation_gives_the_unknowns_per_node() {
+        assert_eq!(nullspace_block_size(&[vec![1.0; 12]]), Some(1));
+        assert_eq!(nullspace_block_size(&rigid_modes(5, 2)), Some(2));
+        assert_eq!(nullspace_block_size(&rigid_modes(5, 3)), Some(3));
+        // A vector with zeros in no period: no answer.
+        assert_eq!(
+            nullspace_block_size(&[vec![1.0, 0.0, 0.0, 0.0, 1.0, 1.0]]),
+            None
+        );
+        assert_eq!(nullspace_block_size(&[]), None);
+    }
 }

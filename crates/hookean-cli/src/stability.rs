@@ -44,12 +44,21 @@ pub struct StabilityArgs {
     force: bool,
 }
 
+/// The largest `|lo|`, `|hi|` of a window: wide enough for any stiffness
+/// a region plot shows, small enough that the width and the grid spacing
+/// are ordinary numbers (a window of +-1e308 overflowed to an infinite width).
+const MAX_WINDOW: f64 = 1e6;
+
 fn range(flag: &str, s: &str) -> Result<(f64, f64), CliError> {
-    let bad = || CliError::Input(format!("{flag} expects 'lo,hi' with lo < hi, got '{s}'"));
+    let bad = || {
+        CliError::Input(format!(
+            "{flag} expects 'lo,hi' with -{MAX_WINDOW:e} <= lo < hi <= {MAX_WINDOW:e}, got '{s}'"
+        ))
+    };
     let (a, b) = s.split_once(',').ok_or_else(bad)?;
     let a: f64 = a.trim().parse().map_err(|_| bad())?;
     let b: f64 = b.trim().parse().map_err(|_| bad())?;
-    if a.is_finite() && b.is_finite() && a < b {
+    if a >= -MAX_WINDOW && b <= MAX_WINDOW && a < b {
         Ok((a, b))
     } else {
         Err(bad())

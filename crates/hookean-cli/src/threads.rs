@@ -16,6 +16,29 @@ pub fn parse(s: &str) -> Result<usize, String> {
     }
 }
 
+/// Checks `RAYON_NUM_THREADS`, which rayon reads when neither `--threads`
+/// nor a scene's `threads` is given: unset, `0` (all cores, rayon's
+/// meaning) or a whole number from 1 to
+/// [`MAX_THREADS`](hookean::scene::MAX_THREADS), as `--threads`.
+///
+/// # Errors
+/// [`CliError::Input`] naming the variable (rayon itself would ignore a
+/// bad value, or spawn 10^8 threads for a typo).
+pub fn check_env() -> Result<(), CliError> {
+    let Some(value) = std::env::var_os("RAYON_NUM_THREADS") else {
+        return Ok(());
+    };
+    let value = value.to_string_lossy();
+    if value.trim() == "0" {
+        return Ok(());
+    }
+    parse(value.trim()).map(|_| ()).map_err(|e| {
+        CliError::Input(format!(
+            "RAYON_NUM_THREADS={value}: {e} (or 0 for all cores)"
+        ))
+    })
+}
+
 /// Runs `f` in a rayon pool of `threads` threads; `None` means rayon's
 /// default: `RAYON_NUM_THREADS` if set, else one thread per core.
 ///

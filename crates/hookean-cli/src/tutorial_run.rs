@@ -2,7 +2,7 @@
 //! and 2 integrated as first-order systems, with the exact solution beside
 //! the numerical one in `steps.csv`, `summary.json` and `final.png`.
 
-use std::fmt::Write as _;
+use std::io::Write as _;
 use std::path::Path;
 use std::time::Instant;
 
@@ -12,6 +12,7 @@ use hookean_ode::{FirstOrderIntegrator, FirstOrderProblem};
 use serde::Serialize;
 
 use crate::CliError;
+use crate::thin::Thinned;
 
 #[derive(Debug, Serialize)]
 struct TutorialRecord {
@@ -84,8 +85,13 @@ fn integrate<P: FirstOrderProblem>(
     let method = options.method.clone();
     let mut ode = FirstOrderIntegrator::new(problem, method, 0.0, y0, options.solver)
         .map_err(|e| CliError::Input(e.to_string()))?;
-    let mut csv = String::from("t,h,newton_iterations,linear_iterations,y,exact,error\n");
-    let mut points = vec![(0.0, y0[0], exact(0.0))];
+    // steps.csv is streamed; the picture's points are thinned (crate::thin).
+    let csv_path = out.join("steps.csv");
+    let csv_error = |e: std::io::Error| CliError::Failed(format!("{}: {e}", csv_path.display()));
+    let mut csv = std::io::BufWriter::new(crate::output::new_file(&csv_path).map_err(csv_error)?);
+    writeln!(csv, "t,h,newton_iterations,linear_iterations,y,exact,error").map_err(csv_error)?;
+    let mut points = Thinned::new(crate::thin::PLOT_POINTS);
+    points.push((0.0, y0[0], exact(0.0)));
     let start = Instant::now();
     while ode.t() < scene.duration - 1e-12 * scene.duration {
         let r = ode.step().map_err(|e| {
@@ -96,7 +102,7 @@ fn integrate<P: FirstOrderProblem>(
             ))
         })?;
         let (y, e) = (ode.y()[0], exact(ode.t()));
-        let _ = writeln!(
+        writeln!(
             csv,
             "{},{},{},{},{},{},{}",
             ode.t(),
@@ -106,7 +112,8 @@ fn integrate<P: FirstOrderProblem>(
             y,
             e,
             y - e
-        );
+        )
+        .map_err(csv_error)?;
         points.push((ode.t(), y, e));
         if ode.t() >= scene.duration {
             break;
@@ -117,7 +124,7 @@ fn integrate<P: FirstOrderProblem>(
         let path = out.join(name);
         crate::output::write_text(&path, &text)
     };
-    write("steps.csv", csv)?;
+    csv.flush().map_err(csv_error)?;
     let s = ode.stats();
     let (y, e) = (ode.y()[0], exact(ode.t()));
     let record = TutorialRecord {
@@ -147,7 +154,7 @@ fn integrate<P: FirstOrderProblem>(
         title: &title,
         y_label: "y",
         numerical: &format!("{} (h = {} s)", ode.method(), ode.options().h),
-        points: &points,
+        points: points.items(),
     }
     .draw(scene.output.width, scene.output.height)
     .and_then(|c| c.write_png(&out.join("final.png")))

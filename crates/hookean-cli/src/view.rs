@@ -289,11 +289,18 @@ fn input(e: impl std::fmt::Display) -> CliError {
 }
 
 /// Energies of `steps.csv` rows by time (`t,h,newton,cg,kinetic,gravitational,spring,total`).
-fn read_step_energies(path: &Path) -> Result<Vec<(f64, FrameEnergies)>, CliError> {
-    let text =
-        std::fs::read_to_string(path).map_err(|e| input(format!("{}: {e}", path.display())))?;
-    let mut rows = Vec::new();
-    for (k, line) in text.lines().enumerate().skip(1) {
+fn read_step_energies(path: &Path, times: &[f64]) -> Result<Vec<Option<FrameEnergies>>, CliError> {
+    let file = std::fs::File::open(path).map_err(|e| input(format!("{}: {e}", path.display())))?;
+    let lines = hookean_sparse::text::capped_lines(
+        std::io::BufReader::new(file),
+        hookean_sparse::text::LineLimits::default(),
+    );
+    // Rows and frame times both ascend: one pass matches them, keeping only
+    // the rows of frames (the file may hold millions of steps).
+    let mut energies = vec![None; times.len()];
+    let mut next = 0;
+    for (k, line) in lines.enumerate().skip(1) {
+        let line = line.map_err(|e| input(format!("{}: {e}", path.display())))?;
         let v: Vec<f64> = line
             .split(',')
             .map(|s| s.trim().parse::<f64>())
@@ -307,16 +314,19 @@ fn read_step_energies(path: &Path) -> Result<Vec<(f64, FrameEnergies)>, CliError
                 v.len()
             )));
         }
-        rows.push((
-            v[0],
-            FrameEnergies {
+        let t = v[0];
+        while next < times.len() && times[next] < t - 1e-9 * times[next].abs().max(1.0) {
+            next += 1;
+        }
+        if next < times.len() && (times[next] - t).abs() <= 1e-9 * t.abs().max(1.0) {
+            energies[next] = Some(FrameEnergies {
                 kinetic: v[4],
                 gravitational: v[5],
                 spring: v[6],
-            },
-        ));
+            });
+        }
     }
-    Ok(rows)
+    Ok(energies)
 }
 
 /// The `l i j` records of an OBJ file (springs of ropes and lattices), 0-based.
@@ -341,8 +351,7 @@ impl ViewRun {
     /// (OBJ files hold no velocities).
     pub fn from_folder(dir: &Path) -> Result<Self, CliError> {
         let summary_path = dir.join("summary.json");
-        let text = std::fs::read_to_string(&summary_path)
-            .map_err(|e| input(format!("{}: {e}", summary_path.display())))?;
+        let text = read_text(&summary_path, SUMMARY_BYTES)?;
         let summary: serde_json::Value = serde_json::from_str(&text)
             .map_err(|e| input(format!("{}: {e}", summary_path.display())))?;
         let count = summary["frames"].as_u64().ok_or_else(|| {
@@ -350,13 +359,21 @@ impl ViewRun {
                 "{}: no \"frames\" count (not written by `hookean run` of a mass-spring scene)",
                 summary_path.display()
             ))
-        })? as usize;
+        })?;
         if count == 0 {
             return Err(input(format!(
                 "{}: the run wrote no frames (output.frame_rate = 0)",
                 dir.display()
             )));
         }
+        if count > crate::run::MAX_FRAMES as u64 {
+            return Err(input(format!(
+                "{}: {count} frames, more than a run writes ({})",
+                summary_path.display(),
+                crate::run::MAX_FRAMES
+            )));
+        }
+        let count = count as usize;
         let times: Vec<f64> = match summary["frame_times"].as_array() {
             Some(a) => a.iter().filter_map(serde_json::Value::as_f64).collect(),
             None => {
@@ -378,43 +395,54 @@ impl ViewRun {
                 .map_err(|e| input(format!("{}: colliders: {e}", summary_path.display())))?,
             None => Vec::new(),
         };
+        // Frame 0 gives the mesh and the particle count; the frames read
+        // are every stride-th (and the last) within crate::thin::VIEW_BYTES.
+        let frame_path = |k: usize| dir.join(format!("frame-{k:04}.obj"));
+        let first_text = read_text(&frame_path(0), FRAME_BYTES)?;
+        let first = parse_obj(first_text.as_bytes())
+            .map_err(|e| input(format!("{}: {e}", frame_path(0).display())))?;
+        let particles = first.positions.len();
+        let stride = count
+            .div_ceil(crate::thin::max_view_frames(particles) - 1)
+            .max(1);
+        let mut picked: Vec<usize> = (0..count).step_by(stride).collect();
+        if picked.last() != Some(&(count - 1)) {
+            picked.push(count - 1);
+        }
+        let picked_times: Vec<f64> = picked.iter().map(|&k| times[k]).collect();
         // Energies are optional (a folder without steps.csv still plays), a malformed file is not.
         let steps_path = dir.join("steps.csv");
-        let steps = if steps_path.exists() {
-            read_step_energies(&steps_path)?
+        let energies = if steps_path.exists() {
+            read_step_energies(&steps_path, &picked_times)?
         } else {
-            Vec::new()
+            vec![None; picked.len()]
         };
-        let mut frames = Vec::with_capacity(count);
-        let (mut faces, mut segments) = (Vec::new(), Vec::new());
-        for (k, &t) in times.iter().enumerate() {
-            let path = dir.join(format!("frame-{k:04}.obj"));
-            let text = std::fs::read_to_string(&path)
-                .map_err(|e| input(format!("{}: {e}", path.display())))?;
-            let mesh = parse_obj(text.as_bytes())
-                .map_err(|e| input(format!("{}: {e}", path.display())))?;
-            if k == 0 {
-                faces = mesh.triangles;
-                segments = read_obj_lines(&text);
-            } else if mesh.positions.len()
-                != frames.first().map_or(0, |f: &ViewFrame| f.x.len() / 3)
-            {
+        let faces = first.triangles;
+        let segments = read_obj_lines(&first_text);
+        let mut frames = Vec::with_capacity(picked.len());
+        for (&k, energies) in picked.iter().zip(energies) {
+            let path = frame_path(k);
+            let positions = if k == 0 {
+                first.positions.clone()
+            } else {
+                let file = std::fs::File::open(&path)
+                    .map_err(|e| input(format!("{}: {e}", path.display())))?;
+                parse_obj(std::io::BufReader::new(file))
+                    .map_err(|e| input(format!("{}: {e}", path.display())))?
+                    .positions
+            };
+            if positions.len() != particles {
                 return Err(input(format!(
-                    "{}: {} vertices, frame 0 has {}",
+                    "{}: {} vertices, frame 0 has {particles}",
                     path.display(),
-                    mesh.positions.len(),
-                    frames[0].x.len() / 3
+                    positions.len(),
                 )));
             }
-            let tol = 1e-9 * t.abs().max(1.0);
             frames.push(ViewFrame {
-                t,
-                x: mesh.positions.iter().flatten().copied().collect(),
+                t: times[k],
+                x: positions.iter().flatten().copied().collect(),
                 speed: Vec::new(),
-                energies: steps
-                    .iter()
-                    .find(|(s, _)| (s - t).abs() <= tol)
-                    .map(|(_, e)| *e),
+                energies,
             });
         }
         finite_difference_speeds(&mut frames);
@@ -427,6 +455,19 @@ impl ViewRun {
             speed_source: "finite differences of the OBJ frames".into(),
         })
     }
+}
+
+/// The largest `summary.json` `hookean view` reads.
+const SUMMARY_BYTES: u64 = 64 << 20;
+/// The largest OBJ frame `hookean view` reads as one text (frame 0).
+const FRAME_BYTES: u64 = 1 << 30;
+
+/// The text of `path`, at most `max` bytes.
+fn read_text(path: &Path, max: u64) -> Result<String, CliError> {
+    std::fs::File::open(path)
+        .map_err(|e| e.to_string())
+        .and_then(|f| hookean_sparse::text::read_capped(f, max).map_err(|e| e.to_string()))
+        .map_err(|e| input(format!("{}: {e}", path.display())))
 }
 
 /// `hookean view OUT_DIR`: writes `OUT_DIR/view.html`.
@@ -453,7 +494,7 @@ pub fn run(args: &ViewArgs) -> Result<(), CliError> {
     view.write(&path)?;
     crate::output::add_to_marker(&args.dir, "view.html")
         .map_err(|e| CliError::Failed(format!("{}: {e}", args.dir.display())))?;
-    eprintln!(
+    crate::errln!(
         "wrote {} ({} frames, {:.1} MB)",
         path.display(),
         view.frames.len(),

@@ -10,10 +10,14 @@ use clap::Args;
 
 use crate::CliError;
 
+/// The largest `--max-work`: about a year of the drape's step.
+pub const MAX_WORK: f64 = 1e15;
+
 /// `--max-work`: the largest estimated work a command starts.
 #[derive(Debug, Clone, Copy, Args)]
 pub struct WorkCap {
-    /// Refuse work estimated above this many particle-steps (particles x time steps; 1e10 is hours).
+    /// Refuse work estimated above this many particle-steps (particles x time steps; 1e10 is
+    /// hours), in (0, 1e15].
     #[arg(
         long,
         value_name = "PARTICLE_STEPS",
@@ -32,9 +36,9 @@ impl WorkCap {
     /// [`CliError::Input`] for a cap that is not a positive number, a
     /// non-finite estimate or one above the cap.
     pub fn check(&self, steps: f64, particles: f64, cause: &str) -> Result<(), CliError> {
-        if !(self.max_work > 0.0) {
+        if !(self.max_work > 0.0 && self.max_work <= MAX_WORK) {
             return Err(CliError::Input(format!(
-                "--max-work must be a positive number of particle-steps, got {:?}",
+                "--max-work must lie in (0, {MAX_WORK:e}] particle-steps, got {:?}",
                 self.max_work
             )));
         }

@@ -630,16 +630,13 @@ impl VelocityFilter {
     /// With [`FilterOptions::current_distances`], recomputes the weights
     /// from the positions `x` (3 per particle): `d_ij = |x_j - x_i|` in
     /// units of the shortest rest length, `beta(d_ij)` normalised over each
-    /// neighbourhood (the paper's `beta_j^{t + dt}`). Without it, does
-    /// nothing. Allocates nothing.
+    /// neighbourhood (the paper's `beta_j^{t + dt}`). Without it, only
+    /// checks the length of `x`. Allocates nothing.
     ///
     /// # Errors
     /// [`FilterError::DimensionMismatch`] if `x.len() != 3 n_particles`,
     /// [`FilterError::NonFinite`] for a non-finite position.
     pub fn update_distances(&mut self, x: &[f64]) -> Result<(), FilterError> {
-        if !self.options.current_distances {
-            return Ok(());
-        }
         let n = self.n_particles();
         if x.len() != 3 * n {
             return Err(FilterError::DimensionMismatch {
@@ -647,6 +644,9 @@ impl VelocityFilter {
                 expected: 3 * n,
                 found: x.len(),
             });
+        }
+        if !self.options.current_distances {
+            return Ok(());
         }
         let (p, _) = x.as_chunks::<3>();
         let kernel = self.options.kernel;

@@ -74,6 +74,23 @@ fn check_positive(name: &'static str, value: f64) -> Result<(), MassSpringError>
     }
 }
 
+/// The most particles a builder makes: 2^32 (a count past it overflows
+/// the index arithmetic of the grids, or is a typo).
+pub const MAX_PARTICLES: usize = 1 << 32;
+
+/// The product of the `counts` of a grid, refused above [`MAX_PARTICLES`]
+/// (checked, never wrapped).
+fn particle_count(counts: &[usize]) -> Result<usize, MassSpringError> {
+    counts
+        .iter()
+        .try_fold(1usize, |acc, &c| acc.checked_mul(c))
+        .filter(|&n| n <= MAX_PARTICLES)
+        .ok_or_else(|| MassSpringError::InvalidParameter {
+            name: "particle count",
+            message: format!("{counts:?} makes more than {MAX_PARTICLES} particles"),
+        })
+}
+
 fn check_count(name: &'static str, value: usize, min: usize) -> Result<(), MassSpringError> {
     if value >= min {
         Ok(())
@@ -157,6 +174,7 @@ impl Default for RopeParams {
 /// or mass, or a zero direction; model errors otherwise.
 pub fn rope(p: &RopeParams) -> Result<(MassSpringModel, State), MassSpringError> {
     check_count("n", p.n, 2)?;
+    particle_count(&[p.n])?;
     check_positive("length", p.length)?;
     check_positive("total_mass", p.total_mass)?;
     let dir = Vector3::from(p.direction);
@@ -292,6 +310,7 @@ impl Default for ClothParams {
 pub fn cloth(p: &ClothParams) -> Result<(MassSpringModel, State), MassSpringError> {
     check_count("nu", p.nu, 2)?;
     check_count("nv", p.nv, 2)?;
+    particle_count(&[p.nu, p.nv])?;
     check_positive("width", p.width)?;
     check_positive("height", p.height)?;
     check_positive("total_mass", p.total_mass)?;
@@ -414,6 +433,7 @@ pub fn jelly_block(p: &BlockParams) -> Result<(MassSpringModel, State), MassSpri
     for (name, v) in [("nx", nx), ("ny", ny), ("nz", nz)] {
         check_count(name, v, 2)?;
     }
+    particle_count(&p.n)?;
     check_positive("spacing", p.spacing)?;
     check_positive("total_mass", p.total_mass)?;
     let id = |a: usize, b: usize, c: usize| a + nx * (b + ny * c);

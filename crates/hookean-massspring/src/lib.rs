@@ -69,8 +69,8 @@ pub mod obj;
 
 pub use analysis::{Energies, ImplicitSystem, Momentum, StabilityInfo};
 pub use builders::{
-    BlockParams, ClothParams, ClothPins, MeshParams, RopeParams, SpringMaterial, State, cloth,
-    from_mesh, jelly_block, rope, tutorial_example3,
+    BlockParams, ClothParams, ClothPins, MAX_PARTICLES, MeshParams, RopeParams, SpringMaterial,
+    State, cloth, from_mesh, jelly_block, rope, tutorial_example3,
 };
 pub use collide::Collider;
 pub use error::MassSpringError;

@@ -271,6 +271,12 @@ impl MassSpringModel {
         options: ModelOptions,
     ) -> Result<Self, MassSpringError> {
         let n = masses.len();
+        if n == 0 {
+            return Err(MassSpringError::InvalidParameter {
+                name: "masses",
+                message: "a model needs at least one particle".into(),
+            });
+        }
         for (p, &m) in masses.iter().enumerate() {
             if !(m > 0.0 && m.is_finite()) {
                 return Err(MassSpringError::InvalidMass {

@@ -33,13 +33,18 @@ pub struct ObjMesh {
 pub fn parse_obj(reader: impl BufRead) -> Result<ObjMesh, MassSpringError> {
     let mut mesh = ObjMesh::default();
     let mut face: Vec<usize> = Vec::new();
-    for (k, line) in reader.lines().enumerate() {
+    // Lines of at most 1 MiB, 4 GiB in all (hookean_sparse::text).
+    let lines = hookean_sparse::text::capped_lines(reader, Default::default());
+    for (k, line) in lines.enumerate() {
         let line_no = k + 1;
-        let line = line.map_err(|e| io_err("<obj reader>", e))?;
         let err = |message: String| MassSpringError::ObjParse {
             line: line_no,
             message,
         };
+        let line = line.map_err(|e| match e {
+            hookean_sparse::text::TextError::Io(e) => io_err("<obj reader>", e),
+            e => err(e.to_string()),
+        })?;
         let content = line.split('#').next().unwrap_or("");
         let mut tokens = content.split_whitespace();
         match tokens.next() {

@@ -306,7 +306,10 @@ pub struct NewtonStats {
 }
 
 impl NewtonStats {
+    /// Room for `n` iterations, at most 16: the histories grow as they go,
+    /// so an iteration limit of 10^9 does not reserve 10^9 entries.
     fn with_capacity(n: usize) -> Self {
+        let n = n.min(16);
         Self {
             residual_norms: Vec::with_capacity(n + 1),
             step_norms: Vec::with_capacity(n),

@@ -26,7 +26,18 @@
 //! assert_eq!(dy[0], -30.0);
 //! ```
 
+/// The README's example, compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeExample;
+
 use std::sync::Arc;
+
+/// `hookean-sparse`, whose matrices this API speaks ([`SymBlockMatrix`],
+/// [`Constraints`]), and `sprs` (the sparse Jacobian of
+/// [`FirstOrderProblem::jacobian_sparse`]): use these re-exports to get the
+/// same versions.
+pub use hookean_sparse::{self, sprs};
 
 use hookean_sparse::{BlockPattern, Constraints, IsoBlockMatrix, SparseError, SymBlockMatrix};
 

@@ -155,6 +155,77 @@ impl CgWorkspace {
     }
 }
 
+/// A conjugate-gradient solver that owns its parameters and workspace: the
+/// short form of [`pcg`] and [`filtered_pcg`] for code that solves many
+/// systems of one size (the workspace is sized on first use and kept, so
+/// later solves of that size allocate nothing).
+///
+/// ```
+/// use hookean_sparse::{CgParams, Jacobi, Pcg, PreconditionerSetup, sprs};
+/// let a = sprs::CsMat::new((2, 2), vec![0, 2, 4], vec![0, 1, 0, 1], vec![4.0, 1.0, 1.0, 3.0]);
+/// let mut jacobi = Jacobi::new();
+/// jacobi.setup(&a)?;
+/// let mut x = [0.0; 2];
+/// let info = Pcg::new(CgParams::default()).solve(&a, &jacobi, &[1.0, 2.0], &mut x)?;
+/// assert!(info.converged);
+/// assert!((x[0] - 1.0 / 11.0).abs() < 1e-12 && (x[1] - 7.0 / 11.0).abs() < 1e-12);
+/// # Ok::<(), hookean_sparse::SparseError>(())
+/// ```
+#[derive(Debug, Clone, Default)]
+pub struct Pcg {
+    /// The parameters of every solve; change them between solves at will.
+    pub params: CgParams,
+    workspace: CgWorkspace,
+}
+
+impl Pcg {
+    /// A solver with `params` and an empty workspace.
+    pub fn new(params: CgParams) -> Self {
+        Self {
+            params,
+            workspace: CgWorkspace::default(),
+        }
+    }
+
+    /// Solves `A x = b` as [`pcg`] does.
+    ///
+    /// # Errors
+    /// As [`pcg`].
+    pub fn solve<A, P>(
+        &mut self,
+        a: &A,
+        precond: &P,
+        b: &[f64],
+        x: &mut [f64],
+    ) -> Result<CgInfo, SparseError>
+    where
+        A: LinearOperator + ?Sized,
+        P: Preconditioner + ?Sized,
+    {
+        pcg(a, precond, b, x, &self.params, &mut self.workspace, None)
+    }
+
+    /// Solves `A x = b` under velocity constraints as [`filtered_pcg`] does.
+    ///
+    /// # Errors
+    /// As [`filtered_pcg`].
+    pub fn solve_filtered<A, P>(
+        &mut self,
+        a: &A,
+        precond: &P,
+        b: &[f64],
+        x: &mut [f64],
+        constraints: &Constraints,
+    ) -> Result<CgInfo, SparseError>
+    where
+        A: LinearOperator + ?Sized,
+        P: Preconditioner + ?Sized,
+    {
+        let (params, workspace) = (&self.params, &mut self.workspace);
+        filtered_pcg(a, precond, b, x, constraints, params, workspace, None)
+    }
+}
+
 /// Preconditioned conjugate gradients for `A x = b`, `A` symmetric positive definite.
 ///
 /// Returns [`CgInfo`] with `converged = false` when the iteration limit is
@@ -273,6 +344,7 @@ where
     F: Filter,
 {
     let n = a.nrows();
+    crate::error::non_empty("matrix", n)?;
     check_len("right-hand side b", b, n)?;
     check_len("solution x", x, n)?;
     if let Some(d) = precond.dim()
@@ -284,11 +356,12 @@ where
             found: d,
         });
     }
-    if !(params.rtol >= 0.0) || !(params.atol >= 0.0) {
+    let tolerance = |t: f64| t >= 0.0 && t.is_finite();
+    if !(tolerance(params.rtol) && tolerance(params.atol)) {
         return Err(SparseError::InvalidParameter {
             name: "tolerance",
             message: format!(
-                "rtol and atol must be non-negative numbers, got {:?} and {:?}",
+                "rtol and atol must be finite non-negative numbers, got {:?} and {:?}",
                 params.rtol, params.atol
             ),
         });
@@ -317,6 +390,7 @@ where
     z.copy_from_slice(b);
     filter.project(z);
     let b_norm = norm2(z);
+    check_scale("right-hand side b", z)?;
     let mut r_norm = norm2(r);
     check_finite_scalar("initial residual", r_norm)?;
     let reference = if b_norm > 0.0 { b_norm } else { r_norm };
@@ -432,6 +506,18 @@ fn check_preconditioned(rz: f64, iteration: usize) -> Result<(), SparseError> {
         });
     }
     Ok(())
+}
+
+/// Refuses a non-zero vector whose largest entry lies outside
+/// `[1e-150, 1e150]`: the squares of CG's inner products would underflow
+/// to zero (reporting convergence at `x = 0`) or overflow.
+pub(crate) fn check_scale(what: &'static str, v: &[f64]) -> Result<(), SparseError> {
+    let largest = crate::vecops::norm_inf(v);
+    if largest == 0.0 || (1e-150..=1e150).contains(&largest) {
+        Ok(())
+    } else {
+        Err(SparseError::BadlyScaled { what, largest })
+    }
 }
 
 fn check_finite_scalar(what: &'static str, v: f64) -> Result<(), SparseError> {

@@ -14,18 +14,41 @@ use crate::precond::square_dim;
 ///
 /// The symbolic analysis is kept while the sparsity pattern stays the same,
 /// so refactoring after a refill only redoes the numeric part.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct DirectCholesky {
     pattern: Option<(Vec<usize>, Vec<usize>)>,
     symbolic: Option<SymbolicLlt<usize>>,
     llt: Option<Llt<usize, f64>>,
     n: usize,
+    max_bytes: u64,
+}
+
+impl Default for DirectCholesky {
+    fn default() -> Self {
+        Self::with_max_bytes(Self::DEFAULT_MAX_BYTES)
+    }
 }
 
 impl DirectCholesky {
-    /// An empty solver.
+    /// The default cap on the factor's memory: 8 GiB.
+    pub const DEFAULT_MAX_BYTES: u64 = 8 << 30;
+
+    /// An empty solver whose factor may take [`Self::DEFAULT_MAX_BYTES`].
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// An empty solver whose factor may take at most `max_bytes` (the fill
+    /// of `L` is known after the symbolic analysis, before the numeric
+    /// factorisation allocates it).
+    pub fn with_max_bytes(max_bytes: u64) -> Self {
+        Self {
+            pattern: None,
+            symbolic: None,
+            llt: None,
+            n: 0,
+            max_bytes,
+        }
     }
 
     /// Factors a symmetric block matrix.
@@ -34,6 +57,7 @@ impl DirectCholesky {
     /// [`SparseError::NonFinite`], or [`SparseError::Direct`] if a pivot is
     /// not positive (the matrix is not positive definite).
     pub fn factor_block(&mut self, a: &SymBlockMatrix) -> Result<(), SparseError> {
+        crate::error::non_empty("matrix", a.dim())?;
         // The upper triangle in CSR is the lower triangle in CSC.
         let (indptr, indices, data) = a.upper_csr_arrays();
         self.factor_lower_csc(a.dim(), indptr, indices, &data)
@@ -78,6 +102,28 @@ impl DirectCholesky {
         let same = matches!(&self.pattern, Some((p, i)) if *p == col_ptr && *i == row_idx);
         if !same {
             let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
+            // The factor's size before it is allocated: a value and a row
+            // index per nonzero of L (faer's SymbolicLlt keeps the count private).
+            let analysis = faer::sparse::linalg::cholesky::factorize_symbolic_cholesky(
+                sym,
+                Side::Lower,
+                Default::default(),
+                Default::default(),
+            )
+            .map_err(|e| SparseError::Direct {
+                message: format!("symbolic analysis failed: {e:?}"),
+            })?;
+            let bytes = (analysis.len_val() as u64).saturating_mul(16);
+            if bytes > self.max_bytes {
+                return Err(SparseError::Direct {
+                    message: format!(
+                        "the Cholesky factor would need about {:.1} GiB ({} nonzeros), more than the {:.1} GiB allowed (DirectCholesky::with_max_bytes)",
+                        bytes as f64 / (1u64 << 30) as f64,
+                        analysis.len_val(),
+                        self.max_bytes as f64 / (1u64 << 30) as f64
+                    ),
+                });
+            }
             let symbolic =
                 SymbolicLlt::try_new(sym, Side::Lower).map_err(|e| SparseError::Direct {
                     message: format!("symbolic analysis failed: {e:?}"),
@@ -162,5 +208,15 @@ mod tests {
             d.factor_csr(&t.to_csr()),
             Err(SparseError::Direct { .. })
         ));
+    }
+
+    /// The factor's fill is checked against the cap before it is allocated.
+    #[test]
+    fn a_factor_above_the_memory_cap_is_refused_before_it_is_made() {
+        let a = spd_block_matrix(30, 3);
+        let mut small = DirectCholesky::with_max_bytes(1 << 10);
+        let e = small.factor_block(&a).unwrap_err();
+        assert!(e.to_string().contains("with_max_bytes"), "{e}");
+        assert!(DirectCholesky::new().factor_block(&a).is_ok());
     }
 }

@@ -88,6 +88,42 @@ pub enum SparseError {
         /// Relative residual (or relative change) reached.
         relative_residual: f64,
     },
+    /// The right-hand side is so small or so large that the squares of the
+    /// solver's inner products would underflow or overflow (its largest
+    /// entry outside `[1e-150, 1e150]`): a norm of zero would report
+    /// convergence at `x = 0`. Scale the system (by a power of two, which
+    /// is exact).
+    #[error(
+        "the system is badly scaled: the largest entry of {what} is {largest:e}, outside [1e-150, 1e150]; scale it (by a power of two, exactly)"
+    )]
+    BadlyScaled {
+        /// Which vector (`"right-hand side b"`).
+        what: &'static str,
+        /// Its largest absolute entry.
+        largest: f64,
+    },
+    /// A solver or preconditioner was given a system of no unknowns.
+    #[error("{what} is empty (0 x 0): there is nothing to solve")]
+    Empty {
+        /// What was empty (`"matrix"`).
+        what: &'static str,
+    },
+    /// A preconditioner for symmetric matrices was given a scalar CSR matrix
+    /// that stores only one triangle. `sprs::CsMat` holds exactly what it is
+    /// given, and the scalar-CSR paths read both triangles: half of a
+    /// symmetric matrix would be factored (IC(0)) or smoothed (SSOR,
+    /// multigrid) as a different, triangular matrix.
+    #[error(
+        "{preconditioner} needs both triangles of a symmetric matrix, but only the {stored} \
+         triangle is stored: add the transpose of its off-diagonal part (a + a^T - diag(a)), \
+         or use Jacobi or a direct solver for a triangular system"
+    )]
+    OneTriangle {
+        /// The preconditioner that refused the matrix.
+        preconditioner: &'static str,
+        /// `"upper"` or `"lower"`: the triangle that holds every off-diagonal entry.
+        stored: &'static str,
+    },
     /// A preconditioner needs a positive diagonal and found otherwise.
     #[error("{preconditioner} needs a positive diagonal, but entry {row} is {value:?}")]
     NonPositiveDiagonal {
@@ -200,5 +236,15 @@ pub(crate) fn check_finite(what: &'static str, v: &[f64]) -> Result<(), SparseEr
             what,
             index: Some(i),
         }),
+    }
+}
+
+/// Refuses a system of no unknowns ([`SparseError::Empty`]): every solver
+/// and preconditioner set-up calls this first.
+pub(crate) fn non_empty(what: &'static str, n: usize) -> Result<usize, SparseError> {
+    if n == 0 {
+        Err(SparseError::Empty { what })
+    } else {
+        Ok(n)
     }
 }

@@ -13,15 +13,21 @@
 //!   The pattern ([`BlockPattern`]) is built once per topology; values are
 //!   refilled in place every step ([`SymBlockMatrix::add_to_block`],
 //!   or [`SymBlockMatrix::add_to_slot`] with cached slots).
-//! - [`LinearOperator`]: `y = A x`, for the block matrix, `sprs::CsMat<f64>`
-//!   and closures ([`MatrixFree`]).
+//! - [`LinearOperator`]: `y = A x`, for the block matrix, `sprs::CsMat<f64>`,
+//!   the scalar symmetric [`SymCsrMatrix`] (upper triangle, half the bytes
+//!   per product) and closures ([`MatrixFree`]).
 //! - [`Preconditioner`] / [`PreconditionerSetup`]: [`Identity`], [`Jacobi`],
 //!   [`BlockJacobi`], [`Ssor`], [`IncompleteCholesky`] (IC(0), and MIC(0)
 //!   with [`IncompleteCholesky::modified`]) and smoothed-aggregation
 //!   multigrid [`Amg`]; [`AnyPreconditioner`] picks one by name.
-//! - [`pcg`] and [`filtered_pcg`] (Baraff-Witkin's filtered CG, the
+//! - [`Pcg`], a solver value holding its parameters and workspace
+//!   (`Pcg::new(params).solve(&a, &precond, &b, &mut x)`), and the free
+//!   functions [`pcg`] and [`filtered_pcg`] (Baraff-Witkin's filtered CG, the
 //!   tutorial's Algorithm 4) with [`CgParams`], a reusable [`CgWorkspace`]
 //!   and an optional per-iteration callback; they return [`CgInfo`].
+//! - [`SymBlockMatrix::from_blocks`] builds a matrix from block triplets
+//!   (duplicates summed); the scalar-CSR path speaks `sprs`, re-exported as
+//!   [`sprs`], and its symmetric preconditioners need both triangles stored.
 //! - [`power_method`] with a hook between iterations (the filtering paper's
 //!   modified power method).
 //! - [`read_matrix_market`] / [`write_matrix_market`], and `DirectCholesky`
@@ -52,12 +58,16 @@
 //! let mut dv = [0.0; 9];
 //! let mut pinned = Constraints::new(3);
 //! pinned.pin(2, [0.0; 3])?; // the last particle is nailed down
-//! let info = filtered_pcg(&a, &precond, &b, &mut dv, &pinned,
-//!                         &CgParams::default(), &mut CgWorkspace::new(9), None)?;
+//! let info = Pcg::new(CgParams::default()).solve_filtered(&a, &precond, &b, &mut dv, &pinned)?;
 //! assert!(info.converged);
 //! assert_eq!(&dv[6..], &[0.0, 0.0, 0.0]);
 //! # Ok::<(), SparseError>(())
 //! ```
+
+/// The README's example, compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeExample;
 
 pub mod block;
 mod cg;
@@ -72,11 +82,18 @@ mod operator;
 pub mod par;
 mod power;
 mod precond;
+mod symcsr;
+pub mod text;
 pub mod vecops;
+
+/// `sprs`, which the scalar-CSR part of this API speaks (`sprs::CsMat<f64>`
+/// as a [`LinearOperator`], [`SymBlockMatrix::from_csr`],
+/// [`MatrixMarket::into_csr`]): use this re-export to get the same version.
+pub use sprs;
 
 pub use block::Block3;
 pub use cg::{
-    CgCallback, CgInfo, CgParams, CgProgress, CgWorkspace, InitialGuess, NegativeCurvature,
+    CgCallback, CgInfo, CgParams, CgProgress, CgWorkspace, InitialGuess, NegativeCurvature, Pcg,
     filtered_pcg, pcg,
 };
 pub use constraints::Constraints;
@@ -84,10 +101,11 @@ pub use constraints::Constraints;
 pub use direct::DirectCholesky;
 pub use error::SparseError;
 pub use iso::{IsoBlockMatrix, IsoSlot};
-pub use matrix::{BlockPattern, Slot, SymBlockMatrix};
+pub use matrix::{BlockPattern, Slot, SymBlockMatrix, check_csr_symmetric};
 pub use mtx::{
     MatrixMarket, ReadOptions, read_matrix_market, read_matrix_market_file,
-    read_matrix_market_with, write_matrix_market, write_vector_market,
+    read_matrix_market_file_with, read_matrix_market_with, write_matrix_market,
+    write_vector_market,
 };
 pub use operator::{LinearOperator, MatrixFree};
 pub use power::{PowerHook, PowerInfo, PowerParams, power_method};
@@ -96,3 +114,4 @@ pub use precond::{
     AnyPreconditioner, BlockJacobi, Identity, IncompleteCholesky, Jacobi, PrecondKind,
     Preconditioner, PreconditionerSetup, Ssor,
 };
+pub use symcsr::SymCsrMatrix;

@@ -32,13 +32,14 @@ pub struct BlockPattern {
     lower_slot: Vec<usize>,
 }
 
-/// `Ok` when the square CSR matrix `a` is finite and symmetric: every entry
-/// equals its transpose to `1e-12` of the largest entry.
+/// `Ok` when the square `sprs` matrix `a` is finite and symmetric: every
+/// entry equals its transpose to `1e-12` of the largest entry (what the
+/// symmetric solvers, PCG and the Cholesky factorisation, need).
 ///
 /// # Errors
 /// [`SparseError::NonFinite`] or [`SparseError::NotSymmetric`] naming the
 /// first offending entry.
-pub(crate) fn check_csr_symmetric(a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
+pub fn check_csr_symmetric(a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
     let cols = a.cols();
     let mut max_abs = 0.0_f64;
     for (&v, (r, c)) in a.iter() {
@@ -758,6 +759,67 @@ impl SymBlockMatrix {
         faer::sparse::SparseColMat::new(symbolic, data)
     }
 
+    /// Builds an `n x n` block matrix from block triplets `(i, j, m)`:
+    /// the pattern is the set of pairs named, and each triplet adds `m` to
+    /// block `(i, j)` and, by symmetry, `m^T` to block `(j, i)`
+    /// ([`add_to_block`](Self::add_to_block)); duplicates are summed. So a
+    /// coupling between two particles is given once, in either orientation
+    /// (giving `(i, j, m)` and `(j, i, m^T)` counts it twice).
+    ///
+    /// For matrices refilled every step, build the [`BlockPattern`] once and
+    /// refill through [`slot`](Self::slot)s instead; this allocates.
+    ///
+    /// ```
+    /// use hookean_sparse::{SymBlockMatrix, block};
+    /// let k = block::scale(&block::IDENTITY, 2.0);
+    /// let a = SymBlockMatrix::from_blocks(2, [
+    ///     (0, 0, k), (1, 1, k), (0, 1, block::scale(&k, -0.5)), (1, 1, k),
+    /// ])?;
+    /// assert_eq!(a.block(1, 1)?[0][0], 4.0); // the two (1, 1) triplets summed
+    /// assert_eq!(a.block(1, 0)?[2][2], -1.0); // (0, 1) seen from the other side
+    /// # Ok::<(), hookean_sparse::SparseError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`SparseError::BlockIndexOutOfRange`] for a triplet outside the
+    /// matrix, [`SparseError::NonFinite`] for a NaN or infinite entry, and
+    /// [`SparseError::NotSymmetric`] if a diagonal block ends up asymmetric
+    /// (by more than `1e-12` of its largest entry).
+    pub fn from_blocks(
+        n: usize,
+        blocks: impl IntoIterator<Item = (usize, usize, Block3)>,
+    ) -> Result<Self, SparseError> {
+        let blocks: Vec<(usize, usize, Block3)> = blocks.into_iter().collect();
+        for (k, (_, _, m)) in blocks.iter().enumerate() {
+            if m.iter().flatten().any(|v| !v.is_finite()) {
+                return Err(SparseError::NonFinite {
+                    what: "block triplet",
+                    index: Some(k),
+                });
+            }
+        }
+        let pattern = BlockPattern::new(n, blocks.iter().map(|&(i, j, _)| (i, j)))?;
+        let mut a = SymBlockMatrix::new(Arc::new(pattern));
+        for (i, j, m) in &blocks {
+            a.add_to_block(*i, *j, m)?;
+        }
+        for i in 0..n {
+            let d = a.diagonal_block(i);
+            let tol = 1e-12 * d.iter().flatten().fold(0.0_f64, |s, v| s.max(v.abs()));
+            for r in 0..3 {
+                for c in r + 1..3 {
+                    if (d[r][c] - d[c][r]).abs() > tol {
+                        return Err(SparseError::NotSymmetric {
+                            row: 3 * i + r,
+                            col: 3 * i + c,
+                        });
+                    }
+                }
+            }
+        }
+        Ok(a)
+    }
+
     /// Builds a block matrix from a scalar `sprs` matrix (CSR or CSC) whose
     /// dimension is a multiple of 3. Every 3x3 block with at least one stored
     /// entry enters the pattern.
@@ -1088,5 +1150,75 @@ mod tests {
                 found: 5
             })
         );
+    }
+
+    /// `from_blocks` against a dense assembly written out here: each triplet
+    /// lands at `(i, j)` and, off the diagonal, transposed at `(j, i)`;
+    /// duplicates and both orientations sum.
+    #[test]
+    fn from_blocks_sums_triplets_like_a_dense_assembly() {
+        let n = 4;
+        let blk = |s: f64| -> Block3 {
+            let mut b = [[0.0; 3]; 3];
+            for (r, row) in b.iter_mut().enumerate() {
+                for (c, v) in row.iter_mut().enumerate() {
+                    *v = s * (1.0 + r as f64) + 0.1 * c as f64;
+                }
+            }
+            b
+        };
+        let sym = |s: f64| -> Block3 { block::add(&blk(s), &block::transpose(&blk(s))) };
+        let triplets = vec![
+            (0, 0, sym(1.0)),
+            (1, 1, sym(2.0)),
+            (2, 2, sym(3.0)),
+            (3, 3, sym(4.0)),
+            (0, 1, blk(0.5)),
+            (2, 1, blk(-0.25)),
+            (0, 1, blk(1.5)), // duplicate of (0, 1)
+            (3, 0, blk(0.75)),
+            (2, 2, sym(1.0)), // duplicate diagonal
+        ];
+        let a = SymBlockMatrix::from_blocks(n, triplets.clone()).unwrap();
+        let mut dense = vec![vec![0.0; 3 * n]; 3 * n];
+        for (i, j, m) in &triplets {
+            for r in 0..3 {
+                for c in 0..3 {
+                    dense[3 * i + r][3 * j + c] += m[r][c];
+                    if i != j {
+                        dense[3 * j + c][3 * i + r] += m[r][c];
+                    }
+                }
+            }
+        }
+        let csr = a.to_csr();
+        for (r, row) in dense.iter().enumerate() {
+            for (c, &v) in row.iter().enumerate() {
+                let got = csr.get(r, c).copied().unwrap_or(0.0);
+                assert!((got - v).abs() < 1e-14, "({r}, {c}): {got} vs {v}");
+            }
+        }
+        assert_eq!(a.pattern().stored_blocks(), n + 3);
+
+        let mut asym = [[0.0; 3]; 3];
+        asym[0][1] = 1.0;
+        assert_eq!(
+            SymBlockMatrix::from_blocks(2, [(1, 1, asym)]).unwrap_err(),
+            SparseError::NotSymmetric { row: 3, col: 4 }
+        );
+        assert!(matches!(
+            SymBlockMatrix::from_blocks(2, [(0, 2, blk(1.0))]),
+            Err(SparseError::BlockIndexOutOfRange {
+                row: 0,
+                col: 2,
+                n: 2
+            })
+        ));
+        let mut nan = blk(1.0);
+        nan[2][2] = f64::NAN;
+        assert!(matches!(
+            SymBlockMatrix::from_blocks(2, [(0, 0, sym(1.0)), (0, 1, nan)]),
+            Err(SparseError::NonFinite { index: Some(1), .. })
+        ));
     }
 }

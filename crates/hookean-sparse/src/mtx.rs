@@ -104,13 +104,20 @@ fn parse_err(line: usize, message: impl Into<String>) -> SparseError {
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReadOptions {
     /// Largest memory the matrix may need once read (CSR arrays with their
-    /// triplet staging, or the dense values), in bytes. Default 4 GiB.
+    /// triplet staging, or the dense values), in bytes, and the largest
+    /// file. Default 4 GiB.
     pub max_bytes: u64,
+    /// Longest line, in bytes (a file without line breaks stops here).
+    /// Default 1 MiB.
+    pub max_line_bytes: usize,
 }
 
 impl Default for ReadOptions {
     fn default() -> Self {
-        Self { max_bytes: 4 << 30 }
+        Self {
+            max_bytes: 4 << 30,
+            max_line_bytes: 1 << 20,
+        }
     }
 }
 
@@ -161,12 +168,21 @@ pub fn read_matrix_market_with(
     reader: impl BufRead,
     opts: &ReadOptions,
 ) -> Result<MatrixMarket, SparseError> {
-    let mut lines = reader.lines().enumerate().map(|(i, l)| {
-        l.map(|s| (i + 1, s)).map_err(|e| SparseError::Io {
-            path: "<input>".into(),
-            message: e.to_string(),
-        })
-    });
+    let limits = crate::text::LineLimits {
+        max_line_bytes: opts.max_line_bytes,
+        max_total_bytes: opts.max_bytes,
+    };
+    let mut lines = crate::text::capped_lines(reader, limits)
+        .enumerate()
+        .map(|(i, l)| {
+            l.map(|s| (i + 1, s)).map_err(|e| match e {
+                crate::text::TextError::Io(e) => SparseError::Io {
+                    path: "<input>".into(),
+                    message: e.to_string(),
+                },
+                e => parse_err(i + 1, format!("{e} (ReadOptions)")),
+            })
+        });
     let (_, banner) = lines
         .next()
         .transpose()?
@@ -401,12 +417,23 @@ pub fn read_matrix_market_with(
 pub fn read_matrix_market_file(
     path: impl AsRef<std::path::Path>,
 ) -> Result<MatrixMarket, SparseError> {
+    read_matrix_market_file_with(path, &ReadOptions::default())
+}
+
+/// [`read_matrix_market_file`] with [`ReadOptions`].
+///
+/// # Errors
+/// As [`read_matrix_market_file`].
+pub fn read_matrix_market_file_with(
+    path: impl AsRef<std::path::Path>,
+    opts: &ReadOptions,
+) -> Result<MatrixMarket, SparseError> {
     let path = path.as_ref();
     let file = std::fs::File::open(path).map_err(|e| SparseError::Io {
         path: path.display().to_string(),
         message: e.to_string(),
     })?;
-    read_matrix_market(std::io::BufReader::new(file)).map_err(|e| match e {
+    read_matrix_market_with(std::io::BufReader::new(file), opts).map_err(|e| match e {
         SparseError::Parse { line, message, .. } => SparseError::Parse {
             path: path.display().to_string(),
             line,
@@ -645,11 +672,13 @@ mod tests {
         }
         let small = ReadOptions {
             max_bytes: 64 << 10,
+            ..Default::default()
         };
         let err = read_matrix_market_with(text.as_bytes(), &small).unwrap_err();
         assert!(err.to_string().contains("max_bytes"), "{err}");
         let enough = ReadOptions {
             max_bytes: 128 << 10,
+            ..Default::default()
         };
         assert_eq!(
             read_matrix_market_with(text.as_bytes(), &enough)
@@ -681,5 +710,25 @@ mod tests {
             m.into_vector(),
             Err(SparseError::InvalidParameter { .. })
         ));
+    }
+
+    /// A file without line breaks (`/dev/zero`) or with one absurd line is
+    /// refused at the line cap, naming the line, before it fills memory.
+    #[test]
+    fn lines_are_capped() {
+        let endless = std::io::BufReader::new(std::io::repeat(0));
+        let err = read_matrix_market(endless).unwrap_err();
+        assert!(matches!(err, SparseError::Parse { line: 1, .. }), "{err}");
+        assert!(err.to_string().contains("longer than"), "{err}");
+        let mut text = String::from("%%MatrixMarket matrix coordinate real general\n%");
+        text.push_str(&"x".repeat(100));
+        text.push_str("\n1 1 1\n1 1 2\n");
+        let short = ReadOptions {
+            max_line_bytes: 64,
+            ..Default::default()
+        };
+        let err = read_matrix_market_with(text.as_bytes(), &short).unwrap_err();
+        assert!(matches!(err, SparseError::Parse { line: 2, .. }), "{err}");
+        assert!(read_matrix_market(text.as_bytes()).is_ok());
     }
 }

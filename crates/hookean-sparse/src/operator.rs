@@ -97,6 +97,13 @@ impl LinearOperator for SymBlockMatrix {
 
 /// A `sprs` matrix in CSR or CSC storage. It must be square; the solvers
 /// check that before use.
+///
+/// The product is of the matrix *as stored*: a symmetric matrix must store
+/// both triangles (a Matrix Market file marked `symmetric` is expanded by
+/// [`read_matrix_market`](crate::read_matrix_market)). The symmetric
+/// preconditioners refuse a one-triangle matrix
+/// ([`SparseError::OneTriangle`](crate::SparseError::OneTriangle)); Jacobi
+/// reads only the diagonal and accepts any storage.
 impl LinearOperator for sprs::CsMat<f64> {
     fn nrows(&self) -> usize {
         self.rows()

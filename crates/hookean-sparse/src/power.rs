@@ -74,12 +74,7 @@ pub fn power_method<A: LinearOperator + ?Sized>(
     hook: Option<PowerHook<'_>>,
 ) -> Result<PowerInfo, SparseError> {
     let n = a.nrows();
-    if n == 0 {
-        return Err(SparseError::InvalidParameter {
-            name: "operator",
-            message: "the power method needs a non-empty operator".into(),
-        });
-    }
+    crate::error::non_empty("operator", n)?;
     let mut v = vec![0.0; n];
     let mut w = vec![0.0; n];
     let (eigenvalue, iterations, converged) =

@@ -17,7 +17,10 @@ pub const VALID: &[&str] = &[
 ];
 
 /// A cap small enough that any matrix the mutations declare big is refused.
-const OPTS: ReadOptions = ReadOptions { max_bytes: 1 << 20 };
+const OPTS: ReadOptions = ReadOptions {
+    max_bytes: 1 << 20,
+    max_line_bytes: 1 << 16,
+};
 
 fn read(bytes: &[u8]) -> Result<(), SparseError> {
     let m = read_matrix_market_with(bytes, &OPTS)?;

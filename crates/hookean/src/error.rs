@@ -30,9 +30,9 @@ pub enum HookeanError {
         /// What is wrong.
         message: String,
     },
-    /// A `--set key=value` override of a scene that is malformed or makes
-    /// the scene invalid.
-    #[error("{file}: --set {arg}: {message}")]
+    /// A `key=value` override of a scene ([`Scene::with_overrides`](crate::scene::Scene::with_overrides))
+    /// that is malformed or makes the scene invalid.
+    #[error("{file}: override {arg}: {message}")]
     Override {
         /// The scene file.
         file: String,
@@ -99,13 +99,16 @@ pub enum HookeanError {
         /// positions (the filtering paper's eq. 11) for explicit methods.
         dt_max: Option<f64>,
     },
-    /// Writing an output failed.
-    #[error("{path}: {message}")]
+    /// Reading or writing a file failed. `From<std::io::Error>` makes one
+    /// without a path; [`Error::source`](std::error::Error::source) gives
+    /// the operating system's error.
+    #[error("{}{source}", path_prefix(.path.as_deref()))]
     Io {
-        /// The file.
-        path: String,
-        /// The operating system's message.
-        message: String,
+        /// The file, when known.
+        path: Option<std::path::PathBuf>,
+        /// The operating system's error.
+        #[source]
+        source: std::io::Error,
     },
 }
 
@@ -124,11 +127,37 @@ fn blow_up_hint(h: f64, dt_max: Option<f64>) -> String {
     }
 }
 
+/// `"path: "` before an I/O error's message, when the path is known.
+fn path_prefix(path: Option<&std::path::Path>) -> String {
+    path.map_or_else(String::new, |p| format!("{}: ", p.display()))
+}
+
 impl HookeanError {
-    pub(crate) fn io(path: &std::path::Path, e: std::io::Error) -> Self {
+    /// An I/O error on the file `path`.
+    pub fn io(path: impl AsRef<std::path::Path>, source: std::io::Error) -> Self {
         HookeanError::Io {
-            path: path.display().to_string(),
-            message: e.to_string(),
+            path: Some(path.as_ref().to_path_buf()),
+            source,
         }
+    }
+}
+
+impl HookeanError {
+    /// `self` with `path` named, if it is an I/O error (its own or the
+    /// model's writer's) without one.
+    pub(crate) fn at_path(self, path: &std::path::Path) -> Self {
+        match self {
+            HookeanError::Io { path: None, source } => HookeanError::io(path, source),
+            HookeanError::MassSpring(hookean_massspring::MassSpringError::Io {
+                message, ..
+            }) => HookeanError::io(path, std::io::Error::other(message)),
+            e => e,
+        }
+    }
+}
+
+impl From<std::io::Error> for HookeanError {
+    fn from(source: std::io::Error) -> Self {
+        HookeanError::Io { path: None, source }
     }
 }

@@ -12,8 +12,8 @@
 //! | [`filter`] | `hookean-filter` | velocity filtering of explicit schemes, `dt_max` |
 //!
 //! and adds [`Simulation`] (a model, an integrator and its solvers, run
-//! step-wise or to an end time, with output [`Sink`]s) and scene files
-//! ([`scene`]).
+//! step-wise or to an end time, with output [`Sink`]s: the per-step CSV, OBJ
+//! frames and progress of [`sinks`]) and scene files ([`scene`]).
 //!
 //! # Drape a cloth
 //!
@@ -28,6 +28,11 @@
 //! println!("{} steps, {} CG iterations", summary.stats.steps, summary.stats.linear_iterations);
 //! # Ok::<(), hookean::HookeanError>(())
 //! ```
+
+/// The README's example, compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeExample;
 
 #[cfg(feature = "filter")]
 pub use hookean_filter as filter;
@@ -46,6 +51,8 @@ mod error;
 pub mod scene;
 #[cfg(feature = "filter")]
 mod simulation;
+#[cfg(feature = "filter")]
+pub mod sinks;
 
 #[cfg(feature = "filter")]
 pub use error::HookeanError;

@@ -91,6 +91,33 @@ fn at_least_one<'de, D: Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
     }
 }
 
+/// An integer key in its documented range `LO..=HI` (the key's doc says
+/// "Range LO to HI"; a test checks every documented range at its ends).
+fn int_in<'de, D: Deserializer<'de>, const LO: usize, const HI: usize>(
+    d: D,
+) -> Result<usize, D::Error> {
+    let v = u64::deserialize(d)?;
+    if (LO as u64..=HI as u64).contains(&v) {
+        Ok(v as usize)
+    } else {
+        Err(D::Error::custom(format!(
+            "must lie in {LO} to {HI}, got {v}"
+        )))
+    }
+}
+
+/// Exactly three numbers (a longer or shorter array is an error, not
+/// truncated).
+fn three<'de, D: Deserializer<'de>, T: Deserialize<'de> + Copy>(d: D) -> Result<[T; 3], D::Error> {
+    let v = Vec::<T>::deserialize(d)?;
+    <[T; 3]>::try_from(v.as_slice())
+        .map_err(|_| D::Error::custom(format!("must be an array of 3 numbers, got {}", v.len())))
+}
+
+fn usize3<'de, D: Deserializer<'de>>(d: D) -> Result<[usize; 3], D::Error> {
+    three(d)
+}
+
 /// Largest picture side, in pixels.
 const MAX_PIXELS: usize = 16_384;
 
@@ -106,7 +133,7 @@ fn pixels<'de, D: Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
 }
 
 fn finite3<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
-    let v = <[f64; 3]>::deserialize(d)?;
+    let v: [f64; 3] = three(d)?;
     if v.iter().all(|x| x.is_finite()) {
         Ok(v)
     } else {
@@ -170,7 +197,7 @@ pub const KEYS: &str = include_str!("scene_keys.txt");
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scene {
-    /// Simulated seconds. Default 5.
+    /// Simulated seconds. Range (0, inf). Default 5.
     #[serde(default = "d_duration", deserialize_with = "positive")]
     pub duration: f64,
     /// The cloth grid model.
@@ -202,7 +229,8 @@ pub struct Scene {
     #[serde(default)]
     pub output: OutputScene,
     /// Worker threads of the kernels (rayon) when `hookean run` is not
-    /// given `--threads`. Default: `RAYON_NUM_THREADS`, else all cores.
+    /// given `--threads`. Range 1 to 1024. Default: `RAYON_NUM_THREADS`,
+    /// else all cores.
     /// Results are bitwise reproducible for a given thread count.
     #[serde(default, deserialize_with = "threads")]
     pub threads: Option<usize>,
@@ -230,22 +258,22 @@ fn d_duration() -> f64 {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ClothScene {
-    /// Particles per side. Default 64.
+    /// Particles per side. Range 2 to the `--max-memory` cap. Default 64.
     #[serde(default = "d_cloth_n", deserialize_with = "at_least_two")]
     pub n: usize,
-    /// Side length (m). Default 1.
+    /// Side length (m). Range (0, inf). Default 1.
     #[serde(default = "one", deserialize_with = "positive")]
     pub size: f64,
-    /// Total mass (kg). Default 1.
+    /// Total mass (kg). Range (0, inf). Default 1.
     #[serde(default = "one", deserialize_with = "positive")]
     pub mass: f64,
-    /// Structural and shear stiffness (N/m). Default 1e4.
+    /// Structural and shear stiffness (N/m). Range (0, inf). Default 1e4.
     #[serde(default = "d_k", deserialize_with = "positive")]
     pub stiffness: f64,
-    /// Bend stiffness (N/m); 0 leaves bend springs out. Default stiffness / 10.
+    /// Bend stiffness (N/m); 0 leaves bend springs out. Range [0, inf). Default stiffness / 10.
     #[serde(default, deserialize_with = "opt_non_negative")]
     pub bend_stiffness: Option<f64>,
-    /// Spring damping (N s/m). Default 0.1.
+    /// Spring damping (N s/m). Range [0, inf). Default 0.1.
     #[serde(default = "d_damping", deserialize_with = "non_negative")]
     pub damping: f64,
     /// `"two-corners"` (default), `"four-corners"`, `"edge"` or `"none"`.
@@ -308,19 +336,19 @@ pub enum PlaneScene {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RopeScene {
-    /// Particles. Default 20.
+    /// Particles. Range 2 to the `--max-memory` cap. Default 20.
     #[serde(default = "d_rope_n", deserialize_with = "at_least_two")]
     pub n: usize,
-    /// Length (m). Default 1.
+    /// Length (m). Range (0, inf). Default 1.
     #[serde(default = "one", deserialize_with = "positive")]
     pub length: f64,
-    /// Total mass (kg). Default 1.
+    /// Total mass (kg). Range (0, inf). Default 1.
     #[serde(default = "one", deserialize_with = "positive")]
     pub mass: f64,
-    /// Stiffness (N/m). Default 1e4.
+    /// Stiffness (N/m). Range (0, inf). Default 1e4.
     #[serde(default = "d_k", deserialize_with = "positive")]
     pub stiffness: f64,
-    /// Damping (N s/m). Default 0.1.
+    /// Damping (N s/m). Range [0, inf). Default 0.1.
     #[serde(default = "d_damping", deserialize_with = "non_negative")]
     pub damping: f64,
     /// Direction from the first to the last particle. Default `[1, 0, 0]` (horizontal).
@@ -348,19 +376,20 @@ fn yes() -> bool {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct JellyScene {
-    /// Particles per axis. Default `[6, 6, 6]`.
-    #[serde(default = "d_jelly_n")]
+    /// Particles per axis, each at least 1 (at least 2 particles in all);
+    /// their product is bounded by `--max-memory`. Default `[6, 6, 6]`.
+    #[serde(default = "d_jelly_n", deserialize_with = "usize3")]
     pub n: [usize; 3],
-    /// Lattice spacing (m). Default 0.05.
+    /// Lattice spacing (m). Range (0, inf). Default 0.05.
     #[serde(default = "d_spacing", deserialize_with = "positive")]
     pub spacing: f64,
-    /// Total mass (kg). Default 1.
+    /// Total mass (kg). Range (0, inf). Default 1.
     #[serde(default = "one", deserialize_with = "positive")]
     pub mass: f64,
-    /// Stiffness of every spring (N/m). Default 1e3.
+    /// Stiffness of every spring (N/m). Range (0, inf). Default 1e3.
     #[serde(default = "d_jelly_k", deserialize_with = "positive")]
     pub stiffness: f64,
-    /// Damping (N s/m). Default 0.1.
+    /// Damping (N s/m). Range [0, inf). Default 0.1.
     #[serde(default = "d_damping", deserialize_with = "non_negative")]
     pub damping: f64,
     /// Minimum corner. Default `[0, 0, 0.5]`.
@@ -392,10 +421,10 @@ pub struct ParticleScene {}
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TutorialScene {
-    /// 1 or 2.
+    /// 1 or 2. Range 1 to 2.
     #[serde(deserialize_with = "example_number")]
     pub example: u8,
-    /// `lambda` of example 1 (example 2 has its own). Default -15.
+    /// `lambda` of example 1 (example 2 has its own). Range: any finite number. Default -15.
     #[serde(default = "d_lambda", deserialize_with = "finite")]
     pub lambda: f64,
 }
@@ -431,7 +460,7 @@ pub struct ModelScene {
     /// `"projected"` (default), `"incorrect"` (d (v_j - v_i), damps rotation) or `"none"`.
     #[serde(default)]
     pub damping: DampingScene,
-    /// Air friction c in `-c v` (N s/m). Default 0.
+    /// Air friction c in `-c v` (N s/m). Range [0, inf). Default 0.
     #[serde(default, deserialize_with = "non_negative")]
     pub air_friction: f64,
     /// Gravity (m/s^2). Default `[0, 0, -9.81]`.
@@ -490,24 +519,24 @@ pub struct IntegratorScene {
     /// (Initial) step size (s), or `"auto"` for an explicit method: the
     /// largest stable step of the model at its starting state, from the
     /// (filtered) modified power method and eq. 11, times `h_safety`.
-    /// Default 0.01.
+    /// Range (0, inf). Default 0.01.
     #[serde(default)]
     pub h: StepScene,
     /// The safety factor of `h = "auto"`, in (0, 1]: the cloth stiffens as
     /// it stretches, so the stable step of the starting state is an upper
-    /// bound. Default 0.8.
+    /// bound. Range (0, 1]. Default 0.8.
     #[serde(default = "d_h_safety", deserialize_with = "safety")]
     pub h_safety: f64,
     /// Step control of `bdf2-variable`: `"error"` (default) or `"newton"` (Newton iterations).
     #[serde(default)]
     pub control: ControlScene,
-    /// Relative error tolerance of error control. Default 1e-3.
+    /// Relative error tolerance of error control. Range (0, inf). Default 1e-3.
     #[serde(default = "d_rtol", deserialize_with = "positive")]
     pub rtol: f64,
-    /// Absolute error tolerance. Default 1e-4.
+    /// Absolute error tolerance. Range (0, inf). Default 1e-4.
     #[serde(default = "d_atol", deserialize_with = "positive")]
     pub atol: f64,
-    /// Largest step (s). Default 0.05.
+    /// Largest step (s). Range (0, inf). Default 0.05.
     #[serde(default = "d_hmax", deserialize_with = "positive")]
     pub h_max: f64,
 }
@@ -631,22 +660,22 @@ pub struct SolverScene {
     /// `"inexact"` (default), `"exact"`, `"simplified"` or `"inexact-simplified"`.
     #[serde(default)]
     pub newton: NewtonScene,
-    /// Forcing term of the inexact variants: a number in (0, 1) (default
-    /// 0.01, the drape's; the tutorial uses 0.02), `"ew1"` or `"ew2"`
-    /// (Eisenstat-Walker).
+    /// Forcing term of the inexact variants: a number, Range (0, 1)
+    /// (default 0.01, the drape's; the tutorial uses 0.02), or `"ew1"` or
+    /// `"ew2"` (Eisenstat-Walker).
     #[serde(default)]
     pub forcing: ForcingScene,
-    /// Nonlinear tolerance `|G| <= rtol |G_0|`. Default 0.1 (the drape's).
+    /// Nonlinear tolerance `|G| <= rtol |G_0|`. Range (0, 1). Default 0.1 (the drape's).
     #[serde(default = "d_newton_rtol", deserialize_with = "fraction")]
     pub newton_rtol: f64,
-    /// Newton iteration limit. Default 8.
-    #[serde(default = "d_newton_max", deserialize_with = "at_least_one")]
+    /// Newton iteration limit. Range 1 to 1000. Default 8.
+    #[serde(default = "d_newton_max", deserialize_with = "int_in::<_, 1, 1000>")]
     pub max_newton: usize,
-    /// PCG tolerance of exact Newton solves. Default 1e-8.
+    /// PCG tolerance of exact Newton solves. Range (0, 1). Default 1e-8.
     #[serde(default = "d_cg_rtol", deserialize_with = "fraction")]
     pub cg_rtol: f64,
-    /// PCG iteration limit. Default 500.
-    #[serde(default = "d_cg_max", deserialize_with = "at_least_one")]
+    /// PCG iteration limit. Range 1 to 100000. Default 500.
+    #[serde(default = "d_cg_max", deserialize_with = "int_in::<_, 1, 100000>")]
     pub max_cg: usize,
     /// `none`, `jacobi`, `block-jacobi`, `ssor`, `ic0`, `mic0`, `amg`
     /// (smoothed-aggregation multigrid with default options) or `auto`
@@ -654,10 +683,10 @@ pub struct SolverScene {
     /// on, `mic0` below (measured on the drape, docs/PERFORMANCE.md).
     #[serde(default, deserialize_with = "precond")]
     pub preconditioner: Option<PrecondKind>,
-    /// SSOR relaxation in (0, 2). Default 1.
+    /// SSOR relaxation. Range (0, 2). Default 1.
     #[serde(default = "one", deserialize_with = "omega")]
     pub omega: f64,
-    /// MIC(0) relaxation in [0, 1]. Default 0.99.
+    /// MIC(0) relaxation. Range [0, 1]. Default 0.99.
     #[serde(default = "d_mic_omega", deserialize_with = "mic_omega")]
     pub mic_omega: f64,
     /// Start each step's first PCG solve from the previous step's velocity
@@ -677,29 +706,35 @@ pub struct AmgScene {
     /// `"block-jacobi"` (default), `"gauss-seidel"` (symmetric) or `"ic0"`.
     #[serde(default)]
     pub smoother: AmgSmootherScene,
-    /// Pre- and post-smoothing steps per level. Default 1.
-    #[serde(default = "one_usize", deserialize_with = "at_least_one")]
+    /// Pre- and post-smoothing steps per level. Range 1 to 100. Default 1.
+    #[serde(default = "one_usize", deserialize_with = "int_in::<_, 1, 100>")]
     pub sweeps: usize,
-    /// Strength threshold on the finest level, in [0, 1). Default 0.08.
+    /// Strength threshold on the finest level. Range [0, 1). Default 0.08.
     #[serde(default = "d_amg_theta", deserialize_with = "strength")]
     pub strength_threshold: f64,
-    /// Unknowns of the coarsest level (solved directly). Default 500.
-    #[serde(default = "d_amg_coarse", deserialize_with = "at_least_one")]
+    /// Unknowns of the coarsest level (solved directly, a dense factor).
+    /// Range 1 to 4096. Default 500.
+    #[serde(default = "d_amg_coarse", deserialize_with = "int_in::<_, 1, 4096>")]
     pub coarse_size: usize,
-    /// At most this many levels. Default 10.
-    #[serde(default = "d_amg_levels", deserialize_with = "at_least_one")]
+    /// At most this many levels. Range 1 to 64. Default 10.
+    #[serde(default = "d_amg_levels", deserialize_with = "int_in::<_, 1, 64>")]
     pub max_levels: usize,
-    /// Block-Jacobi weight times rho(D^-1 A), in (0, 2). Default 4/3.
+    /// Block-Jacobi weight times rho(D^-1 A). Range (0, 2). Default 4/3.
     #[serde(default = "d_amg_weight", deserialize_with = "amg_weight")]
     pub jacobi_weight: f64,
-    /// Prolongator-smoothing weight times rho(D^-1 A), in (0, 2). Default 4/3.
+    /// Prolongator-smoothing weight times rho(D^-1 A). Range (0, 2). Default 4/3.
     #[serde(default = "d_amg_weight", deserialize_with = "amg_weight")]
     pub prolongation_weight: f64,
-    /// Power-method steps of the spectral radius estimates (0: Gershgorin). Default 5.
-    #[serde(default = "d_amg_power")]
+    /// Power-method steps of the spectral radius estimates (0: Gershgorin).
+    /// Range 0 to 100. Default 5.
+    #[serde(default = "d_amg_power", deserialize_with = "int_in::<_, 0, 100>")]
     pub power_iterations: usize,
-    /// Power steps at a refill (0: keep the last estimates). Default 0.
-    #[serde(default = "d_amg_refill_power")]
+    /// Power steps at a refill (0: keep the last estimates). Range 0 to 100.
+    /// Default 0.
+    #[serde(
+        default = "d_amg_refill_power",
+        deserialize_with = "int_in::<_, 0, 100>"
+    )]
     pub refill_power_iterations: usize,
     /// A refill keeps the prolongators. Default false.
     #[serde(default)]
@@ -709,8 +744,9 @@ pub struct AmgScene {
     /// iterations, then refill).
     #[serde(default)]
     pub reuse: AmgReuseScene,
-    /// Set-ups that keep the hierarchy with `reuse = "keep"`. Default 4.
-    #[serde(default = "d_amg_keep", deserialize_with = "at_least_one")]
+    /// Set-ups that keep the hierarchy with `reuse = "keep"`. Range 1 to
+    /// 1000. Default 4.
+    #[serde(default = "d_amg_keep", deserialize_with = "int_in::<_, 1, 1000>")]
     pub keep_updates: usize,
     /// Storage of the hierarchy's matrices: `"single"` (default: f32, half
     /// the memory traffic of a V-cycle) or `"double"` (f64, as before issue
@@ -925,7 +961,7 @@ impl<'de> Deserialize<'de> for ForcingScene {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FilterScene {
-    /// Filter sharpness lambda > 0. Default 1.
+    /// Filter sharpness lambda. Range (0, inf). Default 1.
     #[serde(default = "one", deserialize_with = "positive")]
     pub lambda: f64,
     /// `"exponential"` (default) or `"gaussian"`.
@@ -934,7 +970,8 @@ pub struct FilterScene {
     /// `"symmetric"` (default) or `"plain"`.
     #[serde(default)]
     pub form: FormScene,
-    /// Neighbourhood radius in rings of the spring graph. Default 1.
+    /// Neighbourhood radius in rings of the spring graph. Range 1 to the
+    /// `--max-memory` cap (the neighbourhoods are counted). Default 1.
     #[serde(default = "d_rings", deserialize_with = "at_least_one")]
     pub rings: usize,
     /// How the filtered velocities go back into the step: `"increment"`
@@ -1037,13 +1074,13 @@ pub enum ColliderScene {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OutputScene {
-    /// OBJ frames per simulated second (0: none). Default 10.
+    /// OBJ frames per simulated second (0: none). Range [0, inf). Default 10.
     #[serde(default = "d_frame_rate", deserialize_with = "non_negative")]
     pub frame_rate: f64,
-    /// Width of `final.png` in pixels (1 to 16 384). Default 800.
+    /// Width of `final.png` in pixels. Range 1 to 16384. Default 800.
     #[serde(default = "d_width", deserialize_with = "pixels")]
     pub width: usize,
-    /// Height of `final.png` in pixels (1 to 16 384). Default 600.
+    /// Height of `final.png` in pixels. Range 1 to 16384. Default 600.
     #[serde(default = "d_height", deserialize_with = "pixels")]
     pub height: usize,
 }
@@ -1129,12 +1166,38 @@ impl Scene {
         Self::with_overrides(file, text, &[])
     }
 
-    /// Reads a scene file.
+    /// Reads a scene file and applies `key=value` overrides as
+    /// [`with_overrides`](Self::with_overrides) does.
+    ///
+    /// ```
+    /// use hookean::scene::Scene;
+    /// let scene = Scene::from_file(
+    ///     concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/drape.toml"),
+    ///     &["cloth.n=16", "duration=0.1"],
+    /// )?;
+    /// let mut sim = scene.build()?;
+    /// sim.run_until(scene.duration, |_, _| std::ops::ControlFlow::Continue(()))?;
+    /// # Ok::<(), hookean::HookeanError>(())
+    /// ```
     ///
     /// # Errors
-    /// [`HookeanError::Io`] if it cannot be read; as [`from_toml_str`](Self::from_toml_str).
-    pub fn from_file(path: &Path, overrides: &[String]) -> Result<Self, HookeanError> {
-        let text = std::fs::read_to_string(path).map_err(|e| HookeanError::io(path, e))?;
+    /// [`HookeanError::Io`] if it cannot be read; as [`with_overrides`](Self::with_overrides).
+    pub fn from_file(path: impl AsRef<Path>, overrides: &[&str]) -> Result<Self, HookeanError> {
+        let path = path.as_ref();
+        // A scene is a few kilobytes: 16 MiB is far beyond any, and /dev/zero stops there.
+        let text = std::fs::File::open(path)
+            .map_err(|e| HookeanError::io(path, e))
+            .and_then(|f| {
+                hookean_sparse::text::read_capped(f, Self::MAX_FILE_BYTES).map_err(|e| match e {
+                    hookean_sparse::text::TextError::Io(e) => HookeanError::io(path, e),
+                    e => HookeanError::Scene {
+                        file: path.display().to_string(),
+                        line: e.line().unwrap_or(1),
+                        column: 1,
+                        message: e.to_string(),
+                    },
+                })
+            })?;
         Self::with_overrides(&path.display().to_string(), &text, overrides)
     }
 
@@ -1152,7 +1215,7 @@ impl Scene {
     pub fn with_overrides(
         file: &str,
         text: &str,
-        overrides: &[String],
+        overrides: &[&str],
     ) -> Result<Self, HookeanError> {
         let scene: Scene = toml::from_str(text).map_err(|e| scene_error(file, text, &e))?;
         if overrides.is_empty() {
@@ -1170,7 +1233,7 @@ impl Scene {
         for o in overrides {
             let blame = |message: String| HookeanError::Override {
                 file: file.to_string(),
-                arg: o.clone(),
+                arg: o.to_string(),
                 message,
             };
             apply_override(&mut table, o).map_err(blame)?;
@@ -1179,10 +1242,11 @@ impl Scene {
                 .try_into()
                 .map_err(|e: toml::de::Error| blame(e.message().trim().to_string()))?;
         }
-        // The model-table rule holds for the result, not each intermediate.
+        // The model-table rule holds for the result, not each intermediate:
+        // the scene after the last override breaks it.
         scene.check().map_err(|message| HookeanError::Override {
             file: file.to_string(),
-            arg: overrides.join(" --set "),
+            arg: overrides.last().map_or_else(String::new, |o| o.to_string()),
             message,
         })?;
         Ok(scene)
@@ -1427,6 +1491,9 @@ impl Scene {
         (bytes, key)
     }
 
+    /// The largest scene file [`from_file`](Self::from_file) reads: 16 MiB.
+    pub const MAX_FILE_BYTES: u64 = 16 << 20;
+
     /// The memory cap of [`build`](Self::build): 8 GiB.
     pub const DEFAULT_MAX_BYTES: u64 = 8 << 30;
 
@@ -1659,7 +1726,7 @@ mod tests {
         assert_eq!(opts.solver.h, default.solver.h);
         assert_eq!(opts.solver.newton, default.solver.newton);
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/drape.toml");
-        let shipped = Scene::from_file(Path::new(path), &[]).unwrap();
+        let shipped = Scene::from_file(path, &[]).unwrap();
         assert_eq!(shipped.simulation_options(), bare.simulation_options());
         assert_eq!(shipped.duration, bare.duration);
     }
@@ -1709,7 +1776,7 @@ mod tests {
         for (bad, key) in [
             ("strength_threshold = 1.5", "[0, 1)"),
             ("jacobi_weight = 2.0", "(0, 2)"),
-            ("sweeps = 0", "at least 1"),
+            ("sweeps = 0", "1 to 100"),
             ("smoother = \"sor\"", "sor"),
             ("reuse = \"sometimes\"", "sometimes"),
             ("levels = 3", "levels"),
@@ -1790,23 +1857,23 @@ mod tests {
         let s = Scene::with_overrides(
             "s.toml",
             "[cloth]\nn = 8\n",
-            &["cloth.n=5".into(), "integrator.method=fb-euler".into()],
+            &["cloth.n=5", "integrator.method=fb-euler"],
         )
         .unwrap();
         assert_eq!(s.cloth.unwrap().n, 5);
         assert_eq!(s.integrator.method, Method::FbEuler);
         // The error names the override that broke the scene, not a
         // position in a merged text.
-        let overrides = ["cloth.n=4".into(), "cloth.n=1".into(), "cloth.n=3".into()];
+        let overrides = ["cloth.n=4", "cloth.n=1", "cloth.n=3"];
         match Scene::with_overrides("s.toml", "[cloth]\n", &overrides) {
             Err(e @ HookeanError::Override { .. }) => {
                 let m = e.to_string();
-                assert!(m.starts_with("s.toml: --set cloth.n=1: "), "{m}");
+                assert!(m.starts_with("s.toml: override cloth.n=1: "), "{m}");
                 assert!(m.contains("at least 2"), "{m}");
             }
             other => panic!("{other:?}"),
         }
-        match Scene::with_overrides("s.toml", "[cloth]\n", &["cloth.n".into()]) {
+        match Scene::with_overrides("s.toml", "[cloth]\n", &["cloth.n"]) {
             Err(HookeanError::Override { arg, message, .. }) => {
                 assert_eq!(arg, "cloth.n");
                 assert!(message.contains("key=value"), "{message}");

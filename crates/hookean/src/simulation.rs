@@ -123,6 +123,15 @@ impl RunSummary {
 
 /// A consumer of simulation output (frames, statistics, pictures).
 pub trait Sink {
+    /// Called once before the first step of a run, with the starting state
+    /// (e.g. to write frame 0).
+    ///
+    /// # Errors
+    /// An output error stops the run before it starts.
+    fn start(&mut self, _sim: &Simulation) -> Result<(), HookeanError> {
+        Ok(())
+    }
+
     /// Called after every accepted step.
     ///
     /// # Errors
@@ -374,6 +383,9 @@ impl Simulation {
         t_end: f64,
         sinks: &mut [&mut dyn Sink],
     ) -> Result<RunSummary, HookeanError> {
+        for s in sinks.iter_mut() {
+            s.start(self)?;
+        }
         let mut failure = None;
         let summary = self.run_until(t_end, |sim, report| {
             for s in sinks.iter_mut() {
@@ -391,6 +403,32 @@ impl Simulation {
             s.finish(self, &summary)?;
         }
         Ok(summary)
+    }
+
+    /// Writes the current positions to the file `path` as OBJ (the model's
+    /// triangles, or its springs as lines for a rope), vertices coloured by
+    /// speed (blue at rest to red at the fastest particle). An existing file
+    /// at `path` is replaced.
+    ///
+    /// # Errors
+    /// [`HookeanError::Io`] naming `path`.
+    pub fn write_obj(&self, path: impl AsRef<std::path::Path>) -> Result<(), HookeanError> {
+        let path = path.as_ref();
+        let file = std::fs::File::create(path).map_err(|e| HookeanError::io(path, e))?;
+        let mut w = std::io::BufWriter::new(file);
+        self.write_obj_to(&mut w)
+            .and_then(|()| std::io::Write::flush(&mut w).map_err(HookeanError::from))
+            .map_err(|e| e.at_path(path))
+    }
+
+    /// Writes the current positions as OBJ to `w`, as [`write_obj`](Self::write_obj).
+    ///
+    /// # Errors
+    /// [`HookeanError::MassSpring`] if writing fails.
+    pub fn write_obj_to(&self, w: impl std::io::Write) -> Result<(), HookeanError> {
+        let colours = hookean_massspring::speed_colours(self.v(), 0.0);
+        self.model().write_obj(w, self.x(), Some(&colours))?;
+        Ok(())
     }
 
     /// Simulated time.

@@ -29,11 +29,7 @@ fn cloth_on_a_sphere_statistics() {
     // retries here).
     let path =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cloth-sphere.toml");
-    let scene = hookean::scene::Scene::from_file(
-        &path,
-        &["cloth.n=12".to_string(), "duration=0.4".to_string()],
-    )
-    .unwrap();
+    let scene = hookean::scene::Scene::from_file(&path, &["cloth.n=12", "duration=0.4"]).unwrap();
     let mut sim = scene.build().unwrap();
     let summary = sim
         .run_until(0.4, |_, _| ControlFlow::Continue(()))

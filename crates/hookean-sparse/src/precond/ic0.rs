@@ -343,6 +343,7 @@ fn check_finite(values: &[f64]) -> Result<(), SparseError> {
 
 impl PreconditionerSetup<SymBlockMatrix> for IncompleteCholesky {
     fn setup(&mut self, a: &SymBlockMatrix) -> Result<(), SparseError> {
+        crate::error::non_empty("matrix", a.dim())?;
         let source = std::mem::replace(&mut self.source, Source::None);
         let mut factor = match source {
             Source::Block(f) if f.is_for(a.pattern()) => f,
@@ -395,6 +396,7 @@ impl PreconditionerSetup<sprs::CsMat<f64>> for IncompleteCholesky {
         let same = matches!(&self.source,
             Source::Csr { indptr: p, indices: i } if p.as_slice() == &*indptr && i.as_slice() == a.indices());
         if !same {
+            super::check_both_triangles(&indptr, a.indices(), "IC(0)")?;
             self.symbolic_csr(n, &indptr, a.indices());
         }
         self.numeric(a.data())

@@ -128,6 +128,7 @@ fn jacobi_update(
 
 impl PreconditionerSetup<SymBlockMatrix> for Jacobi {
     fn setup(&mut self, a: &SymBlockMatrix) -> Result<(), SparseError> {
+        crate::error::non_empty("matrix", a.dim())?;
         self.store(a.dim(), |i| a.diagonal_block(i / 3)[i % 3][i % 3])
     }
 }
@@ -192,6 +193,7 @@ impl Preconditioner for BlockJacobi {
 
 impl PreconditionerSetup<SymBlockMatrix> for BlockJacobi {
     fn setup(&mut self, a: &SymBlockMatrix) -> Result<(), SparseError> {
+        crate::error::non_empty("matrix", a.dim())?;
         self.store(a.n_blocks(), |i| *a.diagonal_block(i))
     }
 }

@@ -99,7 +99,7 @@ pub(crate) fn square_dim(a: &sprs::CsMat<f64>) -> Result<usize, SparseError> {
     if rows != cols {
         return Err(SparseError::NotSquare { rows, cols });
     }
-    Ok(rows)
+    crate::error::non_empty("matrix", rows)
 }
 
 /// `a` in CSR form: itself, or a converted copy of a CSC matrix.
@@ -109,6 +109,40 @@ pub(crate) fn as_csr(a: &sprs::CsMat<f64>) -> std::borrow::Cow<'_, sprs::CsMat<f
     } else {
         std::borrow::Cow::Owned(a.to_csr())
     }
+}
+
+/// `Ok` unless the CSR pattern (`indptr`, `indices`) stores off-diagonal
+/// entries in one triangle only: the symmetric preconditioners (SSOR, IC(0),
+/// multigrid) read both triangles, and a matrix stored as its upper half would
+/// silently be a different matrix to them. Checked when a pattern is first
+/// seen (O(nnz)), not at every refill.
+///
+/// # Errors
+/// [`SparseError::OneTriangle`] naming `who` and the stored triangle.
+pub(crate) fn check_both_triangles(
+    indptr: &[usize],
+    indices: &[usize],
+    who: &'static str,
+) -> Result<(), SparseError> {
+    let (mut upper, mut lower) = (false, false);
+    for (row, w) in indptr.windows(2).enumerate() {
+        for &col in &indices[w[0]..w[1]] {
+            upper |= col > row;
+            lower |= col < row;
+        }
+        if upper && lower {
+            return Ok(());
+        }
+    }
+    let stored = match (upper, lower) {
+        (true, false) => "upper",
+        (false, true) => "lower",
+        _ => return Ok(()), // diagonal, or both
+    };
+    Err(SparseError::OneTriangle {
+        preconditioner: who,
+        stored,
+    })
 }
 
 /// A scalar CSR copy of a `sprs` matrix (converted from CSC if needed) with
@@ -131,6 +165,7 @@ impl ScalarCsr {
         let indptr = a.proper_indptr();
         let same = self.indptr.as_slice() == &*indptr && self.indices.as_slice() == a.indices();
         if !same {
+            check_both_triangles(&indptr, a.indices(), who)?;
             self.indptr = indptr.into_owned();
             self.indices = a.indices().to_vec();
             self.diag.clear();

@@ -164,6 +164,7 @@ impl Preconditioner for Ssor {
 
 impl PreconditionerSetup<SymBlockMatrix> for Ssor {
     fn setup(&mut self, a: &SymBlockMatrix) -> Result<(), SparseError> {
+        crate::error::non_empty("matrix", a.dim())?;
         let reuse =
             matches!(&self.storage, Storage::Block(m) if Arc::ptr_eq(m.pattern(), a.pattern()));
         if reuse {

@@ -747,6 +747,7 @@ fn full_pattern(p: &BlockPattern) -> (Bsr<3>, Vec<(u32, bool)>) {
 
 impl PreconditionerSetup<SymBlockMatrix> for Amg {
     fn setup(&mut self, a: &SymBlockMatrix) -> Result<(), SparseError> {
+        crate::error::non_empty("matrix", a.dim())?;
         let start = Instant::now();
         let same = matches!(&self.inner, Inner::Block { source, .. }
             if Arc::ptr_eq(source, a.pattern()) || **source == **a.pattern());
@@ -798,6 +799,9 @@ impl PreconditionerSetup<sprs::CsMat<f64>> for Amg {
             (Inner::Csr3(c), 3) => c.same_pattern(a),
             _ => false,
         };
+        if !same {
+            super::check_both_triangles(&a.proper_indptr(), a.indices(), "AMG")?;
+        }
         let Some(refill) = self.plan(same) else {
             return Ok(());
         };

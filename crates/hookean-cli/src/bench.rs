@@ -1,0 +1,678 @@
+//! `hookean bench`: every preconditioner on every system of a set of Matrix
+//! Market files (and, optionally, the built-in cloth systems), repeated in
+//! interleaved rounds, written as one table (`bench.md`, `bench.csv`) and
+//! one picture per system of the relative residual against time
+//! (`residual-NAME.svg`).
+//!
+//! A system is `NAME.mtx`; beside it, `NAME_b.mtx` is its right-hand side
+//! (default `A * ones`) and `NAME_nullspace.mtx` (one column per vector) the
+//! multigrid's near-nullspace. A matrix named `NAME-A.mtx` or `NAME_A.mtx`
+//! finds its right-hand side as `NAME-b.mtx` or `NAME_b.mtx` too.
+//!
+//! A solver that fails (no convergence, a breakdown, a preconditioner that
+//! cannot be built) and a file that cannot be used (malformed, not
+//! symmetric, not square) are rows with their reason: the command still
+//! writes everything and exits 0. Bad flags, no systems at all or an
+//! output that cannot be written fail it.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+use hookean_sparse::{
+    MatrixMarket, PrecondKind, ReadOptions, check_csr_symmetric, read_matrix_market_file_with,
+};
+
+use crate::CliError;
+use crate::lineplot::{LogLogPlot, Series};
+use crate::solve::{
+    Matrix, RunOptions, SolveRecord, Solver, SolverArgs, System, load_system, nullspace_block_size,
+    run_solver,
+};
+
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Matrix Market files, or folders of them (every `*.mtx` inside;
+    /// `NAME_b.mtx` and `NAME_nullspace.mtx` beside `NAME.mtx` are its
+    /// right-hand side and near-nullspace, not systems).
+    inputs: Vec<PathBuf>,
+    /// The preconditioners to compare, comma-separated: none, jacobi, block-jacobi, ssor, ic0, mic0
+    /// (block storage only), amg, direct (faer sparse Cholesky), or all.
+    #[arg(long, default_value = "jacobi,block-jacobi,ssor,ic0,amg,direct")]
+    precond: String,
+    /// Also the built-in cloth systems of `hookean bench-precond` (k = 1e4) at these comma-separated
+    /// sizes N (N x N particles), each 2 to 512.
+    #[arg(long, value_delimiter = ',')]
+    cloth: Vec<usize>,
+    /// Output folder (default: out/bench). It must not exist unless --force.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Replace an existing output folder of an earlier hookean command.
+    #[arg(long)]
+    force: bool,
+    /// Rounds (1 to 1000): each round runs every solver once, in order, on a system; the table
+    /// holds the best set-up and solve times.
+    #[arg(long, default_value_t = 3)]
+    repeat: usize,
+    /// Relative residual tolerance |r| / |b| of PCG, in [0, 1).
+    #[arg(long, default_value_t = 1e-8, allow_negative_numbers = true)]
+    rtol: f64,
+    /// PCG iteration limit, 0 to 10^7 (default 2 n).
+    #[arg(long)]
+    max_iter: Option<usize>,
+    /// SSOR relaxation, in (0, 2).
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    omega: f64,
+    /// The smoother of `amg`: block-jacobi, gauss-seidel or ic0.
+    #[arg(long, default_value = "block-jacobi")]
+    amg_smoother: String,
+    /// Matrix storage for PCG: block (symmetric 3x3 blocks), csr, or auto (block when possible).
+    #[arg(long, default_value = "auto")]
+    format: String,
+    /// Unknowns per node for `amg` on csr storage, 1 to 3 (default: read off the first vector of a
+    /// `_nullspace.mtx`, a translation non-zero at every d-th entry, else 1).
+    #[arg(long)]
+    block_size: Option<usize>,
+    /// Skip a matrix, or a direct factor, that would need more memory than this (GiB), in (0, the
+    /// machine's memory].
+    #[arg(
+        long,
+        value_name = "GIB",
+        default_value_t = 8.0,
+        allow_negative_numbers = true
+    )]
+    max_memory: f64,
+    /// No progress lines on stderr.
+    #[arg(long)]
+    quiet: bool,
+}
+
+/// The most systems one run takes.
+const MAX_SYSTEMS: usize = 10_000;
+/// The most points of one curve drawn (the trace is thinned evenly).
+const PLOT_POINTS: usize = 60;
+/// The stiffness of the built-in cloth systems.
+const CLOTH_K: f64 = 1e4;
+
+/// One system to benchmark.
+struct Input {
+    /// Its name in the table and the picture's file name.
+    name: String,
+    source: Source,
+}
+
+enum Source {
+    File {
+        matrix: PathBuf,
+        rhs: Option<PathBuf>,
+        nullspace: Option<PathBuf>,
+    },
+    Cloth(usize),
+}
+
+/// A system's near-nullspace for the multigrid.
+enum Loaded {
+    /// The vectors (empty: the multigrid's default).
+    Vectors(Vec<Vec<f64>>),
+    /// Why the file's vectors are not used (added to the multigrid's status).
+    Note(String),
+}
+
+/// One row of the table.
+struct Row {
+    system: String,
+    rows: usize,
+    nnz: usize,
+    record: Option<SolveRecord>,
+    /// Why the system or solver has no result, or missed the tolerance.
+    status: String,
+}
+
+pub fn run(args: &BenchArgs) -> Result<(), CliError> {
+    let solver_args = SolverArgs {
+        precond: args.precond.clone(),
+        omega: args.omega,
+        rtol: args.rtol,
+        max_iter: args.max_iter,
+        repeat: args.repeat,
+        amg_smoother: args.amg_smoother.clone(),
+        max_memory: args.max_memory,
+    };
+    let (solvers, params) = solver_args.resolve()?;
+    let cap = crate::memory::cap_bytes(args.max_memory)?;
+    if let Some(b) = args.block_size.filter(|b| !(1..=3).contains(b)) {
+        return Err(CliError::Input(format!(
+            "--block-size must be 1, 2 or 3, got {b}"
+        )));
+    }
+    if !matches!(args.format.as_str(), "auto" | "block" | "csr") {
+        return Err(CliError::Input(format!(
+            "unknown --format '{}' (expected block, csr or auto)",
+            args.format
+        )));
+    }
+    if let Some(&n) = args.cloth.iter().find(|&&n| !(2..=512).contains(&n)) {
+        return Err(CliError::Input(format!(
+            "--cloth: size {n} must lie in 2..=512"
+        )));
+    }
+    let inputs = discover(&args.inputs, &args.cloth)?;
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("out").join("bench"));
+    let input_paths: Vec<&Path> = args.inputs.iter().map(PathBuf::as_path).collect();
+    let staging = crate::output::Staging::new(&out, "--out", args.force, &input_paths)?;
+    match bench(
+        args,
+        &inputs,
+        &solvers,
+        &params,
+        &solver_args,
+        cap,
+        staging.dir(),
+    ) {
+        Ok(table) => {
+            staging.commit()?;
+            crate::outln!("{}", table.trim_end())?;
+            if !args.quiet {
+                crate::errln!("hookean bench: wrote {}", out.display());
+            }
+            Ok(())
+        }
+        Err(e) => Err(staging.abandon(e)),
+    }
+}
+
+/// The systems named by `paths` (files, or every `*.mtx` of a folder) and
+/// the cloth sizes, in order; right-hand sides and near-nullspaces are
+/// attached to their matrices.
+fn discover(paths: &[PathBuf], cloth: &[usize]) -> Result<Vec<Input>, CliError> {
+    let mut files: Vec<PathBuf> = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let entries = std::fs::read_dir(p)
+                .map_err(|e| CliError::Input(format!("{}: {e}", p.display())))?;
+            let mut found: Vec<PathBuf> = entries
+                .filter_map(Result::ok)
+                .map(|e| e.path())
+                .filter(|f| f.extension().is_some_and(|x| x == "mtx") && f.is_file())
+                .collect();
+            found.sort();
+            files.extend(found);
+        } else if p.is_file() {
+            files.push(p.clone());
+        } else {
+            return Err(CliError::Input(format!(
+                "{}: no such file or folder",
+                p.display()
+            )));
+        }
+        if files.len() > MAX_SYSTEMS {
+            return Err(CliError::Input(format!(
+                "more than {MAX_SYSTEMS} Matrix Market files: benchmark fewer at a time"
+            )));
+        }
+    }
+    let set: BTreeSet<&Path> = files.iter().map(PathBuf::as_path).collect();
+    let stem = |f: &Path| {
+        f.file_stem()
+            .map_or_else(String::new, |s| s.to_string_lossy().into_owned())
+    };
+    let beside = |f: &Path, name: String| {
+        let p = f.with_file_name(format!("{name}.mtx"));
+        set.contains(p.as_path()).then_some(p)
+    };
+    // Right-hand side and near-nullspace candidates of a matrix file.
+    let companions = |f: &Path| {
+        let s = stem(f);
+        let mut rhs = vec![format!("{s}_b")];
+        if let Some(base) = s.strip_suffix("-A").or_else(|| s.strip_suffix("_A")) {
+            rhs.extend([format!("{base}-b"), format!("{base}_b")]);
+        }
+        let rhs = rhs.into_iter().find_map(|r| beside(f, r));
+        let nullspace = beside(f, format!("{s}_nullspace"));
+        (rhs, nullspace)
+    };
+    let attached: BTreeSet<PathBuf> = files
+        .iter()
+        .flat_map(|f| {
+            let (r, n) = companions(f);
+            r.into_iter().chain(n)
+        })
+        .collect();
+    let mut inputs = Vec::new();
+    let mut names: BTreeMap<String, usize> = BTreeMap::new();
+    for f in files.iter().filter(|f| !attached.contains(*f)) {
+        let (rhs, nullspace) = companions(f);
+        inputs.push(Input {
+            name: unique(&mut names, stem(f)),
+            source: Source::File {
+                matrix: f.clone(),
+                rhs,
+                nullspace,
+            },
+        });
+    }
+    for &n in cloth {
+        inputs.push(Input {
+            name: unique(&mut names, format!("cloth{n}")),
+            source: Source::Cloth(n),
+        });
+    }
+    if inputs.is_empty() {
+        return Err(CliError::Input(
+            "nothing to benchmark: give Matrix Market files or folders, or --cloth sizes".into(),
+        ));
+    }
+    Ok(inputs)
+}
+
+/// `name`, or `name-2`, `name-3`, ... when taken.
+fn unique(names: &mut BTreeMap<String, usize>, name: String) -> String {
+    let count = names.entry(name.clone()).or_insert(0);
+    *count += 1;
+    if *count == 1 {
+        name
+    } else {
+        format!("{name}-{count}")
+    }
+}
+
+/// Runs every solver on every system in `dir`; returns the markdown table.
+fn bench(
+    args: &BenchArgs,
+    inputs: &[Input],
+    solvers: &[Solver],
+    params: &hookean_sparse::CgParams,
+    solver_args: &SolverArgs,
+    cap: u64,
+    dir: &Path,
+) -> Result<String, CliError> {
+    let one_round = SolverArgs {
+        repeat: 1,
+        ..solver_args.clone()
+    };
+    let mut rows: Vec<Row> = Vec::new();
+    for (k, input) in inputs.iter().enumerate() {
+        if !args.quiet {
+            crate::errln!("hookean bench: [{}/{}] {}", k + 1, inputs.len(), input.name);
+        }
+        let (system, nullspace) = match load(input, args, cap) {
+            Ok(s) => s,
+            Err(reason) => {
+                rows.push(Row {
+                    system: input.name.clone(),
+                    rows: 0,
+                    nnz: 0,
+                    record: None,
+                    status: reason,
+                });
+                continue;
+            }
+        };
+        let (n, nnz) = (system.b.len(), system.a.nnz());
+        // MIC(0) exists for block storage only: on CSR it is a row saying so.
+        let mut best: Vec<Option<SolveRecord>> = solvers.iter().map(|_| None).collect();
+        for _ in 0..args.repeat {
+            for (s, solver) in solvers.iter().enumerate() {
+                if best[s].as_ref().is_some_and(|r| r.error.is_some()) {
+                    continue;
+                }
+                let run = RunOptions {
+                    trace: true,
+                    near_nullspace: match (solver, &nullspace) {
+                        (Solver::Pcg(PrecondKind::Amg), Ok(Loaded::Vectors(v))) => v.clone(),
+                        _ => Vec::new(),
+                    },
+                };
+                let mut record = match (solver, &nullspace) {
+                    (Solver::Pcg(PrecondKind::Amg), Err(reason)) => {
+                        let mut r = failed_record(solver);
+                        r.error = Some(reason.clone());
+                        r
+                    }
+                    _ => run_solver(
+                        solver,
+                        &system.matrix,
+                        &system.a,
+                        &system.b,
+                        params,
+                        &one_round,
+                        &run,
+                    ),
+                };
+                if let Some(prev) = best[s].take() {
+                    record = merge(prev, record);
+                }
+                best[s] = Some(record);
+            }
+        }
+        for (solver, record) in solvers.iter().zip(best.into_iter()) {
+            let Some(record) = record else { continue };
+            let mut status = match (&record.error, record.converged) {
+                (Some(e), _) => format!("failed: {e}"),
+                (None, true) => "converged".to_string(),
+                (None, false) => format!("not converged (|r|/|b| = {:.1e})", record.rel_residual),
+            };
+            if let (Solver::Pcg(PrecondKind::Amg), Ok(Loaded::Note(note))) = (solver, &nullspace) {
+                status = format!("{status}; {note}");
+            }
+            if !args.quiet {
+                crate::errln!(
+                    "  {:<13} {:>6} iterations, {:>10.3} ms, {status}",
+                    record.precond,
+                    record.iterations,
+                    1e3 * (record.setup_s + record.solve_s)
+                );
+            }
+            rows.push(Row {
+                system: input.name.clone(),
+                rows: n,
+                nnz,
+                record: Some(record),
+                status,
+            });
+        }
+        plot(&input.name, &rows, dir)?;
+    }
+    let (markdown, csv) = table(&rows);
+    crate::output::write_text(&dir.join("bench.md"), &markdown)?;
+    crate::output::write_text(&dir.join("bench.csv"), &csv)?;
+    Ok(markdown)
+}
+
+/// A record for a solver that did not run.
+fn failed_record(solver: &Solver) -> SolveRecord {
+    SolveRecord {
+        matrix: String::new(),
+        solver: "hookean-pcg",
+        precond: match solver {
+            Solver::Pcg(kind) => kind.to_string(),
+            Solver::Direct => "direct".into(),
+        },
+        format: "",
+        rows: 0,
+        nnz: 0,
+        setup_s: f64::NAN,
+        solve_s: f64::NAN,
+        iterations: 0,
+        rel_residual: f64::NAN,
+        converged: false,
+        amg: None,
+        error: None,
+        trace: Vec::new(),
+        setup_bytes: None,
+    }
+}
+
+/// The best of two rounds of one solver: the fastest set-up and solve, the
+/// trace of the fastest total, the largest memory; an error wins.
+fn merge(prev: SolveRecord, next: SolveRecord) -> SolveRecord {
+    if next.error.is_some() {
+        return next;
+    }
+    let faster = next.setup_s + next.solve_s < prev.setup_s + prev.solve_s;
+    SolveRecord {
+        setup_s: prev.setup_s.min(next.setup_s),
+        solve_s: prev.solve_s.min(next.solve_s),
+        setup_bytes: prev.setup_bytes.max(next.setup_bytes),
+        trace: if faster { next.trace } else { prev.trace },
+        ..next
+    }
+}
+
+/// Reads (or builds) one system and its near-nullspace; `Err` is the reason
+/// the system is a row without results.
+#[allow(clippy::type_complexity)]
+fn load(
+    input: &Input,
+    args: &BenchArgs,
+    cap: u64,
+) -> Result<(System, Result<Loaded, String>), String> {
+    match &input.source {
+        Source::Cloth(n) => {
+            let (a, b) = crate::deformed_cloth_system(*n, CLOTH_K).map_err(reason)?;
+            let csr = a.to_csr();
+            let matrix = match args.format.as_str() {
+                "csr" => Matrix::csr(csr.clone(), args.block_size.unwrap_or(3)),
+                _ => Matrix::Block(a),
+            };
+            Ok((
+                System { a: csr, b, matrix },
+                Ok(Loaded::Vectors(Vec::new())),
+            ))
+        }
+        Source::File {
+            matrix,
+            rhs,
+            nullspace,
+        } => {
+            let nullspace = match nullspace {
+                Some(p) => read_nullspace(p, cap),
+                None => Ok(Vec::new()),
+            };
+            let block_size = args.block_size.unwrap_or(match &nullspace {
+                Ok(v) => nullspace_block_size(v).unwrap_or(1),
+                Err(_) => 1,
+            });
+            // `auto` groups 3x3 blocks where it can; a near-nullspace saying
+            // the nodes have 1 or 2 unknowns asks for scalar storage.
+            let format = match (&nullspace, args.format.as_str()) {
+                (Ok(v), "auto") if nullspace_block_size(v).is_some_and(|d| d != 3) => "csr",
+                (_, f) => f,
+            };
+            let system =
+                load_system(matrix, rhs.as_deref(), format, block_size, cap).map_err(reason)?;
+            check_csr_symmetric(&system.a)
+                .map_err(|e| format!("{}: {e} (PCG needs a symmetric matrix)", matrix.display()))?;
+            let nullspace = nullspace.and_then(|v| match v.first() {
+                Some(c) if c.len() != system.b.len() => Err(format!(
+                    "near-nullspace vectors have {} entries, the matrix has {} rows",
+                    c.len(),
+                    system.b.len()
+                )),
+                _ => Ok(v),
+            });
+            // The multigrid takes as many near-nullspace vectors as unknowns
+            // per node; with more (rigid-body rotations), it runs on its
+            // default (the translations) and says so.
+            let note = match (&nullspace, &system.matrix) {
+                (Ok(v), Matrix::Csr { block_size, .. })
+                    if !v.is_empty() && v.len() != *block_size =>
+                {
+                    Some(format!(
+                        "near-nullspace of {} vectors not used: the multigrid takes one per unknown of a node ({block_size})",
+                        v.len()
+                    ))
+                }
+                (Ok(v), Matrix::Block(_)) if !v.is_empty() && v.len() != 3 => Some(format!(
+                    "near-nullspace of {} vectors not used: the block multigrid takes 3",
+                    v.len()
+                )),
+                _ => None,
+            };
+            let nullspace = match note {
+                Some(n) => Ok(Loaded::Note(n)),
+                None => nullspace.map(Loaded::Vectors),
+            };
+            Ok((system, nullspace))
+        }
+    }
+}
+
+/// The message of an error that makes a system a row without results.
+fn reason(e: CliError) -> String {
+    match e {
+        CliError::Input(m) | CliError::Failed(m) => m,
+        CliError::SolverFailed => "the solver failed".into(),
+        CliError::OutputClosed => "output closed".into(),
+    }
+}
+
+/// The columns of a near-nullspace file (Matrix Market, array or coordinate).
+fn read_nullspace(path: &Path, cap: u64) -> Result<Vec<Vec<f64>>, String> {
+    let opts = ReadOptions {
+        max_bytes: cap,
+        ..ReadOptions::default()
+    };
+    let m = read_matrix_market_file_with(path, &opts).map_err(|e| e.to_string())?;
+    let (rows, cols) = m.shape();
+    let values = match m {
+        MatrixMarket::Dense { values, .. } => values,
+        MatrixMarket::Sparse(a) => {
+            let mut v = vec![0.0; rows * cols];
+            for (&x, (r, c)) in a.iter() {
+                v[c * rows + r] = x;
+            }
+            v
+        }
+    };
+    Ok(values.chunks(rows.max(1)).map(<[f64]>::to_vec).collect())
+}
+
+/// `residual-NAME.svg`: the relative residual of every solver of `system`
+/// against the time since its set-up started.
+fn plot(system: &str, rows: &[Row], dir: &Path) -> Result<(), CliError> {
+    let series: Vec<Series> = rows
+        .iter()
+        .filter(|r| r.system == system)
+        .filter_map(|r| r.record.as_ref())
+        .map(|rec| Series {
+            name: rec.precond.clone(),
+            points: thin(&rec.trace, PLOT_POINTS),
+        })
+        .collect();
+    if series.is_empty() {
+        return Ok(());
+    }
+    let plot = LogLogPlot {
+        title: format!("{system}: relative residual against time"),
+        x_label: "time since the set-up started (s)".into(),
+        y_label: "|r| / |b|".into(),
+        series,
+    };
+    let svg = plot.render().map_err(CliError::Failed)?;
+    crate::output::write_text(
+        &dir.join(format!("residual-{}.svg", file_name(system))),
+        &svg,
+    )
+}
+
+/// At most `max` points of `trace`, evenly spaced, with the first and last.
+fn thin(trace: &[(f64, f64)], max: usize) -> Vec<(f64, f64)> {
+    if trace.len() <= max {
+        return trace.to_vec();
+    }
+    let step = (trace.len() - 1) as f64 / (max - 1) as f64;
+    (0..max)
+        .map(|k| trace[((k as f64 * step).round() as usize).min(trace.len() - 1)])
+        .collect()
+}
+
+/// `name` with every character but letters, digits, `-`, `_` and `.` as `_`.
+fn file_name(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "-_.".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// The markdown and CSV tables. In markdown, the fastest converged solver
+/// of each system is bold.
+fn table(rows: &[Row]) -> (String, String) {
+    let mut md = String::from(
+        "| system | rows | nonzeros | preconditioner | iterations | set-up (ms) | solve (ms) | total (ms) | \\|r\\|/\\|b\\| | set-up memory (MiB) | status |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    let mut csv = String::from(
+        "system,rows,nonzeros,preconditioner,iterations,setup_s,solve_s,total_s,rel_residual,setup_memory_bytes,status\n",
+    );
+    let mut fastest: BTreeMap<&str, f64> = BTreeMap::new();
+    for r in rows {
+        if let Some(rec) = r
+            .record
+            .as_ref()
+            .filter(|x| x.converged && x.error.is_none())
+        {
+            let t = fastest.entry(&r.system).or_insert(f64::INFINITY);
+            *t = t.min(rec.setup_s + rec.solve_s);
+        }
+    }
+    let num = |v: f64, scale: f64, digits: usize| {
+        if v.is_finite() {
+            format!("{:.*}", digits, v * scale)
+        } else {
+            "-".into()
+        }
+    };
+    for r in rows {
+        let md_status = r.status.replace('|', "\\|");
+        let csv_status = format!("\"{}\"", r.status.replace('"', "\"\""));
+        match &r.record {
+            None => {
+                md.push_str(&format!(
+                    "| {} | - | - | - | - | - | - | - | - | - | {md_status} |\n",
+                    r.system
+                ));
+                csv.push_str(&format!("{},,,,,,,,,,{csv_status}\n", r.system));
+            }
+            Some(rec) if rec.error.is_some() => {
+                md.push_str(&format!(
+                    "| {} | {} | {} | {} | - | - | - | - | - | - | {md_status} |\n",
+                    r.system, r.rows, r.nnz, rec.precond
+                ));
+                csv.push_str(&format!(
+                    "{},{},{},{},,,,,,,{csv_status}\n",
+                    r.system, r.rows, r.nnz, rec.precond
+                ));
+            }
+            Some(rec) => {
+                let total = rec.setup_s + rec.solve_s;
+                let bold = fastest.get(r.system.as_str()) == Some(&total);
+                let name = if bold {
+                    format!("**{}**", rec.precond)
+                } else {
+                    rec.precond.clone()
+                };
+                let memory = rec.setup_bytes.map_or("-".into(), |b| {
+                    format!("{:.1}", b as f64 / (1 << 20) as f64)
+                });
+                md.push_str(&format!(
+                    "| {} | {} | {} | {name} | {} | {} | {} | {} | {} | {memory} | {md_status} |\n",
+                    r.system,
+                    r.rows,
+                    r.nnz,
+                    rec.iterations,
+                    num(rec.setup_s, 1e3, 3),
+                    num(rec.solve_s, 1e3, 3),
+                    num(total, 1e3, 3),
+                    if rec.rel_residual.is_finite() {
+                        format!("{:.1e}", rec.rel_residual)
+                    } else {
+                        "-".into()
+                    },
+                ));
+                csv.push_str(&format!(
+                    "{},{},{},{},{},{:e},{:e},{:e},{:e},{},{csv_status}\n",
+                    r.system,
+                    r.rows,
+                    r.nnz,
+                    rec.precond,
+                    rec.iterations,
+                    rec.setup_s,
+                    rec.solve_s,
+                    total,
+                    rec.rel_residual,
+                    rec.setup_bytes.map_or(String::new(), |b| b.to_string()),
+                ));
+            }
+        }
+    }
+    (md, csv)
+}
