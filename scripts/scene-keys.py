@@ -9,11 +9,14 @@ src = (root / "crates/hookean/src/scene.rs").read_text()
 tables = {"Scene": "", "ClothScene": "cloth", "RopeScene": "rope", "JellyScene": "jelly",
           "TutorialScene": "tutorial", "ModelScene": "model", "IntegratorScene": "integrator",
           "SolverScene": "solver", "AmgScene": "solver.amg", "FilterScene": "filter",
-          "OutputScene": "output"}
+          "OutputScene": "output", "MeshScene": "mesh", "ContactScene": "contact"}
 auto_amg = re.search(r"AUTO_AMG_PARTICLES: usize = ([0-9_]+);", src).group(1).replace("_", " ")
 lines = ["Scene keys (TOML; `hookean run SCENE --set key=value` overrides one).",
-         "A scene has exactly one model table: [cloth], [rope], [jelly], [particle] or [tutorial].",
-         "[[collider]] tables: kind = \"plane\" (point, normal, margin) or \"sphere\" (center, radius, margin).",
+         "A scene has exactly one model table: [cloth], [rope], [jelly], [mesh], [particle] or [tutorial].",
+         "[[collider]] tables: kind = \"plane\" (point, normal, margin), \"sphere\" (center, radius, margin)",
+         "or \"mesh\" (path, scale = 1, offset = [0, 0, 0], thickness = 0.005 m, velocity = [0, 0, 0] m/s,",
+         "angular_velocity = [0, 0, 0] rad/s, pivot = centre of its box); every kind also static_friction",
+         "(default 0) and kinetic_friction (default: static_friction). docs/CONTACT.md explains them.",
          "Units are SI (m, kg, s, N/m, N s/m). Generated from crates/hookean/src/scene.rs by scripts/scene-keys.py.",
          ""]
 for name, table in tables.items():

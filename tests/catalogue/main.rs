@@ -114,6 +114,7 @@ impl Case {
 
 mod bounds;
 mod commands;
+mod contact;
 mod files;
 mod fuzz;
 mod races;
@@ -369,6 +370,8 @@ fn every_case_of_the_catalogue_exits_as_promised_and_keeps_the_user_files() {
         // Issue 28: output files and folders, bounds, readers, exit codes.
         files::FILES,
         bounds::BOUNDS,
+        // Issue 26: contact input.
+        contact::CONTACT,
     ]
     .iter()
     .flat_map(|cases| cases.iter())

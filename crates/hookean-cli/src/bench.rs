@@ -348,7 +348,7 @@ fn bench(
                 best[s] = Some(record);
             }
         }
-        for (solver, record) in solvers.iter().zip(best.into_iter()) {
+        for (solver, record) in solvers.iter().zip(best) {
             let Some(record) = record else { continue };
             let mut status = match (&record.error, record.converged) {
                 (Some(e), _) => format!("failed: {e}"),

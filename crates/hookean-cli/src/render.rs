@@ -164,7 +164,7 @@ pub struct RenderScene<'a> {
     pub faces: &'a [[usize; 3]],
     /// Springs drawn as thick lines when there are no faces.
     pub segments: &'a [(usize, usize)],
-    /// Planes (the first is the ground) and spheres.
+    /// Planes (the first is the ground), spheres and meshes.
     pub colliders: &'a [ViewCollider],
     /// The box the view is fitted to: every frame of the run, so that the
     /// scale is the run's (an exploded run does not shrink back into view).
@@ -184,6 +184,8 @@ enum Item {
     Face(usize),
     Segment(usize),
     Sphere([f64; 3], f64),
+    /// A piece of a mesh collider's triangle.
+    MeshFace(usize),
 }
 
 /// An orthographic camera looking along `-dir` from an elevated front-left
@@ -227,8 +229,14 @@ impl Camera {
             ViewCollider::Sphere { center, radius } => Some((cam.project(center), *radius)),
             _ => None,
         });
+        let meshes: Vec<([f64; 3], f64)> = s
+            .colliders
+            .iter()
+            .flat_map(|c| c.mesh_vertices_at(s.t))
+            .map(|p| (cam.project(&p), 0.0))
+            .collect();
         let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for (q, r) in corners.chain(spheres) {
+        for (q, r) in corners.chain(spheres).chain(meshes) {
             for c in 0..2 {
                 lo[c] = lo[c].min(q[c] - r);
                 hi[c] = hi[c].max(q[c] + r);
@@ -364,10 +372,34 @@ pub fn render(s: &RenderScene<'_>, width: usize, height: usize) -> Result<Canvas
             .map(|(k, f)| (proj[f[0]][2] + proj[f[1]][2] + proj[f[2]][2], Item::Face(k)))
             .collect()
     };
+    // Mesh colliders at the time of the state, cut into pieces about the
+    // size of the cloth's: the painter's algorithm sorts whole triangles,
+    // and a table top drawn as one triangle would cover the cloth on it.
+    let (lo3, hi3) = s.bounds;
+    let piece = (0..3).map(|c| hi3[c] - lo3[c]).fold(1e-3, f64::max) / 48.0;
+    let meshes: Vec<[[f64; 3]; 3]> = s
+        .colliders
+        .iter()
+        .flat_map(|c| {
+            let v = c.mesh_vertices_at(s.t);
+            let triangles = match c {
+                ViewCollider::Mesh { triangles, .. } => triangles.clone(),
+                _ => Vec::new(),
+            };
+            triangles
+                .into_iter()
+                .flat_map(move |t| subdivide(t.map(|i| v[i]), piece))
+                .collect::<Vec<_>>()
+        })
+        .collect();
     for c in s.colliders {
         if let ViewCollider::Sphere { center, radius } = c {
             items.push((3.0 * cam.project(center)[2], Item::Sphere(*center, *radius)));
         }
+    }
+    for (k, t) in meshes.iter().enumerate() {
+        let depth: f64 = t.iter().map(|p| cam.project(p)[2]).sum();
+        items.push((depth, Item::MeshFace(k)));
     }
     items.sort_by(|a, b| a.0.total_cmp(&b.0));
     let half_width = (width.min(height) as f64 / 200.0).max(1.5);
@@ -391,6 +423,13 @@ pub fn render(s: &RenderScene<'_>, width: usize, height: usize) -> Result<Canvas
                 );
             }
             Item::Sphere(center, radius) => draw_sphere(&mut canvas, &cam, &center, radius, &light),
+            Item::MeshFace(k) => {
+                let p = meshes[k];
+                let normal = normalise(cross(sub(&p[1], &p[0]), sub(&p[2], &p[0])));
+                let shade = 0.35 + 0.65 * dot3(&normal, &light).abs();
+                let px3 = p.map(|q| cam.pixel(&cam.project(&q)));
+                canvas.fill_triangle(px3, to_u8([0.78 * shade, 0.74 * shade, 0.68 * shade]));
+            }
         }
     }
     draw_labels(&mut canvas, s, &cam, view_w, grid, implied)?;
@@ -428,6 +467,9 @@ fn draw_labels(
         .filter_map(|c| match c {
             ViewCollider::Sphere { radius, .. } => {
                 Some(format!("sphere collider r = {} m", tick_text(*radius)))
+            }
+            ViewCollider::Mesh { triangles, .. } => {
+                Some(format!("mesh collider ({} triangles)", triangles.len()))
             }
             _ => None,
         })
@@ -476,6 +518,32 @@ fn draw_labels(
     })
 }
 
+/// Triangle `t` cut into `k^2` similar pieces, `k` the smallest count that
+/// makes every edge at most `size` (at most 64 per edge).
+fn subdivide(t: [[f64; 3]; 3], size: f64) -> Vec<[[f64; 3]; 3]> {
+    let longest = (0..3)
+        .map(|e| {
+            let d = sub(&t[(e + 1) % 3], &t[e]);
+            (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+        })
+        .fold(0.0, f64::max);
+    let k = ((longest / size).ceil() as usize).clamp(1, 64);
+    let at = |i: usize, j: usize| -> [f64; 3] {
+        let (a, b) = (i as f64 / k as f64, j as f64 / k as f64);
+        std::array::from_fn(|c| t[0][c] + a * (t[1][c] - t[0][c]) + b * (t[2][c] - t[0][c]))
+    };
+    let mut out = Vec::with_capacity(k * k);
+    for i in 0..k {
+        for j in 0..k - i {
+            out.push([at(i, j), at(i + 1, j), at(i, j + 1)]);
+            if i + j + 1 < k {
+                out.push([at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+    }
+    out
+}
+
 fn to_u8(c: [f64; 3]) -> [u8; 3] {
     c.map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
 }
@@ -511,6 +579,20 @@ mod tests {
         c.fill_triangle([[0.0, 0.0], [100.0, 0.0], [0.0, 100.0]], [0, 0, 0]);
         let dark = c.pixels().iter().filter(|p| **p == [0, 0, 0]).count();
         assert!((dark as f64 - 5000.0).abs() < 150.0, "{dark}");
+    }
+
+    #[test]
+    fn subdivided_triangles_tile_the_triangle() {
+        let t = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]];
+        let pieces = subdivide(t, 0.5);
+        // Longest edge sqrt(5) = 2.24: k = 5, 25 pieces of a 25th of the area.
+        assert_eq!(pieces.len(), 25);
+        let area = |p: &[[f64; 3]; 3]| {
+            let c = cross(sub(&p[1], &p[0]), sub(&p[2], &p[0]));
+            0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
+        };
+        let total: f64 = pieces.iter().map(area).sum();
+        assert!((total - area(&t)).abs() < 1e-12);
     }
 
     #[test]

@@ -216,8 +216,11 @@ fn exact_example3(scene: &Scene) -> Option<LinearOscillator> {
 /// by indicatif). Drawn only on a terminal, never if `quiet`.
 pub struct Progress {
     bar: ProgressBar,
-    inner: sinks::Progress<Box<dyn FnMut(&ProgressInfo)>>,
+    inner: sinks::Progress<Draw>,
 }
+
+/// What the bar does with each progress report.
+type Draw = Box<dyn FnMut(&ProgressInfo)>;
 
 impl Progress {
     /// A bar over `[0, t_end]` simulated seconds.
@@ -232,7 +235,7 @@ impl Progress {
             "{bar:40} {percent:>3}% {msg} [{elapsed_precise}]",
         ));
         let drawn = bar.clone();
-        let draw: Box<dyn FnMut(&ProgressInfo)> = Box::new(move |p: &ProgressInfo| {
+        let draw: Draw = Box::new(move |p: &ProgressInfo| {
             drawn.set_position((p.t * 1000.0) as u64);
             drawn.set_message(format!(
                 "t = {:.3} s, {:.0} steps/s, h = {:.2e}",

@@ -44,13 +44,72 @@ pub enum ViewCollider {
         /// Radius (m).
         radius: f64,
     },
+    /// A triangle mesh in its pose at time 0, moving rigidly: at time `t`
+    /// a vertex at `X` is at `pivot + velocity t + R(angular_velocity t) (X
+    /// - pivot)` (`R(w)` the rotation by `|w|` radians about `w`).
+    Mesh {
+        /// Vertices at time 0.
+        vertices: Vec<[f64; 3]>,
+        /// Triangles (counter-clockwise seen from outside).
+        triangles: Vec<[usize; 3]>,
+        /// Linear velocity (m/s).
+        velocity: [f64; 3],
+        /// Angular velocity (rad/s).
+        angular_velocity: [f64; 3],
+        /// The pivot at time 0.
+        pivot: [f64; 3],
+    },
 }
 
 impl From<&Collider> for ViewCollider {
     fn from(c: &Collider) -> Self {
-        match *c {
-            Collider::Plane { point, normal, .. } => ViewCollider::Plane { point, normal },
-            Collider::Sphere { center, radius, .. } => ViewCollider::Sphere { center, radius },
+        match c {
+            Collider::Plane { point, normal, .. } => ViewCollider::Plane {
+                point: *point,
+                normal: *normal,
+            },
+            Collider::Sphere { center, radius, .. } => ViewCollider::Sphere {
+                center: *center,
+                radius: *radius,
+            },
+            Collider::Mesh { mesh, .. } => {
+                let m = mesh.motion();
+                ViewCollider::Mesh {
+                    vertices: mesh
+                        .mesh()
+                        .vertices()
+                        .iter()
+                        .map(|v| [v.x, v.y, v.z])
+                        .collect(),
+                    triangles: mesh.mesh().triangles().to_vec(),
+                    velocity: m.velocity,
+                    angular_velocity: m.angular_velocity,
+                    pivot: m.pivot,
+                }
+            }
+        }
+    }
+}
+
+impl ViewCollider {
+    /// The vertices of a mesh collider at time `t` (empty for other kinds).
+    pub fn mesh_vertices_at(&self, t: f64) -> Vec<[f64; 3]> {
+        match self {
+            ViewCollider::Mesh {
+                vertices,
+                velocity,
+                angular_velocity,
+                pivot,
+                ..
+            } => {
+                let motion = hookean::massspring::RigidMotion {
+                    velocity: *velocity,
+                    angular_velocity: *angular_velocity,
+                    pivot: *pivot,
+                };
+                vertices.iter().map(|&v| motion.point_at(t, v)).collect()
+            }
+            _ => Vec::new(),
         }
     }
 }
@@ -88,7 +147,7 @@ pub struct ViewRun {
     pub faces: Vec<[usize; 3]>,
     /// Segments drawn as lines when there are no faces (springs).
     pub segments: Vec<(usize, usize)>,
-    /// Planes and spheres.
+    /// Planes, spheres and meshes.
     pub colliders: Vec<ViewCollider>,
     /// The frames, in time order; at least one.
     pub frames: Vec<ViewFrame>,

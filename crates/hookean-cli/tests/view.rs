@@ -324,3 +324,78 @@ fn view_of_a_folder_without_a_run_is_an_input_error() {
     assert_input_error(&hookean(&["view", out.to_str().unwrap()]), "summary.json");
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// Pixels of the colliders' colour (a warm grey: red above blue by 8 to 40
+/// levels, not the white background or the neutral ground) in the view.
+fn collider_pixels(width: usize, height: usize, px: &[[u8; 4]]) -> usize {
+    let (x0, x1, y0, y1) = (width / 10, width * 6 / 10, height / 8, height * 7 / 8);
+    (y0..y1)
+        .flat_map(|y| (x0..x1).map(move |x| px[y * width + x]))
+        .filter(|p| {
+            let (r, g, b) = (p[0] as i32, p[1] as i32, p[2] as i32);
+            r - b >= 8 && r - b <= 40 && r >= g && g >= b && r < 215
+        })
+        .count()
+}
+
+/// A mesh collider moving along its path: the page draws it (the table,
+/// lifted 0.2 m per second) at each frame's time, without script errors.
+#[test]
+fn view_html_draws_a_moving_mesh_collider() {
+    let out = scratch("mesh");
+    std::fs::create_dir_all(&out).unwrap();
+    let scene = out.join("lift.toml");
+    std::fs::write(
+        &scene,
+        format!(
+            "duration = 0.3\n[cloth]\nn = 12\npins = \"none\"\norigin = [-0.5, -0.5, 0.7]\n\
+             [integrator]\nh = 0.005\n[output]\nframe_rate = 10.0\n\
+             [[collider]]\nkind = \"mesh\"\npath = \"{}\"\nvelocity = [0.0, 0.0, 0.2]\nangular_velocity = [0.0, 0.0, 1.0]\n",
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../../data/table.obj")
+                .canonicalize()
+                .unwrap()
+                .display()
+        ),
+    )
+    .unwrap();
+    let run = out.join("run");
+    let o = hookean(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        run.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_ok(&o);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["colliders"][0]["kind"], "mesh");
+    assert_eq!(
+        summary["colliders"][0]["triangles"]
+            .as_array()
+            .unwrap()
+            .len(),
+        60
+    );
+    let Some(browser) = chromium() else { return };
+    let page = run.join("view.html");
+    let (s, dom, _) = dump_status(&browser, &run, &page, "frame=last");
+    assert_eq!(s["errors"], serde_json::json!([]), "{s}");
+    assert_eq!(s["state"], "ready", "{s}");
+    assert!(dom.contains("mesh (60 triangles)"), "colliders row missing");
+    let shot = run.join("last.png");
+    browse(
+        &browser,
+        &run.join("profile-shot"),
+        &file_url(&page, "frame=last"),
+        &[
+            &format!("--screenshot={}", shot.display()),
+            "--virtual-time-budget=10000",
+        ],
+    );
+    let (w, h, px) = decode_rgba(&shot);
+    let table = collider_pixels(w, h, &px);
+    assert!(table > 2000, "{table} table-coloured pixels");
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -307,6 +307,7 @@ fn irregular_mesh_with_shuffled_vertices_is_gathered_and_matches_the_dense_filte
         &ObjMesh {
             positions,
             triangles,
+            ..ObjMesh::default()
         },
         &MeshParams::default(),
     )

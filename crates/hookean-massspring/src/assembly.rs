@@ -624,6 +624,7 @@ impl MassSpringModel {
                 }
             }
         }
+        self.add_contact_forces(x, v, f);
         self.project_rows(f);
     }
 
@@ -803,6 +804,15 @@ impl MassSpringModel {
             false, false, P, false; false, false, P, true; false, false, I, false; false, false, N, false;
             }
         }
+        // The contact forces' diagonal blocks (nothing without contact).
+        if let Some((a, b)) = comb {
+            self.add_contact_jacobians(x, a, b, dfdx);
+        } else {
+            self.add_contact_jacobians(x, 1.0, 0.0, dfdx);
+            if let Some(m) = dfdv.as_deref_mut() {
+                self.add_contact_jacobians(x, 0.0, 1.0, m);
+            }
+        }
         if parts > 1 {
             // The halos, added in part order (the same bits every run), and
             // zeroed for the next call.
@@ -831,6 +841,7 @@ impl MassSpringModel {
             }
         }
         if let Some(f) = f {
+            self.add_contact_forces(x, v, f);
             self.project_rows(f);
         }
     }
@@ -1428,21 +1439,27 @@ impl SecondOrderProblem for MassSpringModel {
     /// 1. Permanent constraints: each constrained coordinate of `x_p` is reset
     ///    to its prescribed value and the constrained components of `v_p` are
     ///    zeroed (a pinned particle gets `x_p` = its pin, `v_p = 0`).
-    /// 2. Colliders: a particle with signed distance `phi <= margin` to a
-    ///    collider is in contact. If `phi < 0` it is projected back onto the
-    ///    surface; an inward normal velocity (`v . n < 0`) is removed. The
-    ///    normal is then constrained for this step unless the particle
-    ///    separates (`v . n > 0`) or the force pulls it away (`f . n > 0`).
+    /// 2. Contact (`contact.rs`, docs/CONTACT.md): self-contact pairs are
+    ///    found; a particle with signed distance `phi <= margin` to a
+    ///    collider (a mesh: its thickness) is in contact. If `phi < 0` (a
+    ///    mesh: below the thickness) it is projected back; an inward normal
+    ///    velocity relative to the surface is removed. The normal is then
+    ///    constrained for this step unless the particle separates or the
+    ///    force pulls it away (`f . n > 0`); with friction, a sticking
+    ///    particle is constrained in all three directions, a sliding one gets
+    ///    the kinetic friction force.
     /// 3. `constraints` is cleared (recreated if sized for another model) and
-    ///    filled with every active direction `d` of particle `p` with value 0:
-    ///    **the unknown is the velocity change `dv` of the reduced velocity
-    ///    form, and `d . dv_p = 0`** keeps the already-zeroed constrained
-    ///    velocity components at zero during the step.
+    ///    filled with every active direction `d` of particle `p` with the
+    ///    value `d . w_p`, `w_p` the velocity the constraint moves with (zero
+    ///    for pins and static colliders, a moving collider's surface
+    ///    velocity): the integrator imposes it on the new velocity, and its
+    ///    Newton corrections keep it (the velocity components were already
+    ///    set to it here).
     ///
     /// The active directions also project `force` and the Jacobians until the
     /// next `begin_step`.
-    fn begin_step(&mut self, _t: f64, x: &mut [f64], v: &mut [f64], constraints: &mut Constraints) {
-        self.apply_constraints_and_contacts(x, v);
+    fn begin_step(&mut self, t: f64, x: &mut [f64], v: &mut [f64], constraints: &mut Constraints) {
+        self.apply_constraints_and_contacts(t, x, v);
         let n = self.n_particles();
         if constraints.n_particles() != n {
             *constraints = Constraints::new(n);
@@ -1451,19 +1468,27 @@ impl SecondOrderProblem for MassSpringModel {
         }
         for &p in &self.active_set.list {
             let d = &self.active_set.dirs[p];
+            // The prescribed velocity: zero, or a moving collider's.
+            let w = self.active_set.vel[p];
             if d.count == 3 {
-                // Orthonormal and complete: equivalent to a pin at dv = 0.
-                constraints
-                    .pin(p, [0.0; 3])
-                    .expect("particle index is in range");
+                // Orthonormal and complete: equivalent to a pin of V_p.
+                constraints.pin(p, w).expect("particle index is in range");
             } else {
                 for k in 0..d.count {
+                    let e = d.dirs[k];
+                    let value = e[0] * w[0] + e[1] * w[1] + e[2] * w[2];
                     constraints
-                        .constrain(p, d.dirs[k], 0.0)
+                        .constrain(p, e, value)
                         .expect("directions are orthonormal and finite");
                 }
             }
         }
+    }
+
+    /// The continuous contact passes (`contact.rs`): cloth self-collision
+    /// and mesh colliders; nothing (and `false`) for a model without them.
+    fn end_step(&mut self, t: f64, h: f64, x_start: &[f64], x: &mut [f64], v: &mut [f64]) -> bool {
+        self.end_contact_step(t, h, x_start, x, v)
     }
 }
 

@@ -1,13 +1,277 @@
-//! Plane and sphere colliders and the per-step contact handling of the
-//! tutorial's section 4.2 (constraints for collision response).
+//! Colliders: planes, spheres and triangle meshes (static or moving along a
+//! prescribed rigid path), each with Coulomb friction coefficients. What
+//! contact does with them per step is in `contact.rs`.
 
-use nalgebra::Vector3;
+use std::sync::Arc;
+
+use hookean_geometry::TriMesh;
+use nalgebra::{Rotation3, Vector3};
 
 use crate::error::MassSpringError;
-use crate::model::{Dirs, MassSpringModel, point};
 
-/// A static obstacle: particles stay on its outer side.
+/// Coulomb friction of a collider: a particle in contact sticks while the
+/// tangential force stays within `mu_s` times the normal force, and slides
+/// against a friction force of `mu_k` times the normal force otherwise
+/// (docs/CONTACT.md). Both 0 by default (frictionless).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Friction {
+    /// Static coefficient `mu_s >= 0`.
+    pub mu_s: f64,
+    /// Kinetic coefficient `mu_k >= 0`.
+    pub mu_k: f64,
+}
+
+impl Friction {
+    /// No friction.
+    pub const NONE: Friction = Friction {
+        mu_s: 0.0,
+        mu_k: 0.0,
+    };
+
+    /// Static and kinetic coefficients.
+    ///
+    /// # Errors
+    /// [`MassSpringError::InvalidParameter`] naming `static_friction` or
+    /// `kinetic_friction` for a negative or non-finite coefficient.
+    pub fn new(mu_s: f64, mu_k: f64) -> Result<Self, MassSpringError> {
+        for (name, mu) in [("static_friction", mu_s), ("kinetic_friction", mu_k)] {
+            if !(mu >= 0.0 && mu.is_finite()) {
+                return Err(MassSpringError::InvalidParameter {
+                    name,
+                    message: format!("{mu:?} must be non-negative and finite"),
+                });
+            }
+        }
+        Ok(Self { mu_s, mu_k })
+    }
+
+    /// True when both coefficients are zero.
+    pub fn is_none(&self) -> bool {
+        self.mu_s == 0.0 && self.mu_k == 0.0
+    }
+}
+
+/// A rigid motion along a prescribed path: constant linear velocity `v`
+/// and constant angular velocity `omega` about a pivot `c` that moves with
+/// the body, so a point at `X` at time 0 is at
+/// `c + v t + R(omega t) (X - c)` at time `t` (`R(w)` the rotation by
+/// `|w|` radians about `w`).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RigidMotion {
+    /// Linear velocity (m/s).
+    pub velocity: [f64; 3],
+    /// Angular velocity (rad/s).
+    pub angular_velocity: [f64; 3],
+    /// The pivot at time 0 (m).
+    pub pivot: [f64; 3],
+}
+
+impl RigidMotion {
+    /// True for a body at rest.
+    pub fn is_static(&self) -> bool {
+        self.velocity == [0.0; 3] && self.angular_velocity == [0.0; 3]
+    }
+
+    fn check(&self) -> Result<(), MassSpringError> {
+        for (name, v) in [
+            ("velocity", self.velocity),
+            ("angular_velocity", self.angular_velocity),
+            ("pivot", self.pivot),
+        ] {
+            if v.iter().any(|c| !c.is_finite()) {
+                return Err(MassSpringError::InvalidParameter {
+                    name,
+                    message: format!("{v:?} must be finite"),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The rotation `R(omega t)` and the pivot's position at time `t`.
+    fn pose(&self, t: f64) -> (Rotation3<f64>, Vector3<f64>) {
+        let w = Vector3::from(self.angular_velocity) * t;
+        (
+            Rotation3::from_scaled_axis(w),
+            Vector3::from(self.pivot) + Vector3::from(self.velocity) * t,
+        )
+    }
+
+    /// Where the point of the body that is at `x_rest` at time 0 is at `t`.
+    pub fn to_world(&self, t: f64, x_rest: &Vector3<f64>) -> Vector3<f64> {
+        let (r, c) = self.pose(t);
+        c + r * (x_rest - Vector3::from(self.pivot))
+    }
+
+    /// [`to_world`](Self::to_world) on plain arrays.
+    pub fn point_at(&self, t: f64, x_rest: [f64; 3]) -> [f64; 3] {
+        let w = self.to_world(t, &Vector3::from(x_rest));
+        [w.x, w.y, w.z]
+    }
+
+    /// The body point at `x` at time `t`, where it was at time 0.
+    pub fn to_rest(&self, t: f64, x: &Vector3<f64>) -> Vector3<f64> {
+        let (r, c) = self.pose(t);
+        Vector3::from(self.pivot) + r.inverse() * (x - c)
+    }
+
+    /// The velocity of the body point at `x` at time `t`: `v + omega x (x - c(t))`.
+    pub fn velocity_at(&self, t: f64, x: &Vector3<f64>) -> Vector3<f64> {
+        let (_, c) = self.pose(t);
+        Vector3::from(self.velocity) + Vector3::from(self.angular_velocity).cross(&(x - c))
+    }
+
+    /// A world direction at time `t` from the rest frame.
+    fn rotate(&self, t: f64, d: &Vector3<f64>) -> Vector3<f64> {
+        self.pose(t).0 * d
+    }
+}
+
+/// A triangle mesh obstacle with a thickness, at rest or moving rigidly.
+/// Particles are kept at least `thickness` away from its surface, on its
+/// outer side (the side its counter-clockwise triangles face).
+#[derive(Debug, Clone)]
+pub struct MeshCollider {
+    mesh: TriMesh,
+    thickness: f64,
+    motion: RigidMotion,
+    /// Slack of the contact band, `1e-9` of the mesh's size: a particle
+    /// put at the thickness stays in contact despite round-off.
+    slack: f64,
+}
+
+/// A surface point in contact, in world coordinates.
 #[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Touch {
+    /// Signed distance (negative inside or behind).
+    pub phi: f64,
+    /// Unit outward normal.
+    pub normal: Vector3<f64>,
+    /// Velocity of the surface point.
+    pub velocity: Vector3<f64>,
+}
+
+impl MeshCollider {
+    /// The mesh `mesh` (its rest pose, at time 0) with `thickness` (m).
+    ///
+    /// # Errors
+    /// [`MassSpringError::InvalidParameter`] naming `thickness` for a
+    /// negative or non-finite thickness.
+    pub fn new(mesh: TriMesh, thickness: f64) -> Result<Self, MassSpringError> {
+        if !(thickness >= 0.0 && thickness.is_finite()) {
+            return Err(MassSpringError::InvalidParameter {
+                name: "thickness",
+                message: format!("{thickness:?} must be non-negative and finite"),
+            });
+        }
+        let size = mesh.aabb().extent().norm();
+        Ok(Self {
+            mesh,
+            thickness,
+            motion: RigidMotion::default(),
+            slack: 1e-9 * size,
+        })
+    }
+
+    /// The same mesh moving along `motion`.
+    ///
+    /// # Errors
+    /// [`MassSpringError::InvalidParameter`] for a non-finite velocity,
+    /// angular velocity or pivot.
+    pub fn with_motion(mut self, motion: RigidMotion) -> Result<Self, MassSpringError> {
+        motion.check()?;
+        self.motion = motion;
+        Ok(self)
+    }
+
+    /// The mesh in its rest pose.
+    pub fn mesh(&self) -> &TriMesh {
+        &self.mesh
+    }
+
+    /// The thickness (m).
+    pub fn thickness(&self) -> f64 {
+        self.thickness
+    }
+
+    /// The motion.
+    pub fn motion(&self) -> &RigidMotion {
+        &self.motion
+    }
+
+    /// The contact of a particle at `x` at time `t` with the closest
+    /// feature of the surface.
+    pub(crate) fn touch(&self, t: f64, x: &Vector3<f64>) -> Touch {
+        if self.motion.is_static() {
+            let c = self.mesh.closest(x);
+            return Touch {
+                phi: c.distance,
+                normal: c.normal,
+                velocity: Vector3::zeros(),
+            };
+        }
+        let c = self.mesh.closest(&self.motion.to_rest(t, x));
+        Touch {
+            phi: c.distance,
+            normal: self.motion.rotate(t, &c.normal),
+            velocity: self.motion.velocity_at(t, x),
+        }
+    }
+
+    /// Where a particle moving straight from `a` (at `t`) to `b` (at `t +
+    /// h`) first meets the surface, moving with it, if it does: the world
+    /// position at `t + h` of the contact point pushed out by the
+    /// thickness, and the outward normal there. The path is straight in
+    /// the body's frame (exact for translations; for rotations the body's
+    /// motion within the step is taken as linear). A particle that ends
+    /// inside without crossing (it started inside) is pushed out along the
+    /// closest feature's normal.
+    pub(crate) fn correct_path(
+        &self,
+        t: f64,
+        h: f64,
+        a: &Vector3<f64>,
+        b: &Vector3<f64>,
+    ) -> Option<(Vector3<f64>, Vector3<f64>)> {
+        let (ra, rb) = if self.motion.is_static() {
+            (*a, *b)
+        } else {
+            (self.motion.to_rest(t, a), self.motion.to_rest(t + h, b))
+        };
+        let mut boxed = hookean_geometry::Aabb::point(&ra);
+        boxed.add_point(&rb);
+        if !boxed.overlaps(&self.mesh.aabb()) {
+            return None;
+        }
+        let end = self.mesh.closest(&rb);
+        let (y, n) = match self.mesh.first_hit(&ra, &rb) {
+            Some((s, tri)) if self.mesh.closest(&ra).distance >= 0.0 => {
+                let mut n = self.mesh.face_normal(tri);
+                if n.dot(&(ra - rb)) < 0.0 {
+                    n = -n; // the side the particle came from
+                }
+                let hit = ra + (rb - ra) * s;
+                if end.distance >= 0.0 && (rb - hit).dot(&n) >= 0.0 {
+                    return None; // touched and left on the same side
+                }
+                (hit + n * self.thickness, n)
+            }
+            _ if end.distance < 0.0 => (end.point + end.normal * self.thickness, end.normal),
+            _ => return None,
+        };
+        if self.motion.is_static() {
+            Some((y, n))
+        } else {
+            Some((
+                self.motion.to_world(t + h, &y),
+                self.motion.rotate(t + h, &n),
+            ))
+        }
+    }
+}
+
+/// A static or moving obstacle: particles stay on its outer side.
+#[derive(Debug, Clone, PartialEq)]
 pub enum Collider {
     /// The half-space above a plane: signed distance `(x - point) . normal`.
     Plane {
@@ -17,6 +281,8 @@ pub enum Collider {
         normal: [f64; 3],
         /// Contact margin (thickness) `>= 0`: particles closer than this count as touching.
         margin: f64,
+        /// Coulomb friction.
+        friction: Friction,
     },
     /// The outside of a ball: signed distance `|x - center| - radius`.
     Sphere {
@@ -26,11 +292,30 @@ pub enum Collider {
         radius: f64,
         /// Contact margin (thickness) `>= 0`.
         margin: f64,
+        /// Coulomb friction.
+        friction: Friction,
+    },
+    /// The outside of a triangle mesh (or, for an open mesh, the side its
+    /// triangles face), kept at its thickness.
+    Mesh {
+        /// The mesh, its thickness and motion (shared: cloning the model
+        /// does not copy the mesh).
+        mesh: Arc<MeshCollider>,
+        /// Coulomb friction.
+        friction: Friction,
     },
 }
 
+impl PartialEq for MeshCollider {
+    /// Two mesh colliders are equal when they are the same object.
+    fn eq(&self, other: &Self) -> bool {
+        std::ptr::eq(self, other)
+    }
+}
+
 impl Collider {
-    /// The plane through `point` with outward `normal` (normalised here).
+    /// The plane through `point` with outward `normal` (normalised here),
+    /// frictionless.
     ///
     /// # Errors
     /// [`MassSpringError::InvalidParameter`] for a zero or non-finite normal,
@@ -52,10 +337,11 @@ impl Collider {
             point,
             normal: [n.x, n.y, n.z],
             margin,
+            friction: Friction::NONE,
         })
     }
 
-    /// The ball of `radius` around `center`.
+    /// The ball of `radius` around `center`, frictionless.
     ///
     /// # Errors
     /// [`MassSpringError::InvalidParameter`] for a non-positive radius, a
@@ -72,11 +358,40 @@ impl Collider {
             center,
             radius,
             margin,
+            friction: Friction::NONE,
         })
     }
 
+    /// A frictionless mesh collider.
+    pub fn mesh(mesh: MeshCollider) -> Self {
+        Collider::Mesh {
+            mesh: Arc::new(mesh),
+            friction: Friction::NONE,
+        }
+    }
+
+    /// The same collider with `friction`.
+    pub fn with_friction(mut self, f: Friction) -> Self {
+        match &mut self {
+            Collider::Plane { friction, .. }
+            | Collider::Sphere { friction, .. }
+            | Collider::Mesh { friction, .. } => *friction = f,
+        }
+        self
+    }
+
+    /// The friction coefficients.
+    pub fn friction(&self) -> Friction {
+        match self {
+            Collider::Plane { friction, .. }
+            | Collider::Sphere { friction, .. }
+            | Collider::Mesh { friction, .. } => *friction,
+        }
+    }
+
     /// Signed distance of `x` to the surface (negative inside) and the unit
-    /// outward normal at the closest surface point.
+    /// outward normal at the closest surface point (a mesh: in its pose at
+    /// time 0).
     pub fn signed_distance(&self, x: &Vector3<f64>) -> (f64, Vector3<f64>) {
         match *self {
             Collider::Plane { point, normal, .. } => {
@@ -90,13 +405,53 @@ impl Collider {
                 let n = if len > 0.0 { r / len } else { Vector3::z() };
                 (len - radius, n)
             }
+            Collider::Mesh { ref mesh, .. } => {
+                let t = mesh.touch(0.0, x);
+                (t.phi, t.normal)
+            }
         }
     }
 
-    /// The contact margin.
+    /// The contact margin: particles this close count as touching (for a
+    /// mesh, its thickness).
     pub fn margin(&self) -> f64 {
         match *self {
             Collider::Plane { margin, .. } | Collider::Sphere { margin, .. } => margin,
+            Collider::Mesh { ref mesh, .. } => mesh.thickness,
+        }
+    }
+}
+
+/// The contact of a particle at `x` at time `t` with a collider: the touch,
+/// the distance particles are pushed out to (0 for planes and spheres, the
+/// thickness for meshes) and the band within which they count as touching;
+/// `None` for a particle certainly outside a mesh's band (its bounding box
+/// grown by the band does not hold it).
+pub(crate) fn touch(c: &Collider, t: f64, x: &Vector3<f64>) -> Option<(Touch, f64, f64)> {
+    match c {
+        Collider::Mesh { mesh, .. } => {
+            let band = mesh.thickness + mesh.slack;
+            let rest = if mesh.motion.is_static() {
+                *x
+            } else {
+                mesh.motion.to_rest(t, x)
+            };
+            if mesh.mesh.aabb().distance_squared(&rest) > band * band {
+                return None;
+            }
+            Some((mesh.touch(t, x), mesh.thickness, band))
+        }
+        _ => {
+            let (phi, normal) = c.signed_distance(x);
+            Some((
+                Touch {
+                    phi,
+                    normal,
+                    velocity: Vector3::zeros(),
+                },
+                0.0,
+                c.margin(),
+            ))
         }
     }
 }
@@ -112,62 +467,23 @@ fn check_margin(margin: f64) -> Result<(), MassSpringError> {
     }
 }
 
-impl MassSpringModel {
-    /// Steps 1 and 2 of `begin_step`: permanent constraints, then contacts.
-    /// No allocation.
-    pub(crate) fn apply_constraints_and_contacts(&mut self, x: &mut [f64], v: &mut [f64]) {
-        self.refresh_permanent();
-        let n = self.n_particles();
-        for p in 0..n {
-            let d = self.fixes[p];
-            for k in 0..d.count {
-                let e = d.dirs[k];
-                let xe: f64 = (0..3).map(|r| e[r] * x[3 * p + r]).sum();
-                let ve: f64 = (0..3).map(|r| e[r] * v[3 * p + r]).sum();
-                for r in 0..3 {
-                    x[3 * p + r] -= (xe - d.values[k]) * e[r];
-                    v[3 * p + r] -= ve * e[r];
-                }
-            }
-        }
-        if self.colliders.is_empty() {
-            return;
-        }
-        // The force with permanent constraints only, to release contacts
-        // that the force pulls away from the surface.
-        let mut f = std::mem::take(&mut self.scratch);
-        self.eval_force(x, v, &mut f);
-        for p in 0..n {
-            if self.fixes[p].count == 3 {
-                continue;
-            }
-            for c in 0..self.colliders.len() {
-                let collider = self.colliders[c];
-                let xp = point(x, p);
-                let (phi, normal) = collider.signed_distance(&xp);
-                if phi.is_nan() || phi > collider.margin() {
-                    continue;
-                }
-                if phi < 0.0 {
-                    let y = xp - normal * phi;
-                    x[3 * p..3 * p + 3].copy_from_slice(y.as_slice());
-                }
-                let vp = point(v, p);
-                let vn = vp.dot(&normal);
-                if vn < 0.0 {
-                    let w = vp - normal * vn;
-                    v[3 * p..3 * p + 3].copy_from_slice(w.as_slice());
-                }
-                if vn > 0.0 || point(&f, p).dot(&normal) > 0.0 {
-                    continue; // separating: no constraint this step
-                }
-                let mut dirs: Dirs = self.active_set.dirs[p];
-                if dirs.push([normal.x, normal.y, normal.z], 0.0) {
-                    self.activate(p, dirs);
-                    self.active_set.contact_count += 1;
-                }
-            }
-        }
-        self.scratch = f;
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rigid_motion_maps_there_and_back_and_its_velocity_is_the_derivative() {
+        let m = RigidMotion {
+            velocity: [0.1, -0.2, 0.3],
+            angular_velocity: [0.5, 1.0, -0.7],
+            pivot: [1.0, 2.0, 3.0],
+        };
+        let x0 = Vector3::new(0.3, -0.4, 2.0);
+        let t = 0.7;
+        let x = m.to_world(t, &x0);
+        assert!((m.to_rest(t, &x) - x0).norm() < 1e-14);
+        let dt = 1e-6;
+        let fd = (m.to_world(t + dt, &x0) - m.to_world(t - dt, &x0)) / (2.0 * dt);
+        assert!((fd - m.velocity_at(t, &x)).norm() < 1e-8);
     }
 }

@@ -98,6 +98,16 @@ pub enum MassSpringError {
         /// What is wrong there.
         message: String,
     },
+    /// A mesh file that cannot serve as a model or a contact surface.
+    #[error("{path}{}: {message}", line.map_or(String::new(), |l| format!(":{l}")))]
+    MeshFile {
+        /// The file.
+        path: String,
+        /// The 1-based line to blame, if one is.
+        line: Option<usize>,
+        /// What is wrong.
+        message: String,
+    },
     /// Reading or writing a file failed.
     #[error("{path}: {message}")]
     Io {

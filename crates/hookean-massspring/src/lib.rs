@@ -63,19 +63,24 @@ mod analysis;
 mod assembly;
 pub mod builders;
 mod collide;
+mod contact;
 mod error;
 mod model;
 pub mod obj;
+mod self_contact;
 
 pub use analysis::{Energies, ImplicitSystem, Momentum, StabilityInfo};
 pub use builders::{
     BlockParams, ClothParams, ClothPins, MAX_PARTICLES, MeshParams, RopeParams, SpringMaterial,
     State, cloth, from_mesh, jelly_block, rope, tutorial_example3,
 };
-pub use collide::Collider;
+pub use collide::{Collider, Friction, MeshCollider, RigidMotion};
+pub use contact::{ContactStats, STICK_SPEED};
 pub use error::MassSpringError;
+pub use hookean_geometry::{GeometryError, TriMesh};
 pub use hookean_problem::SecondOrderProblem;
 pub use model::{
     DampingInDfdx, MassSpringModel, ModelOptions, ParticleConstraint, Spring, SpringDamping,
 };
-pub use obj::{ObjMesh, parse_obj, read_obj_file, speed_colours, write_obj};
+pub use obj::{ObjMesh, parse_obj, read_obj_file, read_surface, speed_colours, write_obj};
+pub use self_contact::SelfCollision;

@@ -8,7 +8,9 @@ use nalgebra::Vector3;
 
 use crate::assembly::AssemblyPlan;
 use crate::collide::Collider;
+use crate::contact::ContactState;
 use crate::error::MassSpringError;
+use crate::self_contact::{SelfCollision, SelfContact};
 
 /// A spring between particles `i` and `j` (docs/ARCHITECTURE.md, "the reference drape"):
 /// force on `i` is `f_i = k (l - l0) u + damping term`, `u = (x_j - x_i) / l`,
@@ -195,6 +197,10 @@ pub(crate) struct ActiveSet {
     pub(crate) list: Vec<usize>,
     /// Contacts found by the last collision pass.
     pub(crate) contact_count: usize,
+    /// The velocity the constrained directions of a particle move with
+    /// (zero for pins and static colliders; a moving collider's surface
+    /// velocity): the prescribed value of direction `d` is `d . vel[p]`.
+    pub(crate) vel: Vec<[f64; 3]>,
 }
 
 impl ActiveSet {
@@ -205,6 +211,7 @@ impl ActiveSet {
             constrained: vec![false; n],
             list: Vec::with_capacity(n),
             contact_count: 0,
+            vel: vec![[0.0; 3]; n],
         }
     }
 }
@@ -248,6 +255,8 @@ pub struct MassSpringModel {
     /// The constraints of the current step (permanent + contacts).
     pub(crate) active_set: ActiveSet,
     pub(crate) colliders: Vec<Collider>,
+    /// The contact state of the current step (friction, self-contact).
+    pub(crate) contact: ContactState,
     pub(crate) scratch: Vec<f64>,
     pub(crate) faces: Vec<[usize; 3]>,
     pub(crate) revision: u64,
@@ -335,6 +344,7 @@ impl MassSpringModel {
             fixes: vec![Dirs::EMPTY; n],
             active_set: ActiveSet::new(n),
             colliders: Vec::new(),
+            contact: ContactState::default(),
             scratch: vec![0.0; 3 * n],
             faces: Vec::new(),
             revision: 0,
@@ -512,9 +522,38 @@ impl MassSpringModel {
         self.active_set.dirs.get(particle).map_or(0, |d| d.count)
     }
 
-    /// Adds a collider (plane or sphere), handled in every `begin_step`.
+    /// Adds a collider (plane, sphere or mesh), handled in every
+    /// `begin_step` (and, for meshes, `end_step`).
     pub fn add_collider(&mut self, collider: Collider) {
         self.colliders.push(collider);
+    }
+
+    /// Turns cloth self-collision on (`Some`) or off (`None`) on the
+    /// model's triangles ([`set_faces`](Self::set_faces) first): proximity
+    /// repulsion inside the implicit step and the continuous pass after it
+    /// (docs/CONTACT.md).
+    ///
+    /// # Errors
+    /// [`MassSpringError::InvalidParameter`] for a non-positive thickness, a
+    /// negative stiffness, or a model without triangles.
+    pub fn set_self_collision(
+        &mut self,
+        options: Option<SelfCollision>,
+    ) -> Result<(), MassSpringError> {
+        self.contact.self_contact = match options {
+            Some(o) => Some(Box::new(SelfContact::new(
+                self.n_particles(),
+                &self.faces,
+                o,
+            )?)),
+            None => None,
+        };
+        Ok(())
+    }
+
+    /// The self-collision options, if it is on.
+    pub fn self_collision(&self) -> Option<SelfCollision> {
+        self.contact.self_contact.as_ref().map(|s| s.options())
     }
 
     /// The colliders.
@@ -588,6 +627,7 @@ impl MassSpringModel {
             self.active_set.constrained[p] = false;
             self.active_set.dirs[p] = Dirs::EMPTY;
             self.active_set.proj[p] = block::IDENTITY;
+            self.active_set.vel[p] = [0.0; 3];
             self.plan.mark_rows_of(p, true);
         }
         self.active_set.list.clear();

@@ -8,6 +8,8 @@
 use std::io::{BufRead, Write};
 use std::path::Path;
 
+use hookean_geometry::{GeometryError, TriMesh};
+
 use crate::error::{MassSpringError, io_err};
 
 /// A triangle mesh read from OBJ.
@@ -17,6 +19,9 @@ pub struct ObjMesh {
     pub positions: Vec<[f64; 3]>,
     /// Triangles (0-based vertex indices); polygons are fan-triangulated.
     pub triangles: Vec<[usize; 3]>,
+    /// The 1-based line of the `f` record of each triangle (empty for a
+    /// mesh not read from a file), so that a bad triangle can be named.
+    pub face_lines: Vec<usize>,
 }
 
 /// Parses OBJ text: `v x y z [w | r g b]` and `f` records (with `i`, `i/t`,
@@ -98,6 +103,7 @@ pub fn parse_obj(reader: impl BufRead) -> Result<ObjMesh, MassSpringError> {
                 }
                 for w in 1..face.len() - 1 {
                     mesh.triangles.push([face[0], face[w], face[w + 1]]);
+                    mesh.face_lines.push(line_no);
                 }
             }
             _ => {}
@@ -114,6 +120,88 @@ pub fn read_obj_file(path: impl AsRef<Path>) -> Result<ObjMesh, MassSpringError>
     let p = path.as_ref();
     let file = std::fs::File::open(p).map_err(|e| io_err(&p.display().to_string(), e))?;
     parse_obj(std::io::BufReader::new(file))
+}
+
+/// Reads a triangle mesh from the OBJ file `path` for contact: every
+/// coordinate scaled by `scale`, then moved by `offset`; the mesh checked as
+/// a contact surface ([`TriMesh::new`]: finite, no degenerate triangle,
+/// manifold, consistently oriented). Returns the mesh as read (for the
+/// builders) and as a contact surface (for colliders and self-collision).
+///
+/// # Errors
+/// [`MassSpringError::MeshFile`] naming the file and, where one is to
+/// blame, the line: a missing or unreadable file, a malformed record, no
+/// triangles, a non-finite coordinate (also after scaling), a degenerate,
+/// non-manifold or inconsistently oriented triangle;
+/// [`MassSpringError::InvalidParameter`] for a non-positive `scale` or a
+/// non-finite `offset`.
+pub fn read_surface(
+    path: impl AsRef<Path>,
+    scale: f64,
+    offset: [f64; 3],
+) -> Result<(ObjMesh, TriMesh), MassSpringError> {
+    if !(scale > 0.0 && scale.is_finite()) {
+        return Err(MassSpringError::InvalidParameter {
+            name: "scale",
+            message: format!("{scale:?} must be positive and finite"),
+        });
+    }
+    if offset.iter().any(|c| !c.is_finite()) {
+        return Err(MassSpringError::InvalidParameter {
+            name: "offset",
+            message: format!("{offset:?} must be finite"),
+        });
+    }
+    let p = path.as_ref();
+    let file = p.display().to_string();
+    let at = |line: Option<usize>, message: String| MassSpringError::MeshFile {
+        path: file.clone(),
+        line,
+        message,
+    };
+    let mut mesh = match read_obj_file(p) {
+        Ok(m) => m,
+        Err(MassSpringError::ObjParse { line, message }) => return Err(at(Some(line), message)),
+        Err(MassSpringError::Io { message, .. }) => return Err(at(None, message)),
+        Err(e) => return Err(at(None, e.to_string())),
+    };
+    for v in &mut mesh.positions {
+        for c in 0..3 {
+            v[c] = v[c] * scale + offset[c];
+        }
+    }
+    let surface = TriMesh::new(mesh.positions.clone(), mesh.triangles.clone()).map_err(|e| {
+        let triangle = match e {
+            GeometryError::IndexOutOfRange { triangle, .. }
+            | GeometryError::Degenerate { triangle }
+            | GeometryError::NonManifoldEdge { triangle, .. }
+            | GeometryError::Orientation { triangle, .. } => Some(triangle),
+            _ => None,
+        };
+        let message = match e {
+            GeometryError::NonFinite { vertex } => format!(
+                "vertex {} is not finite after scaling by {scale:?}",
+                vertex + 1
+            ),
+            // Vertex numbers as the file counts them (from 1).
+            GeometryError::NonManifoldEdge { a, b, count, .. } => format!(
+                "the edge between vertices {} and {} is shared by {count} faces (non-manifold: at most 2)",
+                a + 1,
+                b + 1
+            ),
+            GeometryError::Orientation { a, b, .. } => format!(
+                "this face runs through the edge {}-{} in the same direction as a neighbour (inconsistent orientation)",
+                a + 1,
+                b + 1
+            ),
+            GeometryError::Degenerate { .. } => {
+                "degenerate face (a repeated vertex or zero area)".to_string()
+            }
+            other => other.to_string(),
+        };
+        at(triangle.and_then(|t| mesh.face_lines.get(t).copied()), message)
+    })?;
+    Ok((mesh, surface))
 }
 
 /// Writes an OBJ frame: `v x y z` lines (or `v x y z r g b` with per-vertex

@@ -307,6 +307,7 @@ impl<S: System> Core<S> {
         check_finite(&self.s, "state", self.t)?;
         self.begin_step();
         check_finite(&self.s, "state", self.t)?;
+        let t_start = self.t;
         let (h, err) = if self.method.is_variable_step() {
             self.variable_step(limit)?
         } else {
@@ -314,6 +315,11 @@ impl<S: System> Core<S> {
             self.fixed_step(h)?;
             (h, None)
         };
+        // `y0` still holds the state the accepted step started from.
+        if self.sys.end_step(t_start, h, &self.y0, &mut self.s) {
+            self.reset_history();
+            check_finite(&self.s, "state after the step", self.t)?;
+        }
         Ok(StepReport {
             t: self.t,
             h,

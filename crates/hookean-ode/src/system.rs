@@ -45,6 +45,9 @@ pub(crate) trait System {
     fn derivative(&mut self, t: f64, s: &[f64], ds: &mut [f64], stats: &mut Stats);
     /// Lets the model adjust the state and set constraints before a step.
     fn begin_step(&mut self, t: f64, s: &mut [f64]);
+    /// Lets the model correct the state after an accepted step from `t`
+    /// of size `h` that started at `start`; true if it changed `s`.
+    fn end_step(&mut self, t: f64, h: f64, start: &[f64], s: &mut [f64]) -> bool;
     /// Imposes the step's velocity constraints on a state (second order).
     fn impose(&self, s: &mut [f64]);
     /// Solves the stage equation `K = psi + gh F(tau, K)` for `K` (in: the
@@ -400,6 +403,10 @@ impl<P: FirstOrderProblem> System for FirstSys<P> {
     }
 
     fn begin_step(&mut self, _t: f64, _s: &mut [f64]) {}
+
+    fn end_step(&mut self, _t: f64, _h: f64, _start: &[f64], _s: &mut [f64]) -> bool {
+        false
+    }
 
     fn impose(&self, _s: &mut [f64]) {}
 
@@ -912,6 +919,11 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
         let (x, v) = s.split_at_mut(self.n);
         self.constraints.clear();
         self.problem.begin_step(t, x, v, &mut self.constraints);
+    }
+
+    fn end_step(&mut self, t: f64, h: f64, start: &[f64], s: &mut [f64]) -> bool {
+        let (x, v) = s.split_at_mut(self.n);
+        self.problem.end_step(t, h, &start[..self.n], x, v)
     }
 
     fn impose(&self, s: &mut [f64]) {

@@ -184,4 +184,23 @@ pub trait SecondOrderProblem {
         _constraints: &mut Constraints,
     ) {
     }
+
+    /// Called by integrators after every accepted step from `t` to `t + h`
+    /// (after its retries, if any): `x_start` holds the positions the step
+    /// started from (after [`begin_step`](Self::begin_step)), `x` and `v`
+    /// the new state, which the model may correct (continuous collision
+    /// handling: a state whose straight path from `x_start` crosses a
+    /// surface). Returns `true` if it changed `x` or `v`, so that the
+    /// integrator drops what it derived from the uncorrected state
+    /// (multistep history, cached forces). The default does nothing.
+    fn end_step(
+        &mut self,
+        _t: f64,
+        _h: f64,
+        _x_start: &[f64],
+        _x: &mut [f64],
+        _v: &mut [f64],
+    ) -> bool {
+        false
+    }
 }

@@ -10,5 +10,6 @@ pub mod alloc;
 pub mod cloth;
 pub mod dense;
 pub mod fuzz;
+pub mod intersect;
 pub mod random;
 pub mod springs;

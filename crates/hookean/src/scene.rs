@@ -2,9 +2,10 @@
 //! long, and what to write.
 //!
 //! A scene has exactly one model table — `[cloth]`, `[rope]`, `[jelly]`,
-//! `[particle]` (the tutorial's example 3) or `[tutorial]` (its scalar
-//! examples 1 and 2, run as first-order ODEs) — and optional `[integrator]`,
-//! `[solver]`, `[filter]`, `[model]`, `[[collider]]` and `[output]` tables.
+//! `[mesh]` (a model from an OBJ file), `[particle]` (the tutorial's
+//! example 3) or `[tutorial]` (its scalar examples 1 and 2, run as
+//! first-order ODEs) — and optional `[integrator]`, `[solver]`, `[filter]`,
+//! `[model]`, `[[collider]]`, `[contact]` and `[output]` tables.
 //! Every key has a documented default (the field docs below; `scenes/drape.toml`
 //! spells them all out). Unknown keys, wrong types and out-of-range values
 //! are errors that name the file, line and column.
@@ -27,8 +28,8 @@ use std::path::Path;
 
 use hookean_filter::{FilterCoupling, FilterOptions, Form, Kernel};
 use hookean_massspring::{
-    BlockParams, ClothParams, ClothPins, Collider, ModelOptions, RopeParams, SpringDamping,
-    SpringMaterial,
+    BlockParams, ClothParams, ClothPins, Collider, Friction, MeshCollider, MeshParams,
+    ModelOptions, RigidMotion, RopeParams, SelfCollision, SpringDamping, SpringMaterial,
 };
 use hookean_ode::{ForcingTerm, Method, NewtonMethod, SolverOptions, StepControl};
 use hookean_sparse::{
@@ -211,6 +212,8 @@ pub struct Scene {
     /// The tutorial's examples 1 and 2: scalar ODEs (not mass-spring models),
     /// integrated as first-order systems by `hookean run`.
     pub tutorial: Option<TutorialScene>,
+    /// A cloth (or any surface) from a triangle mesh in an OBJ file.
+    pub mesh: Option<MeshScene>,
     /// Damping model, air friction and gravity.
     #[serde(default)]
     pub model: ModelScene,
@@ -222,9 +225,12 @@ pub struct Scene {
     pub solver: SolverScene,
     /// The velocity filter (explicit methods only).
     pub filter: Option<FilterScene>,
-    /// Planes and spheres.
+    /// Planes, spheres and triangle meshes.
     #[serde(default, rename = "collider")]
     pub colliders: Vec<ColliderScene>,
+    /// Cloth self-collision.
+    #[serde(default)]
+    pub contact: ContactScene,
     /// What to write.
     #[serde(default)]
     pub output: OutputScene,
@@ -234,6 +240,10 @@ pub struct Scene {
     /// Results are bitwise reproducible for a given thread count.
     #[serde(default, deserialize_with = "threads")]
     pub threads: Option<usize>,
+    /// The folder of the scene file: relative mesh paths start there
+    /// (`None`: the working directory).
+    #[serde(skip)]
+    base: Option<std::path::PathBuf>,
 }
 
 /// The most worker threads a scene or `--threads` may ask for (a typo of
@@ -282,6 +292,9 @@ pub struct ClothScene {
     /// `"horizontal"` (default: the xy plane) or `"vertical"` (the xz plane).
     #[serde(default)]
     pub plane: PlaneScene,
+    /// Turns the cloth's plane about the x axis by this many degrees (right-hand rule: a horizontal cloth tilts its far edge up). Range: any finite number. Default 0.
+    #[serde(default, deserialize_with = "finite")]
+    pub tilt: f64,
     /// Position of the first particle. Default `[0, 0, 0]`.
     #[serde(default, deserialize_with = "finite3")]
     pub origin: [f64; 3],
@@ -408,6 +421,77 @@ fn d_jelly_k() -> f64 {
 }
 fn d_jelly_origin() -> [f64; 3] {
     [0.0, 0.0, 0.5]
+}
+
+/// `[mesh]`: a model from a triangle mesh in an OBJ file (a garment, a
+/// flag): one particle per vertex, one spring per edge, bend springs across
+/// every edge shared by two triangles, rest lengths from the file. The mesh
+/// must be manifold and consistently oriented, with finite coordinates and
+/// no degenerate triangle (errors name the file and line).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshScene {
+    /// The OBJ file; a relative path starts at the scene file's folder.
+    pub path: std::path::PathBuf,
+    /// Factor on every coordinate of the file. Range (0, inf). Default 1.
+    #[serde(default = "one", deserialize_with = "positive")]
+    pub scale: f64,
+    /// Added to every (scaled) vertex (m). Default `[0, 0, 0]`.
+    #[serde(default, deserialize_with = "finite3")]
+    pub offset: [f64; 3],
+    /// Total mass (kg), lumped uniformly over the vertices. Range (0, inf). Default 1.
+    #[serde(default = "one", deserialize_with = "positive")]
+    pub mass: f64,
+    /// Edge spring stiffness (N/m). Range (0, inf). Default 1e4.
+    #[serde(default = "d_k", deserialize_with = "positive")]
+    pub stiffness: f64,
+    /// Bend stiffness (N/m) across shared edges; 0 leaves bend springs out. Range [0, inf). Default stiffness / 10.
+    #[serde(default, deserialize_with = "opt_non_negative")]
+    pub bend_stiffness: Option<f64>,
+    /// Spring damping (N s/m). Range [0, inf). Default 0.1.
+    #[serde(default = "d_damping", deserialize_with = "non_negative")]
+    pub damping: f64,
+    /// Pinned vertices, 0-based in the order of the file's `v` lines. Default none.
+    #[serde(default)]
+    pub pins: Vec<usize>,
+    /// Pins every vertex inside the box `[[x0, y0, z0], [x1, y1, z1]]` (m, after scale and offset). Default none.
+    #[serde(default)]
+    pub pin_box: Option<[[f64; 3]; 2]>,
+}
+
+/// `[contact]`: cloth self-collision after Bridson, Fedkiw and Anderson
+/// (2002): repulsion of close non-adjacent features inside the implicit
+/// step, then a continuous collision pass with impact zones after it
+/// (docs/CONTACT.md).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactScene {
+    /// Cloth self-collision on the model's triangles. Default false.
+    #[serde(default)]
+    pub self_collision: bool,
+    /// Self-collision thickness (m): closer non-adjacent features repel; keep it below 0.7 of the cloth's grid spacing. Range (0, inf). Default 0.004.
+    #[serde(default = "d_self_thickness", deserialize_with = "positive")]
+    pub self_thickness: f64,
+    /// Repulsion stiffness of one self-contact pair (N/m). Range [0, inf). Default 50.
+    #[serde(default = "d_self_stiffness", deserialize_with = "non_negative")]
+    pub self_stiffness: f64,
+}
+
+impl Default for ContactScene {
+    fn default() -> Self {
+        Self {
+            self_collision: false,
+            self_thickness: d_self_thickness(),
+            self_stiffness: d_self_stiffness(),
+        }
+    }
+}
+
+fn d_self_thickness() -> f64 {
+    hookean_massspring::SelfCollision::default().thickness
+}
+fn d_self_stiffness() -> f64 {
+    hookean_massspring::SelfCollision::default().stiffness
 }
 
 /// `[particle]`: the tutorial's example 3 with its parameters (no keys).
@@ -1042,9 +1126,11 @@ pub enum FormScene {
     Plain,
 }
 
-/// `[[collider]]`: a plane or a sphere. Its values are checked when the
-/// scene is built (errors name the collider: `[collider 2]: ...`), since the
-/// `kind`-tagged table loses the position of a bad value.
+/// `[[collider]]`: a plane, a sphere or a triangle mesh. Its values are
+/// checked when the scene is built (errors name the collider: `[collider 2]:
+/// ...`), since the `kind`-tagged table loses the position of a bad value.
+/// Friction (every kind): `static_friction` (`mu_s`, default 0) and
+/// `kinetic_friction` (`mu_k`, default `mu_s`), non-negative.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields, tag = "kind", rename_all = "kebab-case")]
 pub enum ColliderScene {
@@ -1057,6 +1143,12 @@ pub enum ColliderScene {
         /// Contact margin (m). Default 0.
         #[serde(default)]
         margin: f64,
+        /// Static friction coefficient. Range [0, inf). Default 0.
+        #[serde(default)]
+        static_friction: f64,
+        /// Kinetic friction coefficient. Range [0, inf). Default: the static one.
+        #[serde(default)]
+        kinetic_friction: Option<f64>,
     },
     /// The outside of a ball.
     Sphere {
@@ -1067,7 +1159,50 @@ pub enum ColliderScene {
         /// Contact margin (m). Default 0.
         #[serde(default)]
         margin: f64,
+        /// Static friction coefficient. Range [0, inf). Default 0.
+        #[serde(default)]
+        static_friction: f64,
+        /// Kinetic friction coefficient. Range [0, inf). Default: the static one.
+        #[serde(default)]
+        kinetic_friction: Option<f64>,
     },
+    /// The outside of a triangle mesh read from OBJ (an open mesh: the side
+    /// its counter-clockwise faces look to), kept at its thickness, at rest
+    /// or moving rigidly: a vertex at `X` at time 0 is at `pivot + velocity
+    /// t + R(angular_velocity t) (X - pivot)` at time `t`.
+    Mesh {
+        /// The OBJ file; a relative path starts at the scene file's folder.
+        path: std::path::PathBuf,
+        /// Factor on every coordinate. Range (0, inf). Default 1.
+        #[serde(default = "one")]
+        scale: f64,
+        /// Added to every scaled vertex (m). Default `[0, 0, 0]`.
+        #[serde(default)]
+        offset: [f64; 3],
+        /// Particles are kept this far from the surface (m). Range [0, inf). Default 0.005.
+        #[serde(default = "d_mesh_thickness")]
+        thickness: f64,
+        /// Static friction coefficient. Range [0, inf). Default 0.
+        #[serde(default)]
+        static_friction: f64,
+        /// Kinetic friction coefficient. Range [0, inf). Default: the static one.
+        #[serde(default)]
+        kinetic_friction: Option<f64>,
+        /// Linear velocity (m/s). Default `[0, 0, 0]`.
+        #[serde(default)]
+        velocity: [f64; 3],
+        /// Angular velocity (rad/s). Default `[0, 0, 0]`.
+        #[serde(default)]
+        angular_velocity: [f64; 3],
+        /// The centre of rotation at time 0. Default: the centre of the
+        /// mesh's bounding box.
+        #[serde(default)]
+        pivot: Option<[f64; 3]>,
+    },
+}
+
+fn d_mesh_thickness() -> f64 {
+    0.005
 }
 
 /// `[output]`.
@@ -1091,6 +1226,39 @@ impl Default for OutputScene {
             frame_rate: d_frame_rate(),
             width: d_width(),
             height: d_height(),
+        }
+    }
+}
+
+/// The number of `v` records of an OBJ file, counted in fixed-size chunks
+/// (no line is held in memory, so a huge file costs no memory here); 0 for
+/// a file that cannot be read (building the scene then names the error).
+fn obj_vertex_count(path: &Path) -> u64 {
+    use std::io::Read;
+    let Ok(mut file) = std::fs::File::open(path) else {
+        return 0;
+    };
+    let mut buf = [0u8; 1 << 16];
+    // 0: at a line start, 1: after a leading 'v', 2: elsewhere in a line.
+    let (mut state, mut count) = (0u8, 0u64);
+    loop {
+        let Ok(k) = file.read(&mut buf) else {
+            return count;
+        };
+        if k == 0 {
+            return count;
+        }
+        for &b in &buf[..k] {
+            state = match (state, b) {
+                (_, b'\n') => 0,
+                (0, b'v') => 1,
+                (0, b' ' | b'\t') => 0,
+                (1, b' ' | b'\t') => {
+                    count += 1;
+                    2
+                }
+                _ => 2,
+            };
         }
     }
 }
@@ -1198,7 +1366,9 @@ impl Scene {
                     },
                 })
             })?;
-        Self::with_overrides(&path.display().to_string(), &text, overrides)
+        let mut scene = Self::with_overrides(&path.display().to_string(), &text, overrides)?;
+        scene.base = path.parent().map(Path::to_path_buf);
+        Ok(scene)
     }
 
     /// Parses a scene and applies `key=value` overrides (`cloth.n=32`,
@@ -1262,6 +1432,7 @@ impl Scene {
             self.jelly.is_some(),
             self.particle.is_some(),
             self.tutorial.is_some(),
+            self.mesh.is_some(),
         ]
         .iter()
         .filter(|&&b| b)
@@ -1281,7 +1452,7 @@ impl Scene {
         }
         if models != 1 {
             return Err(format!(
-                "a scene needs exactly one model table ([cloth], [rope], [jelly], [particle] or [tutorial]), found {models}"
+                "a scene needs exactly one model table ([cloth], [rope], [jelly], [mesh], [particle] or [tutorial]), found {models}"
             ));
         }
         Ok(())
@@ -1391,6 +1562,17 @@ impl Scene {
             PlaneScene::Horizontal => [0.0, 1.0, 0.0],
             PlaneScene::Vertical => [0.0, 0.0, 1.0],
         };
+        // About +x: (y, z) -> (y cos - z sin, y sin + z cos).
+        let axis_v = if c.tilt == 0.0 {
+            axis_v
+        } else {
+            let (s, co) = c.tilt.to_radians().sin_cos();
+            [
+                0.0,
+                axis_v[1] * co - axis_v[2] * s,
+                axis_v[1] * s + axis_v[2] * co,
+            ]
+        };
         Some(ClothParams {
             nu: c.n,
             nv: c.n,
@@ -1426,8 +1608,18 @@ impl Scene {
             (a.checked_mul(b).and_then(|ab| ab.checked_mul(c)), "jelly.n")
         } else if self.particle.is_some() {
             (Some(1), "particle")
+        } else if let Some(m) = &self.mesh {
+            (Some(obj_vertex_count(&self.resolve(&m.path))), "mesh.path")
         } else {
             (Some(1), "tutorial")
+        }
+    }
+
+    /// A path of the scene: relative paths start at the scene file's folder.
+    fn resolve(&self, path: &Path) -> std::path::PathBuf {
+        match &self.base {
+            Some(base) if path.is_relative() => base.join(path),
+            _ => path.to_path_buf(),
         }
     }
 
@@ -1474,7 +1666,7 @@ impl Scene {
         const PER_SPRING: u64 = 1 << 9;
         // Springs per particle: cloth 6 (structural, shear, bend), rope 2,
         // 3D lattice at most 13 (half of the 26 neighbours).
-        let springs_per = if self.cloth.is_some() {
+        let springs_per = if self.cloth.is_some() || self.mesh.is_some() {
             6
         } else if self.rope.is_some() {
             2
@@ -1534,7 +1726,7 @@ impl Scene {
         let in_table = |table: &str| {
             let table = table.to_string();
             move |e: hookean_massspring::MassSpringError| HookeanError::Build {
-                table,
+                table: table.clone(),
                 message: e.to_string(),
             }
         };
@@ -1566,6 +1758,41 @@ impl Scene {
                 options,
             })
             .map_err(in_table("jelly"))?
+        } else if let Some(m) = &self.mesh {
+            let (obj, _) =
+                hookean_massspring::read_surface(self.resolve(&m.path), m.scale, m.offset)
+                    .map_err(in_table("mesh"))?;
+            let bend = m.bend_stiffness.unwrap_or(m.stiffness / 10.0);
+            let (mut model, state) = hookean_massspring::from_mesh(
+                &obj,
+                &MeshParams {
+                    total_mass: m.mass,
+                    edge: SpringMaterial::new(m.stiffness, m.damping),
+                    bend: (bend > 0.0).then(|| SpringMaterial::new(bend, m.damping)),
+                    options,
+                },
+            )
+            .map_err(in_table("mesh"))?;
+            let n = model.n_particles();
+            let mut pins = m.pins.clone();
+            if let Some(&bad) = pins.iter().find(|&&p| p >= n) {
+                return Err(HookeanError::Build {
+                    table: "mesh".into(),
+                    message: format!(
+                        "pins: vertex {bad} does not exist ({n} vertices, numbered from 0)"
+                    ),
+                });
+            }
+            if let Some([lo, hi]) = m.pin_box {
+                pins.extend((0..n).filter(|&p| {
+                    (0..3).all(|c| lo[c] <= state.x[3 * p + c] && state.x[3 * p + c] <= hi[c])
+                }));
+            }
+            for p in pins {
+                let at = [state.x[3 * p], state.x[3 * p + 1], state.x[3 * p + 2]];
+                model.pin(p, at).map_err(in_table("mesh"))?;
+            }
+            (model, state)
         } else {
             let (mut model, state) =
                 hookean_massspring::tutorial_example3().map_err(in_table("particle"))?;
@@ -1579,18 +1806,63 @@ impl Scene {
         };
         for (i, c) in self.colliders.iter().enumerate() {
             let collider = in_table(&format!("collider {}", i + 1));
-            model.add_collider(match *c {
+            let friction = |mu_s: f64, mu_k: Option<f64>| {
+                Friction::new(mu_s, mu_k.unwrap_or(mu_s)).map_err(&collider)
+            };
+            model.add_collider(match c {
                 ColliderScene::Plane {
                     point,
                     normal,
                     margin,
-                } => Collider::plane(point, normal, margin).map_err(collider)?,
+                    static_friction,
+                    kinetic_friction,
+                } => Collider::plane(*point, *normal, *margin)
+                    .map_err(&collider)?
+                    .with_friction(friction(*static_friction, *kinetic_friction)?),
                 ColliderScene::Sphere {
                     center,
                     radius,
                     margin,
-                } => Collider::sphere(center, radius, margin).map_err(collider)?,
+                    static_friction,
+                    kinetic_friction,
+                } => Collider::sphere(*center, *radius, *margin)
+                    .map_err(&collider)?
+                    .with_friction(friction(*static_friction, *kinetic_friction)?),
+                ColliderScene::Mesh {
+                    path,
+                    scale,
+                    offset,
+                    thickness,
+                    static_friction,
+                    kinetic_friction,
+                    velocity,
+                    angular_velocity,
+                    pivot,
+                } => {
+                    let (_, surface) =
+                        hookean_massspring::read_surface(self.resolve(path), *scale, *offset)
+                            .map_err(&collider)?;
+                    let centre = surface.aabb().center();
+                    let motion = RigidMotion {
+                        velocity: *velocity,
+                        angular_velocity: *angular_velocity,
+                        pivot: pivot.unwrap_or([centre.x, centre.y, centre.z]),
+                    };
+                    let mesh = MeshCollider::new(surface, *thickness)
+                        .and_then(|m| m.with_motion(motion))
+                        .map_err(&collider)?;
+                    Collider::mesh(mesh)
+                        .with_friction(friction(*static_friction, *kinetic_friction)?)
+                }
             });
+        }
+        if self.contact.self_collision {
+            model
+                .set_self_collision(Some(SelfCollision {
+                    thickness: self.contact.self_thickness,
+                    stiffness: self.contact.self_stiffness,
+                }))
+                .map_err(in_table("contact"))?;
         }
         let mut options = self.simulation_options();
         if self.integrator.h == StepScene::Auto {
@@ -1644,6 +1916,8 @@ mod tests {
             ("AmgScene", "solver.amg."),
             ("FilterScene", "filter."),
             ("OutputScene", "output."),
+            ("MeshScene", "mesh."),
+            ("ContactScene", "contact."),
         ];
         let mut count = 0;
         for (name, prefix) in tables {

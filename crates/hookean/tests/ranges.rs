@@ -88,6 +88,14 @@ fn base(key: &str) -> &'static str {
         "filter" => {
             "duration = 0.02\n[cloth]\nn = 3\n[integrator]\nmethod = \"fb-euler\"\nh = 1e-4\n[filter]\n"
         }
+        "mesh" => concat!(
+            "duration = 0.02\n[mesh]\npath = \"",
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../data/table.obj\"\n[output]\nframe_rate = 0\n"
+        ),
+        "contact" => {
+            "duration = 0.02\n[cloth]\nn = 3\n[output]\nframe_rate = 0\n[contact]\nself_collision = true\n"
+        }
         _ if key.starts_with("solver.amg.") => {
             "duration = 0.02\n[cloth]\nn = 3\n[solver]\npreconditioner = \"amg\"\n[solver.amg]\n"
         }

@@ -37,7 +37,6 @@ fn frames_csv_and_progress_record_the_run() {
     let summary = sim
         .run_with_sinks(0.35, &mut [&mut csv, &mut frames, &mut progress])
         .unwrap();
-    drop(progress);
 
     // h = 0.01: frames at t = 0, 0.1, 0.2, 0.3 (to round-off of the step sum).
     let times = frames.times();
