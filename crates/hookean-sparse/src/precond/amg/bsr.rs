@@ -539,40 +539,57 @@ fn product_row<const B: usize, S: Entry, T: Entry, U: Entry>(
     let n = cols.len() - first;
     if !U::EXACT && n <= ROW_BUFFER {
         let mut acc = [zero::<B>(); ROW_BUFFER];
-        for k in x.row(i) {
-            let xk = load(&x.val[k]);
-            let m = x.col[k] as usize;
-            let mut p = first;
-            for q in y.row(m) {
-                let j = y.col[q];
-                if !keep(j) {
-                    continue;
-                }
-                while cols[p] != j {
-                    p += 1;
-                }
-                mul_mat_add(&xk, &load(&y.val[q]), &mut acc[p - first]);
-            }
-        }
+        product_terms(x, y, i, cols, first, keep, load, |xk, yq, p| {
+            mul_mat_add(xk, &load(yq), &mut acc[p - first]);
+        });
         for (v, a) in vals[first..].iter_mut().zip(&acc[..n]) {
             *v = store(a);
         }
     } else {
         vals[first..].fill(szero::<U, B>());
-        for k in x.row(i) {
-            let xk = &x.val[k];
-            let m = x.col[k] as usize;
-            let mut p = first;
-            for q in y.row(m) {
-                let j = y.col[q];
-                if !keep(j) {
-                    continue;
-                }
-                while cols[p] != j {
-                    p += 1;
-                }
-                smul_mat_add(xk, &y.val[q], &mut vals[p]);
+        product_terms(
+            x,
+            y,
+            i,
+            cols,
+            first,
+            keep,
+            |b| *b,
+            |xk, yq, p| {
+                smul_mat_add(xk, yq, &mut vals[p]);
+            },
+        );
+    }
+}
+
+/// Every term `X_ik Y_kj` of row `i` of `X Y` whose column `j` is kept:
+/// `add(prepare(X_ik), Y_kj, p)` with `p` the slot of `j` in `cols`
+/// (sorted, from `first`; `prepare` runs once per block of `X`).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn product_terms<const B: usize, S: Entry, T: Entry, P>(
+    x: &Bsr<B, S>,
+    y: &Bsr<B, T>,
+    i: usize,
+    cols: &[u32],
+    first: usize,
+    keep: impl Fn(u32) -> bool,
+    prepare: impl Fn(&SBlk<S, B>) -> P,
+    mut add: impl FnMut(&P, &SBlk<T, B>, usize),
+) {
+    for k in x.row(i) {
+        let xk = prepare(&x.val[k]);
+        let m = x.col[k] as usize;
+        let mut p = first;
+        for q in y.row(m) {
+            let j = y.col[q];
+            if !keep(j) {
+                continue;
             }
+            while cols[p] != j {
+                p += 1;
+            }
+            add(&xk, &y.val[q], p);
         }
     }
 }
