@@ -28,9 +28,10 @@ fn implicit_drape_statistics() {
 /// The run's counters: its statistics with the phases' wall times zeroed
 /// (they differ from run to run).
 fn counters(stats: &hookean::ode::Stats) -> hookean::ode::Stats {
-    let mut stats = stats.clone();
-    stats.phases = Default::default();
-    stats
+    hookean::ode::Stats {
+        phases: Default::default(),
+        ..*stats
+    }
 }
 
 #[test]
