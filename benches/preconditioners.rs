@@ -328,6 +328,21 @@ fn bandwidth() {
         // layout) and read r or write z.
         let t = best_of(50, || mic.apply(black_box(&b), &mut y));
         row("MIC(0) apply", 2.0 * bytes, t);
+        // The V-cycle (f32 levels, block-Jacobi) reads every operator but
+        // the coarsest twice (the residual before restriction and after the
+        // correction; the smoothing passes need only the inverted diagonal):
+        // 4-byte entries and a 4-byte column per 3x3 block. P, R, the
+        // diagonal blocks and the vectors are left out, so these bytes (and
+        // the GB/s) are a lower bound.
+        let mut amg = hookean_sparse::Amg::with_options(Default::default()).unwrap();
+        amg.setup(&a).unwrap();
+        let t = best_of(50, || amg.apply(black_box(&b), &mut y));
+        let levels = &amg.stats().levels;
+        let ops: f64 = levels[..levels.len() - 1]
+            .iter()
+            .map(|l| l.nonzeros as f64 * (4.0 + 4.0 / 9.0))
+            .sum();
+        row("AMG V-cycle (f32)", 2.0 * ops, t);
     }
 }
 

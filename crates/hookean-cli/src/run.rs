@@ -62,6 +62,9 @@ pub struct RunRecord {
     pub jacobian_evals: usize,
     pub linear_setups: usize,
     pub wall_s: f64,
+    /// Where `wall_s` went, in seconds: forming the Newton matrices,
+    /// setting up the preconditioner, the linear solves, and the rest.
+    pub phases_s: PhaseSeconds,
     /// Worker threads of the kernels (`--threads`, the scene's `threads`,
     /// `RAYON_NUM_THREADS` or all cores, in that order).
     pub threads: usize,
@@ -74,6 +77,38 @@ pub struct RunRecord {
     pub frame_times: Vec<f64>,
     /// The colliders, for viewers (`hookean view`).
     pub colliders: Vec<ViewCollider>,
+}
+
+/// The steps' wall time by phase (s), summed over the run's Newton solves.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct PhaseSeconds {
+    /// Forming `A = M - h df/dv - h^2 df/dx` (the Jacobian sweep).
+    pub assembly: f64,
+    /// Preconditioner set-ups and refills (MIC(0) factorisations, AMG hierarchies).
+    pub preconditioner_setup: f64,
+    /// PCG iterations with their preconditioner applications.
+    pub solve: f64,
+    /// Everything else in the steps: force evaluations, vector updates,
+    /// filters, contact.
+    pub other: f64,
+}
+
+impl PhaseSeconds {
+    /// The phases of `stats` within the steps' wall time `wall`.
+    pub fn of(stats: &hookean_ode::Stats, wall: f64) -> Self {
+        let p = &stats.phases;
+        let (assembly, preconditioner_setup, solve) = (
+            p.assembly.as_secs_f64(),
+            p.setup.as_secs_f64(),
+            p.solve.as_secs_f64(),
+        );
+        Self {
+            assembly,
+            preconditioner_setup,
+            solve,
+            other: (wall - assembly - preconditioner_setup - solve).max(0.0),
+        }
+    }
 }
 
 /// The OBJ frames of a run ([`ObjFrames`]) and the same frames kept for
@@ -419,6 +454,7 @@ fn run_model(
         jacobian_evals: s.num_jac_evals,
         linear_setups: s.num_lin_solv_setups,
         wall_s: summary.wall.as_secs_f64(),
+        phases_s: PhaseSeconds::of(&s, summary.wall.as_secs_f64()),
         threads: crate::threads::current(),
         simulated_s: summary.simulated,
         simulated_s_per_wall_s: summary.speed(),
@@ -483,13 +519,18 @@ fn run_model(
         view.frames.push(view_frame(&sim).map_err(failed)?);
     }
     view.write(&out.join("view.html"))?;
+    let p = &record.phases_s;
     Ok(Some(format!(
-        "{}: {} steps, {} Newton and {} CG iterations, {:.2} s wall for {:.2} s simulated ({:.2}x real time)",
+        "{}: {} steps, {} Newton and {} CG iterations, {:.2} s wall (assembly {:.2}, preconditioner set-up {:.2}, solve {:.2}, other {:.2}) for {:.2} s simulated ({:.2}x real time)",
         name,
         s.num_steps,
         s.num_nonlin_solv_iters,
         s.num_lin_iters,
         record.wall_s,
+        p.assembly,
+        p.preconditioner_setup,
+        p.solve,
+        p.other,
         record.simulated_s,
         record.simulated_s_per_wall_s,
     )))

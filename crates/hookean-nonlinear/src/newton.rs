@@ -2,6 +2,8 @@
 //! inexact Newton with residual control, inexact simplified Newton) and the
 //! simplified Newton of stiff ODE solvers with CVODE's rate-based test.
 
+use std::time::Instant;
+
 use hookean_sparse::vecops::norm2;
 
 use crate::convergence::{Convergence, RateEstimate, RateVerdict};
@@ -61,6 +63,8 @@ pub struct Newton<J, L> {
     jacobian_valid: bool,
     /// Whether the Jacobian storage holds the system's approximation.
     approximated: bool,
+    /// Whether to clock the phases into [`NewtonStats`] (see [`Newton::time_phases`]).
+    timed: bool,
 }
 
 impl<J, L: LinearSolver<J>> Newton<J, L> {
@@ -84,6 +88,7 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
             rate: RateEstimate::default(),
             jacobian_valid: false,
             approximated: false,
+            timed: false,
         })
     }
 
@@ -236,6 +241,15 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
         }
     }
 
+    /// Clocks the phases of every solve (Jacobian evaluation, linear-solver
+    /// set-up, linear solves) into [`NewtonStats`]' `*_seconds`: three clock
+    /// reads per iteration, worth it on systems whose iterations take
+    /// milliseconds (cloth), not on stiff systems of a few unknowns. Off by
+    /// default.
+    pub fn time_phases(&mut self, on: bool) {
+        self.timed = on;
+    }
+
     /// Evaluates the (approximate) Jacobian at `y` and sets up the linear solver.
     fn evaluate_jacobian<S>(
         &mut self,
@@ -248,13 +262,22 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
         S: NonlinearSystem<Jacobian = J> + ?Sized,
     {
         self.approximated = false;
+        let start = self.timed.then(Instant::now);
         let approximated = approximate && system.approximate_jacobian(y, &mut self.jacobian)?;
         if !approximated {
             system.jacobian(y, &mut self.jacobian)?;
         }
         self.approximated = approximated;
         stats.jacobian_evaluations += 1;
-        self.linear.setup(&self.jacobian)?;
+        let assembled = start.map(|s| {
+            stats.jacobian_seconds += s.elapsed().as_secs_f64();
+            Instant::now()
+        });
+        let setup = self.linear.setup(&self.jacobian);
+        if let Some(a) = assembled {
+            stats.setup_seconds += a.elapsed().as_secs_f64();
+        }
+        setup?;
         stats.linear_setups += 1;
         self.rate.reset();
         Ok(())
@@ -313,7 +336,7 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
             for (r, g) in self.rhs.iter_mut().zip(&self.g) {
                 *r = -g;
             }
-            let lin = self.linear_solve(system, y, eta)?;
+            let lin = self.timed_linear_solve(system, y, eta, stats)?;
             stats.linear_iterations += lin.iterations;
             if !direct {
                 stats.push_forcing(eta);
@@ -452,7 +475,7 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
             for (r, g) in self.rhs.iter_mut().zip(&self.g) {
                 *r = -g;
             }
-            let lin = self.linear_solve(system, y, eta)?;
+            let lin = self.timed_linear_solve(system, y, eta, stats)?;
             stats.linear_iterations += lin.iterations;
             if !lin.converged {
                 return Err(Stop::LinearNotConverged {
@@ -503,6 +526,27 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
     /// Solves `J s = rhs` into `s` with relative tolerance `eta` (every
     /// solver overwrites `s`; iterative ones start from zero unless a guess
     /// was armed), through the system's products for a matrix-free solver.
+    /// Clocked into `stats.solve_seconds` when phases are timed.
+    fn timed_linear_solve<S>(
+        &mut self,
+        system: &mut S,
+        y: &[f64],
+        eta: f64,
+        stats: &mut NewtonStats,
+    ) -> Result<crate::LinearSolveStats, NonlinearError>
+    where
+        S: NonlinearSystem<Jacobian = J> + ?Sized,
+    {
+        if !self.timed {
+            return self.linear_solve(system, y, eta);
+        }
+        let start = Instant::now();
+        let lin = self.linear_solve(system, y, eta);
+        stats.solve_seconds += start.elapsed().as_secs_f64();
+        lin
+    }
+
+    /// The linear solve of one correction (see [`timed_linear_solve`](Self::timed_linear_solve)).
     fn linear_solve<S>(
         &mut self,
         system: &mut S,

@@ -54,6 +54,14 @@ pub struct NewtonStats {
     /// whose iterate so far was taken as the correction, with a backtracking
     /// line search on `|G|`.
     pub truncated_solves: usize,
+    /// Wall time of the Jacobian evaluations (assembly), seconds; recorded
+    /// only when [`Newton::time_phases`](crate::Newton::time_phases) is on.
+    pub jacobian_seconds: f64,
+    /// Wall time of the linear solver's set-ups (factorisations,
+    /// preconditioner set-ups), seconds; as `jacobian_seconds`.
+    pub setup_seconds: f64,
+    /// Wall time of the linear solves, seconds; as `jacobian_seconds`.
+    pub solve_seconds: f64,
     /// `|G(Y_0)|` and the last `|G(Y_k)|` computed.
     first_residual: Option<f64>,
     last_residual: f64,
@@ -78,6 +86,9 @@ impl Default for NewtonStats {
             jacobian_reused: false,
             restarts: 0,
             truncated_solves: 0,
+            jacobian_seconds: 0.0,
+            setup_seconds: 0.0,
+            solve_seconds: 0.0,
             first_residual: None,
             last_residual: f64::NAN,
             last_step: f64::NAN,

@@ -92,6 +92,7 @@ pub mod imex;
 pub mod integrator;
 pub mod method;
 pub mod options;
+mod phases;
 pub mod stability;
 mod stage;
 pub mod stats;
@@ -119,6 +120,7 @@ pub use hookean_sparse::PrecondKind;
 pub use integrator::{FirstOrderIntegrator, SecondOrderIntegrator};
 pub use method::Method;
 pub use options::{Predictor, SolverOptions, StepControl, StepSizePolicy, Tolerance};
+pub use phases::PhaseTimes;
 /// The sparse matrix crate of [`FirstOrderProblem::sparse_jacobian_pattern`]
 /// and [`FirstOrderProblem::jacobian_sparse`], re-exported so that users
 /// need not match its version by hand.

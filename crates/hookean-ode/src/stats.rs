@@ -49,6 +49,10 @@ pub struct Stats {
     pub num_prec_evals: usize,
     /// Preconditioner applications of GMRES (`CVodeGetNumPrecSolves`).
     pub num_prec_solves: usize,
+    /// Wall time of the Newton solves' phases (assembly, linear-solver
+    /// set-up, linear solves) of second-order problems (cloth), where the
+    /// integrator clocks them; zero for first-order problems.
+    pub phases: crate::phases::PhaseTimes,
 }
 
 impl Stats {

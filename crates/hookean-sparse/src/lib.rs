@@ -115,8 +115,8 @@ pub use mtx::{
 pub use operator::{LinearOperator, MatrixFree};
 pub use power::{PowerHook, PowerInfo, PowerParams, power_method};
 pub use precond::{
-    Amg, AmgLevelStats, AmgOptions, AmgReuse, AmgSmoother, AmgStats, AnyPreconditioner,
-    BlockJacobi, Identity, IncompleteCholesky, Jacobi, PrecondKind, Preconditioner,
-    PreconditionerSetup, Ssor,
+    Amg, AmgLevelStats, AmgOptions, AmgPrecision, AmgReuse, AmgSmoother, AmgStats,
+    AnyPreconditioner, BlockJacobi, Identity, IncompleteCholesky, Jacobi, PrecondKind,
+    Preconditioner, PreconditionerSetup, Ssor,
 };
 pub use symcsr::SymCsrMatrix;

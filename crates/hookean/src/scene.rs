@@ -32,7 +32,9 @@ use hookean_massspring::{
     ModelOptions, RigidMotion, RopeParams, SelfCollision, SpringDamping, SpringMaterial,
 };
 use hookean_ode::{ForcingTerm, Method, NewtonMethod, SolverOptions, StepControl};
-use hookean_sparse::{AmgOptions, AmgReuse, AmgSmoother, NegativeCurvature, PrecondKind};
+use hookean_sparse::{
+    AmgOptions, AmgPrecision, AmgReuse, AmgSmoother, NegativeCurvature, PrecondKind,
+};
 use serde::Deserialize;
 use serde::de::{Deserializer, Error as _};
 
@@ -178,10 +180,13 @@ fn mic_omega<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
 }
 
 /// From this many particles on, `preconditioner = "auto"` takes AMG
-/// instead of MIC(0): on the drape AMG's set-up at every Newton iteration
-/// costs more than it saves at 64 x 64 (4 096 particles) and wins 1.35-1.56x
-/// at 128 x 128 (16 384; docs/PERFORMANCE.md, issues 15 and 16). The
-/// crossover between the two was not measured more finely.
+/// instead of MIC(0). With the f32 hierarchy (issue 25, docs/PERFORMANCE.md)
+/// AMG is the faster from 48 x 48 on (5 s drape, MIC(0) against AMG: 32 x 32
+/// 0.65 s against 1.76 s, 40 x 40 a tie, 48 x 48 1.61 s against 1.31 s,
+/// 64 x 64 3.08 s against 2.56 s), but the rule stays above the 64 x 64
+/// reference drape: its inexact Newton (PCG to 1%) gives a swing that
+/// depends on the preconditioner, 12.7% apart in total energy at t = 5 s
+/// with AMG (f32 or f64 alike), so that drape keeps MIC(0) and its figures.
 pub const AUTO_AMG_PARTICLES: usize = 10_000;
 
 /// Every scene key with its units and default, as `hookean scene-keys`
@@ -841,6 +846,22 @@ pub struct AmgScene {
     /// 1000. Default 4.
     #[serde(default = "d_amg_keep", deserialize_with = "int_in::<_, 1, 1000>")]
     pub keep_updates: usize,
+    /// Storage of the hierarchy's matrices: `"single"` (default: f32, half
+    /// the memory traffic of a V-cycle) or `"double"` (f64, as before issue
+    /// 25); the arithmetic is f64 either way.
+    #[serde(default)]
+    pub precision: AmgPrecisionScene,
+}
+
+/// The storage precision of the multigrid's matrices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AmgPrecisionScene {
+    /// f32 entries.
+    #[default]
+    Single,
+    /// f64 entries.
+    Double,
 }
 
 /// The multigrid's smoother.
@@ -893,6 +914,10 @@ impl AmgScene {
                 AmgReuseScene::Keep => AmgReuse::Keep {
                     updates: self.keep_updates,
                 },
+            },
+            precision: match self.precision {
+                AmgPrecisionScene::Single => AmgPrecision::Single,
+                AmgPrecisionScene::Double => AmgPrecision::Double,
             },
             ..AmgOptions::default()
         }

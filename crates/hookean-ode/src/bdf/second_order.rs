@@ -63,8 +63,10 @@ impl<P: SecondOrderProblem> Corrector for SecondSys<P> {
             opts.bdf.linear_rtol,
         );
         let linear = PcgSolver::from_options(&opts.linear)?;
+        let mut newton = Newton::new(options, SymBlockMatrix::new(pattern.clone()), linear)?;
+        newton.time_phases(true);
         Ok(SecondCorrector {
-            newton: Newton::new(options, SymBlockMatrix::new(pattern.clone()), linear)?,
+            newton,
             dfdx: SymBlockMatrix::new(pattern.clone()),
             dfdv: SymBlockMatrix::new(pattern),
             previous: Vec::new(),

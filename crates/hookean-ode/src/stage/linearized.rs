@@ -87,8 +87,10 @@ impl LinearizedNewton {
             return Ok(None);
         }
         let particle_mass = m3.iter().map(|m| m[0]).collect();
+        let mut newton = Newton::new(options, IsoBlockMatrix::new(pattern), linear)?;
+        newton.time_phases(true);
         Ok(Some(Self {
-            newton: Newton::new(options, IsoBlockMatrix::new(pattern), linear)?,
+            newton,
             k,
             d,
             particle_mass,

@@ -138,6 +138,9 @@ pub(crate) fn account(
         stats.num_nonlin_solv_iters += ns.iterations;
         stats.num_lin_iters += ns.linear_iterations;
         stats.num_lin_solv_setups += ns.linear_setups;
+        stats
+            .phases
+            .add_seconds(ns.jacobian_seconds, ns.setup_seconds, ns.solve_seconds);
     }
     match result {
         Ok(ns) => Ok(StageInfo {

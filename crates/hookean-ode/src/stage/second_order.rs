@@ -164,11 +164,13 @@ impl<P: SecondOrderProblem> SecondSys<P> {
         let linear = PcgSolver::from_options(&opts.linear)?;
         let mass = problem.mass();
         let mean_mass = mass.iter().sum::<f64>() / mass.len().max(1) as f64;
-        let newton = Newton::new(
+        let mut newton = Newton::new(
             momentum_options(&opts.newton, mean_mass),
             SymBlockMatrix::new(pattern.clone()),
             linear,
         )?;
+        // A cloth's Newton iterations take milliseconds: clock their phases.
+        newton.time_phases(true);
         Ok(Self {
             n,
             mean_mass,

@@ -24,7 +24,7 @@ mod ic0;
 mod jacobi;
 mod ssor;
 
-pub use amg::{Amg, AmgLevelStats, AmgOptions, AmgReuse, AmgSmoother, AmgStats};
+pub use amg::{Amg, AmgLevelStats, AmgOptions, AmgPrecision, AmgReuse, AmgSmoother, AmgStats};
 pub use any::{AnyPreconditioner, PrecondKind};
 pub use ic0::IncompleteCholesky;
 pub use jacobi::{BlockJacobi, Identity, Jacobi};

@@ -3,7 +3,7 @@
 //! elliptic problems", section 3): strength of connection on blocks,
 //! aggregation, and the tentative prolongator from the near-nullspace.
 
-use super::bsr::{Blk, Bsr, frobenius2, zero};
+use super::bsr::{Blk, Bsr, Entry, frobenius2, load, zero};
 use crate::error::SparseError;
 
 /// Marks a node that belongs to no aggregate (it has no strong neighbour;
@@ -14,17 +14,21 @@ pub(crate) const NO_AGGREGATE: u32 = u32::MAX;
 /// when `|A_ij|_F^2 > theta^2 |A_ii|_F |A_jj|_F` (the block form of the
 /// symmetric test `|a_ij| > theta sqrt(|a_ii a_jj|)`; symmetric in `i, j`
 /// because `|A_ji|_F = |A_ij^T|_F`). Diagonal slots are marked not strong.
-pub(crate) fn strong_connections<const B: usize>(
-    a: &Bsr<B>,
+pub(crate) fn strong_connections<const B: usize, S: Entry>(
+    a: &Bsr<B, S>,
     diag: &[usize],
     theta: f64,
 ) -> Vec<bool> {
-    let norms: Vec<f64> = diag.iter().map(|&d| frobenius2(&a.val[d]).sqrt()).collect();
+    let norms: Vec<f64> = diag
+        .iter()
+        .map(|&d| frobenius2(&load(&a.val[d])).sqrt())
+        .collect();
     let mut strong = vec![false; a.nnz_blocks()];
     for i in 0..a.nrows {
         for k in a.row(i) {
             let j = a.col[k] as usize;
-            strong[k] = j != i && frobenius2(&a.val[k]) > theta * theta * norms[i] * norms[j];
+            strong[k] =
+                j != i && frobenius2(&load(&a.val[k])) > theta * theta * norms[i] * norms[j];
         }
     }
     strong
@@ -39,7 +43,10 @@ pub(crate) fn strong_connections<const B: usize>(
 ///
 /// Nodes without strong neighbours stay out ([`NO_AGGREGATE`]). Returns the
 /// aggregate of every node and the number of aggregates.
-pub(crate) fn aggregate<const B: usize>(a: &Bsr<B>, strong: &[bool]) -> (Vec<u32>, usize) {
+pub(crate) fn aggregate<const B: usize, S: Entry>(
+    a: &Bsr<B, S>,
+    strong: &[bool],
+) -> (Vec<u32>, usize) {
     let n = a.nrows;
     let mut agg = vec![NO_AGGREGATE; n];
     let mut seeded = vec![false; n];

@@ -1,6 +1,9 @@
 //! The storage of every multigrid level: full (both triangles) block CSR
 //! with `B x B` blocks, generic in the block size (3 for particles, 1 for
-//! scalar matrices), and the small dense block kernels on it.
+//! scalar matrices) and in the precision of the stored entries
+//! ([`Entry`]: `f64`, or `f32` for half the bytes), and the small dense
+//! block kernels on it. Every kernel loads the entries into `f64` and
+//! computes in `f64`.
 //!
 //! Full storage (rather than the symmetric storage of
 //! [`SymBlockMatrix`](crate::SymBlockMatrix)) makes every kernel of the
@@ -12,6 +15,127 @@ use super::par;
 
 /// A dense `B x B` block, row-major.
 pub(crate) type Blk<const B: usize> = [[f64; B]; B];
+
+/// The type of a stored block entry: `f64`, or `f32` (single-precision
+/// levels: half the memory traffic of the V-cycle; the arithmetic stays in
+/// `f64`, so a level's kernels are the same linear maps, only their stored
+/// coefficients rounded).
+pub(crate) trait Entry:
+    Copy + Default + PartialEq + Send + Sync + std::fmt::Debug + 'static
+{
+    /// Whether entries are stored exactly as computed (`f64`): products of
+    /// stored matrices (`A P`) then equal the product of their factors.
+    const EXACT: bool;
+    /// The entry as `f64`.
+    fn load(self) -> f64;
+    /// The nearest entry to `v`.
+    fn store(v: f64) -> Self;
+}
+
+impl Entry for f64 {
+    const EXACT: bool = true;
+    #[inline(always)]
+    fn load(self) -> f64 {
+        self
+    }
+    #[inline(always)]
+    fn store(v: f64) -> Self {
+        v
+    }
+}
+
+impl Entry for f32 {
+    const EXACT: bool = false;
+    #[inline(always)]
+    fn load(self) -> f64 {
+        f64::from(self)
+    }
+    #[inline(always)]
+    fn store(v: f64) -> Self {
+        v as f32
+    }
+}
+
+/// A stored `B x B` block.
+pub(crate) type SBlk<S, const B: usize> = [[S; B]; B];
+
+/// A stored block in `f64`.
+#[inline(always)]
+pub(crate) fn load<S: Entry, const B: usize>(m: &SBlk<S, B>) -> Blk<B> {
+    let mut out = zero::<B>();
+    for r in 0..B {
+        for c in 0..B {
+            out[r][c] = m[r][c].load();
+        }
+    }
+    out
+}
+
+/// A block rounded to the storage type.
+#[inline(always)]
+pub(crate) fn store<S: Entry, const B: usize>(m: &Blk<B>) -> SBlk<S, B> {
+    let mut out = [[S::default(); B]; B];
+    for r in 0..B {
+        for c in 0..B {
+            out[r][c] = S::store(m[r][c]);
+        }
+    }
+    out
+}
+
+/// The zero stored block.
+#[inline(always)]
+pub(crate) fn szero<S: Entry, const B: usize>() -> SBlk<S, B> {
+    [[S::default(); B]; B]
+}
+
+/// `y += m x` for a stored block.
+#[inline(always)]
+pub(crate) fn smul_add<S: Entry, const B: usize>(m: &SBlk<S, B>, x: &[f64; B], y: &mut [f64; B]) {
+    for r in 0..B {
+        let mut s = 0.0;
+        for c in 0..B {
+            s += m[r][c].load() * x[c];
+        }
+        y[r] += s;
+    }
+}
+
+/// `c += a b` with `c` stored (rounded once after the block product).
+#[inline(always)]
+pub(crate) fn smul_mat_add<S: Entry, T: Entry, U: Entry, const B: usize>(
+    a: &SBlk<S, B>,
+    b: &SBlk<T, B>,
+    c: &mut SBlk<U, B>,
+) {
+    let mut acc = zero::<B>();
+    for r in 0..B {
+        for c2 in 0..B {
+            acc[r][c2] = c[r][c2].load();
+        }
+    }
+    for r in 0..B {
+        for k in 0..B {
+            let ark = a[r][k].load();
+            for col in 0..B {
+                acc[r][col] += ark * b[k][col].load();
+            }
+        }
+    }
+    *c = store(&acc);
+}
+
+/// The transpose of a stored block.
+#[inline(always)]
+pub(crate) fn stranspose<S: Entry, const B: usize>(m: &SBlk<S, B>) -> SBlk<S, B> {
+    let mut t = *m;
+    for r in 0..B {
+        for c in 0..B {
+            t[c][r] = m[r][c];
+        }
+    }
+    t
+}
 
 /// The zero block.
 #[inline(always)]
@@ -84,6 +208,11 @@ pub(crate) fn frobenius2<const B: usize>(m: &Blk<B>) -> f64 {
 /// definite (a pivot `<= 1e-14` of the largest diagonal entry, or not
 /// finite). The result is symmetric, so a smoother built from it is too.
 pub(crate) fn spd_inverse<const B: usize>(m: &Blk<B>) -> Option<Blk<B>> {
+    if B == 3 {
+        let mut out = zero::<B>();
+        let done = spd_inverse3(m.as_flattened(), out.as_flattened_mut());
+        return done.then_some(out);
+    }
     let mut l = zero::<B>();
     let scale = (0..B).fold(0.0_f64, |s, i| s.max(m[i][i].abs()));
     for j in 0..B {
@@ -137,6 +266,35 @@ pub(crate) fn spd_inverse<const B: usize>(m: &Blk<B>) -> Option<Blk<B>> {
     Some(inv)
 }
 
+/// [`spd_inverse`] of a 3x3 block (row-major in `m`, into `inv`) by its
+/// adjugate: the same positive-definiteness test (the Cholesky pivots
+/// `a`, `(a d - b^2) / a` and `det / (a d - b^2)` above `1e-14` of the
+/// largest diagonal entry), without square roots and with one division.
+#[inline(always)]
+fn spd_inverse3(m: &[f64], inv: &mut [f64]) -> bool {
+    let (a, d, f) = (m[0], m[4], m[8]);
+    let b = 0.5 * (m[1] + m[3]);
+    let c = 0.5 * (m[2] + m[6]);
+    let e = 0.5 * (m[5] + m[7]);
+    let tol = 1e-14 * a.abs().max(d.abs()).max(f.abs());
+    // Cofactors of the symmetric part.
+    let c00 = d * f - e * e;
+    let c01 = c * e - b * f;
+    let c02 = b * e - c * d;
+    let c11 = a * f - c * c;
+    let c12 = b * c - a * e;
+    let minor2 = a * d - b * b;
+    let det = a * c00 + b * c01 + c * c02;
+    let definite = a > tol && minor2 > tol * a && det > tol * minor2 && det.is_finite();
+    if !definite {
+        return false;
+    }
+    let s = 1.0 / det;
+    let (i00, i01, i02, i11, i12, i22) = (c00 * s, c01 * s, c02 * s, c11 * s, c12 * s, minor2 * s);
+    inv.copy_from_slice(&[i00, i01, i02, i01, i11, i12, i02, i12, i22]);
+    true
+}
+
 /// The determinant of a block (for error messages), by Gaussian elimination
 /// with partial pivoting.
 pub(crate) fn determinant<const B: usize>(m: &Blk<B>) -> f64 {
@@ -165,17 +323,18 @@ pub(crate) fn determinant<const B: usize>(m: &Blk<B>) -> f64 {
 }
 
 /// A sparse matrix of `B x B` blocks in block CSR, both triangles stored,
-/// columns sorted within each row. Rectangular for prolongators.
+/// columns sorted within each row, entries stored as `S`. Rectangular for
+/// prolongators.
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) struct Bsr<const B: usize> {
+pub(crate) struct Bsr<const B: usize, S: Entry = f64> {
     pub nrows: usize,
     pub ncols: usize,
     pub row_ptr: Vec<usize>,
     pub col: Vec<u32>,
-    pub val: Vec<Blk<B>>,
+    pub val: Vec<SBlk<S, B>>,
 }
 
-impl<const B: usize> Bsr<B> {
+impl<const B: usize, S: Entry> Bsr<B, S> {
     /// An empty `nrows x ncols` matrix (no stored blocks).
     pub fn empty(nrows: usize, ncols: usize) -> Self {
         Self {
@@ -215,11 +374,23 @@ impl<const B: usize> Bsr<B> {
     #[inline(always)]
     pub fn row_times(&self, i: usize, x: &[[f64; B]]) -> [f64; B] {
         let r = self.row(i);
-        let mut acc = [0.0; B];
+        // The B^2 products m_rc x_c of all blocks of the row summed term by
+        // term (independent sums, no reduction per block), then each output
+        // entry as the sum of its B partial sums.
+        let mut acc = [[0.0; B]; B];
         for (&c, v) in self.col[r.clone()].iter().zip(&self.val[r]) {
-            mul_add(v, &x[c as usize], &mut acc);
+            let xc = &x[c as usize];
+            for rr in 0..B {
+                for cc in 0..B {
+                    acc[rr][cc] += v[rr][cc].load() * xc[cc];
+                }
+            }
         }
-        acc
+        let mut y = [0.0; B];
+        for rr in 0..B {
+            y[rr] = acc[rr].iter().sum();
+        }
+        y
     }
 
     /// `y = A x` (rows split across threads).
@@ -242,6 +413,17 @@ impl<const B: usize> Bsr<B> {
                 ri[c] = b3[i][c] - acc[c];
             }
         });
+    }
+
+    /// The same pattern with the entries stored as `T` (values zero).
+    pub fn pattern_as<T: Entry>(&self) -> Bsr<B, T> {
+        Bsr {
+            nrows: self.nrows,
+            ncols: self.ncols,
+            row_ptr: self.row_ptr.clone(),
+            col: self.col.clone(),
+            val: vec![szero::<T, B>(); self.col.len()],
+        }
     }
 
     /// The pattern of `A^T` (values zero) and, for every slot of it, the
@@ -273,7 +455,7 @@ impl<const B: usize> Bsr<B> {
             ncols: self.nrows,
             row_ptr,
             col,
-            val: vec![zero::<B>(); nnz],
+            val: vec![szero::<S, B>(); nnz],
         };
         (t, map)
     }
@@ -281,16 +463,19 @@ impl<const B: usize> Bsr<B> {
     /// Refills `t` (built by [`transpose_pattern`](Self::transpose_pattern))
     /// with the transposed values of `self`.
     pub fn fill_transpose(&self, t: &mut Self, map: &[u32]) {
-        par::row_slices(&t.row_ptr, &mut t.val, &|i, vals: &mut [Blk<B>]| {
+        par::row_slices(&t.row_ptr, &mut t.val, &|i, vals: &mut [SBlk<S, B>]| {
             for (v, &k) in vals.iter_mut().zip(&map[t.row_ptr[i]..]) {
-                *v = transpose(&self.val[k as usize]);
+                *v = stranspose(&self.val[k as usize]);
             }
         });
     }
 }
 
 /// The pattern of the product `C = X Y` (values zero), columns sorted.
-pub(crate) fn product_pattern<const B: usize>(x: &Bsr<B>, y: &Bsr<B>) -> Bsr<B> {
+pub(crate) fn product_pattern<const B: usize, S: Entry, T: Entry, U: Entry>(
+    x: &Bsr<B, S>,
+    y: &Bsr<B, T>,
+) -> Bsr<B, U> {
     let mut marker = vec![usize::MAX; y.ncols];
     let mut row_ptr = Vec::with_capacity(x.nrows + 1);
     let mut col: Vec<u32> = Vec::new();
@@ -316,7 +501,7 @@ pub(crate) fn product_pattern<const B: usize>(x: &Bsr<B>, y: &Bsr<B>) -> Bsr<B> 
         ncols: y.ncols,
         row_ptr,
         col,
-        val: vec![zero::<B>(); nnz],
+        val: vec![szero::<U, B>(); nnz],
     }
 }
 
@@ -325,25 +510,93 @@ pub(crate) fn product_pattern<const B: usize>(x: &Bsr<B>, y: &Bsr<B>) -> Bsr<B> 
 /// of every product term in row `i` of `C` is found by a forward scan of
 /// the row's sorted columns (the columns of a row of `Y` are sorted too),
 /// so no scatter array is needed and rows are independent.
-pub(crate) fn product_values<const B: usize>(x: &Bsr<B>, y: &Bsr<B>, c: &mut Bsr<B>) {
+pub(crate) fn product_values<const B: usize, S: Entry, T: Entry, U: Entry>(
+    x: &Bsr<B, S>,
+    y: &Bsr<B, T>,
+    c: &mut Bsr<B, U>,
+) {
     let (c_ptr, c_col) = (&c.row_ptr, &c.col);
-    par::row_slices(c_ptr, &mut c.val, &|i, vals: &mut [Blk<B>]| {
+    par::row_slices(c_ptr, &mut c.val, &|i, vals: &mut [SBlk<U, B>]| {
         let cols = &c_col[c_ptr[i]..c_ptr[i + 1]];
-        vals.fill(zero::<B>());
-        for k in x.row(i) {
-            let xk = &x.val[k];
-            let m = x.col[k] as usize;
-            let mut p = 0;
-            for q in y.row(m) {
-                let j = y.col[q];
-                while cols[p] != j {
-                    p += 1;
-                }
-                mul_mat_add(xk, &y.val[q], &mut vals[p]);
-            }
-        }
+        product_row(x, y, i, cols, 0, vals, |_| true);
     });
 }
+
+/// Row `i` of `C = X Y` into `vals` (the slots of `cols[first..]`), for
+/// the product terms whose column passes `keep`: accumulated in place when
+/// `C` stores `f64`, else in `f64` on the stack for rows up to
+/// [`ROW_BUFFER`] blocks and then rounded once.
+#[inline(always)]
+fn product_row<const B: usize, S: Entry, T: Entry, U: Entry>(
+    x: &Bsr<B, S>,
+    y: &Bsr<B, T>,
+    i: usize,
+    cols: &[u32],
+    first: usize,
+    vals: &mut [SBlk<U, B>],
+    keep: impl Fn(u32) -> bool,
+) {
+    let n = cols.len() - first;
+    if !U::EXACT && n <= ROW_BUFFER {
+        let mut acc = [zero::<B>(); ROW_BUFFER];
+        product_terms(x, y, i, cols, first, keep, load, |xk, yq, p| {
+            mul_mat_add(xk, &load(yq), &mut acc[p - first]);
+        });
+        for (v, a) in vals[first..].iter_mut().zip(&acc[..n]) {
+            *v = store(a);
+        }
+    } else {
+        vals[first..].fill(szero::<U, B>());
+        product_terms(
+            x,
+            y,
+            i,
+            cols,
+            first,
+            keep,
+            |b| *b,
+            |xk, yq, p| {
+                smul_mat_add(xk, yq, &mut vals[p]);
+            },
+        );
+    }
+}
+
+/// Every term `X_ik Y_kj` of row `i` of `X Y` whose column `j` is kept:
+/// `add(prepare(X_ik), Y_kj, p)` with `p` the slot of `j` in `cols`
+/// (sorted, from `first`; `prepare` runs once per block of `X`).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn product_terms<const B: usize, S: Entry, T: Entry, P>(
+    x: &Bsr<B, S>,
+    y: &Bsr<B, T>,
+    i: usize,
+    cols: &[u32],
+    first: usize,
+    keep: impl Fn(u32) -> bool,
+    prepare: impl Fn(&SBlk<S, B>) -> P,
+    mut add: impl FnMut(&P, &SBlk<T, B>, usize),
+) {
+    for k in x.row(i) {
+        let xk = prepare(&x.val[k]);
+        let m = x.col[k] as usize;
+        let mut p = first;
+        for q in y.row(m) {
+            let j = y.col[q];
+            if !keep(j) {
+                continue;
+            }
+            while cols[p] != j {
+                p += 1;
+            }
+            add(&xk, &y.val[q], p);
+        }
+    }
+}
+
+/// Product rows up to this many blocks are accumulated on the stack in
+/// `f64` (rows of `A P` and `R A P` of a cloth have 8-12).
+const ROW_BUFFER: usize = 16;
 
 /// The numbers of the symmetric product `C = X Y` (the Galerkin operator
 /// `R (A P)` with `R = P^T`) on the pattern from [`product_pattern`], which
@@ -352,37 +605,34 @@ pub(crate) fn product_values<const B: usize>(x: &Bsr<B>, y: &Bsr<B>, c: &mut Bsr
 /// below are the transposes of their mirror blocks (`mirror[s]`: the slot
 /// of the transposed block of slot `s`, from [`Bsr::transpose_pattern`]).
 /// Half the block products, and `C` exactly symmetric.
-pub(crate) fn product_values_symmetric<const B: usize>(
-    x: &Bsr<B>,
-    y: &Bsr<B>,
-    c: &mut Bsr<B>,
+pub(crate) fn product_values_symmetric<const B: usize, S: Entry, T: Entry, U: Entry>(
+    x: &Bsr<B, S>,
+    y: &Bsr<B, T>,
+    c: &mut Bsr<B, U>,
     mirror: &[u32],
 ) {
     let (c_ptr, c_col) = (&c.row_ptr, &c.col);
-    par::row_slices(c_ptr, &mut c.val, &|i, vals: &mut [Blk<B>]| {
+    par::row_slices(c_ptr, &mut c.val, &|i, vals: &mut [SBlk<U, B>]| {
         let cols = &c_col[c_ptr[i]..c_ptr[i + 1]];
         let first = cols.partition_point(|&j| (j as usize) < i);
-        vals.fill(zero::<B>());
-        for k in x.row(i) {
-            let xk = &x.val[k];
-            let m = x.col[k] as usize;
-            let mut p = first;
-            for q in y.row(m) {
-                let j = y.col[q];
-                if (j as usize) < i {
-                    continue;
+        product_row(x, y, i, cols, first, vals, |j| j as usize >= i);
+        // The diagonal block, symmetric in exact arithmetic, made exactly
+        // symmetric (its rounding would otherwise differ across the diagonal).
+        if cols.get(first) == Some(&(i as u32)) {
+            let d = load(&vals[first]);
+            let mut sym = d;
+            for r in 0..B {
+                for c in 0..B {
+                    sym[r][c] = 0.5 * (d[r][c] + d[c][r]);
                 }
-                while cols[p] != j {
-                    p += 1;
-                }
-                mul_mat_add(xk, &y.val[q], &mut vals[p]);
             }
+            vals[first] = store(&sym);
         }
     });
     for i in 0..c.nrows {
         for s in c.row(i) {
             if (c.col[s] as usize) < i {
-                c.val[s] = transpose(&c.val[mirror[s] as usize]);
+                c.val[s] = stranspose(&c.val[mirror[s] as usize]);
             }
         }
     }

@@ -5,8 +5,8 @@ use std::sync::Mutex;
 
 use super::aggregate::{NO_AGGREGATE, aggregate, strong_connections, tentative_prolongator};
 use super::bsr::{
-    Blk, Bsr, determinant, frobenius2, mul_add, mul_mat_add, mul_vec, product_pattern,
-    product_values, product_values_symmetric, spd_inverse, zero,
+    Blk, Bsr, Entry, SBlk, determinant, frobenius2, load, mul_mat_add, mul_vec, product_pattern,
+    product_values, product_values_symmetric, smul_add, spd_inverse, store, szero, zero,
 };
 use super::ic0::BlockIc0;
 use super::par;
@@ -14,6 +14,11 @@ use super::{AmgLevelStats, AmgOptions, AmgSmoother};
 use crate::error::SparseError;
 use crate::operator::MatrixFree;
 use crate::power::{PowerParams, power_iterate};
+use crate::vecops::dot;
+
+mod prolong;
+
+use self::prolong::smooth_prolongator;
 
 /// The coarsest level is solved directly (dense Cholesky) when it has at
 /// most this many unknowns, even if coarsening stalled above the
@@ -27,17 +32,18 @@ const MIN_COARSENING: f64 = 0.8;
 
 /// The transfer from one level to the next and what its numbers are computed from.
 #[derive(Debug, Clone)]
-struct Transfer<const B: usize> {
-    /// The filtered matrix `A_F`: the strong blocks of `A`, and on the
-    /// diagonal `A_ii` plus the weak blocks of row `i` (so `A_F` keeps the
-    /// row sums of `A`, and with them the near-nullspace of translations).
-    af: Bsr<B>,
-    /// For every slot of `af`: the slot of `a` it copies (`u32::MAX` on the diagonal).
-    af_src: Vec<u32>,
-    af_diag: Vec<usize>,
-    /// Strong off-diagonal slots of `a`.
+struct Transfer<const B: usize, S: Entry> {
+    /// Strong off-diagonal slots of `a`. The filtered matrix `A_F` of
+    /// prolongator smoothing is never stored: its rows are the strong blocks
+    /// of `A` and, on the diagonal, `A_ii` plus the weak blocks of row `i`
+    /// (so `A_F` keeps the row sums of `A`, and with them the near-nullspace
+    /// of translations).
     strong: Vec<bool>,
-    /// `D_F^-1`, the inverted diagonal blocks of `af` (of `a` where those
+    /// For every slot of `a` in `A_F` (strong or diagonal) whose column is
+    /// aggregated: the slot of `p` its product with `T` adds to (`u32::MAX`
+    /// otherwise).
+    z_slot: Vec<u32>,
+    /// `D_F^-1`, the inverted diagonal blocks of `A_F` (of `a` where those
     /// are not positive definite).
     df_inv: Vec<Blk<B>>,
     /// Tentative prolongator (at most one block per row) and where each
@@ -45,11 +51,11 @@ struct Transfer<const B: usize> {
     t: Bsr<B>,
     t_in_p: Vec<usize>,
     /// Smoothed prolongator `P = (I - omega D_F^-1 A_F) T` and `R = P^T`.
-    p: Bsr<B>,
-    r: Bsr<B>,
+    p: Bsr<B, S>,
+    r: Bsr<B, S>,
     r_map: Vec<u32>,
     /// `A P`, the intermediate of the Galerkin product `R (A P)`.
-    ap: Bsr<B>,
+    ap: Bsr<B, S>,
     /// For every slot of the next level's operator `R (A P)` (structurally
     /// symmetric), the slot of its transposed block.
     galerkin_mirror: Vec<u32>,
@@ -62,16 +68,16 @@ struct Transfer<const B: usize> {
 /// One level: its operator, the smoother's data and the transfer to the
 /// next level (`None` on the coarsest).
 #[derive(Debug, Clone)]
-struct Level<const B: usize> {
-    a: Bsr<B>,
+struct Level<const B: usize, S: Entry> {
+    a: Bsr<B, S>,
     diag: Vec<usize>,
     /// The inverted (symmetrised) diagonal blocks of `a`.
-    dinv: Vec<Blk<B>>,
+    dinv: Vec<SBlk<S, B>>,
     /// Damped-Jacobi weight `jacobi_weight / rho(D^-1 A)`.
     omega: f64,
     /// The power method's eigenvector estimate of `D^-1 A` (warm start of refills).
     eigenvector: Vec<f64>,
-    transfer: Option<Transfer<B>>,
+    transfer: Option<Transfer<B, S>>,
     /// The block IC(0) factor of `a`, for [`AmgSmoother::BlockIc0`].
     ic0: Option<BlockIc0<B>>,
 }
@@ -93,7 +99,7 @@ impl DenseCholesky {
 
     /// Factors the symmetric part of `a`; `Err(row)` at the first pivot that
     /// is not positive (relative to the row's diagonal entry).
-    fn factor<const B: usize>(&mut self, a: &Bsr<B>) -> Result<(), usize> {
+    fn factor<const B: usize, S: Entry>(&mut self, a: &Bsr<B, S>) -> Result<(), usize> {
         let n = self.n;
         let m = &mut self.l;
         m.fill(0.0);
@@ -102,7 +108,7 @@ impl DenseCholesky {
                 let j = a.col[k] as usize;
                 for r in 0..B {
                     for c in 0..B {
-                        m[(B * i + r) * n + B * j + c] += a.val[k][r][c];
+                        m[(B * i + r) * n + B * j + c] += a.val[k][r][c].load();
                     }
                 }
             }
@@ -113,23 +119,25 @@ impl DenseCholesky {
                 m[i * n + j] = s;
             }
         }
+        // Row-oriented (left-looking) Cholesky: every entry is a dot product
+        // of two rows' prefixes, contiguous in row-major storage.
         for j in 0..n {
             let diag0 = m[j * n + j];
-            let mut d = diag0;
-            for k in 0..j {
-                d -= m[j * n + k] * m[j * n + k];
-            }
+            let (before, rest) = m.split_at_mut(j * n);
+            let row_j = &mut rest[..n];
+            let d = diag0 - dot4(&row_j[..j], &row_j[..j]);
             if !(d > 1e-14 * diag0.abs() && d.is_finite()) {
                 return Err(j);
             }
             let ljj = d.sqrt();
-            m[j * n + j] = ljj;
+            row_j[j] = ljj;
+            let _ = before;
             for i in j + 1..n {
-                let mut s = m[i * n + j];
-                for k in 0..j {
-                    s -= m[i * n + k] * m[j * n + k];
-                }
-                m[i * n + j] = s / ljj;
+                let (upper, lower) = m.split_at_mut(i * n);
+                let row_j = &upper[j * n..j * n + j];
+                let row_i = &mut lower[..n];
+                let s = row_i[j] - dot4(&row_i[..j], row_j);
+                row_i[j] = s / ljj;
             }
         }
         Ok(())
@@ -140,18 +148,36 @@ impl DenseCholesky {
         let n = self.n;
         let l = &self.l;
         for i in 0..n {
-            let row = &l[i * n..i * n + i];
-            let s: f64 = row.iter().zip(&x[..i]).map(|(a, b)| a * b).sum();
+            let s = dot4(&l[i * n..i * n + i], &x[..i]);
             x[i] = (b[i] - s) / l[i * n + i];
         }
         for i in (0..n).rev() {
-            let mut s = x[i];
-            for k in i + 1..n {
-                s -= l[k * n + i] * x[k];
+            let xi = x[i] / l[i * n + i];
+            x[i] = xi;
+            // Column i of L^T is row i of L: subtract it from the rows above.
+            for (xk, lik) in x[..i].iter_mut().zip(&l[i * n..i * n + i]) {
+                *xk -= lik * xi;
             }
-            x[i] = s / l[i * n + i];
         }
     }
+}
+
+/// `sum_k a_k b_k` with four independent partial sums (a fixed order, so
+/// the result does not depend on anything but the inputs).
+#[inline]
+fn dot4(a: &[f64], b: &[f64]) -> f64 {
+    let mut s = [0.0; 4];
+    let (a4, a_rest) = a.as_chunks::<4>();
+    let (b4, b_rest) = b.as_chunks::<4>();
+    for (x, y) in a4.iter().zip(b4) {
+        for q in 0..4 {
+            s[q] += x[q] * y[q];
+        }
+    }
+    for (x, y) in a_rest.iter().zip(b_rest) {
+        s[0] += x * y;
+    }
+    (s[0] + s[1]) + (s[2] + s[3])
 }
 
 /// Per-level scratch of the V-cycle: `t` (this level's residual), and the
@@ -186,10 +212,11 @@ struct Numeric {
     keep_prolongators: bool,
 }
 
-/// A smoothed-aggregation hierarchy with `B x B` blocks on every level.
+/// A smoothed-aggregation hierarchy with `B x B` blocks on every level,
+/// their entries stored as `S`.
 #[derive(Debug)]
-pub(crate) struct Hierarchy<const B: usize> {
-    levels: Vec<Level<B>>,
+pub(crate) struct Hierarchy<const B: usize, S: Entry> {
+    levels: Vec<Level<B, S>>,
     /// Factor of the coarsest operator, when it is solved directly.
     coarse: Option<DenseCholesky>,
     numeric: Numeric,
@@ -198,7 +225,7 @@ pub(crate) struct Hierarchy<const B: usize> {
     work: Mutex<Vec<Work>>,
 }
 
-impl<const B: usize> Clone for Hierarchy<B> {
+impl<const B: usize, S: Entry> Clone for Hierarchy<B, S> {
     fn clone(&self) -> Self {
         let work = self.work.lock().unwrap_or_else(|e| e.into_inner()).clone();
         Self {
@@ -210,12 +237,20 @@ impl<const B: usize> Clone for Hierarchy<B> {
     }
 }
 
+/// A matrix given by rows: `sum_j A_ij x_j` for row `i`.
+type RowTimes<'a, const B: usize> = &'a (dyn Fn(usize, &[[f64; B]]) -> [f64; B] + Sync);
+
 /// Gershgorin's bound `max_i sum_j |D_i^-1 A_ij|_inf >= rho(D^-1 A)`, or
 /// the power method's estimate after `power_iterations` steps, started from
-/// the eigenvector estimate in `v` if `warm` (`w` is scratch).
+/// the eigenvector estimate in `v` if `warm` (`w` is scratch). The operator
+/// is given by rows: `row(i, x)` is `sum_j A_ij x_j`, `abs_row(i)` the
+/// absolute row sums of `D_i^-1 A_ij` (Gershgorin).
+#[allow(clippy::too_many_arguments)]
 fn spectral_radius<const B: usize>(
-    a: &Bsr<B>,
-    dinv: &[Blk<B>],
+    nrows: usize,
+    row: RowTimes<'_, B>,
+    abs_row: &dyn Fn(usize) -> [f64; B],
+    dinv: &(dyn Fn(usize) -> Blk<B> + Sync),
     power_iterations: usize,
     warm: bool,
     v: &mut [f64],
@@ -223,24 +258,16 @@ fn spectral_radius<const B: usize>(
 ) -> Result<f64, SparseError> {
     if power_iterations == 0 {
         let mut rho = 0.0_f64;
-        for i in 0..a.nrows {
-            let mut sums = [0.0; B];
-            for k in a.row(i) {
-                let mut m = zero::<B>();
-                mul_mat_add(&dinv[i], &a.val[k], &mut m);
-                for r in 0..B {
-                    sums[r] += m[r].iter().map(|v| v.abs()).sum::<f64>();
-                }
-            }
-            rho = sums.iter().fold(rho, |m, &s| m.max(s));
+        for i in 0..nrows {
+            rho = abs_row(i).iter().fold(rho, |m, &s| m.max(s));
         }
         return Ok(rho);
     }
-    let op = MatrixFree::new(B * a.nrows, |x: &[f64], y: &mut [f64]| {
+    let op = MatrixFree::new(B * nrows, |x: &[f64], y: &mut [f64]| {
         let (x3, _) = x.as_chunks::<B>();
         let (y3, _) = y.as_chunks_mut::<B>();
         par::rows(y3, &|i, yi: &mut [f64; B]| {
-            *yi = mul_vec(&dinv[i], &a.row_times(i, x3));
+            *yi = mul_vec(&dinv(i), &row(i, x3));
         });
     });
     let params = PowerParams {
@@ -251,14 +278,27 @@ fn spectral_radius<const B: usize>(
     Ok(power_iterate(&op, &params, None, warm, v, w)?.0.abs())
 }
 
+/// Gershgorin's absolute row sums of `D_i^-1 A_ij` over the blocks `blocks` of row `i`.
+fn gershgorin_row<const B: usize>(dinv: &Blk<B>, blocks: impl Iterator<Item = Blk<B>>) -> [f64; B] {
+    let mut sums = [0.0; B];
+    for b in blocks {
+        let mut m = zero::<B>();
+        mul_mat_add(dinv, &b, &mut m);
+        for r in 0..B {
+            sums[r] += m[r].iter().map(|v| v.abs()).sum::<f64>();
+        }
+    }
+    sums
+}
+
 /// Inverts the (symmetrised) diagonal blocks of `a`. The error names the
 /// first block that is not positive definite: [`SparseError::SingularBlock`]
 /// when it is (numerically) singular on the finest level, else
 /// [`SparseError::AmgNotPositiveDefinite`].
-fn invert_diagonal<const B: usize>(
-    a: &Bsr<B>,
+fn invert_diagonal<const B: usize, S: Entry>(
+    a: &Bsr<B, S>,
     diag: &[usize],
-    dinv: &mut [Blk<B>],
+    dinv: &mut [SBlk<S, B>],
     level: usize,
 ) -> Result<(), SparseError> {
     // Rows split across threads; a failure is reported for the first row
@@ -267,8 +307,8 @@ fn invert_diagonal<const B: usize>(
     let failed = std::sync::atomic::AtomicBool::new(false);
     par::rows(
         dinv,
-        &|i, inv: &mut Blk<B>| match spd_inverse(&a.val[diag[i]]) {
-            Some(m) => *inv = m,
+        &|i, inv: &mut SBlk<S, B>| match spd_inverse(&load(&a.val[diag[i]])) {
+            Some(m) => *inv = store(&m),
             None => failed.store(true, std::sync::atomic::Ordering::Relaxed),
         },
     );
@@ -276,9 +316,10 @@ fn invert_diagonal<const B: usize>(
         return Ok(());
     }
     for (i, &d) in diag.iter().enumerate() {
-        spd_inverse(&a.val[d]).ok_or_else(|| {
-            let determinant = determinant(&a.val[d]);
-            let scale = frobenius2(&a.val[d]).sqrt().powi(B as i32);
+        let ad = load(&a.val[d]);
+        spd_inverse(&ad).ok_or_else(|| {
+            let determinant = determinant(&ad);
+            let scale = frobenius2(&ad).sqrt().powi(B as i32);
             if level == 0 && determinant.abs() <= 1e-14 * scale {
                 SparseError::SingularBlock {
                     block: i,
@@ -296,20 +337,24 @@ fn invert_diagonal<const B: usize>(
     Ok(())
 }
 
-impl<const B: usize> Hierarchy<B> {
+impl<const B: usize, S: Entry> Hierarchy<B, S> {
     /// The full set-up from the finest operator `a` (values filled) and its
     /// near-nullspace (one `B x B` block per node: column `c` of the blocks
     /// is vector `c`). Each level is computed numerically before the next
     /// one is aggregated (strength needs the Galerkin operator's values).
     pub fn new(
-        a: Bsr<B>,
+        a: Bsr<B, S>,
         nullspace: Vec<Blk<B>>,
         options: &AmgOptions,
     ) -> Result<Self, SparseError> {
         par::install(|| Self::build(a, nullspace, options))
     }
 
-    fn build(a: Bsr<B>, nullspace: Vec<Blk<B>>, options: &AmgOptions) -> Result<Self, SparseError> {
+    fn build(
+        a: Bsr<B, S>,
+        nullspace: Vec<Blk<B>>,
+        options: &AmgOptions,
+    ) -> Result<Self, SparseError> {
         let numeric = Numeric {
             smoother: options.smoother,
             sweeps: options.sweeps,
@@ -319,7 +364,7 @@ impl<const B: usize> Hierarchy<B> {
             refill_power_iterations: options.refill_power_iterations,
             keep_prolongators: options.keep_prolongators,
         };
-        let mut levels: Vec<Level<B>> = Vec::new();
+        let mut levels: Vec<Level<B, S>> = Vec::new();
         let mut work: Vec<Work> = Vec::new();
         let mut a = a;
         let mut nullspace = nullspace;
@@ -371,7 +416,7 @@ impl<const B: usize> Hierarchy<B> {
             });
             let mut w = Work::new(B * n, next.as_ref().map_or(0, |c| B * c.nrows));
             let mut level = Level {
-                dinv: vec![zero::<B>(); n],
+                dinv: vec![szero::<S, B>(); n],
                 omega: 0.0,
                 eigenvector: vec![0.0; B * n],
                 ic0: (options.smoother == AmgSmoother::BlockIc0).then(|| BlockIc0::new(&a, &diag)),
@@ -409,14 +454,15 @@ impl<const B: usize> Hierarchy<B> {
     }
 
     /// Strength, aggregates, tentative prolongator and the patterns of
-    /// `A_F`, `P`, `R` and `A P`; `None` when the level does not coarsen.
+    /// `P = A_F T` (with where every block of `A_F` lands), `R` and `A P`;
+    /// `None` when the level does not coarsen.
     #[allow(clippy::type_complexity)]
     fn symbolic_transfer(
-        a: &Bsr<B>,
+        a: &Bsr<B, S>,
         diag: &[usize],
         nullspace: &[Blk<B>],
         theta: f64,
-    ) -> Result<Option<(Transfer<B>, Vec<Blk<B>>)>, SparseError> {
+    ) -> Result<Option<(Transfer<B, S>, Vec<Blk<B>>)>, SparseError> {
         let n = a.nrows;
         let strong = strong_connections(a, diag, theta);
         let (agg, n_agg) = aggregate(a, &strong);
@@ -424,37 +470,40 @@ impl<const B: usize> Hierarchy<B> {
             return Ok(None);
         }
         let (t, coarse_nullspace) = tentative_prolongator(&agg, n_agg, nullspace)?;
-        // A_F: diagonal and strong blocks.
+        // The pattern of A_F (diagonal and strong blocks), for the pattern of A_F T.
         let mut af = Bsr::<B>::empty(n, n);
         af.row_ptr.clear();
         af.row_ptr.push(0);
-        let mut af_src = Vec::new();
-        let mut af_diag = Vec::with_capacity(n);
         for i in 0..n {
             for k in a.row(i) {
-                if k == diag[i] {
-                    af_diag.push(af.col.len());
-                    af_src.push(u32::MAX);
-                    af.col.push(i as u32);
-                } else if strong[k] {
-                    af_src.push(k as u32);
+                if k == diag[i] || strong[k] {
                     af.col.push(a.col[k]);
                 }
             }
             af.row_ptr.push(af.col.len());
         }
-        af.val = vec![zero::<B>(); af.col.len()];
-        let p = product_pattern(&af, &t);
+        let p: Bsr<B, S> = product_pattern(&af, &t);
+        drop(af);
+        let slot_in_p = |i: usize, c: u32| {
+            let row = p.row(i);
+            row.start
+                + p.col[row]
+                    .binary_search(&c)
+                    .expect("every block of A_F T is in the pattern of P")
+        };
+        let z_slot = (0..n)
+            .flat_map(|i| a.row(i).map(move |k| (i, k)))
+            .map(|(i, k)| {
+                let j = a.col[k] as usize;
+                match t.row(j).next() {
+                    Some(q) if k == diag[i] || strong[k] => slot_in_p(i, t.col[q]) as u32,
+                    _ => u32::MAX,
+                }
+            })
+            .collect();
         let t_in_p = (0..n)
             .map(|i| match t.row(i).next() {
-                Some(k) => {
-                    let c = t.col[k];
-                    let row = p.row(i);
-                    row.start
-                        + p.col[row]
-                            .binary_search(&c)
-                            .expect("the diagonal of A_F keeps T's block in P")
-                }
+                Some(k) => slot_in_p(i, t.col[k]),
                 None => usize::MAX,
             })
             .collect();
@@ -466,10 +515,8 @@ impl<const B: usize> Hierarchy<B> {
         let ap = product_pattern(a, &p);
         Ok(Some((
             Transfer {
-                af,
-                af_src,
-                af_diag,
                 strong,
+                z_slot,
                 df_inv: vec![zero::<B>(); n],
                 t,
                 t_in_p,
@@ -486,7 +533,7 @@ impl<const B: usize> Hierarchy<B> {
     }
 
     /// Mutable access to the finest operator's values, for a refill.
-    pub fn finest_mut(&mut self) -> &mut Bsr<B> {
+    pub fn finest_mut(&mut self) -> &mut Bsr<B, S> {
         &mut self.levels[0].a
     }
 
@@ -546,14 +593,106 @@ impl<const B: usize> Hierarchy<B> {
         par::install(|| self.cycle(0, r, z, work));
     }
 
+    /// Whether the finest level's passes can carry CG's vector updates and
+    /// sums (block Jacobi, one sweep, at least two levels).
+    fn fusable(&self) -> bool {
+        self.numeric.smoother == AmgSmoother::BlockJacobi
+            && self.numeric.sweeps == 1
+            && self.levels[0].transfer.is_some()
+    }
+
+    /// CG's residual update and preconditioner in one: `r -= alpha q`,
+    /// `z = M^-1 r` by one V-cycle; returns `(r . r, r . z)`. With block
+    /// Jacobi (one sweep) the update and `r . r` share the finest
+    /// pre-smoothing pass and `r . z` the post-smoothing pass (threaded,
+    /// partial sums in a fixed tree); otherwise they are separate passes.
+    pub fn update_and_apply(
+        &self,
+        alpha: f64,
+        q: &[f64],
+        r: &mut [f64],
+        z: &mut [f64],
+    ) -> (f64, f64) {
+        if !self.fusable() {
+            for (ri, qi) in r.iter_mut().zip(q) {
+                *ri -= alpha * qi;
+            }
+            self.apply(r, z);
+            return (dot(r, r), dot(r, z));
+        }
+        let mut guard = self.work.lock().unwrap_or_else(|e| e.into_inner());
+        let work: &mut [Work] = &mut guard;
+        let level = &self.levels[0];
+        let omega = level.omega;
+        par::install(|| {
+            // r -= alpha q; r . r; x = omega D^-1 r.
+            let (rr, _) = crate::par::tree_sum2_mut(r, z, &|at, r, x| {
+                let (r3, _) = r.as_chunks_mut::<B>();
+                let (x3, _) = x.as_chunks_mut::<B>();
+                let mut rr = 0.0;
+                for (k, (ri, xi)) in r3.iter_mut().zip(x3.iter_mut()).enumerate() {
+                    for c in 0..B {
+                        ri[c] -= alpha * q[at + B * k + c];
+                        rr += ri[c] * ri[c];
+                    }
+                    *xi = [0.0; B];
+                    mul_add_scaled(&level.dinv[at / B + k], omega, ri, xi);
+                }
+                (rr, 0.0)
+            });
+            (rr, self.fused_rest(r, z, work))
+        })
+    }
+
+    /// One V-cycle `z = M^-1 r` and `r . z`, the sum fused with the last
+    /// pass (see [`update_and_apply`](Self::update_and_apply)).
+    pub fn apply_dot(&self, r: &[f64], z: &mut [f64]) -> f64 {
+        if !self.fusable() {
+            self.apply(r, z);
+            return dot(r, z);
+        }
+        let mut guard = self.work.lock().unwrap_or_else(|e| e.into_inner());
+        let work: &mut [Work] = &mut guard;
+        let level = &self.levels[0];
+        let omega = level.omega;
+        par::install(|| {
+            // x = omega D^-1 r.
+            let (r3, _) = r.as_chunks::<B>();
+            let (x3, _) = z.as_chunks_mut::<B>();
+            par::rows(x3, &|i, xi: &mut [f64; B]| {
+                *xi = [0.0; B];
+                mul_add_scaled(&level.dinv[i], omega, &r3[i], xi);
+            });
+            self.fused_rest(r, z, work)
+        })
+    }
+
+    /// The finest level after the fused pre-smoothing pass: the coarse-grid
+    /// correction, then `x += omega D^-1 t` with `b . x`, which it returns.
+    fn fused_rest(&self, b: &[f64], x: &mut [f64], work: &mut [Work]) -> f64 {
+        let level = &self.levels[0];
+        let tr = level.transfer.as_ref().expect("fusable: a transfer");
+        let (w, rest) = work.split_first_mut().expect("one work entry per level");
+        self.correct(0, tr, b, x, w, rest);
+        let omega = level.omega;
+        let (bx, _) = crate::par::tree_sum2_mut(x, &mut w.t, &|at, x, t| {
+            let (x3, _) = x.as_chunks_mut::<B>();
+            let (t3, _) = t.as_chunks::<B>();
+            let mut bx = 0.0;
+            for (k, (xi, ti)) in x3.iter_mut().zip(t3).enumerate() {
+                mul_add_scaled(&level.dinv[at / B + k], omega, ti, xi);
+                for c in 0..B {
+                    bx += b[at + B * k + c] * xi[c];
+                }
+            }
+            (bx, 0.0)
+        });
+        bx
+    }
+
     /// The V-cycle on level `l` for `A_l x = b` from `x = 0`: pre-smoothing,
     /// coarse-grid correction `x += P V_{l+1}(R (b - A x))`, post-smoothing
     /// (the adjoint of the pre-smoother, so the cycle is symmetric).
-    ///
-    /// The residual after the correction is `t - (A P) x_c`, with `t` the
-    /// residual before it and `A P` kept from the Galerkin product: cheaper
-    /// than `A` again (fewer blocks per row), and fused with the
-    /// prolongation and the first post-smoothing step into one pass.
     fn cycle(&self, l: usize, b: &[f64], x: &mut [f64], work: &mut [Work]) {
         let level = &self.levels[l];
         let (w, rest) = work.split_first_mut().expect("one work entry per level");
@@ -568,29 +707,10 @@ impl<const B: usize> Hierarchy<B> {
             },
             Some(tr) => {
                 self.pre_smooth(level, b, x, &mut w.t);
-                level.a.residual(b, x, &mut w.t);
-                tr.r.spmv(&w.t, &mut w.bc);
-                self.cycle(l + 1, &w.bc, &mut w.xc, rest);
-                let smoother = self.numeric.smoother;
-                let (x3, _) = x.as_chunks_mut::<B>();
-                let (t3, _) = w.t.as_chunks_mut::<B>();
-                let (xc3, _) = w.xc.as_chunks::<B>();
-                // x += P x_c; t -= (A P) x_c; and for Jacobi x += omega D^-1 t.
-                par::rows(x3, &|i, xi: &mut [f64; B]| {
-                    let px = tr.p.row_times(i, xc3);
-                    for c in 0..B {
-                        xi[c] += px[c];
-                    }
-                });
-                let jacobi = smoother == AmgSmoother::BlockJacobi;
-                let omega = level.omega;
-                par::rows(t3, &|i, ti: &mut [f64; B]| {
-                    let apx = tr.ap.row_times(i, xc3);
-                    for c in 0..B {
-                        ti[c] -= apx[c];
-                    }
-                });
-                if jacobi {
+                self.correct(l, tr, b, x, w, rest);
+                if self.numeric.smoother == AmgSmoother::BlockJacobi {
+                    let omega = level.omega;
+                    let (x3, _) = x.as_chunks_mut::<B>();
                     let (t3, _) = w.t.as_chunks::<B>();
                     par::rows(x3, &|i, xi: &mut [f64; B]| {
                         mul_add_scaled(&level.dinv[i], omega, &t3[i], xi);
@@ -605,8 +725,54 @@ impl<const B: usize> Hierarchy<B> {
         }
     }
 
+    /// The coarse-grid correction of level `l` after pre-smoothing:
+    /// `t = b - A x`, `x += P V_{l+1}(R t)`, and `t` the residual of the
+    /// new `x`, for post-smoothing.
+    ///
+    /// With `f64` storage the new residual is `t - (A P) x_c`, with `A P`
+    /// kept from the Galerkin product: cheaper than `A` again (fewer blocks
+    /// per row). With `f32` storage the stored `A P` is rounded and no
+    /// longer equals `A P` of the rounded factors, so the residual is
+    /// `b - A x` anew: the cycle stays exactly symmetric.
+    fn correct(
+        &self,
+        l: usize,
+        tr: &Transfer<B, S>,
+        b: &[f64],
+        x: &mut [f64],
+        w: &mut Work,
+        rest: &mut [Work],
+    ) {
+        let level = &self.levels[l];
+        level.a.residual(b, x, &mut w.t);
+        tr.r.spmv(&w.t, &mut w.bc);
+        self.cycle(l + 1, &w.bc, &mut w.xc, rest);
+        {
+            let (x3, _) = x.as_chunks_mut::<B>();
+            let (xc3, _) = w.xc.as_chunks::<B>();
+            par::rows(x3, &|i, xi: &mut [f64; B]| {
+                let px = tr.p.row_times(i, xc3);
+                for c in 0..B {
+                    xi[c] += px[c];
+                }
+            });
+        }
+        if S::EXACT {
+            let (t3, _) = w.t.as_chunks_mut::<B>();
+            let (xc3, _) = w.xc.as_chunks::<B>();
+            par::rows(t3, &|i, ti: &mut [f64; B]| {
+                let apx = tr.ap.row_times(i, xc3);
+                for c in 0..B {
+                    ti[c] -= apx[c];
+                }
+            });
+        } else {
+            level.a.residual(b, x, &mut w.t);
+        }
+    }
+
     /// `sweeps` smoothing steps from `x = 0`.
-    fn pre_smooth(&self, level: &Level<B>, b: &[f64], x: &mut [f64], t: &mut [f64]) {
+    fn pre_smooth(&self, level: &Level<B, S>, b: &[f64], x: &mut [f64], t: &mut [f64]) {
         match self.numeric.smoother {
             AmgSmoother::BlockJacobi => {
                 // The first step from zero: x = omega D^-1 b.
@@ -642,7 +808,7 @@ impl<const B: usize> Hierarchy<B> {
 
     /// `sweeps` smoothing steps, the adjoint of [`pre_smooth`](Self::pre_smooth),
     /// given the residual `t = b - A x` of the current `x`.
-    fn post_smooth(&self, level: &Level<B>, b: &[f64], x: &mut [f64], t: &mut [f64]) {
+    fn post_smooth(&self, level: &Level<B, S>, b: &[f64], x: &mut [f64], t: &mut [f64]) {
         for s in 0..self.numeric.sweeps {
             match self.numeric.smoother {
                 AmgSmoother::BlockJacobi => {
@@ -668,7 +834,7 @@ impl<const B: usize> Hierarchy<B> {
     }
 }
 
-impl<const B: usize> Level<B> {
+impl<const B: usize, S: Entry> Level<B, S> {
     /// `z = M^-1 z` with the block IC(0) factor.
     fn ic0_solve(&self, z: &mut [f64]) {
         let ic0 = self
@@ -686,22 +852,28 @@ fn add_assign(x: &mut [f64], t: &[f64]) {
 
 /// `y += omega m x`.
 #[inline(always)]
-fn mul_add_scaled<const B: usize>(m: &Blk<B>, omega: f64, x: &[f64; B], y: &mut [f64; B]) {
-    let mx = mul_vec(m, x);
+fn mul_add_scaled<const B: usize, S: Entry>(
+    m: &SBlk<S, B>,
+    omega: f64,
+    x: &[f64; B],
+    y: &mut [f64; B],
+) {
+    let mut mx = [0.0; B];
+    smul_add(m, x, &mut mx);
     for c in 0..B {
         y[c] += omega * mx[c];
     }
 }
 
 /// The numbers of level `l`: the smoother's inverted diagonal and weight
-/// and, with a transfer, `A_F`, `omega`, `P = (I - omega D_F^-1 A_F) T`,
+/// and, with a transfer, `omega`, `P = (I - omega D_F^-1 A_F) T`,
 /// `R = P^T`, `A P` and the next level's operator `R (A P)` into `next`.
 ///
 /// A refill starts the power method from the previous eigenvector
 /// estimates and runs `refill_power_iterations` steps only.
-fn compute_level<const B: usize>(
-    level: &mut Level<B>,
-    next: Option<&mut Bsr<B>>,
+fn compute_level<const B: usize, S: Entry>(
+    level: &mut Level<B, S>,
+    next: Option<&mut Bsr<B, S>>,
     l: usize,
     num: &Numeric,
     refill: bool,
@@ -719,9 +891,12 @@ fn compute_level<const B: usize>(
         ic0.factor(&level.a, &level.diag, l)?;
     }
     if num.smoother == AmgSmoother::BlockJacobi && estimate {
+        let (a, dinv) = (&level.a, &level.dinv);
         let rho = spectral_radius(
-            &level.a,
-            &level.dinv,
+            a.nrows,
+            &|i, x| a.row_times(i, x),
+            &|i| gershgorin_row(&load(&dinv[i]), a.row(i).map(|k| load(&a.val[k]))),
+            &|i| load(&dinv[i]),
             iterations,
             refill,
             &mut level.eigenvector,
@@ -749,91 +924,13 @@ fn compute_level<const B: usize>(
     Ok(())
 }
 
-/// `A_F`, `D_F^-1`, `omega` and `P = (I - omega D_F^-1 A_F) T`, `R = P^T`.
-#[allow(clippy::too_many_arguments)]
-fn smooth_prolongator<const B: usize>(
-    a: &Bsr<B>,
-    diag: &[usize],
-    a_dinv: &[Blk<B>],
-    tr: &mut Transfer<B>,
-    prolongation_weight: f64,
-    iterations: Option<usize>,
-    refill: bool,
-    work: &mut Work,
-) -> Result<(), SparseError> {
-    // A_F: strong blocks copied, weak ones lumped onto the diagonal (rows
-    // split across threads).
-    let (af_src, af_diag, strong) = (&tr.af_src, &tr.af_diag, &tr.strong);
-    let af_ptr = &tr.af.row_ptr;
-    par::row_slices(af_ptr, &mut tr.af.val, &|i, vals: &mut [Blk<B>]| {
-        let row = af_ptr[i];
-        for (slot, v) in (row..).zip(vals.iter_mut()) {
-            let s = af_src[slot];
-            if s != u32::MAX {
-                *v = a.val[s as usize];
-            }
-        }
-        let mut d = a.val[diag[i]];
-        for k in a.row(i) {
-            if k != diag[i] && !strong[k] {
-                for r in 0..B {
-                    for c in 0..B {
-                        d[r][c] += a.val[k][r][c];
-                    }
-                }
-            }
-        }
-        vals[af_diag[i] - row] = d;
-    });
-    // D_F^-1; where lumping made a diagonal block indefinite (a matrix that
-    // is not an M-matrix, e.g. a scalar elasticity operator with positive
-    // off-diagonal entries), D^-1 of A instead: any SPD scaling smooths T.
-    let af = &tr.af;
-    par::rows(&mut tr.df_inv, &|i, inv: &mut Blk<B>| {
-        *inv = spd_inverse(&af.val[af_diag[i]]).unwrap_or(a_dinv[i]);
-    });
-    if let Some(iterations) = iterations {
-        let rho = spectral_radius(
-            &tr.af,
-            &tr.df_inv,
-            iterations,
-            refill,
-            &mut tr.eigenvector,
-            &mut work.t,
-        )?;
-        tr.omega = prolongation_weight / rho;
-    }
-    // P = T - omega D_F^-1 (A_F T).
-    product_values(&tr.af, &tr.t, &mut tr.p);
-    let (df_inv, t, t_in_p, omega) = (&tr.df_inv, &tr.t, &tr.t_in_p, tr.omega);
-    let p_ptr = &tr.p.row_ptr;
-    par::row_slices(p_ptr, &mut tr.p.val, &|i, vals: &mut [Blk<B>]| {
-        let dinv = &df_inv[i];
-        for v in vals.iter_mut() {
-            let mut m = zero::<B>();
-            mul_mat_add(dinv, v, &mut m);
-            for row in m.iter_mut() {
-                for x in row.iter_mut() {
-                    *x *= -omega;
-                }
-            }
-            *v = m;
-        }
-        if let Some(k) = t.row(i).next() {
-            let s = t_in_p[i] - p_ptr[i];
-            for r in 0..B {
-                for c in 0..B {
-                    vals[s][r][c] += t.val[k][r][c];
-                }
-            }
-        }
-    });
-    tr.p.fill_transpose(&mut tr.r, &tr.r_map);
-    Ok(())
-}
-
 /// One damped block-Jacobi step `x += omega D^-1 (b - A x)`.
-fn jacobi_step<const B: usize>(level: &Level<B>, b: &[f64], x: &mut [f64], t: &mut [f64]) {
+fn jacobi_step<const B: usize, S: Entry>(
+    level: &Level<B, S>,
+    b: &[f64],
+    x: &mut [f64],
+    t: &mut [f64],
+) {
     level.a.residual(b, x, t);
     let (t3, _) = t.as_chunks::<B>();
     let (x3, _) = x.as_chunks_mut::<B>();
@@ -844,7 +941,12 @@ fn jacobi_step<const B: usize>(level: &Level<B>, b: &[f64], x: &mut [f64], t: &m
 
 /// One block Gauss-Seidel sweep `x_i += D_i^-1 (b_i - sum_j A_ij x_j)`,
 /// rows in increasing order (`backward = false`) or decreasing order.
-fn gauss_seidel<const B: usize>(level: &Level<B>, b: &[f64], x: &mut [f64], backward: bool) {
+fn gauss_seidel<const B: usize, S: Entry>(
+    level: &Level<B, S>,
+    b: &[f64],
+    x: &mut [f64],
+    backward: bool,
+) {
     let a = &level.a;
     let (b3, _) = b.as_chunks::<B>();
     let (x3, _) = x.as_chunks_mut::<B>();
@@ -854,7 +956,7 @@ fn gauss_seidel<const B: usize>(level: &Level<B>, b: &[f64], x: &mut [f64], back
         for c in 0..B {
             s[c] -= ax[c];
         }
-        mul_add(&level.dinv[i], &s, &mut x3[i]);
+        smul_add(&level.dinv[i], &s, &mut x3[i]);
     };
     if backward {
         (0..a.nrows).rev().for_each(&mut row);
@@ -864,9 +966,10 @@ fn gauss_seidel<const B: usize>(level: &Level<B>, b: &[f64], x: &mut [f64], back
 }
 
 #[cfg(test)]
-impl<const B: usize> Hierarchy<B> {
+impl<const B: usize, S: Entry> Hierarchy<B, S> {
     /// Test access: level `l`'s operator, prolongator and tentative prolongator.
-    pub fn level_matrices(&self, l: usize) -> (&Bsr<B>, Option<(&Bsr<B>, &Bsr<B>)>) {
+    #[allow(clippy::type_complexity)]
+    pub fn level_matrices(&self, l: usize) -> (&Bsr<B, S>, Option<(&Bsr<B, S>, &Bsr<B>)>) {
         let level = &self.levels[l];
         (&level.a, level.transfer.as_ref().map(|t| (&t.p, &t.t)))
     }

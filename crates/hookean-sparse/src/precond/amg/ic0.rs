@@ -12,7 +12,9 @@
 //! and 2-dof systems). `D_k^-1` is the inverse of the symmetrised block, so
 //! `M` is symmetric and the V-cycle with it stays symmetric.
 
-use super::bsr::{Blk, Bsr, mul_add, mul_mat_add, mul_vec, spd_inverse, transpose, zero};
+use super::bsr::{
+    Blk, Bsr, Entry, load, mul_add, mul_mat_add, mul_vec, spd_inverse, transpose, zero,
+};
 use crate::error::SparseError;
 
 /// One update of the elimination of row `k`: `X_ij -= W_ki^T (D_k^-1 W_kj)`,
@@ -41,7 +43,7 @@ pub(crate) struct BlockIc0<const B: usize> {
 
 impl<const B: usize> BlockIc0<B> {
     /// The symbolic factorisation: every update that keeps to the pattern.
-    pub fn new(a: &Bsr<B>, diag: &[usize]) -> Self {
+    pub fn new<S: Entry>(a: &Bsr<B, S>, diag: &[usize]) -> Self {
         let mut update_ptr = Vec::with_capacity(a.nrows + 1);
         let mut updates = Vec::new();
         let mut longest = 0;
@@ -89,8 +91,15 @@ impl<const B: usize> BlockIc0<B> {
     /// # Errors
     /// [`SparseError::AmgNotPositiveDefinite`] at the first pivot block
     /// whose symmetric part is not positive definite.
-    pub fn factor(&mut self, a: &Bsr<B>, diag: &[usize], level: usize) -> Result<(), SparseError> {
-        self.values.copy_from_slice(&a.val);
+    pub fn factor<S: Entry>(
+        &mut self,
+        a: &Bsr<B, S>,
+        diag: &[usize],
+        level: usize,
+    ) -> Result<(), SparseError> {
+        for (v, s) in self.values.iter_mut().zip(&a.val) {
+            *v = load(s);
+        }
         for k in 0..a.nrows {
             let d = diag[k];
             let inv = spd_inverse(&self.values[d]).ok_or(SparseError::AmgNotPositiveDefinite {
@@ -125,7 +134,7 @@ impl<const B: usize> BlockIc0<B> {
     /// `z = M^-1 z` in place: the forward solve with `(D + W)^T`
     /// (`z_i = D_i^-1 (z_i - sum_{k < i} W_ki^T z_k)`), then the backward
     /// solve with `D^-1 (D + W)` (`z_i -= D_i^-1 sum_{j > i} W_ij z_j`).
-    pub fn solve_in_place(&self, a: &Bsr<B>, diag: &[usize], z: &mut [f64]) {
+    pub fn solve_in_place<S: Entry>(&self, a: &Bsr<B, S>, diag: &[usize], z: &mut [f64]) {
         let (z3, _) = z.as_chunks_mut::<B>();
         let v = &self.values;
         for i in 0..a.nrows {

@@ -10,7 +10,7 @@ mod par;
 use std::sync::Arc;
 use std::time::Instant;
 
-use self::bsr::{Blk, Bsr, identity, transpose, zero};
+use self::bsr::{Blk, Bsr, Entry, SBlk, identity, szero, transpose, zero};
 use self::hierarchy::Hierarchy;
 use super::{Preconditioner, PreconditionerSetup, as_csr, square_dim};
 use crate::error::SparseError;
@@ -52,6 +52,21 @@ pub enum AmgReuse {
         /// Calls of `setup` that leave the hierarchy as it is.
         updates: usize,
     },
+}
+
+/// How the hierarchy stores its matrices (every level's operator, the
+/// prolongators, restrictions, `A P` and the smoothers' inverted diagonal
+/// blocks); the arithmetic is `f64` either way.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum AmgPrecision {
+    /// `f32` entries: half the memory, and half the bytes a V-cycle
+    /// streams (the cycle is bound by memory bandwidth). The V-cycle stays
+    /// a symmetric positive definite operator: each level uses the same
+    /// rounded matrix in its smoothing and residuals.
+    #[default]
+    Single,
+    /// `f64` entries (the hierarchy before issue 25).
+    Double,
 }
 
 /// Options of [`Amg`].
@@ -109,6 +124,8 @@ pub struct AmgOptions {
     /// `block_size * i ..`, e.g. 2 for 2D elasticity): 1 (default), 2 or 3.
     /// [`SymBlockMatrix`] input always has 3.
     pub block_size: usize,
+    /// Storage precision of the hierarchy. Default [`AmgPrecision::Single`].
+    pub precision: AmgPrecision,
 }
 
 impl Default for AmgOptions {
@@ -127,6 +144,7 @@ impl Default for AmgOptions {
             reuse: AmgReuse::Refill,
             near_nullspace: Vec::new(),
             block_size: 1,
+            precision: AmgPrecision::Single,
         }
     }
 }
@@ -170,6 +188,148 @@ pub struct AmgStats {
     pub coarsest_direct: bool,
 }
 
+/// A hierarchy in either storage precision.
+#[derive(Debug, Clone)]
+enum Levels<const B: usize> {
+    Single(Hierarchy<B, f32>),
+    Double(Hierarchy<B, f64>),
+}
+
+/// `$body` with `$h` bound to the hierarchy of `$levels`, whatever its precision.
+macro_rules! with_levels {
+    ($levels:expr, $h:ident => $body:expr) => {
+        match $levels {
+            Levels::Single($h) => $body,
+            Levels::Double($h) => $body,
+        }
+    };
+}
+
+impl<const B: usize> Levels<B> {
+    /// The full set-up from the finest pattern `fine` (values zero), filled
+    /// from `source` in the storage precision of `options`.
+    fn new(
+        fine: &Bsr<B>,
+        source: &Source<'_>,
+        nullspace: Vec<Blk<B>>,
+        options: &AmgOptions,
+    ) -> Result<Self, SparseError> {
+        Ok(match options.precision {
+            AmgPrecision::Single => {
+                let mut a = fine.pattern_as::<f32>();
+                fill(&mut a, source)?;
+                Levels::Single(Hierarchy::new(a, nullspace, options)?)
+            }
+            AmgPrecision::Double => {
+                let mut a = fine.pattern_as::<f64>();
+                fill(&mut a, source)?;
+                Levels::Double(Hierarchy::new(a, nullspace, options)?)
+            }
+        })
+    }
+
+    /// Refills the finest level from `source` and recomputes every number.
+    fn refill(&mut self, source: &Source<'_>) -> Result<(), SparseError> {
+        with_levels!(self, h => {
+            fill(h.finest_mut(), source)?;
+            h.compute()
+        })
+    }
+
+    fn dim(&self) -> usize {
+        with_levels!(self, h => h.dim())
+    }
+
+    fn apply(&self, r: &[f64], z: &mut [f64]) {
+        with_levels!(self, h => h.apply(r, z))
+    }
+
+    fn update_and_apply(&self, alpha: f64, q: &[f64], r: &mut [f64], z: &mut [f64]) -> (f64, f64) {
+        with_levels!(self, h => h.update_and_apply(alpha, q, r, z))
+    }
+
+    fn apply_dot(&self, r: &[f64], z: &mut [f64]) -> f64 {
+        with_levels!(self, h => h.apply_dot(r, z))
+    }
+
+    fn level_stats(&self) -> Vec<AmgLevelStats> {
+        with_levels!(self, h => h.level_stats().collect())
+    }
+
+    /// Copies the smoothers' and prolongators' weights into `stats` (no allocation).
+    fn update_weights(&self, stats: &mut [AmgLevelStats]) {
+        with_levels!(self, h => {
+            for (s, l) in stats.iter_mut().zip(h.level_stats()) {
+                s.smoother_weight = l.smoother_weight;
+                s.prolongation_weight = l.prolongation_weight;
+            }
+        })
+    }
+
+    fn coarsest_direct(&self) -> bool {
+        with_levels!(self, h => h.coarsest_direct())
+    }
+}
+
+/// Where the finest level's values come from.
+enum Source<'a> {
+    /// The blocks of a [`SymBlockMatrix`], slot by slot of the full storage
+    /// (`(stored block, transposed)`, from [`full_pattern`]); 3x3 blocks only.
+    Blocks(&'a [(u32, bool)], &'a SymBlockMatrix),
+    /// The entries of a CSR matrix and where each goes (block slot, row, column).
+    Csr(&'a [EntrySlot], &'a [f64]),
+}
+
+/// Writes the values of `source` into the finest level `a`: the blocks of
+/// a [`SymBlockMatrix`] with rows split across threads (a non-finite entry
+/// is reported by its first slot, searched again serially, independent of
+/// the schedule), or CSR entries serially (not the hot path of a simulation).
+fn fill<const B: usize, S: Entry>(
+    a: &mut Bsr<B, S>,
+    source: &Source<'_>,
+) -> Result<(), SparseError> {
+    match *source {
+        Source::Blocks(map, src) => {
+            assert_eq!(B, 3, "symmetric block matrices have 3x3 blocks");
+            let v = src.values();
+            let non_finite = std::sync::atomic::AtomicBool::new(false);
+            let row_ptr = &a.row_ptr;
+            par::row_slices(row_ptr, &mut a.val, &|i, row: &mut [SBlk<S, B>]| {
+                for (dst, &(s, t)) in row.iter_mut().zip(&map[row_ptr[i]..]) {
+                    let b = &v[s as usize];
+                    if b.iter().flatten().any(|x| !x.is_finite()) {
+                        non_finite.store(true, std::sync::atomic::Ordering::Relaxed);
+                    }
+                    let b = if t { transpose(b) } else { *b };
+                    for (d, x) in dst.as_flattened_mut().iter_mut().zip(b.as_flattened()) {
+                        *d = S::store(*x);
+                    }
+                }
+            });
+            if !non_finite.into_inner() {
+                return Ok(());
+            }
+            match map
+                .iter()
+                .position(|&(s, _)| v[s as usize].iter().flatten().any(|x| !x.is_finite()))
+            {
+                Some(k) => Err(SparseError::NonFinite {
+                    what: "matrix",
+                    index: Some(k),
+                }),
+                None => Ok(()),
+            }
+        }
+        Source::Csr(map, data) => {
+            a.val.fill(szero::<S, B>());
+            for (&(slot, r, c), &v) in map.iter().zip(data) {
+                a.val[slot as usize][r as usize][c as usize] = S::store(v);
+            }
+            Ok(())
+        }
+    }
+}
+
 /// The finest level's storage and where its blocks come from.
 #[derive(Debug, Clone)]
 enum Inner {
@@ -179,7 +339,7 @@ enum Inner {
     Block {
         source: Arc<BlockPattern>,
         map: Vec<(u32, bool)>,
-        h: Hierarchy<3>,
+        h: Levels<3>,
     },
     /// From a CSR matrix, with 1, 2 or 3 unknowns per node.
     Csr1(CsrLevels<1>),
@@ -198,7 +358,7 @@ struct CsrLevels<const B: usize> {
     indptr: Vec<usize>,
     indices: Vec<usize>,
     map: Vec<EntrySlot>,
-    h: Hierarchy<B>,
+    h: Levels<B>,
 }
 
 impl<const B: usize> CsrLevels<B> {
@@ -255,29 +415,20 @@ impl<const B: usize> CsrLevels<B> {
         Ok((bsr, map))
     }
 
-    /// Writes the CSR values into the block storage.
-    fn fill(bsr: &mut Bsr<B>, map: &[EntrySlot], data: &[f64]) {
-        bsr.val.fill(zero::<B>());
-        for (&(slot, r, c), &v) in map.iter().zip(data) {
-            bsr.val[slot as usize][r as usize][c as usize] = v;
-        }
-    }
-
     fn new(a: &sprs::CsMat<f64>, amg: &Amg) -> Result<Self, SparseError> {
-        let (mut fine, map) = Self::blocks(a)?;
-        Self::fill(&mut fine, &map, a.data());
+        let (fine, map) = Self::blocks(a)?;
         let nullspace = amg.nullspace::<B>(fine.nrows)?;
+        let h = Levels::new(&fine, &Source::Csr(&map, a.data()), nullspace, &amg.options)?;
         Ok(Self {
             indptr: a.proper_indptr().into_owned(),
             indices: a.indices().to_vec(),
-            h: Hierarchy::new(fine, nullspace, &amg.options)?,
+            h,
             map,
         })
     }
 
     fn refill(&mut self, a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
-        Self::fill(self.h.finest_mut(), &self.map, a.data());
-        self.h.compute()
+        self.h.refill(&Source::Csr(&self.map, a.data()))
     }
 }
 
@@ -504,17 +655,14 @@ impl Amg {
             .collect())
     }
 
-    fn record<const B: usize>(&mut self, h: &Hierarchy<B>, seconds: f64, refill: bool) {
+    fn record<const B: usize>(&mut self, h: &Levels<B>, seconds: f64, refill: bool) {
         if refill {
             self.stats.refill_seconds = seconds;
             self.stats.refills += 1;
-            for (s, l) in self.stats.levels.iter_mut().zip(h.level_stats()) {
-                s.smoother_weight = l.smoother_weight;
-                s.prolongation_weight = l.prolongation_weight;
-            }
+            h.update_weights(&mut self.stats.levels);
             return;
         }
-        let levels: Vec<AmgLevelStats> = h.level_stats().collect();
+        let levels: Vec<AmgLevelStats> = h.level_stats();
         let (rows0, nnz0) = (levels[0].rows as f64, levels[0].nonzeros as f64);
         self.stats.operator_complexity =
             levels.iter().map(|l| l.nonzeros as f64).sum::<f64>() / nnz0;
@@ -597,40 +745,6 @@ fn full_pattern(p: &BlockPattern) -> (Bsr<3>, Vec<(u32, bool)>) {
     (a, map)
 }
 
-fn fill_from_blocks(
-    a: &mut Bsr<3>,
-    map: &[(u32, bool)],
-    src: &SymBlockMatrix,
-) -> Result<(), SparseError> {
-    let v = src.values();
-    // Rows split across threads; a non-finite entry is reported by its
-    // first slot (searched again serially, independent of the schedule).
-    let non_finite = std::sync::atomic::AtomicBool::new(false);
-    let row_ptr = &a.row_ptr;
-    par::row_slices(row_ptr, &mut a.val, &|i, row: &mut [Blk<3>]| {
-        for (dst, &(s, t)) in row.iter_mut().zip(&map[row_ptr[i]..row_ptr[i + 1]]) {
-            let b = &v[s as usize];
-            if b.iter().flatten().any(|x| !x.is_finite()) {
-                non_finite.store(true, std::sync::atomic::Ordering::Relaxed);
-            }
-            *dst = if t { transpose(b) } else { *b };
-        }
-    });
-    if !non_finite.into_inner() {
-        return Ok(());
-    }
-    match map
-        .iter()
-        .position(|&(s, _)| v[s as usize].iter().flatten().any(|x| !x.is_finite()))
-    {
-        Some(k) => Err(SparseError::NonFinite {
-            what: "matrix",
-            index: Some(k),
-        }),
-        None => Ok(()),
-    }
-}
-
 impl PreconditionerSetup<SymBlockMatrix> for Amg {
     fn setup(&mut self, a: &SymBlockMatrix) -> Result<(), SparseError> {
         crate::error::non_empty("matrix", a.dim())?;
@@ -641,14 +755,12 @@ impl PreconditionerSetup<SymBlockMatrix> for Amg {
             return Ok(());
         };
         let result = match &mut self.inner {
-            Inner::Block { map, h, .. } if refill => {
-                fill_from_blocks(h.finest_mut(), map, a).and_then(|()| h.compute())
-            }
+            Inner::Block { map, h, .. } if refill => h.refill(&Source::Blocks(map, a)),
             _ => {
-                let (mut fine, map) = full_pattern(a.pattern());
-                let built = fill_from_blocks(&mut fine, &map, a)
-                    .and_then(|()| self.nullspace::<3>(a.n_blocks()))
-                    .and_then(|ns| Hierarchy::new(fine, ns, &self.options));
+                let (fine, map) = full_pattern(a.pattern());
+                let built = self
+                    .nullspace::<3>(a.n_blocks())
+                    .and_then(|ns| Levels::new(&fine, &Source::Blocks(&map, a), ns, &self.options));
                 built.map(|h| {
                     self.inner = Inner::Block {
                         source: a.pattern().clone(),
@@ -735,6 +847,39 @@ impl Preconditioner for Amg {
             Inner::Csr1(c) => c.h.apply(r, z),
             Inner::Csr2(c) => c.h.apply(r, z),
             Inner::Csr3(c) => c.h.apply(r, z),
+        }
+    }
+
+    /// One V-cycle and `r . z`, fused with the cycle's last pass.
+    fn apply_dot(&self, r: &[f64], z: &mut [f64]) -> f64 {
+        match &self.inner {
+            Inner::Empty => {
+                z.copy_from_slice(r);
+                crate::vecops::dot(r, z)
+            }
+            Inner::Block { h, .. } => h.apply_dot(r, z),
+            Inner::Csr1(c) => c.h.apply_dot(r, z),
+            Inner::Csr2(c) => c.h.apply_dot(r, z),
+            Inner::Csr3(c) => c.h.apply_dot(r, z),
+        }
+    }
+
+    /// CG's `r -= alpha q`, `z = M^-1 r`, `(r . r, r . z)`: the update and
+    /// the sums fused with the V-cycle's finest passes.
+    fn update_and_apply(&self, alpha: f64, q: &[f64], r: &mut [f64], z: &mut [f64]) -> (f64, f64) {
+        match &self.inner {
+            Inner::Empty => {
+                for (ri, qi) in r.iter_mut().zip(q) {
+                    *ri -= alpha * qi;
+                }
+                z.copy_from_slice(r);
+                let rr = crate::vecops::dot(r, r);
+                (rr, rr)
+            }
+            Inner::Block { h, .. } => h.update_and_apply(alpha, q, r, z),
+            Inner::Csr1(c) => c.h.update_and_apply(alpha, q, r, z),
+            Inner::Csr2(c) => c.h.update_and_apply(alpha, q, r, z),
+            Inner::Csr3(c) => c.h.update_and_apply(alpha, q, r, z),
         }
     }
 }

@@ -7,36 +7,74 @@ use crate::{CgParams, CgWorkspace, LinearOperator, pcg};
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
-/// Options that force several levels on small test matrices.
+/// Options that force several levels on small test matrices, with the
+/// hierarchy in double precision (so products can be checked to 1e-13).
 fn small_coarse(smoother: AmgSmoother) -> AmgOptions {
     AmgOptions {
         coarse_size: 40,
         smoother,
+        precision: AmgPrecision::Double,
         ..Default::default()
     }
 }
 
-fn hierarchy3(amg: &Amg) -> &Hierarchy<3> {
+fn hierarchy3(amg: &Amg) -> &Hierarchy<3, f64> {
     match &amg.inner {
-        Inner::Block { h, .. } => h,
-        _ => panic!("not a block hierarchy"),
+        Inner::Block {
+            h: Levels::Double(h),
+            ..
+        } => h,
+        _ => panic!("not a double-precision block hierarchy"),
+    }
+}
+
+fn hierarchy3_single(amg: &Amg) -> &Hierarchy<3, f32> {
+    match &amg.inner {
+        Inner::Block {
+            h: Levels::Single(h),
+            ..
+        } => h,
+        _ => panic!("not a single-precision block hierarchy"),
     }
 }
 
 /// Row-major dense copy of a block matrix.
-fn dense_bsr<const B: usize>(m: &Bsr<B>) -> Vec<Vec<f64>> {
+fn dense_bsr<const B: usize, S: bsr::Entry>(m: &Bsr<B, S>) -> Vec<Vec<f64>> {
     let mut d = vec![vec![0.0; B * m.ncols]; B * m.nrows];
     for i in 0..m.nrows {
         for k in m.row(i) {
             let j = m.col[k] as usize;
             for r in 0..B {
                 for c in 0..B {
-                    d[B * i + r][B * j + c] = m.val[k][r][c];
+                    d[B * i + r][B * j + c] = bsr::Entry::load(m.val[k][r][c]);
                 }
             }
         }
     }
     d
+}
+
+/// Every coarse operator of `h` equals `P^T A P` of the stored level
+/// matrices, entry by entry to `tol` times the product's largest entry.
+fn assert_galerkin<S: bsr::Entry>(h: &Hierarchy<3, S>, tol: f64) {
+    assert!(h.n_levels() >= 2);
+    for l in 0..h.n_levels() - 1 {
+        let (al, Some((p, _))) = h.level_matrices(l) else {
+            unreachable!()
+        };
+        let (ac, _) = h.level_matrices(l + 1);
+        let (al, p, ac) = (dense_bsr(al), dense_bsr(p), dense_bsr(ac));
+        let expected = matmul(&transpose_dense(&p), &matmul(&al, &p));
+        let scale = expected
+            .iter()
+            .flatten()
+            .fold(0.0_f64, |m, v| m.max(v.abs()));
+        for (r, row) in expected.iter().enumerate() {
+            for (c, v) in row.iter().enumerate() {
+                assert!((ac[r][c] - v).abs() <= tol * scale, "level {l} ({r},{c})");
+            }
+        }
+    }
 }
 
 fn transpose_dense(m: &[Vec<f64>]) -> Vec<Vec<f64>> {
@@ -83,8 +121,20 @@ fn v_cycle_is_symmetric_and_positive() {
         AmgSmoother::SymmetricGaussSeidel,
         AmgSmoother::BlockIc0,
     ] {
-        for scalar in [false, true] {
-            let mut amg = Amg::with_options(small_coarse(smoother)).unwrap();
+        for (scalar, precision) in [
+            (false, AmgPrecision::Double),
+            (true, AmgPrecision::Double),
+            (false, AmgPrecision::Single),
+            (true, AmgPrecision::Single),
+        ] {
+            // Single precision rounds the stored matrices, but every level
+            // uses the same rounded matrix in its smoothing and residuals:
+            // the cycle stays symmetric to f64 round-off.
+            let mut amg = Amg::with_options(AmgOptions {
+                precision,
+                ..small_coarse(smoother)
+            })
+            .unwrap();
             if scalar {
                 amg.setup(&csr).unwrap();
             } else {
@@ -102,7 +152,7 @@ fn v_cycle_is_symmetric_and_positive() {
                 let scale = norm2(&bx) * norm2(&y) + norm2(&x) * norm2(&by);
                 assert!(
                     (bxy - xby).abs() <= 1e-13 * scale,
-                    "{smoother:?} scalar {scalar}: <Bx,y> = {bxy}, <x,By> = {xby}"
+                    "{smoother:?} {precision:?} scalar {scalar}: <Bx,y> = {bxy}, <x,By> = {xby}"
                 );
                 assert!(dot(&bx, &x) > 0.0);
             }
@@ -174,27 +224,8 @@ fn coarse_operator_is_the_galerkin_product() {
     let mut amg = Amg::with_options(small_coarse(AmgSmoother::BlockJacobi)).unwrap();
     amg.setup(&a).unwrap();
     let h = hierarchy3(&amg);
-    assert!(h.n_levels() >= 2);
-    for l in 0..h.n_levels() - 1 {
-        let (al, Some((p, _))) = h.level_matrices(l) else {
-            unreachable!()
-        };
-        let (ac, _) = h.level_matrices(l + 1);
-        let (al, p, ac) = (dense_bsr(al), dense_bsr(p), dense_bsr(ac));
-        if l == 0 {
-            assert_eq!(al, dense(&a));
-        }
-        let expected = matmul(&transpose_dense(&p), &matmul(&al, &p));
-        let scale = expected
-            .iter()
-            .flatten()
-            .fold(0.0_f64, |m, v| m.max(v.abs()));
-        for (r, row) in expected.iter().enumerate() {
-            for (c, v) in row.iter().enumerate() {
-                assert!((ac[r][c] - v).abs() <= 1e-13 * scale, "level {l} ({r},{c})");
-            }
-        }
-    }
+    assert_eq!(dense_bsr(h.level_matrices(0).0), dense(&a));
+    assert_galerkin(h, 1e-13);
 }
 
 /// The asymptotic convergence factor of the stationary iteration
@@ -251,16 +282,31 @@ fn two_grid_and_v_cycle_rates_do_not_grow_with_the_size() {
 #[test]
 fn small_matrix_is_solved_directly() {
     let a = spd_block_matrix(3, 3);
-    let mut amg = Amg::new();
-    amg.setup(&a).unwrap();
-    assert_eq!(amg.stats().levels.len(), 1);
-    assert!(amg.stats().coarsest_direct);
-    let r = rhs(a.dim());
-    let mut z = vec![0.0; r.len()];
-    amg.apply(&r, &mut z);
-    let mut az = vec![0.0; r.len()];
-    a.apply(&z, &mut az);
-    assert!(super::super::testutil::rel_diff(&az, &r) < 1e-12);
+    // Exactly in double precision; in single precision the factor is of
+    // the matrix rounded to f32 (relative error of order 1e-7).
+    for (precision, tol) in [(AmgPrecision::Double, 1e-12), (AmgPrecision::Single, 1e-5)] {
+        let mut amg = Amg::with_options(AmgOptions {
+            precision,
+            ..Default::default()
+        })
+        .unwrap();
+        amg.setup(&a).unwrap();
+        assert_eq!(amg.stats().levels.len(), 1);
+        assert!(amg.stats().coarsest_direct);
+        let r = rhs(a.dim());
+        let mut z = vec![0.0; r.len()];
+        amg.apply(&r, &mut z);
+        let mut az = vec![0.0; r.len()];
+        a.apply(&z, &mut az);
+        let err = super::super::testutil::rel_diff(&az, &r);
+        assert!(err < tol, "{precision:?}: {err}");
+        if precision == AmgPrecision::Single {
+            assert!(
+                err > 1e-12,
+                "the single-precision factor is of the rounded matrix"
+            );
+        }
+    }
 }
 
 /// A mass-dominated system, `A = I + eps L` with `L` the 2D Poisson matrix:
@@ -780,5 +826,67 @@ fn a_refill_that_keeps_the_prolongators_recomputes_the_galerkin_operators() {
     assert_ne!(
         dense_bsr(hierarchy3(&fresh).level_matrices(0).1.unwrap().0),
         p_before
+    );
+}
+
+#[test]
+fn fused_cg_passes_equal_the_cycle_and_its_sums() {
+    // CG's `r -= alpha q`, `z = M^-1 r`, `(r . r, r . z)` fused into the
+    // finest passes give the V-cycle and the sums computed separately.
+    let a = spd_block_matrix(48, 44);
+    let n = a.dim();
+    let mut rng = SmallRng::seed_from_u64(25);
+    for precision in [AmgPrecision::Double, AmgPrecision::Single] {
+        let mut amg = Amg::with_options(AmgOptions {
+            precision,
+            ..small_coarse(AmgSmoother::BlockJacobi)
+        })
+        .unwrap();
+        amg.setup(&a).unwrap();
+        let r0: Vec<f64> = (0..n).map(|_| rng.random_range(-1.0..1.0)).collect();
+        let q: Vec<f64> = (0..n).map(|_| rng.random_range(-1.0..1.0)).collect();
+        let alpha = 0.37;
+        let mut r = r0.clone();
+        let mut z = vec![0.0; n];
+        let (rr, rz) = amg.update_and_apply(alpha, &q, &mut r, &mut z);
+        let expected_r: Vec<f64> = r0.iter().zip(&q).map(|(r, q)| r - alpha * q).collect();
+        let mut expected_z = vec![0.0; n];
+        amg.apply(&expected_r, &mut expected_z);
+        assert!(super::super::testutil::rel_diff(&r, &expected_r) < 1e-15);
+        assert!(super::super::testutil::rel_diff(&z, &expected_z) < 1e-13);
+        let close = |x: f64, y: f64| (x - y).abs() <= 1e-12 * y.abs();
+        assert!(close(rr, dot(&expected_r, &expected_r)), "{precision:?}");
+        assert!(close(rz, dot(&expected_r, &expected_z)), "{precision:?}");
+        let mut z2 = vec![0.0; n];
+        let rz2 = amg.apply_dot(&expected_r, &mut z2);
+        assert!(super::super::testutil::rel_diff(&z2, &expected_z) < 1e-13);
+        assert!(close(rz2, rz), "{precision:?}");
+    }
+}
+
+#[test]
+fn single_precision_levels_are_the_galerkin_products_of_the_rounded_matrices() {
+    // A_{l+1} = R (A P) with every factor stored in f32: equal to
+    // P^T A P of the stored matrices to f32 rounding (relative 1e-6 of the
+    // largest entry), and the PCG iteration counts of the double-precision
+    // hierarchy within one.
+    let a = spd_block_matrix(16, 14);
+    let mut single = Amg::with_options(AmgOptions {
+        precision: AmgPrecision::Single,
+        ..small_coarse(AmgSmoother::BlockJacobi)
+    })
+    .unwrap();
+    single.setup(&a).unwrap();
+    assert_galerkin(hierarchy3_single(&single), 1e-6);
+    let mut double = Amg::with_options(small_coarse(AmgSmoother::BlockJacobi)).unwrap();
+    double.setup(&a).unwrap();
+    let b = rhs(a.dim());
+    let (its_single, its_double) = (
+        pcg_iterations(&a, &single, &b),
+        pcg_iterations(&a, &double, &b),
+    );
+    assert!(
+        its_single.abs_diff(its_double) <= 1,
+        "{its_single} vs {its_double}"
     );
 }

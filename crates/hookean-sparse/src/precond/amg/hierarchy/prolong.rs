@@ -1,0 +1,160 @@
+//! The smoothed prolongator `P = (I - omega D_F^-1 A_F) T` of smoothed
+//! aggregation (Vaněk, Mandel, Brezina 1996), with the filtered
+//! matrix `A_F` read from `A` row by row (its strong blocks, the weak ones
+//! lumped onto the diagonal) and never stored.
+
+use super::super::bsr::{
+    Blk, Bsr, Entry, SBlk, load, mul_add, mul_mat_add, smul_add, spd_inverse, store, szero, zero,
+};
+use super::super::par;
+use super::{Transfer, Work, gershgorin_row, spectral_radius};
+use crate::error::SparseError;
+
+/// The diagonal block of row `i` of `A_F`: `A_ii` plus the weak blocks of the row.
+#[inline(always)]
+fn lumped_diagonal<const B: usize, S: Entry>(
+    a: &Bsr<B, S>,
+    diag: &[usize],
+    strong: &[bool],
+    i: usize,
+) -> Blk<B> {
+    let mut d = load(&a.val[diag[i]]);
+    for k in a.row(i) {
+        if k != diag[i] && !strong[k] {
+            let w = load(&a.val[k]);
+            for r in 0..B {
+                for c in 0..B {
+                    d[r][c] += w[r][c];
+                }
+            }
+        }
+    }
+    d
+}
+
+/// `sum_j (A_F)_ij x_j` from the rows of `A` (`d` the lumped diagonal block of row `i`).
+#[inline(always)]
+fn filtered_row_times<const B: usize, S: Entry>(
+    a: &Bsr<B, S>,
+    diag: &[usize],
+    strong: &[bool],
+    d: &Blk<B>,
+    i: usize,
+    x: &[[f64; B]],
+) -> [f64; B] {
+    let mut acc = [0.0; B];
+    for k in a.row(i) {
+        if k == diag[i] {
+            mul_add(d, &x[i], &mut acc);
+        } else if strong[k] {
+            smul_add(&a.val[k], &x[a.col[k] as usize], &mut acc);
+        }
+    }
+    acc
+}
+
+/// `D_F^-1`, `omega` and `P = (I - omega D_F^-1 A_F) T`, `R = P^T`, with
+/// `A_F` read from `A` row by row (its strong blocks, and the weak ones
+/// lumped onto the diagonal).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn smooth_prolongator<const B: usize, S: Entry>(
+    a: &Bsr<B, S>,
+    diag: &[usize],
+    a_dinv: &[SBlk<S, B>],
+    tr: &mut Transfer<B, S>,
+    prolongation_weight: f64,
+    iterations: Option<usize>,
+    refill: bool,
+    work: &mut Work,
+) -> Result<(), SparseError> {
+    // D_F^-1; where lumping made a diagonal block indefinite (a matrix that
+    // is not an M-matrix, e.g. a scalar elasticity operator with positive
+    // off-diagonal entries), D^-1 of A instead: any SPD scaling smooths T.
+    let strong = &tr.strong;
+    par::rows(&mut tr.df_inv, &|i, inv: &mut Blk<B>| {
+        *inv =
+            spd_inverse(&lumped_diagonal(a, diag, strong, i)).unwrap_or_else(|| load(&a_dinv[i]));
+    });
+    if let Some(iterations) = iterations {
+        let df_inv = &tr.df_inv;
+        let rho = spectral_radius(
+            a.nrows,
+            &|i, x| filtered_row_times(a, diag, strong, &lumped_diagonal(a, diag, strong, i), i, x),
+            &|i| {
+                let d = lumped_diagonal(a, diag, strong, i);
+                let blocks = a.row(i).filter_map(|k| {
+                    if k == diag[i] {
+                        Some(d)
+                    } else {
+                        strong[k].then(|| load(&a.val[k]))
+                    }
+                });
+                gershgorin_row(&df_inv[i], blocks)
+            },
+            &|i| df_inv[i],
+            iterations,
+            refill,
+            &mut tr.eigenvector,
+            &mut work.t,
+        )?;
+        tr.omega = prolongation_weight / rho;
+    }
+    // P = T - omega D_F^-1 (A_F T), row by row: A_F T in P's slots, then
+    // scaled, then T added.
+    let (df_inv, t, t_in_p, z_slot, omega) = (&tr.df_inv, &tr.t, &tr.t_in_p, &tr.z_slot, tr.omega);
+    let p_ptr = &tr.p.row_ptr;
+    par::row_slices(p_ptr, &mut tr.p.val, &|i, vals: &mut [SBlk<S, B>]| {
+        let start = p_ptr[i];
+        let mut acc = [zero::<B>(); MAX_P_ROW];
+        let wide = vals.len() > MAX_P_ROW;
+        if wide {
+            vals.fill(szero::<S, B>());
+        } else {
+            acc[..vals.len()].fill(zero::<B>());
+        }
+        let d = lumped_diagonal(a, diag, strong, i);
+        for k in a.row(i) {
+            let z = z_slot[k];
+            if z == u32::MAX {
+                continue;
+            }
+            let q = t.row(a.col[k] as usize).start;
+            let blk = if k == diag[i] { d } else { load(&a.val[k]) };
+            let slot = z as usize - start;
+            if wide {
+                let mut m = load(&vals[slot]);
+                mul_mat_add(&blk, &t.val[q], &mut m);
+                vals[slot] = store(&m);
+            } else {
+                mul_mat_add(&blk, &t.val[q], &mut acc[slot]);
+            }
+        }
+        let dinv = &df_inv[i];
+        for (s, v) in vals.iter_mut().enumerate() {
+            let z = if wide { load(v) } else { acc[s] };
+            let mut m = zero::<B>();
+            mul_mat_add(dinv, &z, &mut m);
+            for row in m.iter_mut() {
+                for x in row.iter_mut() {
+                    *x *= -omega;
+                }
+            }
+            if let Some(k) = t.row(i).next()
+                && t_in_p[i] - start == s
+            {
+                for r in 0..B {
+                    for c in 0..B {
+                        m[r][c] += t.val[k][r][c];
+                    }
+                }
+            }
+            *v = store(&m);
+        }
+    });
+    tr.p.fill_transpose(&mut tr.r, &tr.r_map);
+    Ok(())
+}
+
+/// Rows of `P` up to this many blocks are accumulated in `f64` on the stack
+/// (longer ones in their storage).
+const MAX_P_ROW: usize = 32;
