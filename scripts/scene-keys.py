@@ -1,11 +1,12 @@
 #!/usr/bin/env python3
 """Writes crates/hookean/src/scene_keys.txt, the listing `hookean scene-keys`
-prints, from the field docs of the scene tables in crates/hookean/src/scene.rs
+prints, from the field docs of the scene tables in crates/hookean/src/scene/
 (their one owner). Run it after changing a scene key; the test
 `scene::tests::the_key_listing_names_every_key` fails until you do."""
 import re, pathlib, textwrap
 root = pathlib.Path(__file__).resolve().parent.parent
-src = (root / "crates/hookean/src/scene.rs").read_text()
+src = "".join((root / "crates/hookean/src/scene" / f).read_text()
+              for f in ("mod.rs", "model.rs", "solver.rs", "output.rs"))
 tables = {"Scene": "", "ClothScene": "cloth", "RopeScene": "rope", "JellyScene": "jelly",
           "TutorialScene": "tutorial", "ModelScene": "model", "IntegratorScene": "integrator",
           "SolverScene": "solver", "AmgScene": "solver.amg", "FilterScene": "filter",
@@ -17,15 +18,24 @@ lines = ["Scene keys (TOML; `hookean run SCENE --set key=value` overrides one)."
          "or \"mesh\" (path, scale = 1, offset = [0, 0, 0], thickness = 0.005 m, velocity = [0, 0, 0] m/s,",
          "angular_velocity = [0, 0, 0] rad/s, pivot = centre of its box); every kind also static_friction",
          "(default 0) and kinetic_friction (default: static_friction). docs/CONTACT.md explains them.",
-         "Units are SI (m, kg, s, N/m, N s/m). Generated from crates/hookean/src/scene.rs by scripts/scene-keys.py.",
+         "Units are SI (m, kg, s, N/m, N s/m). Generated from crates/hookean/src/scene/ by scripts/scene-keys.py.",
          ""]
 for name, table in tables.items():
     body = re.search(r"pub struct " + name + r" \{(.*?)\n\}", src, re.S).group(1)
     doc, rename = [], None
     if table:
         lines.append(f"[{table}]")
+    in_attribute = False  # inside a #[serde(...)] spread over several lines
     for raw in body.split("\n"):
         l = raw.strip()
+        if in_attribute:
+            in_attribute = not l.endswith(")]")
+            if "rename = " in l:
+                rename = re.search(r'rename = "([^"]+)"', l).group(1)
+            continue
+        if l.startswith("#[") and not l.endswith("]"):
+            in_attribute = True
+            continue
         if l.startswith("///"):
             doc.append(l[3:].strip())
         elif l.startswith("#[serde(") and "rename = " in l:

@@ -1,0 +1,442 @@
+//! From a scene to library options and a model: the preconditioner rule, the solver and simulation options, the memory estimate, and the build.
+
+use super::*;
+
+impl Scene {
+    /// The model options of the scene.
+    pub(super) fn model_options(&self) -> ModelOptions {
+        ModelOptions {
+            damping: match self.model.damping {
+                DampingScene::Projected => SpringDamping::Projected,
+                DampingScene::Incorrect => SpringDamping::Incorrect,
+                DampingScene::None => SpringDamping::None,
+            },
+            air_friction: self.model.air_friction,
+            gravity: self.model.gravity,
+            clamp_stiffness: self.model.clamp_stiffness,
+            ..ModelOptions::default()
+        }
+    }
+
+    /// The scene's preconditioner: `auto` resolved by the model's size,
+    /// SSOR's and MIC(0)'s relaxations from `omega` and `mic_omega`.
+    pub fn preconditioner(&self) -> PrecondKind {
+        let s = &self.solver;
+        let auto_amg = self
+            .particle_count()
+            .0
+            .is_some_and(|p| p >= AUTO_AMG_PARTICLES as u64);
+        match s.preconditioner {
+            None if auto_amg => PrecondKind::Amg,
+            None | Some(PrecondKind::Mic0 { .. }) => PrecondKind::Mic0 { omega: s.mic_omega },
+            Some(PrecondKind::Ssor { .. }) => PrecondKind::Ssor { omega: s.omega },
+            Some(other) => other,
+        }
+    }
+
+    /// The integrator, Newton and PCG options of the scene.
+    pub fn simulation_options(&self) -> SimulationOptions {
+        let s = &self.solver;
+        let forcing = match s.forcing {
+            ForcingScene::Constant(eta) => ForcingTerm::Constant(eta),
+            ForcingScene::Ew1 => ForcingTerm::EisenstatWalker1,
+            ForcingScene::Ew2 => ForcingTerm::EW2_DEFAULT,
+        };
+        let mut solver: SolverOptions = SimulationOptions::drape_solver();
+        // "auto" needs the model: `build` replaces this placeholder.
+        solver.h = self.integrator.h.value().unwrap_or_else(d_h);
+        solver.rtol = self.integrator.rtol;
+        solver.atol = self.integrator.atol.into();
+        solver.step.h_max = self.integrator.h_max;
+        solver.bdf.max_order = self.integrator.max_order;
+        solver.step.control = match self.integrator.control {
+            ControlScene::Error => StepControl::error_based(),
+            ControlScene::Newton => StepControl::newton_iterations(),
+        };
+        solver.newton.method = match s.newton {
+            NewtonScene::Exact => NewtonMethod::Exact,
+            NewtonScene::Inexact => NewtonMethod::Inexact(forcing),
+            NewtonScene::Simplified => NewtonMethod::Simplified,
+            NewtonScene::InexactSimplified => NewtonMethod::InexactSimplified(forcing),
+        };
+        solver.newton.rtol = s.newton_rtol;
+        solver.newton.max_iter = s.max_newton;
+        solver.newton.linear_rtol = match s.newton {
+            NewtonScene::Exact | NewtonScene::Simplified => s.cg_rtol,
+            _ => solver.newton.linear_rtol,
+        };
+        solver.linear.max_iter = Some(s.max_cg);
+        solver.warm_start = s.warm_start;
+        solver.linear.preconditioner = self.preconditioner();
+        solver.linear.amg = s.amg.as_ref().map(AmgScene::options).unwrap_or_default();
+        // The exact stiffness Jacobian may be indefinite where springs are
+        // compressed: PCG then truncates (Newton-CG) instead of failing.
+        solver.linear.negative_curvature = if self.model.clamp_stiffness {
+            NegativeCurvature::Error
+        } else {
+            NegativeCurvature::Truncate
+        };
+        SimulationOptions {
+            method: self.integrator.method.clone(),
+            solver,
+            filter: self.filter.as_ref().map(|f| FilterOptions {
+                kernel: match f.kernel {
+                    KernelScene::Exponential => Kernel::Exponential { lambda: f.lambda },
+                    KernelScene::Gaussian => Kernel::Gaussian { lambda: f.lambda },
+                },
+                form: match f.form {
+                    FormScene::Symmetric => Form::Symmetric,
+                    FormScene::Plain => Form::Plain,
+                },
+                rings: f.rings,
+                current_distances: f.distances == DistancesScene::Current,
+            }),
+            filter_coupling: match self.filter.as_ref().map(|f| f.coupling) {
+                Some(CouplingScene::Velocity) => FilterCoupling::VelocityOnly,
+                Some(CouplingScene::Positions) => FilterCoupling::CorrectPositions,
+                Some(CouplingScene::Increment) | None => FilterCoupling::Increment,
+            },
+            ..SimulationOptions::default()
+        }
+    }
+
+    /// The cloth of a `[cloth]` scene as builder parameters (with the
+    /// scene's `[model]` options), or `None` for other scenes.
+    pub fn cloth_params(&self) -> Option<ClothParams> {
+        let c = self.cloth.as_ref()?;
+        let axis_v = match c.plane {
+            PlaneScene::Horizontal => [0.0, 1.0, 0.0],
+            PlaneScene::Vertical => [0.0, 0.0, 1.0],
+        };
+        // About +x: (y, z) -> (y cos - z sin, y sin + z cos).
+        let axis_v = if c.tilt == 0.0 {
+            axis_v
+        } else {
+            let (s, co) = c.tilt.to_radians().sin_cos();
+            [
+                0.0,
+                axis_v[1] * co - axis_v[2] * s,
+                axis_v[1] * s + axis_v[2] * co,
+            ]
+        };
+        Some(ClothParams {
+            nu: c.n,
+            nv: c.n,
+            width: c.size,
+            height: c.size,
+            origin: c.origin,
+            axis_u: [1.0, 0.0, 0.0],
+            axis_v,
+            total_mass: c.mass,
+            structural: SpringMaterial::new(c.stiffness, c.damping),
+            shear: SpringMaterial::new(c.stiffness, c.damping),
+            bend: SpringMaterial::new(c.bend_stiffness.unwrap_or(c.stiffness / 10.0), c.damping),
+            pins: match c.pins {
+                PinScene::TwoCorners => ClothPins::TwoCorners,
+                PinScene::FourCorners => ClothPins::FourCorners,
+                PinScene::Edge => ClothPins::Edge,
+                PinScene::None => ClothPins::None,
+            },
+            options: self.model_options(),
+        })
+    }
+
+    /// The number of particles (unknowns for a `[tutorial]` scene) the
+    /// scene's model has, and the key that sets it; `None` for a count that
+    /// overflows 64 bits.
+    pub fn particle_count(&self) -> (Option<u64>, &'static str) {
+        if let Some(c) = &self.cloth {
+            ((c.n as u64).checked_mul(c.n as u64), "cloth.n")
+        } else if let Some(r) = &self.rope {
+            (Some(r.n as u64), "rope.n")
+        } else if let Some(j) = &self.jelly {
+            let [a, b, c] = j.n.map(|k| k as u64);
+            (a.checked_mul(b).and_then(|ab| ab.checked_mul(c)), "jelly.n")
+        } else if self.particle.is_some() {
+            (Some(1), "particle")
+        } else if let Some(m) = &self.mesh {
+            (Some(obj_vertex_count(&self.resolve(&m.path))), "mesh.path")
+        } else {
+            (Some(1), "tutorial")
+        }
+    }
+
+    /// A path of the scene: relative paths start at the scene file's folder.
+    pub(super) fn resolve(&self, path: &Path) -> std::path::PathBuf {
+        match &self.base {
+            Some(base) if path.is_relative() => base.join(path),
+            _ => path.to_path_buf(),
+        }
+    }
+
+    /// An upper estimate of the memory the scene's model and its implicit
+    /// solver need, in bytes, and the key that sets the size: about
+    /// 1 KiB per particle (state, forces, solver vectors) and 0.5 KiB per
+    /// spring (its Jacobian blocks in `df/dx`, `df/dv`, the system matrix
+    /// and its preconditioner), plus, with a `[filter]`, 32 bytes per
+    /// neighbour of every particle's `rings`-ring neighbourhood (at most
+    /// `(2 rings + 1)^d` particles on a `d`-dimensional lattice, and never
+    /// more than the model has; the key is then `filter.rings` if the
+    /// neighbourhoods are the larger part). `None` for a size that
+    /// overflows 64 bits.
+    pub fn memory_estimate(&self) -> (Option<u64>, &'static str) {
+        let (bytes, key) = self.model_memory_estimate();
+        let Some(filter) = &self.filter else {
+            return (bytes, key);
+        };
+        const PER_NEIGHBOUR: u64 = 32;
+        let dimension = if self.cloth.is_some() {
+            2
+        } else if self.jelly.is_some() {
+            3
+        } else {
+            1
+        };
+        let (particles, _) = self.particle_count();
+        let neighbours = particles.and_then(|p| {
+            let side = (filter.rings as u64).checked_mul(2)?.checked_add(1)?;
+            let ring = side.checked_pow(dimension).unwrap_or(u64::MAX).min(p);
+            p.checked_mul(ring)?.checked_mul(PER_NEIGHBOUR)
+        });
+        match (bytes, neighbours) {
+            (Some(b), Some(f)) if f > b => (b.checked_add(f), "filter.rings"),
+            (Some(b), Some(f)) => (b.checked_add(f), key),
+            (Some(_), None) => (None, "filter.rings"),
+            (None, _) => (None, key),
+        }
+    }
+
+    /// [`memory_estimate`](Self::memory_estimate) without the filter.
+    pub(super) fn model_memory_estimate(&self) -> (Option<u64>, &'static str) {
+        const PER_PARTICLE: u64 = 1 << 10;
+        const PER_SPRING: u64 = 1 << 9;
+        // Springs per particle: cloth 6 (structural, shear, bend), rope 2,
+        // 3D lattice at most 13 (half of the 26 neighbours).
+        let springs_per = if self.cloth.is_some() || self.mesh.is_some() {
+            6
+        } else if self.rope.is_some() {
+            2
+        } else if self.jelly.is_some() {
+            13
+        } else {
+            1
+        };
+        let (particles, key) = self.particle_count();
+        let bytes = particles.and_then(|p| {
+            p.checked_mul(PER_PARTICLE)?
+                .checked_add(p.checked_mul(springs_per)?.checked_mul(PER_SPRING)?)
+        });
+        (bytes, key)
+    }
+
+    /// The largest scene file [`from_file`](Self::from_file) reads: 16 MiB.
+    pub const MAX_FILE_BYTES: u64 = 16 << 20;
+
+    /// The memory cap of [`build`](Self::build): 8 GiB.
+    pub const DEFAULT_MAX_BYTES: u64 = 8 << 30;
+
+    /// Builds the model and the simulation the scene describes, refusing a
+    /// scene larger than [`DEFAULT_MAX_BYTES`](Self::DEFAULT_MAX_BYTES).
+    ///
+    /// # Errors
+    /// As [`build_within`](Self::build_within).
+    pub fn build(&self) -> Result<Simulation, HookeanError> {
+        self.build_within(Self::DEFAULT_MAX_BYTES)
+    }
+
+    /// Builds the model and the simulation the scene describes, refusing
+    /// (before anything is allocated) a scene whose
+    /// [`memory_estimate`](Self::memory_estimate) exceeds `max_bytes`.
+    ///
+    /// # Errors
+    /// [`HookeanError::TooLarge`] naming the key that sets the size; the
+    /// builders' and the integrator's typed errors.
+    pub fn build_within(&self, max_bytes: u64) -> Result<Simulation, HookeanError> {
+        let (bytes, key) = self.memory_estimate();
+        if bytes.is_none_or(|b| b > max_bytes) {
+            return Err(HookeanError::TooLarge {
+                key,
+                bytes,
+                max_bytes,
+            });
+        }
+        if self.tutorial.is_some() {
+            return Err(HookeanError::InvalidOption {
+                name: "tutorial".into(),
+                message: "a [tutorial] scene is a scalar ODE, not a mass-spring model: \
+                          integrate it with hookean-ode's FirstOrderIntegrator (as `hookean run` does)"
+                    .into(),
+            });
+        }
+        let options = self.model_options();
+        let in_table = |table: &str| {
+            let table = table.to_string();
+            move |e: hookean_massspring::MassSpringError| HookeanError::Build {
+                table: table.clone(),
+                message: e.to_string(),
+            }
+        };
+        let (mut model, state) = if let Some(params) = self.cloth_params() {
+            hookean_massspring::cloth(&params).map_err(in_table("cloth"))?
+        } else if let Some(r) = &self.rope {
+            hookean_massspring::rope(&RopeParams {
+                n: r.n,
+                length: r.length,
+                total_mass: r.mass,
+                material: SpringMaterial::new(r.stiffness, r.damping),
+                direction: r.direction,
+                pin_start: r.pin_start,
+                pin_end: r.pin_end,
+                options,
+                ..RopeParams::default()
+            })
+            .map_err(in_table("rope"))?
+        } else if let Some(j) = &self.jelly {
+            let m = SpringMaterial::new(j.stiffness, j.damping);
+            hookean_massspring::jelly_block(&BlockParams {
+                n: j.n,
+                spacing: j.spacing,
+                origin: j.origin,
+                total_mass: j.mass,
+                edge: m,
+                face: m,
+                body: m,
+                options,
+            })
+            .map_err(in_table("jelly"))?
+        } else if let Some(m) = &self.mesh {
+            let (obj, _) =
+                hookean_massspring::read_surface(self.resolve(&m.path), m.scale, m.offset)
+                    .map_err(in_table("mesh"))?;
+            let bend = m.bend_stiffness.unwrap_or(m.stiffness / 10.0);
+            let (mut model, state) = hookean_massspring::from_mesh(
+                &obj,
+                &MeshParams {
+                    total_mass: m.mass,
+                    edge: SpringMaterial::new(m.stiffness, m.damping),
+                    bend: (bend > 0.0).then(|| SpringMaterial::new(bend, m.damping)),
+                    options,
+                },
+            )
+            .map_err(in_table("mesh"))?;
+            let n = model.n_particles();
+            let mut pins = m.pins.clone();
+            if let Some(&bad) = pins.iter().find(|&&p| p >= n) {
+                return Err(HookeanError::Build {
+                    table: "mesh".into(),
+                    message: format!(
+                        "pins: vertex {bad} does not exist ({n} vertices, numbered from 0)"
+                    ),
+                });
+            }
+            if let Some([lo, hi]) = m.pin_box {
+                pins.extend((0..n).filter(|&p| {
+                    (0..3).all(|c| lo[c] <= state.x[3 * p + c] && state.x[3 * p + c] <= hi[c])
+                }));
+            }
+            for p in pins {
+                let at = [state.x[3 * p], state.x[3 * p + 1], state.x[3 * p + 2]];
+                model.pin(p, at).map_err(in_table("mesh"))?;
+            }
+            (model, state)
+        } else {
+            let (mut model, state) =
+                hookean_massspring::tutorial_example3().map_err(in_table("particle"))?;
+            if self.model.damping != DampingScene::Projected
+                || self.model.air_friction != 0.0
+                || self.model.gravity != d_gravity()
+            {
+                model.set_options(options).map_err(in_table("model"))?;
+            }
+            (model, state)
+        };
+        for (i, c) in self.colliders.iter().enumerate() {
+            let collider = in_table(&format!("collider {}", i + 1));
+            let friction = |mu_s: f64, mu_k: Option<f64>| {
+                Friction::new(mu_s, mu_k.unwrap_or(mu_s)).map_err(&collider)
+            };
+            model.add_collider(match c {
+                ColliderScene::Plane {
+                    point,
+                    normal,
+                    margin,
+                    static_friction,
+                    kinetic_friction,
+                } => Collider::plane(*point, *normal, *margin)
+                    .map_err(&collider)?
+                    .with_friction(friction(*static_friction, *kinetic_friction)?),
+                ColliderScene::Sphere {
+                    center,
+                    radius,
+                    margin,
+                    static_friction,
+                    kinetic_friction,
+                } => Collider::sphere(*center, *radius, *margin)
+                    .map_err(&collider)?
+                    .with_friction(friction(*static_friction, *kinetic_friction)?),
+                ColliderScene::Mesh {
+                    path,
+                    scale,
+                    offset,
+                    thickness,
+                    static_friction,
+                    kinetic_friction,
+                    velocity,
+                    angular_velocity,
+                    pivot,
+                } => {
+                    let (_, surface) =
+                        hookean_massspring::read_surface(self.resolve(path), *scale, *offset)
+                            .map_err(&collider)?;
+                    let centre = surface.aabb().center();
+                    let motion = RigidMotion {
+                        velocity: *velocity,
+                        angular_velocity: *angular_velocity,
+                        pivot: pivot.unwrap_or([centre.x, centre.y, centre.z]),
+                    };
+                    let mesh = MeshCollider::new(surface, *thickness)
+                        .and_then(|m| m.with_motion(motion))
+                        .map_err(&collider)?;
+                    Collider::mesh(mesh)
+                        .with_friction(friction(*static_friction, *kinetic_friction)?)
+                }
+            });
+        }
+        if self.contact.self_collision {
+            model
+                .set_self_collision(Some(SelfCollision {
+                    thickness: self.contact.self_thickness,
+                    stiffness: self.contact.self_stiffness,
+                }))
+                .map_err(in_table("contact"))?;
+        }
+        let mut options = self.simulation_options();
+        if self.integrator.h == StepScene::Auto {
+            let filter = options
+                .filter
+                .as_ref()
+                .map(|f| (f, options.filter_coupling));
+            options.solver.h = hookean_filter::auto_step(
+                &model,
+                &state.x,
+                &options.method,
+                filter,
+                self.integrator.h_safety,
+            )
+            .map_err(|e| HookeanError::InvalidOption {
+                name: "integrator.h".into(),
+                message: format!("\"auto\": {e}"),
+            })?
+            .h;
+        }
+        Simulation::new(model, state, options).map_err(|e| match e {
+            HookeanError::InvalidOption { name, message } if name == "filter" => {
+                HookeanError::Build {
+                    table: name,
+                    message,
+                }
+            }
+            e => e,
+        })
+    }
+}
