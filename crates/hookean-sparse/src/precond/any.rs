@@ -40,6 +40,32 @@ impl PrecondKind {
     /// (docs/PERFORMANCE.md): 0.99.
     pub const MIC_OMEGA: f64 = 0.99;
 
+    /// From this many 3x3 block rows (particles of a cloth) on,
+    /// [`auto_for_blocks`](Self::auto_for_blocks) picks the multigrid.
+    pub const AUTO_AMG_BLOCKS: usize = 10_000;
+
+    /// The preconditioner measured fastest for the implicit cloth step of
+    /// `n_blocks` block rows (docs/PERFORMANCE.md, issues 16 and 25): MIC(0)
+    /// (relaxation [`MIC_OMEGA`](Self::MIC_OMEGA)) below
+    /// [`AUTO_AMG_BLOCKS`](Self::AUTO_AMG_BLOCKS), smoothed-aggregation
+    /// multigrid from there on. The rule `preconditioner = "auto"` of scene
+    /// files applies.
+    ///
+    /// ```
+    /// use hookean_sparse::PrecondKind;
+    /// assert_eq!(PrecondKind::auto_for_blocks(64 * 64), PrecondKind::Mic0 { omega: 0.99 });
+    /// assert_eq!(PrecondKind::auto_for_blocks(128 * 128), PrecondKind::Amg);
+    /// ```
+    pub fn auto_for_blocks(n_blocks: usize) -> Self {
+        if n_blocks >= Self::AUTO_AMG_BLOCKS {
+            PrecondKind::Amg
+        } else {
+            PrecondKind::Mic0 {
+                omega: Self::MIC_OMEGA,
+            }
+        }
+    }
+
     /// Every kind that works on both matrix types (all but MIC(0)), with
     /// SSOR at `omega`.
     pub fn all(omega: f64) -> [PrecondKind; 6] {

@@ -22,15 +22,13 @@ impl Scene {
     /// SSOR's and MIC(0)'s relaxations from `omega` and `mic_omega`.
     pub fn preconditioner(&self) -> PrecondKind {
         let s = &self.solver;
-        let auto_amg = self
-            .particle_count()
-            .0
-            .is_some_and(|p| p >= AUTO_AMG_PARTICLES as u64);
-        match s.preconditioner {
-            None if auto_amg => PrecondKind::Amg,
-            None | Some(PrecondKind::Mic0 { .. }) => PrecondKind::Mic0 { omega: s.mic_omega },
-            Some(PrecondKind::Ssor { .. }) => PrecondKind::Ssor { omega: s.omega },
-            Some(other) => other,
+        // An unknown (overflowing) count keeps MIC(0), as before; the memory cap refuses it.
+        let particles = self.particle_count().0.unwrap_or(0);
+        let auto = PrecondKind::auto_for_blocks(usize::try_from(particles).unwrap_or(usize::MAX));
+        match s.preconditioner.unwrap_or(auto) {
+            PrecondKind::Mic0 { .. } => PrecondKind::Mic0 { omega: s.mic_omega },
+            PrecondKind::Ssor { .. } => PrecondKind::Ssor { omega: s.omega },
+            other => other,
         }
     }
 

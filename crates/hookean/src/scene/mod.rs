@@ -61,7 +61,8 @@ use validate::*;
 /// reference drape: its inexact Newton (PCG to 1%) gives a swing that
 /// depends on the preconditioner, 12.7% apart in total energy at t = 5 s
 /// with AMG (f32 or f64 alike), so that drape keeps MIC(0) and its figures.
-pub const AUTO_AMG_PARTICLES: usize = 10_000;
+/// The rule itself is the library's [`PrecondKind::auto_for_blocks`].
+pub const AUTO_AMG_PARTICLES: usize = PrecondKind::AUTO_AMG_BLOCKS;
 
 /// Every scene key with its units and default, as `hookean scene-keys`
 /// prints it: generated from the field docs below by
