@@ -264,6 +264,9 @@ pub fn main() -> ExitCode {
     let result = env
         .and_then(|()| threads::install(threads, || dispatch(cli.command, threads)))
         .and_then(|r| r);
+    if result.is_err() {
+        output::wait_if_dying();
+    }
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(CliError::Input(message)) => {

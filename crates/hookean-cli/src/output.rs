@@ -66,12 +66,27 @@ fn install_signal_cleanup() {
         };
         std::thread::spawn(move || {
             if let Some(signal) = signals.forever().next() {
+                DYING.store(true, std::sync::atomic::Ordering::SeqCst);
                 clean_up_live();
                 let _ = signal_hook::low_level::emulate_default_handler(signal);
                 std::process::exit(128 + signal);
             }
         });
     });
+}
+
+/// Set by the signal thread before it removes the live folders: the
+/// process is about to die of a signal.
+static DYING: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Waits forever if a signal is ending the process: a command that failed
+/// because the signal's clean-up removed its staging folder must not report
+/// that failure and exit 1 before the signal ends it (the exit status is
+/// the signal's). Returns at once otherwise.
+pub fn wait_if_dying() {
+    while DYING.load(std::sync::atomic::Ordering::SeqCst) {
+        std::thread::park();
+    }
 }
 
 /// Removes every live folder.
