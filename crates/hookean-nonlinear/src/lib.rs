@@ -107,6 +107,11 @@
 // `!(x > 0.0)` is deliberate: it also rejects NaN parameters.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+/// The README's example, compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeExample;
+
 mod convergence;
 mod error;
 mod forcing;

@@ -83,6 +83,11 @@
 //! # Ok::<(), hookean_ode::OdeError>(())
 //! ```
 
+/// The README's example, compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeExample;
+
 pub mod bdf;
 pub mod control;
 mod core;
