@@ -137,6 +137,13 @@ impl LinearSolver<faer::Mat<f64>> for DenseLu {
         check_len("right-hand side", rhs, self.n)?;
         check_len("solution", x, self.n)?;
         let n = self.n;
+        if n <= SMALL {
+            substitute_small(&self.lu[..n * n], &self.perm[..n], &rhs[..n], &mut x[..n]);
+            return Ok(LinearSolveStats {
+                converged: true,
+                ..Default::default()
+            });
+        }
         for (xi, &p) in x.iter_mut().zip(&self.perm) {
             *xi = rhs[p];
         }
@@ -168,6 +175,56 @@ impl LinearSolver<faer::Mat<f64>> for DenseLu {
 
     fn is_direct(&self) -> bool {
         true
+    }
+}
+
+/// Up to this dimension a solve runs [`substitute_small`] with the
+/// dimension as a constant (loops unrolled, no bounds checks left): the
+/// iterator chains of the general path (split slices, zipped columns) cost
+/// more than the arithmetic on systems of a few unknowns.
+const SMALL: usize = 8;
+
+/// `x = A^{-1} b` from the factors `P A = L U` of [`DenseLu::solve`] for
+/// `n = x.len() <= SMALL`, dispatched to [`substitute_n`].
+fn substitute_small(lu: &[f64], perm: &[usize], b: &[f64], x: &mut [f64]) {
+    match x.len() {
+        1 => substitute_n::<1>(lu, perm, b, x),
+        2 => substitute_n::<2>(lu, perm, b, x),
+        3 => substitute_n::<3>(lu, perm, b, x),
+        4 => substitute_n::<4>(lu, perm, b, x),
+        5 => substitute_n::<5>(lu, perm, b, x),
+        6 => substitute_n::<6>(lu, perm, b, x),
+        7 => substitute_n::<7>(lu, perm, b, x),
+        _ => substitute_n::<8>(lu, perm, b, x),
+    }
+}
+
+/// The permutation, then forward and back substitution by columns on
+/// column-major factors of dimension `N`: the same operations in the same
+/// order as the general path of [`DenseLu::solve`], so the same bits.
+#[inline]
+#[allow(clippy::needless_range_loop)]
+fn substitute_n<const N: usize>(lu: &[f64], perm: &[usize], b: &[f64], x: &mut [f64]) {
+    let (lu, perm, x) = (&lu[..N * N], &perm[..N], &mut x[..N]);
+    for i in 0..N {
+        x[i] = b[perm[i]];
+    }
+    for j in 0..N {
+        let xj = x[j];
+        if xj != 0.0 {
+            for i in j + 1..N {
+                x[i] -= lu[j * N + i] * xj;
+            }
+        }
+    }
+    for j in (0..N).rev() {
+        let xj = x[j] / lu[j * N + j];
+        x[j] = xj;
+        if xj != 0.0 {
+            for i in 0..j {
+                x[i] -= lu[j * N + i] * xj;
+            }
+        }
     }
 }
 
