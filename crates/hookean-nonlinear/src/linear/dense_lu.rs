@@ -96,7 +96,7 @@ impl LinearSolver<faer::Mat<f64>> for DenseLu {
             }
             dst.copy_from_slice(src);
         }
-        if r <= SMALL {
+        if r <= SMALL_FACTOR {
             factor_small(&mut self.lu, &mut self.perm, &mut self.perm_inv);
         } else {
             lu_in_place(
@@ -187,6 +187,12 @@ impl LinearSolver<faer::Mat<f64>> for DenseLu {
 /// iterator chains of the general path (split slices, zipped columns) cost
 /// more than the arithmetic on systems of a few unknowns.
 const SMALL: usize = 8;
+
+/// Up to this dimension [`DenseLu::setup`] factors by [`factor_small`]:
+/// above it the fused updates, calls to `fma` on a baseline x86-64 build,
+/// cost more than faer's dispatch saves (HIRES, 8 unknowns: 1.95 M -> 2.02 M
+/// instructions per run, callgrind).
+const SMALL_FACTOR: usize = 4;
 
 /// `P A = L U` in place (column-major `a`, `n = perm.len() <= SMALL`) by
 /// the right-looking partial-pivoting elimination of faer's unblocked

@@ -251,7 +251,9 @@ impl<P: FirstOrderProblem> Corrector for FirstSys<P> {
             col,
             ..
         } = data;
-        negate(step.psi, neg_psi);
+        for (r, p) in neg_psi.iter_mut().zip(step.psi) {
+            *r = -p;
+        }
         dcor.fill(0.0);
         let k = dcor;
         let problem = &self.problem;
@@ -336,17 +338,6 @@ impl<P: FirstOrderProblem> Corrector for FirstSys<P> {
             }
         };
         Attempt::from_newton(result, |ns| ns.iterations, t)
-    }
-}
-
-/// `out = -v`, indexed (no zip chain to set up on a few unknowns).
-#[inline]
-#[allow(clippy::needless_range_loop)]
-fn negate(v: &[f64], out: &mut [f64]) {
-    let n = v.len();
-    let out = &mut out[..n];
-    for i in 0..n {
-        out[i] = -v[i];
     }
 }
 
