@@ -2,7 +2,7 @@
 //! inexact Newton with residual control, inexact simplified Newton) and the
 //! simplified Newton of stiff ODE solvers with CVODE's rate-based test.
 
-use hookean_sparse::vecops::norm2;
+use hookean_sparse::vecops::{negate_into, norm2};
 
 use crate::convergence::{Convergence, RateEstimate, RateVerdict};
 use crate::error::{DivergenceReason, NonlinearError, check_len};
@@ -449,7 +449,7 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
         }
         let mut previous = f64::NAN;
         for k in 0..max_iter {
-            negate(&self.g, &mut self.rhs);
+            negate_into(&self.g, &mut self.rhs);
             let lin = self.linear_solve(system, y, eta)?;
             stats.linear_iterations += lin.iterations;
             if !lin.converged {
@@ -524,21 +524,9 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
     }
 }
 
-/// `rhs = -g`. Indexed on slices cut to one length (no bounds checks, no
-/// zip chain): on systems of a few unknowns the iterator set-up would cost
-/// more than the negations.
-#[inline]
-#[allow(clippy::needless_range_loop)]
-fn negate(g: &[f64], rhs: &mut [f64]) {
-    let n = g.len();
-    let rhs = &mut rhs[..n];
-    for i in 0..n {
-        rhs[i] = -g[i];
-    }
-}
-
 /// `y += s` and the weighted RMS norm `sqrt(1/n sum (s_i / w_i)^2)` of the
-/// correction in one pass (indexed, as [`negate`]).
+/// correction in one pass (indexed on slices cut to `n`, as
+/// [`negate_into`]).
 #[inline]
 #[allow(clippy::needless_range_loop)]
 fn update_weighted_norm(y: &mut [f64], s: &[f64], w: &[f64]) -> f64 {
