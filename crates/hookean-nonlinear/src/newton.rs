@@ -4,7 +4,7 @@
 
 use std::time::Instant;
 
-use hookean_sparse::vecops::norm2;
+use hookean_sparse::vecops::{negate_into, norm2};
 
 use crate::convergence::{Convergence, RateEstimate, RateVerdict};
 use crate::error::{DivergenceReason, NonlinearError, check_len};
@@ -333,9 +333,7 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
                 None => opts.linear_rtol,
                 Some(f) => forcing_term(f, k, &opts, gnorm, gnorm_prev, linres_prev, eta_prev, tol),
             };
-            for (r, g) in self.rhs.iter_mut().zip(&self.g) {
-                *r = -g;
-            }
+            negate_into(&self.g, &mut self.rhs);
             let lin = self.timed_linear_solve(system, y, eta, stats)?;
             stats.linear_iterations += lin.iterations;
             if !direct {
@@ -472,9 +470,7 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
         }
         let mut previous = f64::NAN;
         for k in 0..max_iter {
-            for (r, g) in self.rhs.iter_mut().zip(&self.g) {
-                *r = -g;
-            }
+            negate_into(&self.g, &mut self.rhs);
             let lin = self.timed_linear_solve(system, y, eta, stats)?;
             stats.linear_iterations += lin.iterations;
             if !lin.converged {
@@ -487,12 +483,7 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
             stats.iterations += 1;
             // The update and its weighted norm in one pass (on a failure
             // below `y` is the caller's to discard: `solve` returns an error).
-            let mut sum = 0.0;
-            for ((yi, si), wi) in y.iter_mut().zip(&self.s).zip(&self.weights) {
-                *yi += si;
-                sum += (si / wi) * (si / wi);
-            }
-            let norm = (sum / self.s.len().max(1) as f64).sqrt();
+            let norm = update_weighted_norm(y, &self.s, &self.weights);
             stats.push_step(norm);
             if !norm.is_finite() {
                 return Err(Stop::NonFinite);
@@ -573,6 +564,23 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
         self.linear
             .solve_with_product(&self.jacobian, &mut product, &self.rhs, &mut self.s, eta)
     }
+}
+
+/// `y += s` and the weighted RMS norm `sqrt(1/n sum (s_i / w_i)^2)` of the
+/// correction in one pass (indexed on slices cut to `n`, as
+/// [`negate_into`]).
+#[inline]
+#[allow(clippy::needless_range_loop)]
+fn update_weighted_norm(y: &mut [f64], s: &[f64], w: &[f64]) -> f64 {
+    let n = s.len();
+    let (y, w) = (&mut y[..n], &w[..n]);
+    let mut sum = 0.0;
+    for i in 0..n {
+        let si = s[i];
+        y[i] += si;
+        sum += (si / w[i]) * (si / w[i]);
+    }
+    (sum / n.max(1) as f64).sqrt()
 }
 
 /// Why one attempt stopped without converging (wrapped with the statistics

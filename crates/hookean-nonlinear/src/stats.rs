@@ -100,6 +100,7 @@ impl Default for NewtonStats {
 impl NewtonStats {
     /// Empty statistics; with `record`, histories with room for `max_iter`
     /// iterations (this allocates).
+    #[inline]
     pub(crate) fn new(max_iter: usize, record: bool) -> Self {
         if !record {
             return Self::default();
@@ -116,6 +117,7 @@ impl NewtonStats {
         }
     }
 
+    #[inline]
     pub(crate) fn push_residual(&mut self, norm: f64) {
         self.first_residual.get_or_insert(norm);
         self.last_residual = norm;
@@ -124,6 +126,7 @@ impl NewtonStats {
         }
     }
 
+    #[inline]
     pub(crate) fn push_step(&mut self, norm: f64) {
         self.last_step = norm;
         if self.record {

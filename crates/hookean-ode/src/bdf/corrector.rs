@@ -59,6 +59,7 @@ pub(crate) enum Attempt {
 impl Attempt {
     /// Maps a Newton result: step failures are attempts to retry, other
     /// errors (sizes, the problem's own) end the run.
+    #[inline]
     pub fn from_newton<T>(
         result: Result<T, NonlinearError>,
         converged: impl FnOnce(T) -> usize,

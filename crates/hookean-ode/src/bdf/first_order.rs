@@ -7,6 +7,7 @@
 
 use hookean_nonlinear::{DenseLu, GmresSolver, LinearSolver, Newton, SparseLu};
 use hookean_problem::FirstOrderProblem;
+use hookean_sparse::vecops::negate_into;
 use hookean_sparse::{GmresParams, PrecondKind};
 
 use super::config::BdfLinearSolver;
@@ -251,9 +252,7 @@ impl<P: FirstOrderProblem> Corrector for FirstSys<P> {
             col,
             ..
         } = data;
-        for (r, p) in neg_psi.iter_mut().zip(step.psi) {
-            *r = -p;
-        }
+        negate_into(step.psi, neg_psi);
         dcor.fill(0.0);
         let k = dcor;
         let problem = &self.problem;

@@ -17,12 +17,17 @@ use crate::stats::Stats;
 pub(crate) type Offset<'a> = Option<(&'a [f64], &'a mut [f64])>;
 
 /// The point `K` of the unknown `u`: `u` itself, or `b + u` (see [`Offset`]).
+#[allow(clippy::needless_range_loop)]
 fn stage_point<'s>(offset: &'s mut Offset<'_>, u: &'s [f64]) -> &'s [f64] {
     match offset {
         None => u,
         Some((b, y)) => {
-            for ((yi, bi), ui) in y.iter_mut().zip(b.iter()).zip(u) {
-                *yi = bi + ui;
+            // Indexed on slices cut to `n`: no bounds checks left, and no
+            // zip chain, whose set-up outweighs the sums at a few unknowns.
+            let n = u.len();
+            let (b, y) = (&b[..n], &mut y[..n]);
+            for i in 0..n {
+                y[i] = b[i] + u[i];
             }
             y
         }
@@ -57,7 +62,8 @@ pub(crate) struct FirstStage<'a, P> {
 
 /// The stage residual `G(u) = u - psi - gh f(tau, K)`, `K = u` or `b + u`,
 /// shared by the dense and sparse first-order stages.
-#[allow(clippy::too_many_arguments)]
+#[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
+#[inline]
 fn first_order_stage_residual<P: FirstOrderProblem>(
     problem: &P,
     tau: f64,
@@ -69,8 +75,10 @@ fn first_order_stage_residual<P: FirstOrderProblem>(
     g: &mut [f64],
 ) {
     problem.rhs(tau, stage_point(offset, u), f);
-    for (((gi, ui), pi), fi) in g.iter_mut().zip(u).zip(psi).zip(f.iter()) {
-        *gi = ui - pi - gh * fi;
+    let n = u.len();
+    let (g, psi, f) = (&mut g[..n], &psi[..n], &f[..n]);
+    for i in 0..n {
+        g[i] = u[i] - psi[i] - gh * f[i];
     }
 }
 
