@@ -145,10 +145,7 @@ impl AssemblyPlan {
             hot[k].first = k == 0 || hot[k - 1].upper != hot[k].upper;
         }
         let diag_index = diag_slots.iter().map(Slot::index).collect();
-        let bandwidth = (0..n)
-            .map(|r| pattern.col_idx()[pattern.row_ptr()[r + 1] - 1] as usize - r)
-            .max()
-            .unwrap_or(0);
+        let bandwidth = pattern.bandwidth();
         let mut hot_row_ptr = vec![0usize; n + 1];
         for h in &hot {
             hot_row_ptr[h.i as usize + 1] += 1;

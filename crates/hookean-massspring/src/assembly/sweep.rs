@@ -567,8 +567,8 @@ impl MassSpringModel {
         } = op;
         let mid = (p0 + p1) / 2;
         let r = model.plan.pattern.part_start(mid, parts);
-        let rp = model.plan.pattern.row_ptr();
-        let starts = (rp[out.rows.start], rp[r]);
+        let values = model.plan.pattern.rows_value_range(out.rows.start..r);
+        let starts = (values.start, values.end);
         let (a, b) = out.split(r, starts, mid - p0, model.plan.bandwidth);
         let half = |out| Sweep::<'_, '_, F, DV, DAMP, DDX, JAC, FUSED> {
             model,
