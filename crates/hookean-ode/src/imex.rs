@@ -178,26 +178,22 @@ impl Imex {
         }
         // The scalar n x n matrix, both triangles, pinned rows/columns
         // replaced by the identity (factored rarely: it may allocate).
-        let pattern = self.a.pattern().clone();
-        let (rp, cols, vals) = (pattern.row_ptr(), pattern.col_idx(), self.a.values());
         let mut tri = sprs::TriMat::new((n, n));
-        for i in 0..n {
-            for k in rp[i]..rp[i + 1] {
-                let j = cols[k] as usize;
-                let pinned = self.factor.pinned[i] || self.factor.pinned[j];
-                let v = if i == j && pinned {
-                    1.0
-                } else if pinned {
-                    0.0
-                } else {
-                    vals[k]
-                };
-                tri.add_triplet(i, j, v);
-                if i != j {
-                    tri.add_triplet(j, i, v);
-                }
+        let pinned_at = &self.factor.pinned;
+        self.a.for_each_stored(|i, j, a_ij| {
+            let pinned = pinned_at[i] || pinned_at[j];
+            let v = if i == j && pinned {
+                1.0
+            } else if pinned {
+                0.0
+            } else {
+                a_ij
+            };
+            tri.add_triplet(i, j, v);
+            if i != j {
+                tri.add_triplet(j, i, v);
             }
-        }
+        });
         self.factor.chol.factor_csr(&tri.to_csr())?;
         stats.num_lin_solv_setups += 1;
         self.key = Some(FactorKey {

@@ -53,6 +53,17 @@ impl IsoBlockMatrix {
         &self.values
     }
 
+    /// Calls `visit(i, j, a_ij)` for every stored block, `i <= j`, row by row
+    /// (diagonal first, columns ascending): the upper triangle only, so a
+    /// full-matrix consumer adds `(j, i)` itself when `i != j`.
+    pub fn for_each_stored(&self, mut visit: impl FnMut(usize, usize, f64)) {
+        for i in 0..self.n_blocks() {
+            for k in self.pattern.rows_value_range(i..i + 1) {
+                visit(i, self.pattern.col_idx()[k] as usize, self.values[k]);
+            }
+        }
+    }
+
     /// Sets every value to zero (the pattern stays).
     pub fn set_zero(&mut self) {
         self.values.fill(0.0);
@@ -240,6 +251,33 @@ mod tests {
     use super::*;
     use crate::cg::{CgParams, CgWorkspace, pcg};
     use crate::precond::Preconditioner;
+
+    /// `for_each_stored` visits each written block once, upper triangle,
+    /// with the sum of what was added to it (either orientation).
+    #[test]
+    fn for_each_stored_visits_the_upper_blocks_with_their_sums() {
+        let adds = [
+            (0, 0, 2.0),
+            (2, 0, -1.0),
+            (0, 2, -0.5),
+            (1, 1, 3.0),
+            (3, 1, 4.0),
+        ];
+        let pattern = BlockPattern::new(4, adds.iter().map(|&(i, j, _)| (i, j))).unwrap();
+        let mut a = IsoBlockMatrix::new(Arc::new(pattern));
+        let mut expected = std::collections::BTreeMap::new();
+        for i in 0..4 {
+            expected.insert((i, i), 0.0);
+        }
+        for &(i, j, v) in &adds {
+            a.add_to_block(i, j, v).unwrap();
+            *expected.entry((i.min(j), i.max(j))).or_insert(0.0) += v;
+        }
+        let mut seen = Vec::new();
+        a.for_each_stored(|i, j, v| seen.push(((i, j), v)));
+        let expected: Vec<_> = expected.into_iter().collect();
+        assert_eq!(seen, expected);
+    }
 
     fn chain(n: usize) -> IsoBlockMatrix {
         let pattern = Arc::new(BlockPattern::new(n, (0..n - 1).map(|i| (i, i + 1))).unwrap());

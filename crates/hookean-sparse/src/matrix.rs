@@ -216,6 +216,25 @@ impl BlockPattern {
         &self.col_idx
     }
 
+    /// The value positions of block rows `rows` (`rows.end <= n`): the
+    /// stored blocks of row `r` are `rows_value_range(r..r + 1)`, the
+    /// diagonal first; threaded kernels split their value arrays at
+    /// `rows_value_range(s..r)`'s ends.
+    pub fn rows_value_range(&self, rows: std::ops::Range<usize>) -> std::ops::Range<usize> {
+        self.row_ptr[rows.start]..self.row_ptr[rows.end]
+    }
+
+    /// The block bandwidth `max_r max { j - r : (r, j) stored, j >= r }`: how
+    /// far past its own row the stored blocks of a row reach (0 for a
+    /// diagonal pattern or `n = 0`).
+    pub fn bandwidth(&self) -> usize {
+        // Columns ascend within a row, so a row's last stored block is its farthest.
+        (0..self.n)
+            .map(|r| self.col_idx[self.row_ptr[r + 1] - 1] as usize - r)
+            .max()
+            .unwrap_or(0)
+    }
+
     /// The slot holding block `(i, j)`, if it is in the pattern.
     pub fn find(&self, i: usize, j: usize) -> Option<Slot> {
         if i >= self.n || j >= self.n {
@@ -857,6 +876,44 @@ impl SymBlockMatrix {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Row ranges and bandwidth against the input pairs: row `r` holds its
+    /// diagonal plus the distinct `j > r` paired with it, and the bandwidth
+    /// is the largest `|i - j|` of a pair.
+    #[test]
+    fn row_ranges_and_bandwidth_match_the_pairs() {
+        let pairs = [(0, 3), (1, 2), (4, 1), (2, 2), (3, 0), (5, 4)];
+        let n = 6;
+        let p = BlockPattern::new(n, pairs).unwrap();
+        let mut end = 0;
+        for r in 0..n {
+            let mut upper: Vec<usize> = pairs
+                .iter()
+                .filter(|&&(i, j)| i.min(j) == r && i != j)
+                .map(|&(i, j)| i.max(j))
+                .collect();
+            upper.sort_unstable();
+            upper.dedup();
+            let range = p.rows_value_range(r..r + 1);
+            assert_eq!(
+                range.start,
+                end,
+                "row {r} starts where row {} ends",
+                r.max(1) - 1
+            );
+            assert_eq!(range.len(), 1 + upper.len(), "row {r}");
+            for j in std::iter::once(r).chain(upper) {
+                assert!(range.contains(&p.find(r, j).unwrap().index()), "({r}, {j})");
+            }
+            end = range.end;
+        }
+        assert_eq!(p.rows_value_range(0..n), 0..p.stored_blocks());
+        assert_eq!(p.rows_value_range(2..5), p.row_ptr()[2]..p.row_ptr()[5]);
+        let widest = pairs.iter().map(|&(i, j)| i.abs_diff(j)).max().unwrap();
+        assert_eq!(p.bandwidth(), widest);
+        assert_eq!(BlockPattern::new(4, []).unwrap().bandwidth(), 0);
+        assert_eq!(BlockPattern::new(0, []).unwrap().bandwidth(), 0);
+    }
 
     fn chain(n: usize) -> SymBlockMatrix {
         let pattern = Arc::new(BlockPattern::new(n, (1..n).map(|i| (i - 1, i))).unwrap());
