@@ -26,8 +26,8 @@ use hookean_sparse::{
 use crate::CliError;
 use crate::lineplot::{LogLogPlot, Series};
 use crate::solve::{
-    Matrix, RunOptions, SolveRecord, Solver, SolverArgs, System, load_system, nullspace_block_size,
-    run_solver,
+    Matrix, RunOptions, SolveRecord, Solver, SolverArgs, System, empty_record, load_system,
+    nullspace_block_size, run_solver,
 };
 
 #[derive(Debug, Args)]
@@ -328,7 +328,11 @@ fn bench(
                 };
                 let mut record = match (solver, &nullspace) {
                     (Solver::Pcg(PrecondKind::Amg), Err(reason)) => {
-                        let mut r = failed_record(solver);
+                        let precond = match solver {
+                            Solver::Pcg(kind) => kind.to_string(),
+                            Solver::Direct => "direct".into(),
+                        };
+                        let mut r = empty_record("hookean-pcg", precond, "");
                         r.error = Some(reason.clone());
                         r
                     }
@@ -380,30 +384,6 @@ fn bench(
     crate::output::write_text(&dir.join("bench.md"), &markdown)?;
     crate::output::write_text(&dir.join("bench.csv"), &csv)?;
     Ok(markdown)
-}
-
-/// A record for a solver that did not run.
-fn failed_record(solver: &Solver) -> SolveRecord {
-    SolveRecord {
-        matrix: String::new(),
-        solver: "hookean-pcg",
-        precond: match solver {
-            Solver::Pcg(kind) => kind.to_string(),
-            Solver::Direct => "direct".into(),
-        },
-        format: "",
-        rows: 0,
-        nnz: 0,
-        setup_s: f64::NAN,
-        solve_s: f64::NAN,
-        iterations: 0,
-        rel_residual: f64::NAN,
-        converged: false,
-        amg: None,
-        error: None,
-        trace: Vec::new(),
-        setup_bytes: None,
-    }
 }
 
 /// The best of two rounds of one solver: the fastest set-up and solve, the

@@ -486,7 +486,12 @@ fn relative_residual(a: &sprs::CsMat<f64>, x: &[f64], b: &[f64]) -> f64 {
     if bn > 0.0 { norm2(&r) / bn } else { norm2(&r) }
 }
 
-fn empty_record(solver: &'static str, precond: String, format: &'static str) -> SolveRecord {
+/// A record of no run yet: the caller fills in what it measured.
+pub(crate) fn empty_record(
+    solver: &'static str,
+    precond: String,
+    format: &'static str,
+) -> SolveRecord {
     SolveRecord {
         matrix: String::new(),
         solver,

@@ -7,7 +7,8 @@
 //!
 //! The 64 x 64 scenes themselves take minutes in the dev profile: their
 //! tests are `#[ignore]`d and run in release by
-//! `cargo test --release -p hookean --test contact -- --ignored`; the
+//! `cargo test --release -p hookean --test contact -- --ignored`, a step of
+//! `.ci/run` of its own; the
 //! default tests run the same scenes at 24 x 24.
 
 use std::ops::ControlFlow;
