@@ -13,12 +13,20 @@ OUT="${2:-target/frames-ab}"
 HEAD_BIN="${HEAD_BIN:-target/release/hookean}"
 : "${BASE_BIN:?set BASE_BIN to a release build of $BASE}"
 mkdir -p "$OUT"
+# The baseline's scenes with the files they name (meshes in data/, given
+# relative to the scene), laid out as in the repository.
+rm -rf "$OUT/base-tree"
+mkdir -p "$OUT/base-tree"
+git archive "$BASE" scenes data | tar -x -C "$OUT/base-tree"
 echo "scene,frames,byte_identical,max_vertex_diff_m"
 for scene in scenes/*.toml; do
     name=$(basename "$scene" .toml)
-    git show "$BASE:$scene" > "$OUT/base-$name.toml"
+    if [ ! -f "$OUT/base-tree/$scene" ]; then
+        echo "$name,new since $BASE,,"
+        continue
+    fi
     rm -rf "$OUT/base-$name" "$OUT/head-$name"
-    "$BASE_BIN" run --quiet --threads 1 --out "$OUT/base-$name" "$OUT/base-$name.toml" > /dev/null
+    "$BASE_BIN" run --quiet --threads 1 --out "$OUT/base-$name" "$OUT/base-tree/$scene" > /dev/null
     "$HEAD_BIN" run --quiet --threads 1 --out "$OUT/head-$name" "$scene" > /dev/null
     python3 - "$OUT/base-$name" "$OUT/head-$name" "$name" <<'EOF'
 import pathlib, sys
