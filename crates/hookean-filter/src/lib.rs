@@ -82,6 +82,11 @@
 //! # Ok::<(), hookean_filter::FilterError>(())
 //! ```
 
+/// The README's example, compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeExample;
+
 mod error;
 pub mod experiments;
 mod figure8;
