@@ -102,6 +102,7 @@ fn main() -> ExitCode {
     let opts = ReadOptions {
         max_bytes: 1 << 20,
         max_line_bytes: 1 << 16,
+        ..Default::default()
     };
     let tallies = [
         fuzz("Matrix Market", MTX, n, |b| {

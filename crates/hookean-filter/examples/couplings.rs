@@ -24,6 +24,7 @@ fn main() -> Result<(), FilterError> {
         },
         rel_tol: 0.01,
         max_runs: 60,
+        ..Default::default()
     };
     let guess = 5e-4;
     let none = measure_stable_step(&build, &Method::FbEuler, None, guess, &opts)?.lo;

@@ -19,6 +19,7 @@ fn main() -> Result<(), FilterError> {
         },
         rel_tol: 0.01,
         max_runs: 60,
+        ..Default::default()
     };
     let lambdas = [0.25, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0];
     let scenes: [(&str, Build); 2] = [

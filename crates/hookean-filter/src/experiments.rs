@@ -26,6 +26,10 @@ pub struct RunOptions {
     /// Check the energy every this many steps (it costs about one force
     /// evaluation). Default 10.
     pub check_every: usize,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for RunOptions {
@@ -34,6 +38,7 @@ impl Default for RunOptions {
             t_end: 1.0,
             energy_bound: 1.0,
             check_every: 10,
+            __non_exhaustive: (),
         }
     }
 }
@@ -141,6 +146,10 @@ pub struct BisectionOptions {
     pub rel_tol: f64,
     /// At most this many trial runs. Default 40.
     pub max_runs: usize,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for BisectionOptions {
@@ -149,6 +158,7 @@ impl Default for BisectionOptions {
             run: RunOptions::default(),
             rel_tol: 0.02,
             max_runs: 40,
+            __non_exhaustive: (),
         }
     }
 }
@@ -502,6 +512,7 @@ pub fn drape_velocity_run(
             t_end,
             energy_bound: f64::MAX,
             check_every: 1,
+            ..Default::default()
         },
         |s| {
             if err.is_some() {

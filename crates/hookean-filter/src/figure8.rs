@@ -177,6 +177,7 @@ pub fn figure8_runs(
         t_end,
         energy_bound: 1.0,
         check_every: 1000,
+        ..Default::default()
     };
     let mut rows = Vec::new();
 

@@ -81,6 +81,35 @@
 //! assert!(sim.v().iter().all(|v| v.abs() < 10.0));
 //! # Ok::<(), hookean_filter::FilterError>(())
 //! ```
+//!
+//! # Options structs
+//!
+//! [`FilterOptions`], [`RunOptions`] and [`BisectionOptions`] have a `Default`:
+//! construct them with `..Default::default()`. Each has a hidden field, so
+//! that a later version may add an option without breaking your code; a
+//! literal naming every field does not compile outside this crate.
+//!
+//! ```
+//! use hookean_filter::{BisectionOptions, FilterOptions, RunOptions};
+//! let bisection = BisectionOptions {
+//!     run: RunOptions { t_end: 0.5, ..Default::default() },
+//!     ..Default::default()
+//! };
+//! let filter = FilterOptions { rings: 2, ..Default::default() };
+//! assert_eq!((bisection.run.t_end, filter.rings), (0.5, 2));
+//! assert_eq!(bisection.max_runs, BisectionOptions::default().max_runs);
+//! ```
+//!
+//! ```compile_fail
+//! use hookean_filter::{BisectionOptions, RunOptions};
+//! // Every field named, none left to the default: refused outside the crate.
+//! let bisection = BisectionOptions { run: RunOptions::default(), rel_tol: 0.02, max_runs: 40 };
+//! ```
+
+/// The README's example, compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeExample;
 
 mod error;
 pub mod experiments;

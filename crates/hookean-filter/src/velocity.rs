@@ -71,6 +71,10 @@ pub struct FilterOptions {
     /// `false`: the weights of the rest state (path lengths through the
     /// spring graph), computed once.
     pub current_distances: bool,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for FilterOptions {
@@ -80,6 +84,7 @@ impl Default for FilterOptions {
             form: Form::Symmetric,
             rings: 1,
             current_distances: false,
+            __non_exhaustive: (),
         }
     }
 }
@@ -1003,6 +1008,7 @@ mod tests {
             form: Form::Plain,
             rings: 2,
             current_distances: false,
+            ..Default::default()
         };
         let f = VelocityFilter::new(3, &edges, None, opts).unwrap();
         let (nb, w) = f.neighbourhood(0);

@@ -22,6 +22,7 @@ fn bisection() -> BisectionOptions {
         },
         rel_tol: 0.02,
         max_runs: 40,
+        ..Default::default()
     }
 }
 

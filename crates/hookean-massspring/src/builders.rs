@@ -148,6 +148,10 @@ pub struct RopeParams {
     pub pin_end: bool,
     /// Model options. Default [`ModelOptions::default`].
     pub options: ModelOptions,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for RopeParams {
@@ -162,6 +166,7 @@ impl Default for RopeParams {
             pin_start: true,
             pin_end: false,
             options: ModelOptions::default(),
+            __non_exhaustive: (),
         }
     }
 }
@@ -255,6 +260,10 @@ pub struct ClothParams {
     pub pins: ClothPins,
     /// Model options. Default [`ModelOptions::default`].
     pub options: ModelOptions,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl ClothParams {
@@ -295,6 +304,7 @@ impl Default for ClothParams {
             bend: SpringMaterial::new(1e3, 0.1),
             pins: ClothPins::TwoCorners,
             options: ModelOptions::default(),
+            __non_exhaustive: (),
         }
     }
 }
@@ -403,6 +413,10 @@ pub struct BlockParams {
     pub body: SpringMaterial,
     /// Model options. Default [`ModelOptions::default`].
     pub options: ModelOptions,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for BlockParams {
@@ -416,6 +430,7 @@ impl Default for BlockParams {
             face: SpringMaterial::new(1e3, 0.1),
             body: SpringMaterial::new(1e3, 0.1),
             options: ModelOptions::default(),
+            __non_exhaustive: (),
         }
     }
 }
@@ -559,6 +574,10 @@ pub struct MeshParams {
     pub bend: Option<SpringMaterial>,
     /// Model options. Default [`ModelOptions::default`].
     pub options: ModelOptions,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for MeshParams {
@@ -568,6 +587,7 @@ impl Default for MeshParams {
             edge: SpringMaterial::new(1e4, 0.1),
             bend: Some(SpringMaterial::new(1e3, 0.1)),
             options: ModelOptions::default(),
+            __non_exhaustive: (),
         }
     }
 }

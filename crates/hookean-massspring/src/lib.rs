@@ -58,6 +58,37 @@
 //! assert!(stab.dt_max > 0.0 && stab.dt_max < h);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+//!
+//! # Options structs
+//!
+//! [`ModelOptions`], [`RopeParams`], [`ClothParams`], [`BlockParams`],
+//! [`MeshParams`] and [`SelfCollision`] have a `Default`:
+//! construct them with `..Default::default()`. Each has a hidden field, so
+//! that a later version may add an option without breaking your code; a
+//! literal naming every field does not compile outside this crate.
+//!
+//! ```
+//! use hookean_massspring::{rope, ModelOptions, RopeParams};
+//! let params = RopeParams {
+//!     n: 5,
+//!     options: ModelOptions { air_friction: 0.1, ..Default::default() },
+//!     ..Default::default()
+//! };
+//! let (model, state) = rope(&params)?;
+//! assert_eq!((model.n_particles(), state.x.len()), (5, 15));
+//! assert_eq!(model.options().gravity, [0.0, 0.0, -9.81]); // the default
+//! # Ok::<(), hookean_massspring::MassSpringError>(())
+//! ```
+//!
+//! ```compile_fail
+//! // Every field named, none left to the default: refused outside the crate.
+//! let contact = hookean_massspring::SelfCollision { thickness: 0.004, stiffness: 50.0 };
+//! ```
+
+/// The README's example, compiled and run as a doctest.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeExample;
 
 mod analysis;
 mod assembly;

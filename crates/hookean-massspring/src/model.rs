@@ -88,6 +88,10 @@ pub struct ModelOptions {
     pub clamp_stiffness: bool,
     /// See [`DampingInDfdx`]. Default [`DampingInDfdx::Drop`].
     pub damping_in_dfdx: DampingInDfdx,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for ModelOptions {
@@ -98,6 +102,7 @@ impl Default for ModelOptions {
             gravity: [0.0, 0.0, -9.81],
             clamp_stiffness: true,
             damping_in_dfdx: DampingInDfdx::Drop,
+            __non_exhaustive: (),
         }
     }
 }

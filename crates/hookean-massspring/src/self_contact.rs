@@ -41,6 +41,10 @@ pub struct SelfCollision {
     pub thickness: f64,
     /// Repulsion stiffness `k` (N/m) of one proximity pair. Default 50.
     pub stiffness: f64,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for SelfCollision {
@@ -48,6 +52,7 @@ impl Default for SelfCollision {
         Self {
             thickness: 0.004,
             stiffness: 50.0,
+            __non_exhaustive: (),
         }
     }
 }

@@ -21,6 +21,7 @@ fn two_triangles(x: &[f64]) -> MassSpringModel {
     m.set_self_collision(Some(SelfCollision {
         thickness: 0.01,
         stiffness: 50.0,
+        ..Default::default()
     }))
     .unwrap();
     let _ = x;

@@ -103,6 +103,32 @@
 //! assert!(stats.iterations <= 5 && stats.converged());
 //! # Ok::<(), NonlinearError>(())
 //! ```
+//!
+//! # Options structs
+//!
+//! [`NewtonOptions`] and [`PcgOptions`] have a `Default`:
+//! construct them with `..Default::default()`. Each has a hidden field, so
+//! that a later version may add an option without breaking your code; a
+//! literal naming every field does not compile outside this crate.
+//!
+//! ```
+//! use hookean_nonlinear::{NewtonOptions, PcgOptions, PrecondKind};
+//! let newton = NewtonOptions { rtol: 1e-8, max_iter: 20, ..Default::default() };
+//! let pcg = PcgOptions { preconditioner: PrecondKind::Jacobi, ..Default::default() };
+//! assert_eq!((newton.rtol, newton.max_iter), (1e-8, 20));
+//! assert_eq!(pcg.max_iter, PcgOptions::default().max_iter);
+//! ```
+//!
+//! ```compile_fail
+//! use hookean_nonlinear::{PcgOptions, PrecondKind, NegativeCurvature};
+//! // Every field named, none left to the default: refused outside the crate.
+//! let pcg = PcgOptions {
+//!     preconditioner: PrecondKind::Jacobi,
+//!     amg: Default::default(),
+//!     max_iter: None,
+//!     negative_curvature: NegativeCurvature::Error,
+//! };
+//! ```
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN parameters.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]

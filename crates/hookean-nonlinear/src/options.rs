@@ -100,6 +100,10 @@ pub struct NewtonOptions {
     /// at every solve. Default `false`: the last norms are kept in plain
     /// fields and a solve allocates nothing.
     pub record_history: bool,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for NewtonOptions {
@@ -119,6 +123,7 @@ impl Default for NewtonOptions {
             retry_fresh: true,
             max_residual_growth: 1e6,
             record_history: false,
+            __non_exhaustive: (),
         }
     }
 }

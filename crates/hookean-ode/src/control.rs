@@ -105,6 +105,10 @@ pub struct IterationControllerOptions {
     pub shrink_factor: f64,
     /// Shrink ratio for the retry after a Newton failure. Default `0.5`.
     pub failure_factor: f64,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for IterationControllerOptions {
@@ -115,6 +119,7 @@ impl Default for IterationControllerOptions {
             grow_factor: 1.5,
             shrink_factor: 0.7,
             failure_factor: 0.5,
+            __non_exhaustive: (),
         }
     }
 }
@@ -254,6 +259,10 @@ pub struct PiControllerOptions {
     /// `n_iter` of the step (RADAU5's and SciPy BDF's rule): steps whose
     /// Newton iteration struggled grow less. Default `None`.
     pub newton_max_iter: Option<usize>,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for PiControllerOptions {
@@ -267,6 +276,7 @@ impl Default for PiControllerOptions {
             max_factor: 5.0,
             failure_factor: 0.5,
             newton_max_iter: None,
+            __non_exhaustive: (),
         }
     }
 }

@@ -82,6 +82,37 @@
 //! assert!(sol.stats.num_jac_evals < sol.stats.num_steps / 10);
 //! # Ok::<(), hookean_ode::OdeError>(())
 //! ```
+//!
+//! # Options structs
+//!
+//! [`SolverOptions`], [`StepSizePolicy`], [`BdfConfig`],
+//! [`IterationControllerOptions`] and [`PiControllerOptions`] have a `Default`:
+//! construct them with `..Default::default()`. Each has a hidden field, so
+//! that a later version may add an option without breaking your code; a
+//! literal naming every field does not compile outside this crate.
+//!
+//! ```
+//! use hookean_ode::{NewtonOptions, SolverOptions, StepSizePolicy};
+//! let options = SolverOptions {
+//!     h: 1e-3,
+//!     step: StepSizePolicy { h_max: 0.1, ..Default::default() },
+//!     newton: NewtonOptions { max_iter: 20, ..Default::default() },
+//!     ..Default::default()
+//! };
+//! assert_eq!((options.h, options.step.h_max, options.newton.max_iter), (1e-3, 0.1, 20));
+//! assert_eq!(options.step.h_min, StepSizePolicy::default().h_min);
+//! ```
+//!
+//! ```compile_fail
+//! // Every field named, none left to the default: refused outside the crate.
+//! let control = hookean_ode::IterationControllerOptions {
+//!     few_iterations: 2,
+//!     many_iterations: 6,
+//!     grow_factor: 1.5,
+//!     shrink_factor: 0.7,
+//!     failure_factor: 0.5,
+//! };
+//! ```
 
 /// The README's example, compiled and run as a doctest.
 #[cfg(doctest)]

@@ -141,6 +141,10 @@ pub struct StepSizePolicy {
     pub h_max: f64,
     /// Step-size control of variable-step BDF2. Default error-based.
     pub control: StepControl,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for StepSizePolicy {
@@ -149,6 +153,7 @@ impl Default for StepSizePolicy {
             h_min: 0.0,
             h_max: f64::INFINITY,
             control: StepControl::default(),
+            __non_exhaustive: (),
         }
     }
 }
@@ -208,6 +213,10 @@ pub struct SolverOptions {
     pub max_growth: f64,
     /// The settings of the variable-order BDF ([`Method::VariableBdf`](crate::Method::VariableBdf)).
     pub bdf: BdfConfig,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for SolverOptions {
@@ -224,6 +233,7 @@ impl Default for SolverOptions {
             warm_start: false,
             max_growth: DEFAULT_MAX_GROWTH,
             bdf: BdfConfig::default(),
+            __non_exhaustive: (),
         }
     }
 }

@@ -37,6 +37,10 @@ pub struct CgParams {
     /// matrix is not positive definite there). Default
     /// [`NegativeCurvature::Error`].
     pub negative_curvature: NegativeCurvature,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 /// What CG does on meeting a direction `p` with `p . A p <= 0`.
@@ -66,6 +70,7 @@ impl Default for CgParams {
             initial_guess: InitialGuess::Zero,
             record_history: false,
             negative_curvature: NegativeCurvature::Error,
+            __non_exhaustive: (),
         }
     }
 }

@@ -23,6 +23,10 @@ pub struct GmresParams {
     pub rtol: f64,
     /// ... or when `|b - A x| <= atol`. Default `0`.
     pub atol: f64,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for GmresParams {
@@ -32,6 +36,7 @@ impl Default for GmresParams {
             restarts: 2,
             rtol: 1e-8,
             atol: 0.0,
+            __non_exhaustive: (),
         }
     }
 }
@@ -323,6 +328,7 @@ mod tests {
             restarts: 0,
             rtol: 0.0,
             atol: 1e-12,
+            ..Default::default()
         };
         let mut ws = GmresWorkspace::new(n, n);
         let info = gmres(&a, &Identity, &b, &mut x, &params, &mut ws).unwrap();
@@ -344,6 +350,7 @@ mod tests {
             restarts: 50,
             rtol: 0.0,
             atol: 1e-10,
+            ..Default::default()
         };
         let info = gmres(
             &a,
@@ -380,6 +387,7 @@ mod tests {
             restarts: 0,
             rtol: 1e-12,
             atol: 0.0,
+            ..Default::default()
         };
         let mut ws = GmresWorkspace::new(n, 3);
         let info = gmres(&lower, &LowerInverse, &b, &mut x, &params, &mut ws).unwrap();

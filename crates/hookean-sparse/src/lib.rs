@@ -66,6 +66,26 @@
 //! assert_eq!(&dv[6..], &[0.0, 0.0, 0.0]);
 //! # Ok::<(), SparseError>(())
 //! ```
+//!
+//! # Options structs
+//!
+//! [`CgParams`], [`GmresParams`], [`PowerParams`], [`AmgOptions`],
+//! [`ReadOptions`] and [`text::LineLimits`] have a `Default`:
+//! construct them with `..Default::default()`. Each has a hidden field, so
+//! that a later version may add an option without breaking your code; a
+//! literal naming every field does not compile outside this crate.
+//!
+//! ```
+//! use hookean_sparse::{CgParams, InitialGuess};
+//! let params = CgParams { rtol: 1e-10, max_iter: Some(500), ..Default::default() };
+//! assert_eq!((params.rtol, params.max_iter), (1e-10, Some(500)));
+//! assert_eq!(params.initial_guess, InitialGuess::Zero); // the default
+//! ```
+//!
+//! ```compile_fail
+//! // Every field named, none left to the default: refused outside the crate.
+//! let limits = hookean_sparse::text::LineLimits { max_line_bytes: 1 << 10, max_total_bytes: 1 << 20 };
+//! ```
 
 /// The README's example, compiled and run as a doctest.
 #[cfg(doctest)]

@@ -110,6 +110,10 @@ pub struct ReadOptions {
     /// Longest line, in bytes (a file without line breaks stops here).
     /// Default 1 MiB.
     pub max_line_bytes: usize,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for ReadOptions {
@@ -117,6 +121,7 @@ impl Default for ReadOptions {
         Self {
             max_bytes: 4 << 30,
             max_line_bytes: 1 << 20,
+            __non_exhaustive: (),
         }
     }
 }
@@ -171,6 +176,7 @@ pub fn read_matrix_market_with(
     let limits = crate::text::LineLimits {
         max_line_bytes: opts.max_line_bytes,
         max_total_bytes: opts.max_bytes,
+        ..Default::default()
     };
     let mut lines = crate::text::capped_lines(reader, limits)
         .enumerate()

@@ -16,6 +16,10 @@ pub struct PowerParams {
     pub max_iter: usize,
     /// Seed of the deterministic pseudo-random start vector. Default `1`.
     pub seed: u64,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for PowerParams {
@@ -24,6 +28,7 @@ impl Default for PowerParams {
             rtol: 1e-8,
             max_iter: 10_000,
             seed: 1,
+            __non_exhaustive: (),
         }
     }
 }

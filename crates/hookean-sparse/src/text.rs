@@ -25,6 +25,10 @@ pub struct LineLimits {
     pub max_line_bytes: usize,
     /// Bytes of the whole input. Default 4 GiB.
     pub max_total_bytes: u64,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for LineLimits {
@@ -32,6 +36,7 @@ impl Default for LineLimits {
         Self {
             max_line_bytes: 1 << 20,
             max_total_bytes: 4 << 30,
+            __non_exhaustive: (),
         }
     }
 }
@@ -225,6 +230,7 @@ mod tests {
         let l = LineLimits {
             max_line_bytes: 100,
             max_total_bytes: 6,
+            ..Default::default()
         };
         assert_eq!(all(b"ab\ncd\n", l).unwrap(), ["ab", "cd"]);
         let e = all(b"ab\ncd\ne", l).unwrap_err();

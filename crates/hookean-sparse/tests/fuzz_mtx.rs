@@ -17,13 +17,16 @@ pub const VALID: &[&str] = &[
 ];
 
 /// A cap small enough that any matrix the mutations declare big is refused.
-const OPTS: ReadOptions = ReadOptions {
-    max_bytes: 1 << 20,
-    max_line_bytes: 1 << 16,
-};
+fn opts() -> ReadOptions {
+    ReadOptions {
+        max_bytes: 1 << 20,
+        max_line_bytes: 1 << 16,
+        ..Default::default()
+    }
+}
 
 fn read(bytes: &[u8]) -> Result<(), SparseError> {
-    let m = read_matrix_market_with(bytes, &OPTS)?;
+    let m = read_matrix_market_with(bytes, &opts())?;
     // What was read converts without a panic.
     let (rows, cols) = m.shape();
     let csr = m.into_csr();

@@ -28,6 +28,36 @@
 //! println!("{} steps, {} CG iterations", summary.stats.num_steps, summary.stats.num_lin_iters);
 //! # Ok::<(), hookean::HookeanError>(())
 //! ```
+//!
+//! # Options structs
+//!
+//! [`SimulationOptions`] (and the options structs of the crates it
+//! re-exports) have a `Default`:
+//! construct them with `..Default::default()`. Each has a hidden field, so
+//! that a later version may add an option without breaking your code; a
+//! literal naming every field does not compile outside this crate.
+//!
+//! ```
+//! use hookean::prelude::*;
+//! let options = SimulationOptions { method: Method::FbEuler, ..Default::default() };
+//! let (model, state) = rope(&RopeParams { n: 5, ..Default::default() })?;
+//! let sim = Simulation::new(model, state, options)?;
+//! assert!(matches!(sim.method(), Method::FbEuler));
+//! # Ok::<(), hookean::HookeanError>(())
+//! ```
+//!
+//! ```compile_fail
+//! use hookean::prelude::*;
+//! use hookean::filter::FilterCoupling;
+//! // Every field named, none left to the default: refused outside the crate.
+//! let options = SimulationOptions {
+//!     method: Method::FbEuler,
+//!     solver: SolverOptions::default(),
+//!     filter: None,
+//!     filter_coupling: FilterCoupling::Increment,
+//!     blow_up_factor: 1e6,
+//! };
+//! ```
 
 /// The README's example, compiled and run as a doctest.
 #[cfg(doctest)]

@@ -36,6 +36,10 @@ pub struct SimulationOptions {
     /// energy by more than this factor times the scene's energy scale (see
     /// [`Simulation`]). Default `1e3`; `f64::INFINITY` turns it off.
     pub blow_up_factor: f64,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl SimulationOptions {
@@ -99,6 +103,7 @@ impl Default for SimulationOptions {
             filter: None,
             filter_coupling: FilterCoupling::default(),
             blow_up_factor: 1e3,
+            __non_exhaustive: (),
         }
     }
 }

@@ -7,6 +7,8 @@ use hookean_sparse::SymBlockMatrix;
 use hookean_sparse::block::{self, Block3};
 use nalgebra::Vector3;
 
+use std::marker::PhantomData;
+
 use crate::model::{DampingInDfdx, MassSpringModel, SpringDamping};
 
 use super::*;
@@ -14,11 +16,11 @@ use super::*;
 /// A spring's damping block `df_i/dv_j` by its 6 unique entries: `d u u^T`
 /// (projected damping, from `u u^T` in `uu`), `d I` (the incorrect law) or 0.
 #[inline(always)]
-fn damping_block6<const DAMP: u8>(d: f64, uu: &[f64; 6]) -> [f64; 6] {
-    match DAMP {
-        DAMP_PROJECTED => uu.map(|w| d * w),
-        DAMP_INCORRECT => [d, 0.0, 0.0, d, 0.0, d],
-        _ => [0.0; 6],
+fn damping_block6<D: DampingLaw>(d: f64, uu: &[f64; 6]) -> [f64; 6] {
+    match D::LAW {
+        SpringDamping::Projected => uu.map(|w| d * w),
+        SpringDamping::Incorrect => [d, 0.0, 0.0, d, 0.0, d],
+        SpringDamping::None => [0.0; 6],
     }
 }
 
@@ -75,17 +77,122 @@ impl ChunkGeometry {
 /// symmetric diagonal block of `df/dx`, then of `df/dv`.
 pub(crate) type Acc = [f64; 12];
 
-/// [`SpringDamping`] as a const generic parameter.
-const DAMP_NONE: u8 = 0;
-const DAMP_PROJECTED: u8 = 1;
-const DAMP_INCORRECT: u8 = 2;
+/// The spring damping law of a sweep, fixed at compile time: the model's
+/// [`SpringDamping`], and for projected damping whether the symmetric part
+/// of its position derivative goes into `df/dx` ([`DampingInDfdx`]).
+trait DampingLaw {
+    /// The law of the damping force and of `df/dv`.
+    const LAW: SpringDamping;
+    /// `df/dx` holds `(G + G^T) / 2` of the projected damping force.
+    const IN_DFDX: bool;
+}
 
-const fn damp_code(d: SpringDamping) -> u8 {
-    match d {
-        SpringDamping::None => DAMP_NONE,
-        SpringDamping::Projected => DAMP_PROJECTED,
-        SpringDamping::Incorrect => DAMP_INCORRECT,
-    }
+/// Projected damping `d ((v_j - v_i) . u) u`, dropped from `df/dx`.
+struct Projected;
+/// Projected damping with the symmetric part of its position derivative
+/// in `df/dx` ([`DampingInDfdx::Symmetrize`]).
+struct ProjectedSymmetrized;
+/// The "incorrect" damping `d (v_j - v_i)`.
+struct Incorrect;
+/// No spring damping.
+struct Undamped;
+
+impl DampingLaw for Projected {
+    const LAW: SpringDamping = SpringDamping::Projected;
+    const IN_DFDX: bool = false;
+}
+impl DampingLaw for ProjectedSymmetrized {
+    const LAW: SpringDamping = SpringDamping::Projected;
+    const IN_DFDX: bool = true;
+}
+impl DampingLaw for Incorrect {
+    const LAW: SpringDamping = SpringDamping::Incorrect;
+    const IN_DFDX: bool = false;
+}
+impl DampingLaw for Undamped {
+    const LAW: SpringDamping = SpringDamping::None;
+    const IN_DFDX: bool = false;
+}
+
+/// What a sweep writes, fixed at compile time: its loop invariants become
+/// constants, so the spring loop carries no branch on them (static
+/// dispatch; one compiled sweep per mode and damping law).
+trait SweepMode {
+    /// The damping law.
+    type Damping: DampingLaw;
+    /// Writes the force `f`.
+    const FORCE: bool;
+    /// Writes the Jacobian half: `df/dx` (or the step matrix) into `vx`.
+    const JACOBIANS: bool;
+    /// Writes `df/dv` into `vv` as well.
+    const DFDV: bool;
+    /// Writes the step matrix `A = M + a df/dx + b df/dv` into `vx`
+    /// instead of `df/dx` (no `df/dv` is formed).
+    const STEP_MATRIX: bool;
+    /// [`DampingLaw::LAW`] of the mode's damping.
+    const DAMPING: SpringDamping = <Self::Damping as DampingLaw>::LAW;
+    /// [`DampingLaw::IN_DFDX`] of the mode's damping.
+    const DAMPING_IN_DFDX: bool = <Self::Damping as DampingLaw>::IN_DFDX;
+}
+
+/// The force alone ([`MassSpringModel::eval_force`]).
+struct ForceOnly<D>(PhantomData<D>);
+/// `df/dx` alone.
+struct Dfdx<D>(PhantomData<D>);
+/// `df/dx` and `df/dv`.
+struct DfdxDfdv<D>(PhantomData<D>);
+/// The force and `df/dx`.
+struct ForceDfdx<D>(PhantomData<D>);
+/// The force, `df/dx` and `df/dv`.
+struct ForceDfdxDfdv<D>(PhantomData<D>);
+/// The step matrix `A = M + a df/dx + b df/dv` in one sweep.
+struct StepMatrix<D>(PhantomData<D>);
+
+macro_rules! sweep_modes {
+    ($($mode:ident: $force:literal, $jac:literal, $dv:literal, $step:literal;)*) => {$(
+        impl<D: DampingLaw> SweepMode for $mode<D> {
+            type Damping = D;
+            const FORCE: bool = $force;
+            const JACOBIANS: bool = $jac;
+            const DFDV: bool = $dv;
+            const STEP_MATRIX: bool = $step;
+        }
+    )*};
+}
+sweep_modes! {
+    //             FORCE, JACOBIANS, DFDV, STEP_MATRIX
+    ForceOnly:     true,  false,     false, false;
+    Dfdx:          false, true,      false, false;
+    DfdxDfdv:      false, true,      true,  false;
+    ForceDfdx:     true,  true,      false, false;
+    ForceDfdxDfdv: true,  true,      true,  false;
+    StepMatrix:    false, true,      false, true;
+}
+
+/// Runs `$body` with the type `$d` set to the [`DampingLaw`] of `damping`
+/// and `in_dfdx` (whether projected damping's position derivative goes
+/// into `df/dx`).
+macro_rules! with_damping_law {
+    ($damping:expr, $in_dfdx:expr, $d:ident => $body:expr) => {
+        match ($damping, $in_dfdx) {
+            (SpringDamping::Projected, false) => {
+                type $d = Projected;
+                $body
+            }
+            (SpringDamping::Projected, true) => {
+                type $d = ProjectedSymmetrized;
+                $body
+            }
+            (SpringDamping::Incorrect, _) => {
+                type $d = Incorrect;
+                $body
+            }
+            (SpringDamping::None, _) => {
+                type $d = Undamped;
+                $body
+            }
+        }
+    };
 }
 
 /// The outputs of one assembly sweep over block rows `rows` (empty slices
@@ -151,19 +258,10 @@ pub(crate) struct Halo {
     f: [f64; 3],
 }
 
-/// One assembly sweep as a [`pulp::WithSimd`] operation, so that it can be
-/// compiled for the instruction set the CPU offers (checked at run time by
-/// `pulp::Arch::dispatch`) without `unsafe` here.
-struct Sweep<
-    'm,
-    'o,
-    const F: bool,
-    const DV: bool,
-    const DAMP: u8,
-    const DDX: bool,
-    const JAC: bool = true,
-    const FUSED: bool = false,
-> {
+/// One assembly sweep in mode `M` as a [`pulp::WithSimd`] operation, so
+/// that it can be compiled for the instruction set the CPU offers (checked
+/// at run time by `pulp::Arch::dispatch`) without `unsafe` here.
+struct Sweep<'m, 'o, M: SweepMode> {
     model: &'m MassSpringModel,
     x: &'m [f64],
     v: &'m [f64],
@@ -171,10 +269,11 @@ struct Sweep<
     clamp_floor: f64,
     fast: bool,
     comb: Combination<'m>,
+    mode: PhantomData<fn() -> M>,
 }
 
-/// The one-sweep Newton matrix `A = M + a df/dx + b df/dv` (a sweep with
-/// `FUSED` writes it into `vx`; otherwise unused).
+/// The one-sweep Newton matrix `A = M + a df/dx + b df/dv` (a
+/// [`StepMatrix`] sweep writes it into `vx`; otherwise unused).
 #[derive(Debug, Clone, Copy)]
 struct Combination<'m> {
     a: f64,
@@ -190,20 +289,12 @@ impl Combination<'_> {
     };
 }
 
-impl<
-    const F: bool,
-    const DV: bool,
-    const DAMP: u8,
-    const DDX: bool,
-    const JAC: bool,
-    const FUSED: bool,
-> pulp::WithSimd for Sweep<'_, '_, F, DV, DAMP, DDX, JAC, FUSED>
-{
+impl<M: SweepMode> pulp::WithSimd for Sweep<'_, '_, M> {
     type Output = ();
 
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _simd: S) {
-        self.model.sweep::<F, DV, DAMP, DDX, JAC, FUSED>(
+        self.model.sweep::<M>(
             self.x,
             self.v,
             self.out,
@@ -273,29 +364,21 @@ impl MassSpringModel {
                 &mut []
             },
         };
-        macro_rules! force_sweep {
-            ($dm:ident) => {
-                Self::sweep_parts(
-                    Sweep::<'_, '_, true, false, { damp_code(SpringDamping::$dm) }, false, false> {
-                        model: self,
-                        x,
-                        v,
-                        out,
-                        clamp_floor: 0.0,
-                        fast: true,
-                        comb: Combination::NONE,
-                    },
-                    0,
-                    parts.max(1),
-                    parts,
-                )
-            };
-        }
-        match self.options.damping {
-            SpringDamping::Projected => force_sweep!(Projected),
-            SpringDamping::Incorrect => force_sweep!(Incorrect),
-            SpringDamping::None => force_sweep!(None),
-        }
+        with_damping_law!(self.options.damping, false, D => Self::sweep_parts(
+            Sweep {
+                model: self,
+                x,
+                v,
+                out,
+                clamp_floor: 0.0,
+                fast: true,
+                comb: Combination::NONE,
+                mode: PhantomData::<fn() -> ForceOnly<D>>,
+            },
+            0,
+            parts.max(1),
+            parts,
+        ));
         if parts > 1 {
             // The halos' forces, added in part order, and zeroed.
             let f3 = f.as_chunks_mut::<3>().0;
@@ -438,27 +521,27 @@ impl MassSpringModel {
             },
         };
         let clamp_floor = if mode.clamp { 0.0 } else { f64::NEG_INFINITY };
-        // The loop invariants become const generics: the spring loop carries
-        // no branch on them.
-        macro_rules! dispatch {
-            ($($fl:literal, $dv:literal, $dm:ident, $dd:literal;)*) => {
-                match (has_f, has_dv, damping, damping_dx) {
-                    $(($fl, $dv, $dm, $dd) => {
-                        Self::sweep_parts(
-                            Sweep::<'_, '_, $fl, $dv, { damp_code($dm) }, $dd, true> {
-                                model: self, x, v, out, clamp_floor, fast,
-                                comb: Combination::NONE,
-                            },
-                            0,
-                            parts.max(1),
-                            parts,
-                        )
-                    })*
-                    _ => unreachable!("damping_dx implies projected damping"),
-                }
+        // The loop invariants become a mode type (what the sweep writes, the
+        // damping law): the spring loop carries no branch on them.
+        macro_rules! sweep {
+            ($mode:ty, $comb:expr) => {
+                Self::sweep_parts(
+                    Sweep {
+                        model: self,
+                        x,
+                        v,
+                        out,
+                        clamp_floor,
+                        fast,
+                        comb: $comb,
+                        mode: PhantomData::<fn() -> $mode>,
+                    },
+                    0,
+                    parts.max(1),
+                    parts,
+                )
             };
         }
-        use SpringDamping::{Incorrect as I, None as N, Projected as P};
         if let Some((a, b)) = comb {
             assert!(
                 !has_f && !has_dv,
@@ -469,29 +552,14 @@ impl MassSpringModel {
                 b,
                 mass: &self.mass,
             };
-            macro_rules! fused {
-                ($($dm:ident, $dd:literal;)*) => {
-                    match (damping, damping_dx) {
-                        $(($dm, $dd) => Self::sweep_parts(
-                            Sweep::<'_, '_, false, false, { damp_code($dm) }, $dd, true, true> {
-                                model: self, x, v, out, clamp_floor, fast, comb,
-                            },
-                            0,
-                            parts.max(1),
-                            parts,
-                        ),)*
-                        _ => unreachable!("damping_dx implies projected damping"),
-                    }
-                };
-            }
-            fused! { P, false; P, true; I, false; N, false; }
+            with_damping_law!(damping, damping_dx, D => sweep!(StepMatrix<D>, comb));
         } else {
-            dispatch! {
-            true, true, P, false; true, true, P, true; true, true, I, false; true, true, N, false;
-            true, false, P, false; true, false, P, true; true, false, I, false; true, false, N, false;
-            false, true, P, false; false, true, P, true; false, true, I, false; false, true, N, false;
-            false, false, P, false; false, false, P, true; false, false, I, false; false, false, N, false;
-            }
+            with_damping_law!(damping, damping_dx, D => match (has_f, has_dv) {
+                (true, true) => sweep!(ForceDfdxDfdv<D>, Combination::NONE),
+                (true, false) => sweep!(ForceDfdx<D>, Combination::NONE),
+                (false, true) => sweep!(DfdxDfdv<D>, Combination::NONE),
+                (false, false) => sweep!(Dfdx<D>, Combination::NONE),
+            });
         }
         // The contact forces' diagonal blocks (nothing without contact).
         if let Some((a, b)) = comb {
@@ -539,19 +607,7 @@ impl MassSpringModel {
     /// `op.out`): halves under [`rayon::join`], each part a
     /// [`sweep`](Self::sweep) compiled for the CPU's instruction set
     /// ([`run_sweep`]).
-    fn sweep_parts<
-        const F: bool,
-        const DV: bool,
-        const DAMP: u8,
-        const DDX: bool,
-        const JAC: bool,
-        const FUSED: bool,
-    >(
-        op: Sweep<'_, '_, F, DV, DAMP, DDX, JAC, FUSED>,
-        p0: usize,
-        p1: usize,
-        parts: usize,
-    ) {
+    fn sweep_parts<M: SweepMode>(op: Sweep<'_, '_, M>, p0: usize, p1: usize, parts: usize) {
         if p1 - p0 <= 1 {
             run_sweep(op);
             return;
@@ -564,13 +620,14 @@ impl MassSpringModel {
             clamp_floor,
             fast,
             comb,
+            mode,
         } = op;
         let mid = (p0 + p1) / 2;
         let r = model.plan.pattern.part_start(mid, parts);
         let values = model.plan.pattern.rows_value_range(out.rows.start..r);
         let starts = (values.start, values.end);
         let (a, b) = out.split(r, starts, mid - p0, model.plan.bandwidth);
-        let half = |out| Sweep::<'_, '_, F, DV, DAMP, DDX, JAC, FUSED> {
+        let half = |out| Sweep {
             model,
             x,
             v,
@@ -578,6 +635,7 @@ impl MassSpringModel {
             clamp_floor,
             fast,
             comb,
+            mode,
         };
         let (a, b) = (half(a), half(b));
         rayon::join(
@@ -598,14 +656,7 @@ impl MassSpringModel {
     /// particles past those rows goes to its halo, added after all parts.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn sweep<
-        const F: bool,
-        const DV: bool,
-        const DAMP: u8,
-        const DDX: bool,
-        const JAC: bool,
-        const FUSED: bool,
-    >(
+    fn sweep<M: SweepMode>(
         &self,
         x: &[f64],
         v: &[f64],
@@ -614,7 +665,7 @@ impl MassSpringModel {
         fast: bool,
         comb: Combination<'_>,
     ) {
-        let need_dv = DDX || (F && DAMP != DAMP_NONE);
+        let need_dv = M::DAMPING_IN_DFDX || (M::FORCE && M::DAMPING != SpringDamping::None);
         let Outputs {
             f,
             vx,
@@ -631,7 +682,7 @@ impl MassSpringModel {
         let mut geo = ChunkGeometry::new();
         for r in s..end {
             let row_fast = fast && self.plan.row_fast[r];
-            let mut loc = if JAC {
+            let mut loc = if M::JACOBIANS {
                 std::mem::replace(&mut acc[r - s], [0.0; 12])
             } else {
                 [0.0; 12]
@@ -646,9 +697,9 @@ impl MassSpringModel {
                     let (i, j) = (h.i as usize, h.j as usize);
                     if l <= 0.0 || l.is_nan() {
                         // Coincident endpoints: no direction, no force, no Jacobian.
-                        if JAC && h.first {
+                        if M::JACOBIANS && h.first {
                             vx[h.upper as usize - base] = block::ZERO;
-                            if DV {
+                            if M::DFDV {
                                 vv[h.upper as usize - base] = block::ZERO;
                             }
                         }
@@ -660,12 +711,12 @@ impl MassSpringModel {
                     } else {
                         Vector3::zeros()
                     };
-                    if F {
+                    if M::FORCE {
                         let mut fi = u * (h.stiffness * (l - h.rest_length));
-                        match DAMP {
-                            DAMP_PROJECTED => fi += u * (h.damping * dv.dot(&u)),
-                            DAMP_INCORRECT => fi += dv * h.damping,
-                            _ => {}
+                        match M::DAMPING {
+                            SpringDamping::Projected => fi += u * (h.damping * dv.dot(&u)),
+                            SpringDamping::Incorrect => fi += dv * h.damping,
+                            SpringDamping::None => {}
                         }
                         let fj = if j < end {
                             &mut f[j - s]
@@ -677,7 +728,7 @@ impl MassSpringModel {
                             fj[q] -= fi[q];
                         }
                     }
-                    if !JAC {
+                    if !M::JACOBIANS {
                         continue;
                     }
                     // Branch-free clamp (the sign of 1 - l0/l is random in a deformed cloth).
@@ -697,7 +748,7 @@ impl MassSpringModel {
                     k6[0] += gamma;
                     k6[3] += gamma;
                     k6[5] += gamma;
-                    if DDX && h.damping != 0.0 {
+                    if M::DAMPING_IN_DFDX && h.damping != 0.0 {
                         let g = damping_position_block(h.damping, l, &u, &dv);
                         let gs = sym6(&block::add(&g, &block::transpose(&g)));
                         for t in 0..6 {
@@ -711,9 +762,9 @@ impl MassSpringModel {
                     } else {
                         &mut halo[j - end].acc
                     };
-                    // df_i/dx_j, or with FUSED a df_i/dx_j + b df_i/dv_j (projected once).
-                    let b6 = if FUSED {
-                        let d6 = damping_block6::<DAMP>(h.damping, &uu);
+                    // df_i/dx_j, or in a step-matrix sweep a df_i/dx_j + b df_i/dv_j (projected once).
+                    let b6 = if M::STEP_MATRIX {
+                        let d6 = damping_block6::<M::Damping>(h.damping, &uu);
                         std::array::from_fn(|t| comb.a * k6[t] + comb.b * d6[t])
                     } else {
                         k6
@@ -729,8 +780,8 @@ impl MassSpringModel {
                         &self.active_set.proj,
                         &b6,
                     );
-                    if DV && !FUSED {
-                        let d6 = damping_block6::<DAMP>(h.damping, &uu);
+                    if M::DFDV && !M::STEP_MATRIX {
+                        let d6 = damping_block6::<M::Damping>(h.damping, &uu);
                         scatter_sym(
                             vv,
                             base,
@@ -746,7 +797,7 @@ impl MassSpringModel {
                 }
             }
             let idx = self.plan.diag_index[r] - base;
-            if JAC && FUSED {
+            if M::JACOBIANS && M::STEP_MATRIX {
                 // M + a (df/dx)_rr + b (df/dv)_rr, the latter with air friction.
                 let mut d = unsym6(&loc[..6]);
                 if c_air != 0.0 {
@@ -757,17 +808,17 @@ impl MassSpringModel {
                     d[q][q] += comb.mass[3 * r + q];
                 }
                 vx[idx] = d;
-            } else if JAC {
+            } else if M::JACOBIANS {
                 vx[idx] = unsym6(&loc[..6]);
             }
-            if JAC && DV {
+            if M::JACOBIANS && M::DFDV {
                 let mut d = unsym6(&loc[6..]);
                 if c_air != 0.0 {
                     d = block::add(&d, &block::scale(&self.active_set.proj[r], -c_air));
                 }
                 vv[idx] = d;
             }
-            if F {
+            if M::FORCE {
                 for q in 0..3 {
                     f[r - s][q] += floc[q];
                 }

@@ -33,6 +33,10 @@ pub struct PcgOptions {
     /// exact Jacobian that is indefinite (compressed springs); the
     /// preconditioner must stay positive definite (MIC(0)'s shift keeps it so).
     pub negative_curvature: NegativeCurvature,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for PcgOptions {
@@ -42,6 +46,7 @@ impl Default for PcgOptions {
             amg: AmgOptions::default(),
             max_iter: None,
             negative_curvature: NegativeCurvature::Error,
+            __non_exhaustive: (),
         }
     }
 }
@@ -214,6 +219,7 @@ where
             initial_guess,
             record_history: false,
             negative_curvature: self.negative_curvature,
+            ..Default::default()
         };
         let info = match &self.constraints {
             Some(c) if !c.is_empty() => {

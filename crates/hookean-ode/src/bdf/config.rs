@@ -133,6 +133,10 @@ pub struct BdfConfig {
     /// correction `s` with `|A s + G| <= eta |G|` contracts the Newton
     /// iteration by about `eta` more. Default `1e-3`.
     pub linear_rtol: f64,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for BdfConfig {
@@ -151,6 +155,7 @@ impl Default for BdfConfig {
             tolerance_exponent: TOLERANCE_EXPONENT,
             linear_solver: BdfLinearSolver::Direct,
             linear_rtol: 1e-3,
+            __non_exhaustive: (),
         }
     }
 }

@@ -134,6 +134,7 @@ impl<P: FirstOrderProblem> Corrector for FirstSys<P> {
                     restarts,
                     rtol: 0.0,
                     atol: KRYLOV_TOL_FACTOR * newton_tol * (n as f64).sqrt(),
+                    ..Default::default()
                 };
                 let gmres = GmresSolver::new(params, preconditioner)?.matrix_free();
                 Matrices::Krylov {

@@ -88,6 +88,7 @@ impl Scene {
                 },
                 rings: f.rings,
                 current_distances: f.distances == DistancesScene::Current,
+                ..Default::default()
             }),
             filter_coupling: match self.filter.as_ref().map(|f| f.coupling) {
                 Some(CouplingScene::Velocity) => FilterCoupling::VelocityOnly,
@@ -136,6 +137,7 @@ impl Scene {
                 PinScene::None => ClothPins::None,
             },
             options: self.model_options(),
+            ..Default::default()
         })
     }
 
@@ -300,6 +302,7 @@ impl Scene {
                 face: m,
                 body: m,
                 options,
+                ..Default::default()
             })
             .map_err(in_table("jelly"))?
         } else if let Some(m) = &self.mesh {
@@ -314,6 +317,7 @@ impl Scene {
                     edge: SpringMaterial::new(m.stiffness, m.damping),
                     bend: (bend > 0.0).then(|| SpringMaterial::new(bend, m.damping)),
                     options,
+                    ..Default::default()
                 },
             )
             .map_err(in_table("mesh"))?;
@@ -405,6 +409,7 @@ impl Scene {
                 .set_self_collision(Some(SelfCollision {
                     thickness: self.contact.self_thickness,
                     stiffness: self.contact.self_stiffness,
+                    ..Default::default()
                 }))
                 .map_err(in_table("contact"))?;
         }

@@ -274,6 +274,7 @@ fn spectral_radius<const B: usize>(
         rtol: 1e-3,
         max_iter: power_iterations,
         seed: 1,
+        ..Default::default()
     };
     Ok(power_iterate(&op, &params, None, warm, v, w)?.0.abs())
 }

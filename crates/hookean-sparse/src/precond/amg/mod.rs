@@ -126,6 +126,10 @@ pub struct AmgOptions {
     pub block_size: usize,
     /// Storage precision of the hierarchy. Default [`AmgPrecision::Single`].
     pub precision: AmgPrecision,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
 }
 
 impl Default for AmgOptions {
@@ -145,6 +149,7 @@ impl Default for AmgOptions {
             near_nullspace: Vec::new(),
             block_size: 1,
             precision: AmgPrecision::Single,
+            __non_exhaustive: (),
         }
     }
 }
