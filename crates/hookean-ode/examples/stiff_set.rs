@@ -28,7 +28,7 @@ static EXPONENT: OnceLock<f64> = OnceLock::new();
 fn sweep_options<P: TestProblem>(p: &P, rtol: f64) -> SolverOptions {
     let mut opts = options(p, rtol);
     if let Some(&e) = EXPONENT.get() {
-        opts.bdf.tolerance_exponent = e;
+        opts.bdf.tolerance_exponent = Some(e);
     }
     opts
 }
@@ -54,7 +54,7 @@ fn trajectory_times(t_end: f64) -> Vec<f64> {
 /// published reference's own accuracy; printed on stderr).
 fn reference_trajectory<P: TestProblem + Clone>(p: &P, times: &[f64]) -> Option<Vec<Vec<f64>>> {
     let mut opts = options(p, 1e-12);
-    opts.bdf.tolerance_exponent = 1.0;
+    opts.bdf.tolerance_exponent = Some(1.0);
     opts.bdf.max_steps = 10_000_000;
     let sol = BdfSolver::new(p.clone(), 0.0, &p.y0(), opts)
         .and_then(|mut s| s.solve_at(times))

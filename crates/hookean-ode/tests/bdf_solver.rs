@@ -77,7 +77,7 @@ fn a_jacobian_from_a_fast_transient_is_not_kept_for_much_longer_steps() {
     let p = VanDerPol;
     let rtol = 10f64.powf(-4.5);
     let mut opts = testset::options(&p, rtol);
-    opts.bdf.tolerance_exponent = 1.0;
+    opts.bdf.tolerance_exponent = Some(1.0);
     let mut s = BdfSolver::new(p, 0.0, &p.y0(), opts).unwrap();
     s.integrate(p.t_end()).unwrap();
     let err = mixed_error(s.y(), &p.reference(), &p.floor());
@@ -409,7 +409,7 @@ fn bad_input_is_refused() {
     opts.bdf.max_order = 6;
     assert!(bad(opts));
     let mut opts = SolverOptions::default();
-    opts.bdf.tolerance_exponent = 0.9;
+    opts.bdf.tolerance_exponent = Some(0.9);
     assert!(bad(opts));
     assert!(BdfSolver::new(Decay, 0.0, &[f64::NAN], SolverOptions::default()).is_err());
     let mut s = BdfSolver::new(Decay, 0.0, &[1.0], SolverOptions::default()).unwrap();

@@ -26,7 +26,7 @@ pub(crate) struct Bdf<S: Corrector> {
     pub(super) opts: SolverOptions,
     pub(super) n: usize,
     /// The mapped `atol_i` and `rtol` of the local error test (`rtol^p`, see
-    /// [`BdfConfig::tolerance_exponent`](super::BdfConfig::tolerance_exponent)).
+    /// [`BdfConfig::exponent`](super::BdfConfig::exponent)).
     pub(super) atol: Vec<f64>,
     pub(super) rtol: f64,
     pub(super) coef: Coefficients,
@@ -92,7 +92,7 @@ impl<S: Corrector> Bdf<S> {
                 t: t0,
             });
         }
-        let rtol = opts.rtol.powf(opts.bdf.tolerance_exponent);
+        let rtol = opts.rtol.powf(opts.bdf.exponent());
         let atol_scale = rtol / opts.rtol;
         for a in &mut atol {
             *a *= atol_scale;

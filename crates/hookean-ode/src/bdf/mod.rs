@@ -35,9 +35,9 @@
 //! **Error control and Newton in one norm.** Both use the weighted RMS norm
 //! `||v|| = sqrt(1/n sum (v_i / w_i)^2)` with `w_i = atol_i + rtol |y_i|`
 //! (`atol` scalar or per component), where the user's tolerances are first
-//! mapped to `rtol^p`, `atol rtol^(p - 1)` with `p = 1.2`
-//! ([`BdfConfig::tolerance_exponent`]) so that the global error, not only
-//! the error per step, follows `rtol`. The local error estimate is
+//! mapped to `rtol^p`, `atol rtol^(p - 1)` with `p = (q+1)/q` for the
+//! order limit `q` (1.2 at the default 5; [`BdfConfig::exponent`]) so that
+//! the global error, not only the error per step, follows `rtol`. The local error estimate is
 //! `(kappa_k gamma_k + 1/(k+1)) (y_{n+1} - y^(0))` and a step is accepted
 //! when its norm is `<= 1`. Newton stops when the correction scaled by the
 //! estimated contraction rate (CVODE's `crate`, carried across steps while
