@@ -35,7 +35,7 @@ impl<S: Corrector> Bdf<S> {
     /// with `f'` a difference quotient along `f0`; the result `min(100 h0, h1)`.
     fn initial_step(&mut self, span: f64) -> f64 {
         let rtol = self.rtol;
-        let y0 = &self.hist.d[0];
+        let y0 = self.hist.d(0);
         for i in 0..self.n {
             self.w[i] = self.atol[i] + rtol * y0[i].abs();
         }
@@ -70,7 +70,7 @@ impl<S: Corrector> Bdf<S> {
     fn start(&mut self, t_bound: f64) -> Result<(), OdeError> {
         let span = t_bound - self.t;
         self.sys
-            .derivative(self.t, &self.hist.d[0], &mut self.f, &mut self.stats);
+            .derivative(self.t, self.hist.d(0), &mut self.f, &mut self.stats);
         if self.f.iter().any(|v| !v.is_finite()) {
             return Err(OdeError::NonFinite {
                 what: "right-hand side",
@@ -279,7 +279,7 @@ impl<S: Corrector> Bdf<S> {
                     // the step at most (CVODE's MXNEF1 and ETAMIN rules).
                     let h = self.hist.h * factor.min(0.1);
                     self.sys
-                        .derivative(t, &self.hist.d[0], &mut self.f, &mut self.stats);
+                        .derivative(t, self.hist.d(0), &mut self.f, &mut self.stats);
                     self.hist.start(h, &self.f);
                 }
                 continue;
@@ -302,13 +302,13 @@ impl<S: Corrector> Bdf<S> {
         self.jac_age += 1;
         self.jac_current = false;
         self.hist.update(&self.dcor);
-        if self.hist.d[0].iter().any(|v| !v.is_finite()) {
+        if self.hist.d(0).iter().any(|v| !v.is_finite()) {
             return Err(OdeError::NonFinite {
                 what: "state after the step",
                 t: t_new,
             });
         }
-        let norm = max_abs(&self.hist.d[0]);
+        let norm = max_abs(self.hist.d(0));
         if norm > self.bound {
             return Err(OdeError::StateGrowth {
                 t: t_new,
@@ -319,14 +319,14 @@ impl<S: Corrector> Bdf<S> {
         if self.hist.n_equal_steps < k + 1 || self.frozen {
             return Ok(());
         }
-        let d = &self.hist.d;
+        let d = |j| self.hist.d(j);
         let err_m = if k > 1 {
-            self.coef.error_const[k - 1] * rms(&d[k], &self.w)
+            self.coef.error_const[k - 1] * rms(d(k), &self.w)
         } else {
             f64::INFINITY
         };
         let err_p = if k < self.max_order() {
-            self.coef.error_const[k + 1] * rms(&d[k + 2], &self.w)
+            self.coef.error_const[k + 1] * rms(d(k + 2), &self.w)
         } else {
             f64::INFINITY
         };
