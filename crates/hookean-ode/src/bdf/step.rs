@@ -25,6 +25,17 @@ const MIN_FACTOR: f64 = 0.2;
 /// estimate, built from those updates, then accepts a wrong solution.
 const JACOBIAN_C_GROWTH: f64 = 100.0;
 
+/// The step-size factor `err^(-1/q)` of an order whose error estimate is
+/// `err`; `0` for an order out of reach (`err = inf`: `pow(inf, -1/q)` is
+/// exactly `+0`, without the call).
+fn step_factor(err: f64, q: f64) -> f64 {
+    if err == f64::INFINITY {
+        0.0
+    } else {
+        err.powf(-1.0 / q)
+    }
+}
+
 fn max_abs(v: &[f64]) -> f64 {
     v.iter().fold(0.0, |m, x| m.max(x.abs()))
 }
@@ -331,9 +342,9 @@ impl<S: Corrector> Bdf<S> {
             f64::INFINITY
         };
         let factors = [
-            err_m.powf(-1.0 / k as f64),
-            error_norm.powf(-1.0 / (k as f64 + 1.0)),
-            err_p.powf(-1.0 / (k as f64 + 2.0)),
+            step_factor(err_m, k as f64),
+            step_factor(error_norm, k as f64 + 1.0),
+            step_factor(err_p, k as f64 + 2.0),
         ];
         let mut best = 1;
         for (i, f) in factors.iter().enumerate() {
