@@ -363,3 +363,20 @@ impl<S: Corrector> Bdf<S> {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::step_factor;
+
+    #[test]
+    fn the_factor_of_an_order_out_of_reach_is_the_pow_of_infinity() {
+        for q in 1..=7 {
+            let q = q as f64;
+            assert_eq!(
+                step_factor(f64::INFINITY, q).to_bits(),
+                f64::INFINITY.powf(-1.0 / q).to_bits()
+            );
+            assert_eq!(step_factor(0.25, q), 0.25f64.powf(-1.0 / q));
+        }
+    }
+}
