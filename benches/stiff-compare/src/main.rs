@@ -8,6 +8,11 @@
 //! 1e-4 is interpolated on the work-precision curve (see `compare`).
 //!
 //! usage: stiff-compare [repeats]
+//!        stiff-compare prof PROBLEM RTOL SOLVER [RUNS]
+//! (the second form, for `valgrind --tool=callgrind`: RUNS solves of one
+//! problem, by name as in the CSV, with `ours`, `diffsol` or
+//! `diffsol-sparse`, and one line of the first run's error, statistics and
+//! final state).
 //! CSV columns: problem,solver,rtol,error,steps,jac_evals,lu_setups,rhs_evals,newton_iters,wall_s,wall_s_at_1e-4
 //! (the statistics and `wall_s` of the first rung meeting the target; the last column interpolated).
 
@@ -241,7 +246,47 @@ fn compare_with<P: TestProblem + Clone + 'static>(
     }
 }
 
+/// One problem with one solver `runs` times (for callgrind): prints the
+/// error and the statistics of the first run.
+fn prof<P: TestProblem + Clone + 'static>(p: &P, rtol: f64, solver: &str, runs: usize) {
+    let solve: Solver<P> = match solver {
+        "ours" => ours::<P>,
+        "diffsol" => diffsol_bdf::<P>,
+        "diffsol-sparse" => diffsol_bdf_sparse::<P>,
+        _ => panic!("solver: ours, diffsol or diffsol-sparse"),
+    };
+    let (y, stats) = solve(p, rtol).expect("the solve failed");
+    for _ in 1..runs {
+        std::hint::black_box(solve(p, rtol));
+    }
+    let err = mixed_error(&y, &p.reference(), &p.floor());
+    println!("{},{solver},{rtol:e},{err:.3e},{stats:?},{y:?}", p.name());
+}
+
+fn prof_main(args: &[String]) {
+    let name = args.first().map_or("", String::as_str);
+    let rtol: f64 = args.get(1).and_then(|a| a.parse().ok()).expect("RTOL");
+    let solver = args.get(2).map_or("ours", String::as_str);
+    let runs = args.get(3).and_then(|a| a.parse().ok()).unwrap_or(1);
+    match name {
+        "robertson-40" => prof(&Robertson { t_end: 40.0 }, rtol, solver, runs),
+        "robertson-1e5" => prof(&Robertson { t_end: 1e5 }, rtol, solver, runs),
+        "vanderpol-1000" => prof(&VanDerPol, rtol, solver, runs),
+        "hires" => prof(&Hires, rtol, solver, runs),
+        "orego" => prof(&Orego, rtol, solver, runs),
+        "e5" => prof(&E5, rtol, solver, runs),
+        "spring-chain-50" => prof(&SpringChain::new(false), rtol, solver, runs),
+        "spring-chain-50-sparse" => prof(&SpringChain::new(true), rtol, solver, runs),
+        _ => panic!("unknown problem {name}"),
+    }
+}
+
 fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().map(String::as_str) == Some("prof") {
+        prof_main(&args[1..]);
+        return;
+    }
     let repeats = std::env::args()
         .nth(1)
         .and_then(|a| a.parse().ok())

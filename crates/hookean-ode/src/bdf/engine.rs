@@ -144,7 +144,7 @@ impl<S: Corrector> Bdf<S> {
 
     /// The current state.
     pub fn state(&self) -> &[f64] {
-        &self.hist.d[0]
+        self.hist.d(0)
     }
 
     /// The options.
@@ -199,7 +199,7 @@ impl<S: Corrector> Bdf<S> {
                 t,
             });
         }
-        self.hist.d[0].copy_from_slice(y);
+        self.hist.d_mut(0).copy_from_slice(y);
         self.t = t;
         self.restart_here();
         Ok(())
@@ -232,7 +232,7 @@ impl<S: Corrector> Bdf<S> {
         if x.iter().chain(v).any(|a| !a.is_finite()) {
             return Err(OdeError::NonFinite { what: "state", t });
         }
-        let (dx, dv) = self.hist.d[0].split_at_mut(n);
+        let (dx, dv) = self.hist.d_mut(0).split_at_mut(n);
         dx.copy_from_slice(x);
         dv.copy_from_slice(v);
         self.t = t;
@@ -244,7 +244,7 @@ impl<S: Corrector> Bdf<S> {
     /// history restarts there (the next step checks the state is finite).
     pub fn modify_state_parts<R>(&mut self, f: impl FnOnce(&mut [f64], &mut [f64]) -> R) -> R {
         let n = self.n / 2;
-        let (x, v) = self.hist.d[0].split_at_mut(n);
+        let (x, v) = self.hist.d_mut(0).split_at_mut(n);
         let r = f(x, v);
         self.restart_here();
         r
@@ -268,7 +268,7 @@ impl<S: Corrector> Bdf<S> {
     pub fn interpolate(&self, t: f64, out: &mut [f64]) -> Result<(), OdeError> {
         check_dense_output(t, self.t_prev, self.t, out.len(), self.n)?;
         if !self.started {
-            out.copy_from_slice(&self.hist.d[0]);
+            out.copy_from_slice(self.hist.d(0));
             return Ok(());
         }
         self.hist.interpolate(t, self.t, out);
@@ -349,9 +349,9 @@ impl<S: Corrector> Bdf<S> {
         if !self.sys.is_second_order() {
             return Ok(());
         }
-        self.scratch.copy_from_slice(&self.hist.d[0]);
+        self.scratch.copy_from_slice(self.hist.d(0));
         self.sys.begin_step(self.t, &mut self.scratch);
-        if self.scratch != self.hist.d[0] {
+        if self.scratch != self.hist.d(0) {
             let y = std::mem::take(&mut self.scratch);
             let result = self.restart(self.t, &y);
             self.scratch = y;
@@ -368,7 +368,7 @@ impl<S: Corrector> Bdf<S> {
         if !self.sys.is_second_order() {
             return Ok(());
         }
-        self.end_state.copy_from_slice(&self.hist.d[0]);
+        self.end_state.copy_from_slice(self.hist.d(0));
         let h = self.t - t_start;
         if self
             .sys
@@ -424,7 +424,7 @@ mod tests {
         // Backward differences of the exact values y(t0 - i h), i = 0..=k.
         let mut diff: Vec<f64> = (0..=k).map(|i| (t0 - i as f64 * h).sin()).collect();
         for j in 0..=k {
-            s.hist.d[j][0] = diff[0];
+            s.hist.d_mut(j)[0] = diff[0];
             for i in 0..k - j {
                 diff[i] -= diff[i + 1];
             }

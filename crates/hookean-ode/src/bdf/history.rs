@@ -63,10 +63,14 @@ fn interpolation_matrix(k: usize, rho: f64) -> [[f64; MAX_ORDER + 1]; MAX_ORDER 
 
 /// The differences `D_0..D_{MAX_ORDER + 2}` (`D_{k+1}`, `D_{k+2}` hold the
 /// last correction and its change, for the error estimates of the
-/// neighbouring orders), the grid spacing and the order.
+/// neighbouring orders), the grid spacing and the order. The differences
+/// are stored one after the other in one buffer (`D_j` at `j n..(j + 1) n`):
+/// the loops over them are short (a few unknowns, orders up to 5), and
+/// their set-up is most of their cost.
 #[derive(Debug, Clone)]
 pub(crate) struct History {
-    pub d: Vec<Vec<f64>>,
+    d: Vec<f64>,
+    n: usize,
     /// The spacing of the grid (the next step's size).
     pub h: f64,
     pub order: usize,
@@ -81,10 +85,11 @@ impl History {
     /// A history of the state `y0` (order 1, no grid yet).
     pub fn new(y0: &[f64]) -> Self {
         let n = y0.len();
-        let mut d = vec![vec![0.0; n]; MAX_ORDER + 3];
-        d[0].copy_from_slice(y0);
+        let mut d = vec![0.0; (MAX_ORDER + 3) * n];
+        d[..n].copy_from_slice(y0);
         Self {
             d,
+            n,
             h: f64::NAN,
             order: 1,
             n_equal_steps: 0,
@@ -93,11 +98,23 @@ impl History {
         }
     }
 
+    /// `D_j`.
+    #[inline]
+    pub fn d(&self, j: usize) -> &[f64] {
+        &self.d[j * self.n..(j + 1) * self.n]
+    }
+
+    /// `D_j`, to write.
+    #[inline]
+    pub fn d_mut(&mut self, j: usize) -> &mut [f64] {
+        &mut self.d[j * self.n..(j + 1) * self.n]
+    }
+
     /// Starts the grid at `y = D_0` with spacing `h` and slope `f`:
     /// `D_1 = h f`, order 1.
     pub fn start(&mut self, h: f64, f: &[f64]) {
         self.h = h;
-        for (d1, fi) in self.d[1].iter_mut().zip(f) {
+        for (d1, fi) in self.d_mut(1).iter_mut().zip(f) {
             *d1 = h * fi;
         }
         self.order = 1;
@@ -110,11 +127,11 @@ impl History {
         let k = self.order;
         let r = interpolation_matrix(k, rho);
         let u = &self.u[k];
-        let n = self.d[0].len();
-        for j in 0..=k {
-            let out = &mut self.work[j * n..(j + 1) * n];
+        let n = self.n;
+        let (d, work) = (&self.d[..(k + 1) * n], &mut self.work[..(k + 1) * n]);
+        for (j, out) in work.chunks_exact_mut(n).enumerate() {
             out.fill(0.0);
-            for (i, d_i) in self.d[..=k].iter().enumerate() {
+            for (i, d_i) in d.chunks_exact(n).enumerate() {
                 // U is upper triangular (R(1)_mj = 0 for m > j): the terms
                 // m > j of (R U)_ij are exact zeros.
                 let ru: f64 = (0..=j).map(|m| r[i][m] * u[m][j]).sum();
@@ -125,9 +142,7 @@ impl History {
                 }
             }
         }
-        for j in 0..=k {
-            self.d[j].copy_from_slice(&self.work[j * n..(j + 1) * n]);
-        }
+        self.d[..(k + 1) * n].copy_from_slice(work);
         self.h *= rho;
         self.n_equal_steps = 0;
     }
@@ -135,35 +150,39 @@ impl History {
     /// The predictor `y^(0) = sum_{j=0..k} D_j` and the corrector's
     /// `psi = sum_{j=1..k} gamma_j D_j / alpha_k` of the order-`k` formula
     /// `(1 - kappa_k) gamma_k (y_{n+1} - y^(0)) + sum_{j=1..k} gamma_j nabla^j y_n = h f(t_{n+1}, y_{n+1})`.
+    #[allow(clippy::needless_range_loop)]
     pub fn predict(&self, coef: &Coefficients, y_pred: &mut [f64], psi: &mut [f64]) {
-        let k = self.order;
-        for i in 0..y_pred.len() {
-            let mut p = 0.0;
+        let (k, n) = (self.order, self.n);
+        let (d, y_pred, psi) = (&self.d[..(k + 1) * n], &mut y_pred[..n], &mut psi[..n]);
+        let alpha = coef.alpha[k];
+        for i in 0..n {
+            let mut p = 0.0 + d[i];
             let mut s = 0.0;
-            for j in 0..=k {
-                p += self.d[j][i];
-                if j > 0 {
-                    s += coef.gamma[j] * self.d[j][i];
-                }
+            for j in 1..=k {
+                let v = d[j * n + i];
+                p += v;
+                s += coef.gamma[j] * v;
             }
             y_pred[i] = p;
-            psi[i] = s / coef.alpha[k];
+            psi[i] = s / alpha;
         }
     }
 
     /// After an accepted step with the correction `dcor = y_{n+1} - y^(0)`:
     /// `D_{k+2} = dcor - D_{k+1}`, `D_{k+1} = dcor`, `D_j += D_{j+1}` for
     /// `j = k..0` (Shampine-Reichelt, eq. 2.4).
+    #[allow(clippy::needless_range_loop)]
     pub fn update(&mut self, dcor: &[f64]) {
-        let k = self.order;
-        for i in 0..dcor.len() {
-            self.d[k + 2][i] = dcor[i] - self.d[k + 1][i];
-            self.d[k + 1][i] = dcor[i];
-        }
-        for j in (0..=k).rev() {
-            let (lo, hi) = self.d.split_at_mut(j + 1);
-            for (a, b) in lo[j].iter_mut().zip(&hi[0]) {
-                *a += b;
+        let (k, n) = (self.order, self.n);
+        let (d, dcor) = (&mut self.d[..(k + 3) * n], &dcor[..n]);
+        for i in 0..n {
+            let e = dcor[i];
+            d[(k + 2) * n + i] = e - d[(k + 1) * n + i];
+            d[(k + 1) * n + i] = e;
+            let mut next = e;
+            for j in (0..=k).rev() {
+                next += d[j * n + i];
+                d[j * n + i] = next;
             }
         }
         self.n_equal_steps += 1;
@@ -173,7 +192,7 @@ impl History {
     /// at `t_n`:
     /// `p(t) = D_0 + sum_{j=1..k} D_j prod_{m=0..j-1} (t - t_n + m h) / ((m + 1) h)`.
     pub fn interpolate(&self, t: f64, t_n: f64, out: &mut [f64]) {
-        out.copy_from_slice(&self.d[0]);
+        out.copy_from_slice(self.d(0));
         if t == t_n {
             return;
         }
@@ -181,7 +200,7 @@ impl History {
         for j in 1..=self.order {
             let m = (j - 1) as f64;
             p *= (t - (t_n - m * self.h)) / ((m + 1.0) * self.h);
-            for (o, dj) in out.iter_mut().zip(&self.d[j]) {
+            for (o, dj) in out.iter_mut().zip(self.d(j)) {
                 *o += p * dj;
             }
         }
@@ -213,16 +232,16 @@ mod tests {
         let p = |t: f64| t.powi(3);
         let mut hist = History::new(&[0.0]);
         for (j, dj) in differences(p, 1.0, 3).into_iter().enumerate() {
-            hist.d[j][0] = dj;
+            hist.d_mut(j)[0] = dj;
         }
         hist.order = 3;
         hist.h = 1.0;
         hist.rescale(0.37);
         for (j, dj) in differences(p, 0.37, 3).into_iter().enumerate() {
             assert!(
-                (hist.d[j][0] - dj).abs() < 1e-12,
+                (hist.d(j)[0] - dj).abs() < 1e-12,
                 "D_{j}: {} vs {dj}",
-                hist.d[j][0]
+                hist.d(j)[0]
             );
         }
         assert!((hist.h - 0.37).abs() < 1e-15);

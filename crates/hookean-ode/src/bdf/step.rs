@@ -25,6 +25,17 @@ const MIN_FACTOR: f64 = 0.2;
 /// estimate, built from those updates, then accepts a wrong solution.
 const JACOBIAN_C_GROWTH: f64 = 100.0;
 
+/// The step-size factor `err^(-1/q)` of an order whose error estimate is
+/// `err`; `0` for an order out of reach (`err = inf`: `pow(inf, -1/q)` is
+/// exactly `+0`, without the call).
+fn step_factor(err: f64, q: f64) -> f64 {
+    if err == f64::INFINITY {
+        0.0
+    } else {
+        err.powf(-1.0 / q)
+    }
+}
+
 fn max_abs(v: &[f64]) -> f64 {
     v.iter().fold(0.0, |m, x| m.max(x.abs()))
 }
@@ -35,7 +46,7 @@ impl<S: Corrector> Bdf<S> {
     /// with `f'` a difference quotient along `f0`; the result `min(100 h0, h1)`.
     fn initial_step(&mut self, span: f64) -> f64 {
         let rtol = self.rtol;
-        let y0 = &self.hist.d[0];
+        let y0 = self.hist.d(0);
         for i in 0..self.n {
             self.w[i] = self.atol[i] + rtol * y0[i].abs();
         }
@@ -70,7 +81,7 @@ impl<S: Corrector> Bdf<S> {
     fn start(&mut self, t_bound: f64) -> Result<(), OdeError> {
         let span = t_bound - self.t;
         self.sys
-            .derivative(self.t, &self.hist.d[0], &mut self.f, &mut self.stats);
+            .derivative(self.t, self.hist.d(0), &mut self.f, &mut self.stats);
         if self.f.iter().any(|v| !v.is_finite()) {
             return Err(OdeError::NonFinite {
                 what: "right-hand side",
@@ -279,7 +290,7 @@ impl<S: Corrector> Bdf<S> {
                     // the step at most (CVODE's MXNEF1 and ETAMIN rules).
                     let h = self.hist.h * factor.min(0.1);
                     self.sys
-                        .derivative(t, &self.hist.d[0], &mut self.f, &mut self.stats);
+                        .derivative(t, self.hist.d(0), &mut self.f, &mut self.stats);
                     self.hist.start(h, &self.f);
                 }
                 continue;
@@ -302,13 +313,13 @@ impl<S: Corrector> Bdf<S> {
         self.jac_age += 1;
         self.jac_current = false;
         self.hist.update(&self.dcor);
-        if self.hist.d[0].iter().any(|v| !v.is_finite()) {
+        if self.hist.d(0).iter().any(|v| !v.is_finite()) {
             return Err(OdeError::NonFinite {
                 what: "state after the step",
                 t: t_new,
             });
         }
-        let norm = max_abs(&self.hist.d[0]);
+        let norm = max_abs(self.hist.d(0));
         if norm > self.bound {
             return Err(OdeError::StateGrowth {
                 t: t_new,
@@ -319,21 +330,21 @@ impl<S: Corrector> Bdf<S> {
         if self.hist.n_equal_steps < k + 1 || self.frozen {
             return Ok(());
         }
-        let d = &self.hist.d;
+        let d = |j| self.hist.d(j);
         let err_m = if k > 1 {
-            self.coef.error_const[k - 1] * rms(&d[k], &self.w)
+            self.coef.error_const[k - 1] * rms(d(k), &self.w)
         } else {
             f64::INFINITY
         };
         let err_p = if k < self.max_order() {
-            self.coef.error_const[k + 1] * rms(&d[k + 2], &self.w)
+            self.coef.error_const[k + 1] * rms(d(k + 2), &self.w)
         } else {
             f64::INFINITY
         };
         let factors = [
-            err_m.powf(-1.0 / k as f64),
-            error_norm.powf(-1.0 / (k as f64 + 1.0)),
-            err_p.powf(-1.0 / (k as f64 + 2.0)),
+            step_factor(err_m, k as f64),
+            step_factor(error_norm, k as f64 + 1.0),
+            step_factor(err_p, k as f64 + 2.0),
         ];
         let mut best = 1;
         for (i, f) in factors.iter().enumerate() {
@@ -350,5 +361,22 @@ impl<S: Corrector> Bdf<S> {
             self.hist.rescale(factor);
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::step_factor;
+
+    #[test]
+    fn the_factor_of_an_order_out_of_reach_is_the_pow_of_infinity() {
+        for q in 1..=7 {
+            let q = q as f64;
+            assert_eq!(
+                step_factor(f64::INFINITY, q).to_bits(),
+                f64::INFINITY.powf(-1.0 / q).to_bits()
+            );
+            assert_eq!(step_factor(0.25, q), 0.25f64.powf(-1.0 / q));
+        }
     }
 }
