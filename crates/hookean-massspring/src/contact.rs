@@ -407,4 +407,3 @@ impl MassSpringModel {
         self.contact.stats
     }
 }
-

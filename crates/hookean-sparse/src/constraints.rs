@@ -303,8 +303,8 @@ mod tests {
     /// definition), and the complement decoupled and positive definite.
     #[test]
     fn the_filtered_matrix_acts_as_p_a_p_on_the_free_directions() {
-        let a = SymBlockMatrix::from_csr(&hookean_testkit::random::random_spd(12, 4, 1.2, 7))
-            .unwrap();
+        let a =
+            SymBlockMatrix::from_csr(&hookean_testkit::random::random_spd(12, 4, 1.2, 7)).unwrap();
         let mut c = Constraints::new(4);
         c.pin(1, [0.5, 0.0, 0.0]).unwrap();
         c.constrain(3, [1.0, 2.0, 2.0], 0.3).unwrap();
