@@ -11,7 +11,9 @@ tables = {"Scene": "", "ClothScene": "cloth", "RopeScene": "rope", "JellyScene":
           "TutorialScene": "tutorial", "ModelScene": "model", "IntegratorScene": "integrator",
           "SolverScene": "solver", "AmgScene": "solver.amg", "FilterScene": "filter",
           "OutputScene": "output", "MeshScene": "mesh", "ContactScene": "contact"}
-auto_amg = re.search(r"AUTO_AMG_PARTICLES: usize = ([0-9_]+);", src).group(1).replace("_", " ")
+# AUTO_AMG_PARTICLES is hookean-sparse's AUTO_AMG_BLOCKS (one particle, one block).
+any_rs = (root / "crates/hookean-sparse/src/precond/any.rs").read_text()
+auto_amg = re.search(r"AUTO_AMG_BLOCKS: usize = ([0-9_]+);", any_rs).group(1).replace("_", " ")
 lines = ["Scene keys (TOML; `hookean run SCENE --set key=value` overrides one).",
          "A scene has exactly one model table: [cloth], [rope], [jelly], [mesh], [particle] or [tutorial].",
          "[[collider]] tables: kind = \"plane\" (point, normal, margin), \"sphere\" (center, radius, margin)",

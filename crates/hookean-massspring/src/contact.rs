@@ -286,7 +286,7 @@ impl MassSpringModel {
     fn add_to_diagonal_projected(&self, m: &mut SymBlockMatrix, p: usize, j: &Block3) {
         let j = if self.active_set.constrained[p] {
             let pr = &self.active_set.proj[p];
-            mat_mul(&mat_mul(pr, j), pr)
+            block::mul(&block::mul(pr, j), pr)
         } else {
             *j
         };
@@ -406,16 +406,4 @@ impl MassSpringModel {
     pub fn contact_stats(&self) -> ContactStats {
         self.contact.stats
     }
-}
-
-fn mat_mul(a: &Block3, b: &Block3) -> Block3 {
-    let mut c = [[0.0; 3]; 3];
-    for r in 0..3 {
-        for k in 0..3 {
-            for q in 0..3 {
-                c[r][q] += a[r][k] * b[k][q];
-            }
-        }
-    }
-    c
 }

@@ -321,23 +321,25 @@ impl SelfContact {
         self.reference.extend_from_slice(x);
     }
 
-    /// The largest distance of a particle of `x` from its reference position
-    /// (infinite before the first build).
+    /// How far the particles of `x` have moved from their reference positions
+    /// beyond a common translation ([`relative_move`]; infinite before the
+    /// first build).
     fn drift(&self, x: &[f64]) -> f64 {
         if self.reference.len() != x.len() {
             return f64::INFINITY;
         }
-        max_move(&self.reference, x)
+        relative_move(&self.reference, x)
     }
 
     /// Finds the proximity pairs of the positions `x` (the step's start)
     /// among the candidates, rebuilt first when a particle has moved more
-    /// than `SKIN h_th / 2` since they were found (then no pair closer than
+    /// than `SKIN h_th / 2` beyond the cloth's common translation since they
+    /// were found (or a position is NaN) (then no pair closer than
     /// `h_th` can be missing: distance is 1-Lipschitz in each point). Returns
     /// their number.
     pub(crate) fn find_proximity(&mut self, x: &[f64]) -> usize {
         let th = self.opts.thickness;
-        if 2.0 * self.drift(x) >= SKIN * th {
+        if !(2.0 * self.drift(x) < SKIN * th) {
             self.build_candidates(x);
         }
         self.pairs.clear();
@@ -408,7 +410,8 @@ impl SelfContact {
     /// Continuous detection on the straight paths `x0 -> x1`: fills
     /// `impacts` (in a fixed order) and returns their number. Two features
     /// can only meet in the step if they start within `2 M + eta` of each
-    /// other (`M` the largest motion of a particle in the step); when every
+    /// other (`M` the largest motion of a particle in the step beyond the
+    /// cloth's common translation, [`relative_move`]); when every
     /// such pair is among the candidates (`2 M + eta + 2 D < R`, `D` the
     /// drift since they were found, rebuilding them once if needed), only the
     /// candidates are tested; otherwise (fast motion) the tree of the swept
@@ -417,7 +420,7 @@ impl SelfContact {
         let th = self.opts.thickness;
         let eta = ETA * th;
         let radius = (1.0 + SKIN) * th;
-        let reach = 2.0 * max_move(x0, x1) + eta;
+        let reach = 2.0 * relative_move(x0, x1) + eta;
         if reach + 2.0 * self.drift(x0) >= radius && reach < radius {
             self.build_candidates(x0);
         }
@@ -675,16 +678,36 @@ fn ccd(idx: [u32; 4], ee: bool, x0: &[f64], x1: &[f64], eta: f64) -> Option<Hit>
     hit.map(|h| to_hit(idx, &h))
 }
 
-/// The largest distance between a particle's positions in `a` and `b`.
-fn max_move(a: &[f64], b: &[f64]) -> f64 {
-    a.chunks_exact(3)
-        .zip(b.chunks_exact(3))
-        .map(|(p, q)| {
-            let d = [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
-            d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
-        })
-        .fold(0.0, f64::max)
-        .sqrt()
+/// The motion from `a` to `b` beyond a common translation: the largest
+/// distance of a particle's displacement `d_p = b_p - a_p` from the centre
+/// `c` of the displacements' bounding box. Features whose points all move by
+/// `c` keep their distances, and moving each point by at most `D` more
+/// changes a point-triangle or segment-segment distance by at most `2 D`
+/// (distance is 1-Lipschitz in each point), so the candidate list and the
+/// continuous pass's reach use this `D` instead of the largest absolute
+/// motion: a cloth falling or sliding as a whole keeps its list. NaN when
+/// a displacement is not finite.
+fn relative_move(a: &[f64], b: &[f64]) -> f64 {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for (p, q) in a.chunks_exact(3).zip(b.chunks_exact(3)) {
+        for r in 0..3 {
+            let d = q[r] - p[r];
+            lo[r] = lo[r].min(d);
+            hi[r] = hi[r].max(d);
+        }
+    }
+    let c: [f64; 3] = std::array::from_fn(|r| 0.5 * (lo[r] + hi[r]));
+    let mut worst = 0.0_f64;
+    for (p, q) in a.chunks_exact(3).zip(b.chunks_exact(3)) {
+        let e: [f64; 3] = std::array::from_fn(|r| q[r] - p[r] - c[r]);
+        let d2 = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
+        if d2.is_nan() {
+            return f64::NAN;
+        }
+        worst = worst.max(d2);
+    }
+    worst.sqrt()
 }
 
 fn find(parent: &mut [u32], mut p: u32) -> u32 {
@@ -726,4 +749,28 @@ fn to_hit(idx: [u32; 4], hit: &Impact) -> Hit {
 fn pt(x: &[f64], p: u32) -> V3 {
     let p = p as usize;
     V3::new(x[3 * p], x[3 * p + 1], x[3 * p + 2])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn relative_motion_ignores_a_common_translation() {
+        let a = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+        let t = [0.3, -2.0, 5.0];
+        let mut b = a;
+        for p in 0..3 {
+            for r in 0..3 {
+                b[3 * p + r] += t[r];
+            }
+        }
+        assert!(relative_move(&a, &b) < 1e-14);
+        // Particle 2 moves 0.3 further along x: the displacements span
+        // [t, t + 0.3 e_x], centre t + 0.15 e_x, so D = 0.15.
+        b[6] += 0.3;
+        approx::assert_abs_diff_eq!(relative_move(&a, &b), 0.15, epsilon = 1e-14);
+        b[4] = f64::NAN;
+        assert!(relative_move(&a, &b).is_nan());
+    }
 }

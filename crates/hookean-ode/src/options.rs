@@ -203,6 +203,18 @@ pub struct SolverOptions {
     /// are; only PCG begins closer to the answer. Ignored after a change of
     /// step size. Default `false`.
     pub warm_start: bool,
+    /// Runs each Newton step's PCG of a constrained second-order stage on
+    /// the filtered matrix `P A P + (I - P) s (I - P)`
+    /// ([`Constraints::filter_matrix`](hookean_sparse::Constraints::filter_matrix)),
+    /// from which the preconditioner is then set up: the constrained
+    /// particles (contacts, pins) become the Dirichlet boundary they are for
+    /// the step, instead of couplings the filtered solve never uses. Same
+    /// corrections in exact arithmetic; on the contact scenes MIC(0) needs a
+    /// third of the PCG iterations (docs/PERFORMANCE.md, "Contact (issue
+    /// 26)"). Only with Jacobians evaluated at every Newton iteration
+    /// (exact and inexact Newton): a kept Jacobian would carry the
+    /// constraints of the step it was built in. Default `false`.
+    pub filter_matrix: bool,
     /// A run of an implicit method fails with [`OdeError::StateGrowth`] once `max_i |y_i|` of the
     /// state exceeds `max_growth * max(1, max_i |y0_i|)` (`y0` the state at
     /// construction or at the last `set_state`; not `set_state_parts`): a blown-up run is an error,
@@ -231,6 +243,7 @@ impl Default for SolverOptions {
             linear: PcgOptions::default(),
             predictor: Predictor::Previous,
             warm_start: false,
+            filter_matrix: false,
             max_growth: DEFAULT_MAX_GROWTH,
             bdf: BdfConfig::default(),
             __non_exhaustive: (),

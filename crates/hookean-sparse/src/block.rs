@@ -66,6 +66,20 @@ pub fn add(a: &Block3, b: &Block3) -> Block3 {
     out
 }
 
+/// The product `a b`.
+#[inline]
+pub fn mul(a: &Block3, b: &Block3) -> Block3 {
+    let mut c = [[0.0; 3]; 3];
+    for r in 0..3 {
+        for k in 0..3 {
+            for q in 0..3 {
+                c[r][q] += a[r][k] * b[k][q];
+            }
+        }
+    }
+    c
+}
+
 /// The outer product `u v^T`.
 #[inline]
 pub fn outer(u: &[f64; 3], v: &[f64; 3]) -> Block3 {

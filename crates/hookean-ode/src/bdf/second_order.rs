@@ -155,6 +155,7 @@ impl<P: SecondOrderProblem> Corrector for SecondSys<P> {
             dfdv: &mut data.dfdv,
             source: JacobianSource::Kept,
             constraints: &self.constraints,
+            filter_matrix: false,
         };
         let result = data.newton.solve(&mut stage, &mut data.v);
         account(

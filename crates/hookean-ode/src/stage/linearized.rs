@@ -168,6 +168,7 @@ impl<P: SecondOrderProblem> SecondSys<P> {
                 dfdv: &mut self.dfdv,
                 source: JacobianSource::Evaluate,
                 constraints: &self.constraints,
+                filter_matrix: false,
             },
             k: &lin.k,
             d: &lin.d,

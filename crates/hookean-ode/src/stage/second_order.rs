@@ -33,6 +33,9 @@ pub(crate) struct ReducedStage<'a, P> {
     pub dfdv: &'a mut SymBlockMatrix,
     pub source: JacobianSource,
     pub constraints: &'a Constraints,
+    /// Filter every evaluated Newton matrix by the constraints
+    /// ([`SolverOptions::filter_matrix`]).
+    pub filter_matrix: bool,
 }
 
 impl<P: SecondOrderProblem> ReducedStage<'_, P> {
@@ -87,6 +90,9 @@ impl<P: SecondOrderProblem> NonlinearSystem for ReducedStage<'_, P> {
         let gh = self.gh;
         self.problem
             .step_matrix(self.tau, self.x, v, -gh * gh, -gh, self.dfdx, self.dfdv, a)?;
+        if self.filter_matrix {
+            self.constraints.filter_matrix(a);
+        }
         Ok(())
     }
 
@@ -371,6 +377,11 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
             dfdv: &mut self.dfdv,
             source: JacobianSource::Evaluate,
             constraints: &self.constraints,
+            filter_matrix: opts.filter_matrix
+                && matches!(
+                    opts.newton.method,
+                    NewtonMethod::Exact | NewtonMethod::Inexact(_)
+                ),
         };
         let result = self.newton.solve(&mut stage, kv);
         self.newton.linear_solver_mut().disarm_guess();

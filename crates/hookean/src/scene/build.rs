@@ -65,6 +65,13 @@ impl Scene {
         };
         solver.linear.max_iter = Some(s.max_cg);
         solver.warm_start = s.warm_start;
+        solver.filter_matrix = s.filter_matrix.unwrap_or_else(|| {
+            self.contact.self_collision
+                || self
+                    .colliders
+                    .iter()
+                    .any(|c| matches!(c, ColliderScene::Mesh { .. }))
+        });
         solver.linear.preconditioner = self.preconditioner();
         solver.linear.amg = s.amg.as_ref().map(AmgScene::options).unwrap_or_default();
         // The exact stiffness Jacobian may be indefinite where springs are

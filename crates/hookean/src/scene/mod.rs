@@ -318,6 +318,24 @@ mod tests {
     }
 
     #[test]
+    fn the_filtered_newton_matrix_is_on_for_self_collision_and_off_for_a_sphere() {
+        let opts = |toml: &str| {
+            Scene::from_toml_str("s.toml", toml)
+                .unwrap()
+                .simulation_options()
+                .solver
+                .filter_matrix
+        };
+        let sphere = "[cloth]\nn = 6\n[[collider]]\nkind = \"sphere\"\ncenter = [0.0, 0.0, -1.0]\nradius = 0.5\n";
+        assert!(!opts(sphere));
+        assert!(opts("[cloth]\nn = 6\n[contact]\nself_collision = true\n"));
+        assert!(!opts(
+            "[cloth]\nn = 6\n[contact]\nself_collision = true\n[solver]\nfilter_matrix = false\n"
+        ));
+        assert!(opts(&format!("{sphere}[solver]\nfilter_matrix = true\n")));
+    }
+
+    #[test]
     fn step_auto_and_filter_coupling_are_scene_keys() {
         let s = Scene::from_toml_str(
             "s.toml",

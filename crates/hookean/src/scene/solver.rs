@@ -202,6 +202,14 @@ pub struct SolverScene {
     /// change. Default true.
     #[serde(default = "yes")]
     pub warm_start: bool,
+    /// Run PCG on, and set the preconditioner up from, the Newton matrix
+    /// filtered by the step's constraints (contacts, pins): the constrained
+    /// particles become a Dirichlet boundary for the preconditioner (exact
+    /// and inexact Newton only). Default (`None` here): true for scenes with
+    /// a mesh collider or self-collision, where MIC(0) then needs a third of
+    /// the PCG iterations (docs/PERFORMANCE.md), false otherwise.
+    #[serde(default)]
+    pub filter_matrix: Option<bool>,
     /// `[solver.amg]`: the multigrid's options (only with
     /// `preconditioner = "amg"`).
     pub amg: Option<AmgScene>,
@@ -391,6 +399,7 @@ impl Default for SolverScene {
             omega: 1.0,
             mic_omega: d_mic_omega(),
             warm_start: true,
+            filter_matrix: None,
             amg: None,
         }
     }
