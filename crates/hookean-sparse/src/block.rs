@@ -66,15 +66,14 @@ pub fn add(a: &Block3, b: &Block3) -> Block3 {
     out
 }
 
-/// The product `a b`.
-#[inline]
+/// The product `a b` (each entry summed left to right over `k`; inlined
+/// into the assembly sweeps, which form `P_i B P_j` per spring).
+#[inline(always)]
 pub fn mul(a: &Block3, b: &Block3) -> Block3 {
     let mut c = [[0.0; 3]; 3];
-    for r in 0..3 {
-        for k in 0..3 {
-            for q in 0..3 {
-                c[r][q] += a[r][k] * b[k][q];
-            }
+    for (r, row) in c.iter_mut().enumerate() {
+        for (q, v) in row.iter_mut().enumerate() {
+            *v = a[r][0] * b[0][q] + a[r][1] * b[1][q] + a[r][2] * b[2][q];
         }
     }
     c
@@ -155,5 +154,25 @@ mod tests {
         let m = [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0], [7.0, 8.0, 10.0]];
         let x = [0.3, -1.0, 2.0];
         assert_eq!(mul_transpose_vec(&m, &x), mul_vec(&transpose(&m), &x));
+    }
+
+    /// `(a b) x = a (b x)` for every unit vector, and `a a^-1 = I`.
+    #[test]
+    fn product_acts_as_the_composition_of_the_maps() {
+        let a = [[4.0, 1.0, -2.0], [0.5, 3.0, 1.0], [-1.0, 2.0, 5.0]];
+        let b = [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0], [7.0, 8.0, 10.0]];
+        let ab = mul(&a, &b);
+        for k in 0..3 {
+            let mut e = [0.0; 3];
+            e[k] = 1.0;
+            assert_eq!(mul_vec(&ab, &e), mul_vec(&a, &mul_vec(&b, &e)));
+        }
+        let id = mul(&a, &inverse(&a).unwrap());
+        for r in 0..3 {
+            for c in 0..3 {
+                let expected = if r == c { 1.0 } else { 0.0 };
+                assert!((id[r][c] - expected).abs() < 1e-14, "({r},{c})");
+            }
+        }
     }
 }

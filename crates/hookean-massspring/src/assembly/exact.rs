@@ -42,10 +42,10 @@ impl MassSpringModel {
                 b = block::add(&b, &damping_position_block(s.damping, l, &u, &dv));
             }
             let (pi, pj) = (&self.active_set.proj[i], &self.active_set.proj[j]);
-            put(i, j, &matmul(&matmul(pi, &b), pj));
-            put(j, i, &matmul(&matmul(pj, &b), pi));
-            put(i, i, &neg(&matmul(&matmul(pi, &b), pi)));
-            put(j, j, &neg(&matmul(&matmul(pj, &b), pj)));
+            put(i, j, &block::mul(&block::mul(pi, &b), pj));
+            put(j, i, &block::mul(&block::mul(pj, &b), pi));
+            put(i, i, &neg(&block::mul(&block::mul(pi, &b), pi)));
+            put(j, j, &neg(&block::mul(&block::mul(pj, &b), pj)));
         }
         Ok(tri.to_csr())
     }

@@ -89,9 +89,9 @@ impl MassSpringModel {
         if self.fixes[i].count > 0 || self.fixes[j].count > 0 {
             let pi = self.fixes[i].projector();
             let pj = self.fixes[j].projector();
-            m.add_to_slot(sl.ij, &matmul(&matmul(&pi, b), &pj));
-            m.add_to_slot(sl.ii, &neg(&matmul(&matmul(&pi, b), &pi)));
-            m.add_to_slot(sl.jj, &neg(&matmul(&matmul(&pj, b), &pj)));
+            m.add_to_slot(sl.ij, &block::mul(&block::mul(&pi, b), &pj));
+            m.add_to_slot(sl.ii, &neg(&block::mul(&block::mul(&pi, b), &pi)));
+            m.add_to_slot(sl.jj, &neg(&block::mul(&block::mul(&pj, b), &pj)));
         } else {
             let nb = neg(b);
             m.add_to_slot(sl.ij, b);

@@ -65,17 +65,6 @@ fn damping_position_block(d: f64, l: f64, u: &Vector3<f64>, dv: &Vector3<f64>) -
 }
 
 #[inline(always)]
-fn matmul(a: &Block3, b: &Block3) -> Block3 {
-    let mut m = [[0.0; 3]; 3];
-    for r in 0..3 {
-        for c in 0..3 {
-            m[r][c] = a[r][0] * b[0][c] + a[r][1] * b[1][c] + a[r][2] * b[2][c];
-        }
-    }
-    m
-}
-
-#[inline(always)]
 fn neg(a: &Block3) -> Block3 {
     block::scale(a, -1.0)
 }
@@ -114,12 +103,12 @@ fn scatter_sym(
     let (off, di, dj) = if constrained {
         let b = &unsym6(b6);
         let (pi, pj) = (&proj[i], &proj[j]);
-        let pb = matmul(pi, b);
-        let off = matmul(&pb, pj);
+        let pb = block::mul(pi, b);
+        let off = block::mul(&pb, pj);
         (
             off,
-            sym6(&matmul(&pb, pi)),
-            sym6(&matmul(&matmul(pj, b), pj)),
+            sym6(&block::mul(&pb, pi)),
+            sym6(&block::mul(&block::mul(pj, b), pj)),
         )
     } else {
         (unsym6(b6), *b6, *b6)
