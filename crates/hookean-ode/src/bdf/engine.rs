@@ -410,6 +410,29 @@ mod tests {
         }
     }
 
+    /// Sets the history of a scalar problem to the backward differences of
+    /// the exact values `y(t0 - i h)`, `i = 0..=k`, with order `k` and step
+    /// `h` kept fixed (no error test, no order or step change).
+    fn freeze_on_exact_history<S: Corrector>(
+        s: &mut Bdf<S>,
+        y: impl Fn(f64) -> f64,
+        t0: f64,
+        h: f64,
+        k: usize,
+    ) {
+        let mut diff: Vec<f64> = (0..=k).map(|i| y(t0 - i as f64 * h)).collect();
+        for j in 0..=k {
+            s.hist.d_mut(j)[0] = diff[0];
+            for i in 0..k - j {
+                diff[i] -= diff[i + 1];
+            }
+        }
+        s.hist.h = h;
+        s.hist.order = k;
+        s.started = true;
+        s.frozen = true;
+    }
+
     /// `N` steps of order `k` and step `h = 1/N` from `t0 = 1` with the
     /// exact history `D_j = nabla^j y(t0)`; returns the errors at `t0 + 1`
     /// and of the dense output at the middle of the last step.
@@ -421,18 +444,7 @@ mod tests {
         opts.bdf.max_newton_iterations = 20;
         let sys = FirstSys::new(Sine, &opts).unwrap();
         let mut s = Bdf::new(sys, t0, &[t0.sin()], opts).unwrap();
-        // Backward differences of the exact values y(t0 - i h), i = 0..=k.
-        let mut diff: Vec<f64> = (0..=k).map(|i| (t0 - i as f64 * h).sin()).collect();
-        for j in 0..=k {
-            s.hist.d_mut(j)[0] = diff[0];
-            for i in 0..k - j {
-                diff[i] -= diff[i + 1];
-            }
-        }
-        s.hist.h = h;
-        s.hist.order = k;
-        s.started = true;
-        s.frozen = true;
+        freeze_on_exact_history(&mut s, f64::sin, t0, h, k);
         let t_end = t0 + 1.0;
         while s.t() < t_end - 0.5 * h {
             s.step_to(t_end + 1.0).unwrap();
@@ -489,17 +501,7 @@ mod tests {
                 opts.bdf.max_order = k;
                 let sys = FirstSys::new(Monomial(k), &opts).unwrap();
                 let mut s = Bdf::new(sys, t0, &[y(t0)], opts).unwrap();
-                let mut diff: Vec<f64> = (0..=k).map(|i| y(t0 - i as f64 * h)).collect();
-                for j in 0..=k {
-                    s.hist.d_mut(j)[0] = diff[0];
-                    for i in 0..k - j {
-                        diff[i] -= diff[i + 1];
-                    }
-                }
-                s.hist.h = h;
-                s.hist.order = k;
-                s.started = true;
-                s.frozen = true;
+                freeze_on_exact_history(&mut s, y, t0, h, k);
                 s.step().unwrap();
                 let factorial: f64 = (1..=k + 1).map(|m| m as f64).product();
                 let expected = c_k * factorial * h.powi(k as i32 + 1) / ((1.0 - kappa) * gamma);
