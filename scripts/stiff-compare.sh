@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # The stiff-solver comparison of docs/PERFORMANCE.md ("Stiff test set"):
 #   1. hookean-ode's BdfSolver and diffsol's BDF side by side
-#      (benches/stiff-compare, a workspace of its own: diffsol stays out of CI),
+#      (benches/stiff-compare, a workspace of its own: diffsol stays out of CI):
+#      the time at the first rung of the rtol ladder that meets error 1e-4
+#      (rust.csv), and the time at 1e-4 fitted over the rungs of a finer ladder
+#      with errors from 1e-5 to 1e-3 (rust-fit.csv; see the bench's docs),
 #   2. SciPy's solve_ivp(method="BDF") in a venv this script creates
 #      (scripts/stiff_scipy.py, same problems, tolerances and error measure),
 #   3. our tolerance sweep (crates/hookean-ode/examples/stiff_set.rs).
@@ -21,6 +24,7 @@ echo "load average before: $(cat /proc/loadavg)" | tee "$OUT/load.txt"
 # 1. ours and diffsol.
 (cd benches/stiff-compare && CARGO_TARGET_DIR=../../target/stiff-compare cargo build --release --locked)
 target/stiff-compare/release/stiff-compare "$REPEATS" | tee "$OUT/rust.csv"
+target/stiff-compare/release/stiff-compare fit "$REPEATS" | tee "$OUT/rust-fit.csv"
 
 # 2. SciPy: the rtol ladder of the Rust side to where it reaches 1e-4, and the
 #    statistics at 1e-4, 1e-6, 1e-8.

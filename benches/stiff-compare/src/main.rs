@@ -8,6 +8,7 @@
 //! 1e-4 is interpolated on the work-precision curve (see `compare`).
 //!
 //! usage: stiff-compare [repeats]
+//!        stiff-compare fit [repeats]
 //!        stiff-compare prof PROBLEM RTOL SOLVER [RUNS]
 //! (the second form, for `valgrind --tool=callgrind`: RUNS solves of one
 //! problem, by name as in the CSV, with `ours`, `diffsol` or
@@ -15,6 +16,16 @@
 //! final state).
 //! CSV columns: problem,solver,rtol,error,steps,jac_evals,lu_setups,rhs_evals,newton_iters,wall_s,wall_s_at_1e-4
 //! (the statistics and `wall_s` of the first rung meeting the target; the last column interpolated).
+//!
+//! The error of either solver is not monotone in `rtol`: between neighbouring
+//! rungs it jumps by up to 20x (diffsol on Robertson-1e5: 1.3e-3 at rtol
+//! 1.78e-3, 6.8e-5 at 1e-3, 1.3e-4 at 5.6e-4), so the time at the first
+//! rung below the target depends on where the ladder's rungs fall. The
+//! `fit` form runs the ladder of quarter decades `10^(-2 - i/4)` down to an
+//! error of 1e-6 and fits `ln t = a + b ln err` by least squares to every
+//! rung with an error in `[1e-5, 1e-3]` (a decade either side of the
+//! target), for the time, the steps and the Newton iterations at 1e-4.
+//! CSV columns: problem,solver,rungs,wall_s_fit_1e-4,steps_fit,newton_fit,slope
 
 use std::cell::RefCell;
 use std::time::Instant;
@@ -23,10 +34,10 @@ use diffsol::{
     FaerSparseLU, FaerSparseMat, NalgebraLU, NalgebraMat, OdeBuilder, OdeSolverMethod,
     OdeSolverStopReason, Vector,
 };
-use hookean_ode::{BdfSolver, Integrator};
 use hookean_ode::testset::{
     E5, Hires, Orego, Robertson, SpringChain, TestProblem, VanDerPol, mixed_error, options,
 };
+use hookean_ode::{BdfSolver, Integrator};
 
 /// One run's result: the final state and (steps, jac_evals, lu_setups,
 /// rhs_evals, newton_iters).
@@ -146,6 +157,70 @@ fn diffsol_bdf_sparse<P: TestProblem + Clone + 'static>(p: &P, rtol: f64) -> Run
             st.number_of_nonlinear_solver_iterations,
         ],
     ))
+}
+
+/// The quarter-decade ladder of the `fit` form, `10^(-2 - i/4)` to 1e-9.
+fn fine_ladder() -> Vec<f64> {
+    (0..=28)
+        .map(|i| 10f64.powf(-2.0 - f64::from(i) / 4.0))
+        .collect()
+}
+
+/// The least-squares line through `(x_i, y_i)`: `(value at x, slope)`.
+fn fit_line(points: &[(f64, f64)], x: f64) -> (f64, f64) {
+    let n = points.len() as f64;
+    let mx = points.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = points.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxy: f64 = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let b = sxy / sxx;
+    (my + b * (x - mx), b)
+}
+
+/// The `fit` form for one problem (see the crate docs).
+fn fit_with<P: TestProblem + Clone + 'static>(
+    p: &P,
+    repeats: usize,
+    solvers: &[(&str, Solver<P>)],
+) {
+    const TARGET: f64 = 1e-4;
+    const WINDOW: (f64, f64) = (1e-5, 1e-3);
+    let (reference, floor) = (p.reference(), p.floor());
+    for &(name, solve) in solvers {
+        // (ln err, ln t, ln steps, ln newton) of the rungs in the window.
+        let mut rungs: Vec<[f64; 4]> = Vec::new();
+        for rtol in fine_ladder() {
+            let Some((y, stats)) = solve(p, rtol) else {
+                continue;
+            };
+            let err = mixed_error(&y, &reference, &floor);
+            if (WINDOW.0..=WINDOW.1).contains(&err) {
+                let t = time(solve, p, rtol, repeats);
+                let (steps, newton) = (stats[0] as f64, stats[4] as f64);
+                rungs.push([err.ln(), t.ln(), steps.ln(), newton.ln()]);
+            }
+            if err < 1e-6 {
+                break;
+            }
+        }
+        if rungs.len() < 2 {
+            println!("{},{name},{},,,,", p.name(), rungs.len());
+            continue;
+        }
+        let at = |k: usize| {
+            let pts: Vec<(f64, f64)> = rungs.iter().map(|r| (r[0], r[k])).collect();
+            fit_line(&pts, TARGET.ln())
+        };
+        let (t, slope) = at(1);
+        println!(
+            "{},{name},{},{:.6e},{:.0},{:.0},{slope:.3}",
+            p.name(),
+            rungs.len(),
+            t.exp(),
+            at(2).0.exp(),
+            at(3).0.exp(),
+        );
+    }
 }
 
 fn ladder() -> Vec<f64> {
@@ -281,10 +356,45 @@ fn prof_main(args: &[String]) {
     }
 }
 
+/// The `fit` form on the problems of the comparison (the chain with dense
+/// and with sparse LU, as in `main`).
+fn fit_main(repeats: usize) {
+    println!("problem,solver,rungs,wall_s_fit_1e-4,steps_fit,newton_fit,slope");
+    macro_rules! both {
+        ($p:expr) => {{
+            let p = $p;
+            fit_with(
+                &p,
+                repeats,
+                &[("hookean-ode", ours), ("diffsol", diffsol_bdf)],
+            );
+        }};
+    }
+    both!(Robertson { t_end: 40.0 });
+    both!(Robertson { t_end: 1e5 });
+    both!(VanDerPol);
+    both!(Hires);
+    both!(Orego);
+    both!(E5);
+    both!(SpringChain::new(false));
+    fit_with(
+        &SpringChain::new(true),
+        repeats,
+        &[
+            ("hookean-ode sparse LU", ours),
+            ("diffsol faer sparse LU", diffsol_bdf_sparse),
+        ],
+    );
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if args.first().map(String::as_str) == Some("prof") {
         prof_main(&args[1..]);
+        return;
+    }
+    if args.first().map(String::as_str) == Some("fit") {
+        fit_main(args.get(1).and_then(|a| a.parse().ok()).unwrap_or(11));
         return;
     }
     let repeats = std::env::args()

@@ -410,6 +410,29 @@ mod tests {
         }
     }
 
+    /// Sets the history of a scalar problem to the backward differences of
+    /// the exact values `y(t0 - i h)`, `i = 0..=k`, with order `k` and step
+    /// `h` kept fixed (no error test, no order or step change).
+    fn freeze_on_exact_history<S: Corrector>(
+        s: &mut Bdf<S>,
+        y: impl Fn(f64) -> f64,
+        t0: f64,
+        h: f64,
+        k: usize,
+    ) {
+        let mut diff: Vec<f64> = (0..=k).map(|i| y(t0 - i as f64 * h)).collect();
+        for j in 0..=k {
+            s.hist.d_mut(j)[0] = diff[0];
+            for i in 0..k - j {
+                diff[i] -= diff[i + 1];
+            }
+        }
+        s.hist.h = h;
+        s.hist.order = k;
+        s.started = true;
+        s.frozen = true;
+    }
+
     /// `N` steps of order `k` and step `h = 1/N` from `t0 = 1` with the
     /// exact history `D_j = nabla^j y(t0)`; returns the errors at `t0 + 1`
     /// and of the dense output at the middle of the last step.
@@ -421,18 +444,7 @@ mod tests {
         opts.bdf.max_newton_iterations = 20;
         let sys = FirstSys::new(Sine, &opts).unwrap();
         let mut s = Bdf::new(sys, t0, &[t0.sin()], opts).unwrap();
-        // Backward differences of the exact values y(t0 - i h), i = 0..=k.
-        let mut diff: Vec<f64> = (0..=k).map(|i| (t0 - i as f64 * h).sin()).collect();
-        for j in 0..=k {
-            s.hist.d_mut(j)[0] = diff[0];
-            for i in 0..k - j {
-                diff[i] -= diff[i + 1];
-            }
-        }
-        s.hist.h = h;
-        s.hist.order = k;
-        s.started = true;
-        s.frozen = true;
+        freeze_on_exact_history(&mut s, f64::sin, t0, h, k);
         let t_end = t0 + 1.0;
         while s.t() < t_end - 0.5 * h {
             s.step_to(t_end + 1.0).unwrap();
@@ -446,6 +458,60 @@ mod tests {
             (s.state()[0] - t_end.sin()).abs(),
             (mid[0] - tm.sin()).abs(),
         )
+    }
+
+    /// `y' = (k + 1) t^k`, exact solution `y = t^(k+1)`: the lowest degree
+    /// on which the order-`k` formula errs.
+    struct Monomial(usize);
+    impl FirstOrderProblem for Monomial {
+        fn dim(&self) -> usize {
+            1
+        }
+        fn rhs(&self, t: f64, _y: &[f64], dy: &mut [f64]) {
+            dy[0] = (self.0 + 1) as f64 * t.powi(self.0 as i32);
+        }
+        fn jacobian(&self, _t: f64, _y: &[f64], j: &mut [f64]) -> bool {
+            j[0] = 0.0;
+            true
+        }
+    }
+
+    #[test]
+    fn one_step_errs_by_the_error_constant_of_shampine_reichelt() {
+        // The NDF `sum_{m=1..k} nabla^m y_{n+1} / m - kappa_k gamma_k nabla^{k+1} y_{n+1} = h f_{n+1}`
+        // (Shampine-Reichelt, eq. 2.2, kappa of their table 1; BDF: kappa = 0).
+        // The exact solution satisfies `sum_{m>=1} nabla^m y / m = h y'`, so on
+        // `y = t^(k+1)` (`nabla^{k+2} y = 0`, `nabla^{k+1} y = (k+1)! h^(k+1)`) its
+        // residual is `-C_k (k+1)! h^(k+1)` with `C_k = kappa_k gamma_k + 1/(k+1)`,
+        // and one step from the exact history errs by
+        // `y_{n+1} - y(t_{n+1}) = C_k (k+1)! h^(k+1) / ((1 - kappa_k) gamma_k)`.
+        let paper_kappa = [-0.1850, -1.0 / 9.0, -0.0823, -0.0415, 0.0];
+        for formula in [Formula::Ndf, Formula::Bdf] {
+            for k in 1..=MAX_ORDER {
+                let kappa = match formula {
+                    Formula::Ndf => paper_kappa[k - 1],
+                    Formula::Bdf => 0.0,
+                };
+                let gamma: f64 = (1..=k).map(|m| 1.0 / m as f64).sum();
+                let c_k = kappa * gamma + 1.0 / (k + 1) as f64;
+                let (t0, h) = (1.0f64, 0.1);
+                let y = |t: f64| t.powi(k as i32 + 1);
+                let mut opts = SolverOptions::with_tolerances(1e-12, 1e-12);
+                opts.bdf.formula = formula;
+                opts.bdf.max_order = k;
+                let sys = FirstSys::new(Monomial(k), &opts).unwrap();
+                let mut s = Bdf::new(sys, t0, &[y(t0)], opts).unwrap();
+                freeze_on_exact_history(&mut s, y, t0, h, k);
+                s.step().unwrap();
+                let factorial: f64 = (1..=k + 1).map(|m| m as f64).product();
+                let expected = c_k * factorial * h.powi(k as i32 + 1) / ((1.0 - kappa) * gamma);
+                let error = s.state()[0] - y(t0 + h);
+                assert!(
+                    (error - expected).abs() <= 1e-9 * expected.abs(),
+                    "{formula:?} order {k}: error {error:e}, expected {expected:e}"
+                );
+            }
+        }
     }
 
     #[test]
