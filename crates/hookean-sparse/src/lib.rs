@@ -95,6 +95,7 @@ struct ReadmeExample;
 pub mod block;
 mod cg;
 mod constraints;
+mod csc;
 #[cfg(feature = "faer")]
 mod direct;
 mod error;
@@ -121,6 +122,7 @@ pub use cg::{
     filtered_pcg, pcg,
 };
 pub use constraints::Constraints;
+pub use csc::CscCopy;
 #[cfg(feature = "faer")]
 pub use direct::DirectCholesky;
 pub use error::SparseError;
