@@ -275,6 +275,19 @@ mod tests {
         assert_eq!(program.tutorial.map(|t| t.example), Some(2));
         assert_eq!(scene.particle_count(), (Some(1), "tutorial"));
         assert!(scene.build().is_err());
+        // An unknown key lists the program's keys of its table too.
+        let m = parse("[cloth]\n[output]\nwidht = 3\n", &[]).unwrap_err();
+        assert_eq!(
+            m,
+            "s.toml:3:1: unknown field `widht`, expected one of `frame_rate`, `width`, `height`"
+        );
+        let m = parse("[cloth]\n", &["output.widht=3"]).unwrap_err();
+        assert!(
+            m.ends_with("expected one of `frame_rate`, `width`, `height`"),
+            "{m}"
+        );
+        let m = parse("duraton = 1.0\n[cloth]\n", &[]).unwrap_err();
+        assert!(m.ends_with("`output`, `tutorial`, `threads`"), "{m}");
         // Without the program, its keys are unknown to the facade.
         let m = Scene::from_toml_str("s.toml", "[cloth]\n[output]\nwidth = 40\n")
             .unwrap_err()

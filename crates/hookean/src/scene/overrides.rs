@@ -87,6 +87,7 @@ pub(super) fn scene_error(file: &str, text: &str, e: &toml::de::Error) -> Hookea
 /// an override's.
 trait Node: Sized {
     type Key: Ord + std::hash::Hash + Borrow<str> + Clone;
+    fn table(&self) -> Option<&toml::map::Map<Self::Key, Self>>;
     fn table_mut(&mut self) -> Option<&mut toml::map::Map<Self::Key, Self>>;
     /// An empty table where `self` is (its span, for the document's).
     fn empty_table_at(&self) -> Self;
@@ -94,6 +95,9 @@ trait Node: Sized {
 
 impl Node for toml::Value {
     type Key = String;
+    fn table(&self) -> Option<&toml::Table> {
+        self.as_table()
+    }
     fn table_mut(&mut self) -> Option<&mut toml::Table> {
         self.as_table_mut()
     }
@@ -104,6 +108,9 @@ impl Node for toml::Value {
 
 impl<'i> Node for Spanned<DeValue<'i>> {
     type Key = Spanned<toml::de::DeString<'i>>;
+    fn table(&self) -> Option<&DeTable<'i>> {
+        self.get_ref().as_table()
+    }
     fn table_mut(&mut self) -> Option<&mut DeTable<'i>> {
         match self.get_mut() {
             DeValue::Table(t) => Some(t),
@@ -145,6 +152,48 @@ fn split_off<V: Node>(
         }
     }
     program
+}
+
+/// serde's message for an unknown key of the facade's part of `root`,
+/// with the program's `keys` of the same table among the expected ones, as
+/// if one struct read the table (the program's are listed last).
+/// `None` for any other error.
+fn expecting_program_keys<V: Node>(
+    e: &toml::de::Error,
+    root: &toml::map::Map<V::Key, V>,
+    keys: &[&str],
+) -> Option<String> {
+    let (field, expected) = e
+        .message()
+        .trim()
+        .strip_prefix("unknown field `")?
+        .split_once("`, expected ")?;
+    // The table that holds the key: the top level, or one of its tables.
+    let table = if root.contains_key(field) {
+        ""
+    } else {
+        root.iter()
+            .find(|(_, v)| v.table().is_some_and(|t| t.contains_key(field)))
+            .map(|(k, _)| k.borrow())?
+    };
+    let program = keys.iter().filter_map(|k| match k.split_once('.') {
+        Some((t, leaf)) if t == table => Some(leaf),
+        None if table.is_empty() => Some(*k),
+        _ => None,
+    });
+    let mut names: Vec<&str> = expected.split('`').skip(1).step_by(2).collect();
+    let facade = names.len();
+    names.extend(program);
+    if names.len() == facade {
+        return None;
+    }
+    // serde's wording (`serde::de::Error::unknown_field`).
+    let quoted: Vec<String> = names.iter().map(|n| format!("`{n}`")).collect();
+    let list = match quoted.as_slice() {
+        [a, b] => format!("{a} or {b}"),
+        _ => format!("one of {}", quoted.join(", ")),
+    };
+    Some(format!("unknown field `{field}`, expected {list}"))
 }
 
 impl Scene {
@@ -244,7 +293,15 @@ impl Scene {
         let program_table = split_off(&mut table, P::KEYS);
         let models = model_tables::<P, _>(&program_table);
         let document = |t| toml::de::Deserializer::from(Spanned::new(span.clone(), t));
-        let mut scene = Scene::deserialize(document(table)).map_err(in_file)?;
+        let mut scene = Scene::deserialize(document(table.clone())).map_err(|e| {
+            let mut error = scene_error(file, text, &e);
+            if let (HookeanError::Scene { message, .. }, Some(m)) =
+                (&mut error, expecting_program_keys(&e, &table, P::KEYS))
+            {
+                *message = m;
+            }
+            error
+        })?;
         let mut program = P::deserialize(document(program_table)).map_err(in_file)?;
         scene.program_model = models.first().copied();
         if overrides.is_empty() {
@@ -272,7 +329,12 @@ impl Scene {
             let program_table = split_off(&mut facade, P::KEYS);
             models = model_tables::<P, _>(&program_table);
             let message = |e: toml::de::Error| blame(e.message().trim().to_string());
-            scene = toml::Value::Table(facade).try_into().map_err(message)?;
+            scene = toml::Value::Table(facade.clone()).try_into().map_err(|e| {
+                blame(
+                    expecting_program_keys(&e, &facade, P::KEYS)
+                        .unwrap_or_else(|| e.message().trim().to_string()),
+                )
+            })?;
             program = toml::Value::Table(program_table)
                 .try_into()
                 .map_err(message)?;
