@@ -414,6 +414,11 @@ mod tests {
         assert_eq!(p.ode, Some(toml::Table::new()));
         assert_eq!(s.particle_count(), (Some(1), "ode"));
         assert!(matches!(s.build(), Err(HookeanError::InvalidOption { .. })));
+        // The memory estimate still refuses such a scene first, naming its table.
+        assert!(matches!(
+            s.build_within(0),
+            Err(HookeanError::TooLarge { key: "ode", .. })
+        ));
         for (text, message) in [
             (
                 "[ode]\n[rope]\n",
