@@ -18,6 +18,7 @@ use std::time::{Duration, Instant};
 use hookean::massspring::{MeshParams, from_mesh, parse_obj};
 use hookean::scene::Scene;
 use hookean::sparse::{ReadOptions, read_matrix_market_with};
+use hookean_cli::scene::ProgramKeys;
 use hookean_testkit::fuzz::mutate;
 
 const MTX: &[&str] = &[
@@ -115,16 +116,17 @@ fn main() -> ExitCode {
             parse_obj(b).is_ok_and(|mesh| from_mesh(&mesh, &MeshParams::default()).is_ok())
         }),
         fuzz("scene TOML (parse)", SCENES, n, |b| {
-            std::str::from_utf8(b).is_ok_and(|text| Scene::from_toml_str("s.toml", text).is_ok())
+            std::str::from_utf8(b)
+                .is_ok_and(|text| Scene::parse_with::<ProgramKeys>("s.toml", text, &[]).is_ok())
         }),
         fuzz("scene TOML + build + 2 steps", SCENES, m, |b| {
             let Ok(text) = std::str::from_utf8(b) else {
                 return false;
             };
-            let Ok(scene) = Scene::from_toml_str("s.toml", text) else {
+            let Ok((scene, program)) = Scene::parse_with::<ProgramKeys>("s.toml", text, &[]) else {
                 return false;
             };
-            if scene.tutorial.is_some() {
+            if program.tutorial.is_some() {
                 return true;
             }
             let Ok(mut sim) = scene.build_within(64 << 20) else {

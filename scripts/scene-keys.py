@@ -1,32 +1,43 @@
 #!/usr/bin/env python3
-"""Writes crates/hookean/src/scene_keys.txt, the listing `hookean scene-keys`
-prints, from the field docs of the scene tables in crates/hookean/src/scene/
-(their one owner). Run it after changing a scene key; the test
-`scene::tests::the_key_listing_names_every_key` fails until you do."""
+"""Writes the scene-key listings from the field docs of the scene tables
+(their one owner): crates/hookean/src/scene_keys.txt, the facade's keys
+(crates/hookean/src/scene/), and crates/hookean-cli/src/scene_keys.txt, the
+listing `hookean scene-keys` prints: the facade's keys and the `hookean`
+program's (crates/hookean-cli/src/scene.rs) merged table by table. Run it
+after changing a scene key; the tests `scene::tests::the_key_listing_names_every_key`
+(facade) and `scene::tests::the_key_listing_names_every_key_of_both` (CLI)
+fail until you do."""
 import re, pathlib, textwrap
 root = pathlib.Path(__file__).resolve().parent.parent
-src = "".join((root / "crates/hookean/src/scene" / f).read_text()
-              for f in ("mod.rs", "model.rs", "solver.rs", "output.rs"))
-tables = {"Scene": "", "ClothScene": "cloth", "RopeScene": "rope", "JellyScene": "jelly",
-          "TutorialScene": "tutorial", "ModelScene": "model", "IntegratorScene": "integrator",
-          "SolverScene": "solver", "AmgScene": "solver.amg", "FilterScene": "filter",
-          "OutputScene": "output", "MeshScene": "mesh", "ContactScene": "contact"}
+facade_src = "".join((root / "crates/hookean/src/scene" / f).read_text()
+                     for f in ("mod.rs", "model.rs", "solver.rs", "output.rs"))
+cli_src = (root / "crates/hookean-cli/src/scene.rs").read_text()
+# (table, its structs): the facade's, then where the program's join them.
+facade = [("", ["Scene"]), ("cloth", ["ClothScene"]), ("rope", ["RopeScene"]),
+          ("jelly", ["JellyScene"]), ("model", ["ModelScene"]),
+          ("integrator", ["IntegratorScene"]), ("solver", ["SolverScene"]),
+          ("solver.amg", ["AmgScene"]), ("filter", ["FilterScene"]),
+          ("output", ["OutputScene"]), ("mesh", ["MeshScene"]), ("contact", ["ContactScene"])]
+program = {"": ["ProgramKeys"], "output": ["PictureScene"]}
+merged = []
+for table, structs in facade:
+    merged.append((table, structs + program.get(table, [])))
+    if table == "jelly":
+        merged.append(("tutorial", ["TutorialScene"]))
 # AUTO_AMG_PARTICLES is hookean-sparse's AUTO_AMG_BLOCKS (one particle, one block).
 any_rs = (root / "crates/hookean-sparse/src/precond/any.rs").read_text()
 auto_amg = re.search(r"AUTO_AMG_BLOCKS: usize = ([0-9_]+);", any_rs).group(1).replace("_", " ")
-lines = ["Scene keys (TOML; `hookean run SCENE --set key=value` overrides one).",
-         "A scene has exactly one model table: [cloth], [rope], [jelly], [mesh], [particle] or [tutorial].",
-         "[[collider]] tables: kind = \"plane\" (point, normal, margin), \"sphere\" (center, radius, margin)",
-         "or \"mesh\" (path, scale = 1, offset = [0, 0, 0], thickness = 0.005 m, velocity = [0, 0, 0] m/s,",
-         "angular_velocity = [0, 0, 0] rad/s, pivot = centre of its box); every kind also static_friction",
-         "(default 0) and kinetic_friction (default: static_friction). docs/CONTACT.md explains them.",
-         "Units are SI (m, kg, s, N/m, N s/m). Generated from crates/hookean/src/scene/ by scripts/scene-keys.py.",
-         ""]
-for name, table in tables.items():
+colliders = [
+    "[[collider]] tables: kind = \"plane\" (point, normal, margin), \"sphere\" (center, radius, margin)",
+    "or \"mesh\" (path, scale = 1, offset = [0, 0, 0], thickness = 0.005 m, velocity = [0, 0, 0] m/s,",
+    "angular_velocity = [0, 0, 0] rad/s, pivot = centre of its box); every kind also static_friction",
+    "(default 0) and kinetic_friction (default: static_friction). docs/CONTACT.md explains them."]
+
+
+def entries(src, name, table, seen, program_words):
+    """The listing lines of struct `name`'s fields (keys of `table`)."""
     body = re.search(r"pub struct " + name + r" \{(.*?)\n\}", src, re.S).group(1)
-    doc, rename = [], None
-    if table:
-        lines.append(f"[{table}]")
+    doc, rename, lines = [], None, []
     in_attribute = False  # inside a #[serde(...)] spread over several lines
     for raw in body.split("\n"):
         l = raw.strip()
@@ -48,11 +59,42 @@ for name, table in tables.items():
             text = " ".join(doc).replace("`", "")
             text = re.sub(r"\[([^\]]+)\]\([^)]*\)", r"\1", text)
             text = text.replace("[AUTO_AMG_PARTICLES]", auto_amg)
-            wrapped = textwrap.wrap(text, 78) or [""]
-            lines.append(f"  {key}")
-            lines += ["      " + w for w in wrapped]
+            text = text.replace("[Scene::build_within]", "Scene::build_within")
+            if program_words:  # the program's name for the facade's memory cap
+                text = text.replace("the memory cap of Scene::build_within", "the --max-memory cap")
             doc = []
+            if key in seen:  # a table both own ([output]) is listed once
+                continue
+            seen.add(key)
+            lines.append(f"  {key}")
+            lines += ["      " + w for w in textwrap.wrap(text, 78) or [""]]
         elif not l.startswith("#"):
             doc = []
-    lines.append("")
-(root / "crates/hookean/src/scene_keys.txt").write_text("\n".join(lines))
+    return lines
+
+
+def listing(header, tables, src, program_words):
+    lines, seen = header + [""], set()
+    for table, structs in tables:
+        if table:
+            lines.append(f"[{table}]")
+        for name in structs:
+            lines += entries(src, name, table, seen, program_words)
+        lines.append("")
+    return "\n".join(lines)
+
+
+(root / "crates/hookean/src/scene_keys.txt").write_text(listing(
+    ["Keys of the facade's scene tables (TOML; Scene::with_overrides sets one by key=value).",
+     "A scene has exactly one model table: [cloth], [rope], [jelly], [mesh] or [particle], or one",
+     "of a program's own (SceneExtension; a program may add keys to these tables too)."]
+    + colliders
+    + ["Units are SI (m, kg, s, N/m, N s/m). Generated from crates/hookean/src/scene/ by scripts/scene-keys.py."],
+    facade, facade_src, False))
+(root / "crates/hookean-cli/src/scene_keys.txt").write_text(listing(
+    ["Scene keys (TOML; `hookean run SCENE --set key=value` overrides one).",
+     "A scene has exactly one model table: [cloth], [rope], [jelly], [mesh], [particle] or [tutorial]."]
+    + colliders
+    + ["Units are SI (m, kg, s, N/m, N s/m). Generated from crates/hookean/src/scene/ and",
+       "crates/hookean-cli/src/scene.rs by scripts/scene-keys.py."],
+    merged, facade_src + cli_src, True))

@@ -94,7 +94,7 @@ fn failed(e: impl std::fmt::Display) -> CliError {
 }
 
 pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
-    let scene = crate::read_scene(&args.scene, &[])?;
+    let (scene, _) = crate::scene::read_scene(&args.scene, &[])?;
     let cloth = scene.cloth_params().ok_or_else(|| {
         CliError::Input(format!(
             "{}: filter-analysis needs a [cloth] scene",

@@ -52,6 +52,7 @@ mod regions;
 mod render;
 mod reproduce;
 mod run;
+pub mod scene;
 mod solve;
 mod stability;
 mod thin;
@@ -189,21 +190,6 @@ pub fn to_json<T: serde::Serialize>(record: &T, pretty: bool) -> Result<String, 
     json.map_err(|e| CliError::Failed(format!("cannot write a record as JSON: {e}")))
 }
 
-/// Reads a scene file with the command's `--set` overrides; errors are bad
-/// input (exit 2), an override's named as the `--set` the user typed.
-pub(crate) fn read_scene(
-    path: &std::path::Path,
-    set: &[String],
-) -> Result<hookean::scene::Scene, CliError> {
-    let set: Vec<&str> = set.iter().map(String::as_str).collect();
-    hookean::scene::Scene::from_file(path, &set).map_err(|e| match e {
-        hookean::HookeanError::Override { file, arg, message } => {
-            CliError::Input(format!("{file}: --set {arg}: {message}"))
-        }
-        e => CliError::Input(e.to_string()),
-    })
-}
-
 /// A progress bar's style from an indicatif template (the default bar if
 /// the template does not parse).
 pub fn bar_style(template: &str) -> indicatif::ProgressStyle {
@@ -294,7 +280,7 @@ fn dispatch(command: Command, threads: Option<usize>) -> Result<(), CliError> {
         Command::ExportSystem(args) => export_system::run(&args),
         Command::FilterAnalysis(args) => filter_analysis::run(&args),
         Command::View(args) => view::run(&args),
-        Command::SceneKeys => outln!("{}", hookean::scene::KEYS.trim_end()),
+        Command::SceneKeys => outln!("{}", scene::KEYS.trim_end()),
         Command::Reproduce(args) => reproduce::run(&args),
     }
 }

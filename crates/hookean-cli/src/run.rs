@@ -15,6 +15,7 @@ use serde::Serialize;
 
 use crate::CliError;
 use crate::render::{RenderScene, render};
+use crate::scene::{PictureScene, ProgramKeys};
 use crate::thin::Thinned;
 use crate::view::{FrameEnergies, ViewCollider, ViewFrame, ViewRun};
 
@@ -282,16 +283,16 @@ pub(crate) const MAX_FRAMES: usize = 100_000;
 /// `hookean run`; `threads` is the command's `--threads`, which wins over
 /// the scene's `threads` key.
 pub fn run(args: &RunArgs, threads: Option<usize>) -> Result<(), CliError> {
-    let scene = crate::read_scene(&args.scene, &args.set)?;
-    match (threads, scene.threads) {
-        (None, Some(t)) => crate::threads::install(Some(t), || run_scene(args, &scene))?,
-        _ => run_scene(args, &scene),
+    let (scene, program) = crate::scene::read_scene(&args.scene, &args.set)?;
+    match (threads, program.threads) {
+        (None, Some(t)) => crate::threads::install(Some(t), || run_scene(args, &scene, &program))?,
+        _ => run_scene(args, &scene, &program),
     }
 }
 
-fn run_scene(args: &RunArgs, scene: &Scene) -> Result<(), CliError> {
+fn run_scene(args: &RunArgs, scene: &Scene, program: &ProgramKeys) -> Result<(), CliError> {
     let max_bytes = crate::memory::cap_bytes(args.max_memory)?;
-    if scene.tutorial.is_some() {
+    if program.tutorial.is_some() {
         // A [tutorial] scene's step is a number (the scene refuses "auto").
         let h = scene.integrator.h.value().unwrap_or(f64::MIN_POSITIVE);
         check_work(args, scene, 1, h)?;
@@ -305,10 +306,24 @@ fn run_scene(args: &RunArgs, scene: &Scene) -> Result<(), CliError> {
         .clone()
         .unwrap_or_else(|| Path::new("out").join(&name));
     let staging = crate::output::Staging::new(&out, "--out", args.force, &[&args.scene])?;
-    let report = if let Some(t) = &scene.tutorial {
-        crate::tutorial_run::run(scene, t, &args.scene, staging.dir(), args.quiet)
+    let report = if let Some(t) = &program.tutorial {
+        crate::tutorial_run::run(
+            scene,
+            t,
+            &program.output,
+            &args.scene,
+            staging.dir(),
+            args.quiet,
+        )
     } else {
-        run_model(args, scene, &name, max_bytes, staging.dir())
+        run_model(
+            args,
+            scene,
+            &program.output,
+            &name,
+            max_bytes,
+            staging.dir(),
+        )
     };
     match report {
         Ok(report) => {
@@ -344,6 +359,7 @@ fn check_work(args: &RunArgs, scene: &Scene, particles: usize, h: f64) -> Result
 fn run_model(
     args: &RunArgs,
     scene: &Scene,
+    picture: &PictureScene,
     name: &str,
     max_bytes: u64,
     out: &Path,
@@ -491,7 +507,7 @@ fn run_model(
             numerical: &format!("{} (h = {} s)", sim.method(), sim.h_next()),
             points: points.items(),
         }
-        .draw(scene.output.width, scene.output.height),
+        .draw(picture.width, picture.height),
         None => render(
             &RenderScene {
                 x: sim.x(),
@@ -503,8 +519,8 @@ fn run_model(
                 speed_max: view.speed_max(),
                 t: sim.t(),
             },
-            scene.output.width,
-            scene.output.height,
+            picture.width,
+            picture.height,
         ),
     }
     .map_err(CliError::Failed)?;

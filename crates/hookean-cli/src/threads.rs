@@ -5,9 +5,9 @@
 use crate::CliError;
 
 /// Parses `--threads N`: a whole number from 1 to
-/// [`MAX_THREADS`](hookean::scene::MAX_THREADS).
+/// [`MAX_THREADS`](crate::scene::MAX_THREADS).
 pub fn parse(s: &str) -> Result<usize, String> {
-    let max = hookean::scene::MAX_THREADS;
+    let max = crate::scene::MAX_THREADS;
     match s.parse::<usize>() {
         Ok(n) if (1..=max).contains(&n) => Ok(n),
         _ => Err(format!(
@@ -19,7 +19,7 @@ pub fn parse(s: &str) -> Result<usize, String> {
 /// Checks `RAYON_NUM_THREADS`, which rayon reads when neither `--threads`
 /// nor a scene's `threads` is given: unset, `0` (all cores, rayon's
 /// meaning) or a whole number from 1 to
-/// [`MAX_THREADS`](hookean::scene::MAX_THREADS), as `--threads`.
+/// [`MAX_THREADS`](crate::scene::MAX_THREADS), as `--threads`.
 ///
 /// # Errors
 /// [`CliError::Input`] naming the variable (rayon itself would ignore a

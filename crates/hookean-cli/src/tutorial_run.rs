@@ -6,12 +6,13 @@ use std::io::Write as _;
 use std::path::Path;
 use std::time::Instant;
 
-use hookean::scene::{Scene, TutorialScene};
+use hookean::scene::Scene;
 use hookean_ode::tutorial::{Dahlquist, LinearOscillator};
 use hookean_ode::{FirstOrderIntegrator, FirstOrderProblem};
 use serde::Serialize;
 
 use crate::CliError;
+use crate::scene::{PictureScene, TutorialScene};
 use crate::thin::Thinned;
 
 #[derive(Debug, Serialize)]
@@ -36,6 +37,7 @@ struct TutorialRecord {
 pub fn run(
     scene: &Scene,
     t: &TutorialScene,
+    picture: &PictureScene,
     scene_path: &Path,
     out: &Path,
     quiet: bool,
@@ -44,8 +46,7 @@ pub fn run(
         1 => {
             let p = Dahlquist { lambda: t.lambda };
             integrate(
-                scene,
-                t.example,
+                (scene, t, picture),
                 p,
                 &[1.0],
                 |s| p.exact(s),
@@ -57,8 +58,7 @@ pub fn run(
         _ => {
             let osc = LinearOscillator::example2();
             integrate(
-                scene,
-                t.example,
+                (scene, t, picture),
                 osc.first_order(),
                 &osc.y0(),
                 |s| osc.exact(s)[0],
@@ -72,8 +72,7 @@ pub fn run(
 
 #[allow(clippy::too_many_arguments)]
 fn integrate<P: FirstOrderProblem>(
-    scene: &Scene,
-    example: u8,
+    (scene, tutorial, picture): (&Scene, &TutorialScene, &PictureScene),
     problem: P,
     y0: &[f64],
     exact: impl Fn(f64) -> f64,
@@ -129,7 +128,7 @@ fn integrate<P: FirstOrderProblem>(
     let (y, e) = (ode.y()[0], exact(ode.t()));
     let record = TutorialRecord {
         scene: scene_path.display().to_string(),
-        example,
+        example: tutorial.example,
         method: ode.method().to_string(),
         steps: s.num_steps,
         rejected_steps: s.num_rejected_steps(),
@@ -143,11 +142,9 @@ fn integrate<P: FirstOrderProblem>(
         error_final: (y - e).abs(),
     };
     write("summary.json", crate::to_json(&record, true)? + "\n")?;
+    let example = tutorial.example;
     let title = match example {
-        1 => format!(
-            "Tutorial example 1: y' = {} y, y(0) = 1",
-            scene.tutorial.as_ref().map_or(f64::NAN, |t| t.lambda)
-        ),
+        1 => format!("Tutorial example 1: y' = {} y, y(0) = 1", tutorial.lambda),
         _ => "Tutorial example 2: y'' = -5/2 y - 5 y'".to_string(),
     };
     crate::plot::TimePlot {
@@ -156,7 +153,7 @@ fn integrate<P: FirstOrderProblem>(
         numerical: &format!("{} (h = {} s)", ode.method(), ode.options().h),
         points: points.items(),
     }
-    .draw(scene.output.width, scene.output.height)
+    .draw(picture.width, picture.height)
     .and_then(|c| c.write_png(&out.join("final.png")))
     .map_err(CliError::Failed)?;
     Ok((!quiet).then(|| {

@@ -173,7 +173,7 @@ fn a_bad_scene_names_its_line_and_column() {
 fn every_shipped_scene_parses() {
     for entry in std::fs::read_dir(repo("scenes")).unwrap() {
         let path = entry.unwrap().path();
-        hookean::scene::Scene::from_file(&path, &[])
+        hookean::scene::Scene::from_file_with::<hookean_cli::scene::ProgramKeys>(&path, &[])
             .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     }
 }

@@ -854,13 +854,11 @@ impl NonlinearSystem for Convection {
     }
     fn jacobian(&mut self, u: &[f64], j: &mut sprs::CsMat<f64>) -> Result<(), NonlinearError> {
         let (lo, up, c) = self.coefficients();
-        let (indptr, cols) = (j.indptr().raw_storage().to_vec(), j.indices().to_vec());
-        let data = j.data_mut();
-        for i in 0..self.n {
-            for k in indptr[i]..indptr[i + 1] {
-                data[k] = if cols[k] + 1 == i {
+        for (i, mut row) in j.outer_iterator_mut().enumerate() {
+            for (col, v) in row.iter_mut() {
+                *v = if col + 1 == i {
                     lo
-                } else if cols[k] == i {
+                } else if col == i {
                     2.0 - c * u[i].exp()
                 } else {
                     up

@@ -31,6 +31,8 @@
 //! - [`SymBlockMatrix::from_blocks`] builds a matrix from block triplets
 //!   (duplicates summed); the scalar-CSR path speaks `sprs`, re-exported as
 //!   [`sprs`], and its symmetric preconditioners need both triangles stored.
+//!   [`CscCopy`] keeps a general `sprs` matrix's column-major copy (the
+//!   layout faer's sparse factorisations read) across refills.
 //! - [`power_method`] with a hook between iterations (the filtering paper's
 //!   modified power method).
 //! - [`read_matrix_market`] / [`write_matrix_market`], and `DirectCholesky`
@@ -95,6 +97,7 @@ struct ReadmeExample;
 pub mod block;
 mod cg;
 mod constraints;
+mod csc;
 #[cfg(feature = "faer")]
 mod direct;
 mod error;
@@ -121,6 +124,7 @@ pub use cg::{
     filtered_pcg, pcg,
 };
 pub use constraints::Constraints;
+pub use csc::CscCopy;
 #[cfg(feature = "faer")]
 pub use direct::DirectCholesky;
 pub use error::SparseError;

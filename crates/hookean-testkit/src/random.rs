@@ -30,11 +30,9 @@ pub fn random_spd(n: usize, per_row: usize, dominance: f64, seed: u64) -> sprs::
     let a: sprs::CsMat<f64> = t.to_csr();
     let scale: Vec<f64> = (0..n).map(|_| rng.random_range(0.5..2.0)).collect();
     let mut a = a;
-    let (indptr, indices) = (a.indptr().raw_storage().to_vec(), a.indices().to_vec());
-    let data = a.data_mut();
-    for i in 0..n {
-        for k in indptr[i]..indptr[i + 1] {
-            data[k] *= scale[i] * scale[indices[k]];
+    for (i, mut row) in a.outer_iterator_mut().enumerate() {
+        for (j, v) in row.iter_mut() {
+            *v *= scale[i] * scale[j];
         }
     }
     a

@@ -1,7 +1,7 @@
 //! The outputs of a run as [`Sink`]s a program attaches to
 //! [`Simulation::run_with_sinks`]: the per-step CSV, OBJ frames at a rate of
-//! simulated time, and progress. `hookean run` writes its `steps.csv` and
-//! `frame-NNNN.obj` files with these.
+//! simulated time, and progress: the files a run writes (`steps.csv`,
+//! `frame-NNNN.obj`).
 //!
 //! ```no_run
 //! use hookean::prelude::*;

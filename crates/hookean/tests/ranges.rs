@@ -12,7 +12,7 @@ use hookean::scene::{KEYS, Scene};
 enum Range {
     /// `Range LO to HI` (integers).
     Int(u64, u64),
-    /// `Range LO to the --max-memory cap` (integers).
+    /// `Range LO to the memory cap` (integers).
     IntToCap(u64),
     /// `Range (a, b)`, `[a, b]`, ... (floats; infinite ends allowed).
     Float {
@@ -56,7 +56,7 @@ fn documented() -> Vec<(String, Range)> {
             }
         } else if let Some((lo, hi)) = text.split_once(" to ") {
             let lo: u64 = lo.trim().parse().unwrap();
-            if hi.starts_with("the `--max-memory` cap") || hi.starts_with("the --max-memory cap") {
+            if hi.starts_with("the memory cap") {
                 Range::IntToCap(lo)
             } else {
                 let hi = hi.trim_start();
@@ -84,7 +84,6 @@ fn base(key: &str) -> &'static str {
     match table {
         "rope" => "duration = 0.02\n[rope]\nn = 3\n",
         "jelly" => "duration = 0.02\n[jelly]\nn = [2, 2, 2]\n",
-        "tutorial" => "duration = 0.02\n[tutorial]\nexample = 1\n",
         "filter" => {
             "duration = 0.02\n[cloth]\nn = 3\n[integrator]\nmethod = \"fb-euler\"\nh = 1e-4\n[filter]\n"
         }
@@ -195,9 +194,6 @@ fn every_documented_range_is_checked_at_its_ends() {
                 }
             };
             // Built within 64 MiB, two steps: a result either way, no panic.
-            if scene.tutorial.is_some() {
-                continue;
-            }
             if let Ok(mut sim) = scene.build_within(64 << 20) {
                 for _ in 0..2 {
                     if sim.step().is_err() {

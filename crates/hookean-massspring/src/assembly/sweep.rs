@@ -1,7 +1,7 @@
 //! The assembly sweep: one pass over the springs, row by row, that writes
 //! the force, `df/dx`, `df/dv` or the fused step matrix `A = M + a df/dx +
 //! b df/dv`, compiled per SIMD level (pulp) and split over rayon parts with
-//! halos (docs/ARCHITECTURE.md, "Assembly").
+//! halos (the layout of parts and halos: `plan.rs`).
 
 use hookean_sparse::SymBlockMatrix;
 use hookean_sparse::block::{self, Block3};

@@ -6,7 +6,7 @@ use faer::sparse::linalg::LuError;
 use faer::sparse::linalg::lu::{LuRef, NumericLu, SymbolicLu, factorize_symbolic_lu};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par};
-use hookean_sparse::SparseError;
+use hookean_sparse::{CscCopy, SparseError};
 
 use super::{LinearSolveStats, LinearSolver};
 use crate::error::{NonlinearError, check_len, invalid};
@@ -15,21 +15,13 @@ use crate::error::{NonlinearError, check_len, invalid};
 /// sparse Jacobians stored as `sprs::CsMat<f64>` (CSR or CSC).
 ///
 /// The symbolic analysis, the numeric factors' storage, faer's workspace
-/// and, for a CSR input, the map of its entries onto the column-major
-/// copy are kept while the sparsity pattern is unchanged: a setup after a
+/// and the column-major copy of the input (hookean-sparse's [`CscCopy`])
+/// are kept while the sparsity pattern is unchanged: a setup after a
 /// refill redoes only the numeric factorisation, and neither it nor a
 /// solve allocates once the factors have grown to their size.
 pub struct SparseLu {
-    /// The input's pattern as given, to notice a change.
-    input_indptr: Vec<usize>,
-    input_indices: Vec<usize>,
-    input_csr: bool,
-    /// The column-major copy `A` factors.
-    col_ptr: Vec<usize>,
-    row_idx: Vec<usize>,
-    values: Vec<f64>,
-    /// For a CSR input: `values[k] = data[to_csc[k]]`.
-    to_csc: Vec<usize>,
+    /// The column-major copy `A` factors (hookean-sparse keeps its pattern).
+    csc: CscCopy,
     symbolic: Option<SymbolicLu<usize>>,
     numeric: NumericLu<usize, f64>,
     mem: MemBuffer,
@@ -41,7 +33,7 @@ impl std::fmt::Debug for SparseLu {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("SparseLu")
             .field("n", &self.n)
-            .field("nnz", &self.values.len())
+            .field("nnz", &self.csc.values().len())
             .field("ready", &self.ready)
             .finish_non_exhaustive()
     }
@@ -57,13 +49,7 @@ impl SparseLu {
     /// An empty solver.
     pub fn new() -> Self {
         Self {
-            input_indptr: Vec::new(),
-            input_indices: Vec::new(),
-            input_csr: false,
-            col_ptr: Vec::new(),
-            row_idx: Vec::new(),
-            values: Vec::new(),
-            to_csc: Vec::new(),
+            csc: CscCopy::new(),
             symbolic: None,
             numeric: NumericLu::new(),
             mem: MemBuffer::new(StackReq::EMPTY),
@@ -78,50 +64,18 @@ impl SparseLu {
         self.symbolic.is_some()
     }
 
-    /// The column-major structure of `jac`'s pattern, its symbolic analysis
-    /// and the workspace of the numeric factorisation and of a solve.
-    fn analyse(&mut self, jac: &sprs::CsMat<f64>) -> Result<(), NonlinearError> {
-        let n = jac.rows();
-        let (indptr, indices) = (jac.indptr(), jac.indices());
-        let indptr = indptr.raw_storage();
-        self.input_indptr.clear();
-        self.input_indptr.extend_from_slice(indptr);
-        self.input_indices.clear();
-        self.input_indices.extend_from_slice(indices);
-        self.input_csr = jac.is_csr();
-        self.to_csc.clear();
-        if self.input_csr {
-            // The transpose's structure by counting, and where each entry goes.
-            let offset = indptr[0];
-            self.col_ptr.clear();
-            self.col_ptr.resize(n + 1, 0);
-            for &j in indices {
-                self.col_ptr[j + 1] += 1;
-            }
-            for j in 0..n {
-                self.col_ptr[j + 1] += self.col_ptr[j];
-            }
-            let nnz = indices.len();
-            self.row_idx.clear();
-            self.row_idx.resize(nnz, 0);
-            self.to_csc.resize(nnz, 0);
-            let mut next = self.col_ptr[..n].to_vec();
-            for i in 0..n {
-                for k in indptr[i] - offset..indptr[i + 1] - offset {
-                    let j = indices[k];
-                    self.row_idx[next[j]] = i;
-                    self.to_csc[next[j]] = k;
-                    next[j] += 1;
-                }
-            }
-        } else {
-            let offset = indptr[0];
-            self.col_ptr.clear();
-            self.col_ptr.extend(indptr.iter().map(|p| p - offset));
-            self.row_idx.clear();
-            self.row_idx.extend_from_slice(indices);
-        }
-        let sym = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
+    /// The symbolic analysis of the copy's pattern and the workspace of
+    /// the numeric factorisation and of a solve.
+    fn analyse(&mut self) -> Result<(), NonlinearError> {
+        self.symbolic = None;
+        let n = self.csc.shape().0;
+        let sym = SymbolicSparseColMatRef::new_checked(
+            n,
+            n,
+            self.csc.col_ptr(),
+            None,
+            self.csc.row_idx(),
+        );
         let symbolic = factorize_symbolic_lu(sym, Default::default()).map_err(|e| {
             invalid(
                 "Jacobian",
@@ -146,22 +100,11 @@ impl LinearSolver<sprs::CsMat<f64>> for SparseLu {
         if r != c {
             return Err(SparseError::NotSquare { rows: r, cols: c }.into());
         }
-        let same_pattern = self.symbolic.is_some()
-            && self.n == r
-            && self.input_csr == jac.is_csr()
-            && self.input_indptr.as_slice() == jac.indptr().raw_storage()
-            && self.input_indices.as_slice() == jac.indices();
-        if !same_pattern {
-            self.analyse(jac)?;
+        let changed = self.csc.update(jac);
+        if changed || self.symbolic.is_none() {
+            self.analyse()?;
         }
-        let data = jac.data();
-        self.values.clear();
-        if self.input_csr {
-            self.values.extend(self.to_csc.iter().map(|&k| data[k]));
-        } else {
-            self.values.extend_from_slice(data);
-        }
-        if let Some(i) = self.values.iter().position(|v| !v.is_finite()) {
+        if let Some(i) = self.csc.values().iter().position(|v| !v.is_finite()) {
             return Err(SparseError::NonFinite {
                 what: "Jacobian",
                 index: Some(i),
@@ -169,11 +112,17 @@ impl LinearSolver<sprs::CsMat<f64>> for SparseLu {
             .into());
         }
         let symbolic = self.symbolic.as_ref().expect("analysed above");
-        let sym = SymbolicSparseColMatRef::new_checked(r, r, &self.col_ptr, None, &self.row_idx);
+        let sym = SymbolicSparseColMatRef::new_checked(
+            r,
+            r,
+            self.csc.col_ptr(),
+            None,
+            self.csc.row_idx(),
+        );
         symbolic
             .factorize_numeric_lu(
                 &mut self.numeric,
-                SparseColMatRef::new(sym, &self.values),
+                SparseColMatRef::new(sym, self.csc.values()),
                 Par::Seq,
                 MemStack::new(&mut self.mem),
                 Default::default(),

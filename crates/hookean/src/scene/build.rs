@@ -148,9 +148,9 @@ impl Scene {
         })
     }
 
-    /// The number of particles (unknowns for a `[tutorial]` scene) the
-    /// scene's model has, and the key that sets it; `None` for a count that
-    /// overflows 64 bits.
+    /// The number of particles the scene's model has, and the key that sets
+    /// it (a program's model table counts as one particle, its name the
+    /// key); `None` for a count that overflows 64 bits.
     pub fn particle_count(&self) -> (Option<u64>, &'static str) {
         if let Some(c) = &self.cloth {
             ((c.n as u64).checked_mul(c.n as u64), "cloth.n")
@@ -164,7 +164,7 @@ impl Scene {
         } else if let Some(m) = &self.mesh {
             (Some(obj_vertex_count(&self.resolve(&m.path))), "mesh.path")
         } else {
-            (Some(1), "tutorial")
+            (Some(1), self.program_model.unwrap_or("model"))
         }
     }
 
@@ -267,12 +267,12 @@ impl Scene {
                 max_bytes,
             });
         }
-        if self.tutorial.is_some() {
+        if let Some(table) = self.program_model {
             return Err(HookeanError::InvalidOption {
-                name: "tutorial".into(),
-                message: "a [tutorial] scene is a scalar ODE, not a mass-spring model: \
-                          integrate it with hookean-ode's FirstOrderIntegrator (as `hookean run` does)"
-                    .into(),
+                name: table.into(),
+                message: format!(
+                    "[{table}] is a model table of the program that read the scene, not a mass-spring model"
+                ),
             });
         }
         let options = self.model_options();

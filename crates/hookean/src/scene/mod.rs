@@ -2,13 +2,17 @@
 //! long, and what to write.
 //!
 //! A scene has exactly one model table — `[cloth]`, `[rope]`, `[jelly]`,
-//! `[mesh]` (a model from an OBJ file), `[particle]` (the tutorial's
-//! example 3) or `[tutorial]` (its scalar examples 1 and 2, run as
-//! first-order ODEs) — and optional `[integrator]`, `[solver]`, `[filter]`,
+//! `[mesh]` (a model from an OBJ file) or `[particle]` (the tutorial's
+//! example 3) — and optional `[integrator]`, `[solver]`, `[filter]`,
 //! `[model]`, `[[collider]]`, `[contact]` and `[output]` tables.
 //! Every key has a documented default (the field docs below; `scenes/drape.toml`
 //! spells them all out). Unknown keys, wrong types and out-of-range values
 //! are errors that name the file, line and column.
+//!
+//! A program may add keys of its own to the files it reads, even to the
+//! facade's tables, and a model table it runs itself: it names them in a
+//! [`SceneExtension`] and reads with [`Scene::from_file_with`], which hands
+//! them over with the same errors.
 //!
 //! ```
 //! let scene = hookean::scene::Scene::from_toml_str("inline.toml", r#"
@@ -50,6 +54,7 @@ mod validate;
 
 pub use model::*;
 pub use output::*;
+pub use overrides::SceneExtension;
 pub use solver::*;
 use validate::*;
 
@@ -64,9 +69,9 @@ use validate::*;
 /// The rule itself is the library's [`PrecondKind::auto_for_blocks`].
 pub const AUTO_AMG_PARTICLES: usize = PrecondKind::AUTO_AMG_BLOCKS;
 
-/// Every scene key with its units and default, as `hookean scene-keys`
-/// prints it: generated from the field docs below by
-/// `scripts/scene-keys.py` (a test checks that it names every key).
+/// Every key of the facade's scene tables with its units and default:
+/// generated from the field docs below by `scripts/scene-keys.py` (a test
+/// checks that it names every key).
 pub const KEYS: &str = include_str!("../scene_keys.txt");
 
 /// A scene: one model, how to integrate it, for how long, what to write.
@@ -84,9 +89,6 @@ pub struct Scene {
     pub jelly: Option<JellyScene>,
     /// The tutorial's example 3: one particle on a spring to the origin.
     pub particle: Option<ParticleScene>,
-    /// The tutorial's examples 1 and 2: scalar ODEs (not mass-spring models),
-    /// integrated as first-order systems by `hookean run`.
-    pub tutorial: Option<TutorialScene>,
     /// A cloth (or any surface) from a triangle mesh in an OBJ file.
     pub mesh: Option<MeshScene>,
     /// Damping model, air friction and gravity.
@@ -109,30 +111,14 @@ pub struct Scene {
     /// What to write.
     #[serde(default)]
     pub output: OutputScene,
-    /// Worker threads of the kernels (rayon) when `hookean run` is not
-    /// given `--threads`. Range 1 to 1024. Default: `RAYON_NUM_THREADS`,
-    /// else all cores.
-    /// Results are bitwise reproducible for a given thread count.
-    #[serde(default, deserialize_with = "threads")]
-    pub threads: Option<usize>,
     /// The folder of the scene file: relative mesh paths start there
     /// (`None`: the working directory).
     #[serde(skip)]
     base: Option<std::path::PathBuf>,
-}
-
-/// The most worker threads a scene or `--threads` may ask for (a typo of
-/// 10^8 threads would otherwise spawn until the system refuses).
-pub const MAX_THREADS: usize = 1024;
-
-pub(super) fn threads<'de, D: Deserializer<'de>>(d: D) -> Result<Option<usize>, D::Error> {
-    let n = at_least_one(d)?;
-    if n > MAX_THREADS {
-        return Err(D::Error::custom(format!(
-            "at most {MAX_THREADS} threads, got {n}"
-        )));
-    }
-    Ok(Some(n))
+    /// The program's model table ([`SceneExtension::MODEL_TABLES`]) the
+    /// scene has instead of one of the facade's.
+    #[serde(skip)]
+    program_model: Option<&'static str>,
 }
 
 pub(super) fn d_duration() -> f64 {
@@ -159,7 +145,6 @@ mod tests {
             ("ClothScene", "cloth."),
             ("RopeScene", "rope."),
             ("JellyScene", "jelly."),
-            ("TutorialScene", "tutorial."),
             ("ModelScene", "model."),
             ("IntegratorScene", "integrator."),
             ("SolverScene", "solver."),
@@ -250,7 +235,7 @@ mod tests {
         assert_eq!(opts.solver.h, default.solver.h);
         assert_eq!(opts.solver.newton, default.solver.newton);
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/drape.toml");
-        let shipped = Scene::from_file(path, &[]).unwrap();
+        let shipped = Scene::from_file_with::<Picture>(path, &[]).unwrap().0;
         assert_eq!(shipped.simulation_options(), bare.simulation_options());
         assert_eq!(shipped.duration, bare.duration);
     }
@@ -385,12 +370,72 @@ mod tests {
             Err(e) => panic!("{e}"),
             Ok(_) => panic!("auto with implicit Euler was accepted"),
         }
+    }
+
+    /// The drape's picture size, a key of the `hookean` program.
+    #[derive(Debug, Deserialize)]
+    struct Picture {
+        #[serde(rename = "output")]
+        _output: toml::Table,
+    }
+
+    impl SceneExtension for Picture {
+        const KEYS: &'static [&'static str] = &["output.width", "output.height"];
+    }
+
+    /// A program's keys are split off with their positions and the facade
+    /// refuses them without it; a program's model table counts as the one.
+    #[test]
+    fn a_programs_keys_are_its_own() {
+        #[derive(Debug, Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct Program {
+            #[serde(default)]
+            level: u8,
+            #[serde(default)]
+            output: toml::Table,
+            ode: Option<toml::Table>,
+        }
+        impl SceneExtension for Program {
+            const KEYS: &'static [&'static str] = &["level", "output.title", "ode"];
+            const MODEL_TABLES: &'static [&'static str] = &["ode"];
+        }
+        let text = "level = 3\n[cloth]\nn = 4\n[output]\nframe_rate = 2.0\ntitle = \"t\"\n";
+        let (s, p) =
+            Scene::parse_with::<Program>("s.toml", text, &["output.frame_rate=4.0"]).unwrap();
+        assert_eq!((s.output.frame_rate, p.level, p.ode), (4.0, 3, None));
+        assert_eq!(p.output["title"].as_str(), Some("t"));
+        assert_eq!(err(text).0, 1);
+        match Scene::parse_with::<Program>("s.toml", "level = 300\n[cloth]\n", &[]) {
+            Err(HookeanError::Scene { line, column, .. }) => assert_eq!((line, column), (1, 9)),
+            other => panic!("{other:?}"),
+        }
+        let (s, p) = Scene::parse_with::<Program>("s.toml", "[ode]\n", &[]).unwrap();
+        assert_eq!(p.ode, Some(toml::Table::new()));
+        assert_eq!(s.particle_count(), (Some(1), "ode"));
+        assert!(matches!(s.build(), Err(HookeanError::InvalidOption { .. })));
+        // The memory estimate still refuses such a scene first, naming its table.
+        assert!(matches!(
+            s.build_within(0),
+            Err(HookeanError::TooLarge { key: "ode", .. })
+        ));
+        for (text, message) in [
+            (
+                "[ode]\n[rope]\n",
+                "([cloth], [rope], [jelly], [mesh], [particle] or [ode]), found 2",
+            ),
+            (
+                "[ode]\n[integrator]\nh = \"auto\"\n",
+                "a [ode] scene needs a number",
+            ),
+        ] {
+            let e = Scene::parse_with::<Program>("s.toml", text, &[]).unwrap_err();
+            assert!(e.to_string().contains(message), "{e}");
+        }
+        let (_, _, m) = err("[rope]\n[cloth]\n");
         assert!(
-            Scene::from_toml_str(
-                "s.toml",
-                "[tutorial]\nexample = 1\n[integrator]\nh = \"auto\"\n"
-            )
-            .is_err()
+            m.contains("([cloth], [rope], [jelly], [mesh] or [particle]), found 2"),
+            "{m}"
         );
     }
 

@@ -6,7 +6,7 @@ use super::*;
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ClothScene {
-    /// Particles per side. Range 2 to the `--max-memory` cap. Default 64.
+    /// Particles per side. Range 2 to the memory cap of [`Scene::build_within`]. Default 64.
     #[serde(default = "d_cloth_n", deserialize_with = "at_least_two")]
     pub n: usize,
     /// Side length (m). Range (0, inf). Default 1.
@@ -87,7 +87,7 @@ pub enum PlaneScene {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RopeScene {
-    /// Particles. Range 2 to the `--max-memory` cap. Default 20.
+    /// Particles. Range 2 to the memory cap of [`Scene::build_within`]. Default 20.
     #[serde(default = "d_rope_n", deserialize_with = "at_least_two")]
     pub n: usize,
     /// Length (m). Range (0, inf). Default 1.
@@ -128,7 +128,7 @@ pub(super) fn yes() -> bool {
 #[serde(deny_unknown_fields)]
 pub struct JellyScene {
     /// Particles per axis, each at least 1 (at least 2 particles in all);
-    /// their product is bounded by `--max-memory`. Default `[6, 6, 6]`.
+    /// their product is bounded by the memory cap of [`Scene::build_within`]. Default `[6, 6, 6]`.
     #[serde(default = "d_jelly_n", deserialize_with = "usize3")]
     pub n: [usize; 3],
     /// Lattice spacing (m). Range (0, inf). Default 0.05.
@@ -236,35 +236,6 @@ pub(super) fn d_self_stiffness() -> f64 {
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ParticleScene {}
-
-/// `[tutorial]`: the tutorial's example 1 (`y' = lambda y`, `y(0) = 1`) or
-/// example 2 (`y'' = lambda/2 y + lambda y'` with `lambda = -5`, `y(0) = 0`,
-/// `y'(0) = 1`).
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct TutorialScene {
-    /// 1 or 2. Range 1 to 2.
-    #[serde(deserialize_with = "example_number")]
-    pub example: u8,
-    /// `lambda` of example 1 (example 2 has its own). Range: any finite number. Default -15.
-    #[serde(default = "d_lambda", deserialize_with = "finite")]
-    pub lambda: f64,
-}
-
-pub(super) fn d_lambda() -> f64 {
-    -15.0
-}
-
-pub(super) fn example_number<'de, D: Deserializer<'de>>(d: D) -> Result<u8, D::Error> {
-    let v = u8::deserialize(d)?;
-    if v == 1 || v == 2 {
-        Ok(v)
-    } else {
-        Err(D::Error::custom(format!(
-            "the tutorial scenes are examples 1 and 2 (example 3 is [particle]), got {v:?}"
-        )))
-    }
-}
 
 pub(super) fn finite<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
     let v = f64::deserialize(d)?;

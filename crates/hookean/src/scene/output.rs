@@ -9,20 +9,12 @@ pub struct OutputScene {
     /// OBJ frames per simulated second (0: none). Range [0, inf). Default 10.
     #[serde(default = "d_frame_rate", deserialize_with = "non_negative")]
     pub frame_rate: f64,
-    /// Width of `final.png` in pixels. Range 1 to 16384. Default 800.
-    #[serde(default = "d_width", deserialize_with = "pixels")]
-    pub width: usize,
-    /// Height of `final.png` in pixels. Range 1 to 16384. Default 600.
-    #[serde(default = "d_height", deserialize_with = "pixels")]
-    pub height: usize,
 }
 
 impl Default for OutputScene {
     fn default() -> Self {
         Self {
             frame_rate: d_frame_rate(),
-            width: d_width(),
-            height: d_height(),
         }
     }
 }
@@ -62,10 +54,4 @@ pub(super) fn obj_vertex_count(path: &Path) -> u64 {
 
 pub(super) fn d_frame_rate() -> f64 {
     10.0
-}
-pub(super) fn d_width() -> usize {
-    800
-}
-pub(super) fn d_height() -> usize {
-    600
 }

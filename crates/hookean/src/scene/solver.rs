@@ -489,7 +489,7 @@ pub struct FilterScene {
     #[serde(default)]
     pub form: FormScene,
     /// Neighbourhood radius in rings of the spring graph. Range 1 to the
-    /// `--max-memory` cap (the neighbourhoods are counted). Default 1.
+    /// memory cap of [`Scene::build_within`] (the neighbourhoods are counted). Default 1.
     #[serde(default = "d_rings", deserialize_with = "at_least_one")]
     pub rings: usize,
     /// How the filtered velocities go back into the step: `"increment"`

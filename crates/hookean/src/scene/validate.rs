@@ -82,20 +82,6 @@ pub(super) fn usize3<'de, D: Deserializer<'de>>(d: D) -> Result<[usize; 3], D::E
     three(d)
 }
 
-/// Largest picture side, in pixels.
-pub(super) const MAX_PIXELS: usize = 16_384;
-
-pub(super) fn pixels<'de, D: Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
-    let v = usize::deserialize(d)?;
-    if (1..=MAX_PIXELS).contains(&v) {
-        Ok(v)
-    } else {
-        Err(D::Error::custom(format!(
-            "must lie in 1..={MAX_PIXELS} pixels, got {v:?}"
-        )))
-    }
-}
-
 pub(super) fn finite3<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
     let v: [f64; 3] = three(d)?;
     if v.iter().all(|x| x.is_finite()) {
