@@ -5,16 +5,13 @@
 
 use hookean::scene::Scene;
 use hookean::sinks::{ObjFrames, Progress, StepsCsv};
-use hookean_cli::scene::ProgramKeys;
 
 fn main() -> Result<(), hookean::HookeanError> {
     let args: Vec<String> = std::env::args().collect();
     let scene_path = args.get(1).map_or("scenes/drape.toml", String::as_str);
     let out = std::path::PathBuf::from(args.get(2).map_or("out/example-drape", String::as_str));
-    // A smaller, shorter drape than the file's; any scene key can be overridden. Read as
-    // the `hookean` program reads it: the file sets the program's keys too (final.png's size).
-    let (scene, _) =
-        Scene::from_file_with::<ProgramKeys>(scene_path, &["cloth.n=24", "duration=1.0"])?;
+    // A smaller, shorter drape than the file's; any scene key can be overridden.
+    let scene = Scene::from_file(scene_path, &["cloth.n=24", "duration=1.0"])?;
     let mut sim = scene.build()?;
 
     std::fs::create_dir_all(&out)?;

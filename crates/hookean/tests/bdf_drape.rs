@@ -6,16 +6,7 @@
 use std::ops::ControlFlow;
 use std::path::Path;
 
-use hookean::scene::{Scene, SceneExtension};
-
-/// drape.toml's picture size, a key of the `hookean` program.
-#[derive(serde::Deserialize)]
-#[serde(transparent)]
-struct Picture(toml::Table);
-
-impl SceneExtension for Picture {
-    const KEYS: &'static [&'static str] = &["output.width", "output.height"];
-}
+use hookean::scene::Scene;
 
 /// The 8 x 8 drape with `overrides`, run to `T`: its positions.
 fn positions(overrides: &[String]) -> Vec<f64> {
@@ -23,8 +14,7 @@ fn positions(overrides: &[String]) -> Vec<f64> {
     let mut all = vec!["cloth.n=8".to_string(), format!("duration={T}")];
     all.extend_from_slice(overrides);
     let all: Vec<&str> = all.iter().map(String::as_str).collect();
-    let (scene, picture) = Scene::from_file_with::<Picture>(&path, &all).unwrap();
-    assert!(picture.0["output"].get("width").is_some());
+    let scene = Scene::from_file(&path, &all).unwrap();
     let mut sim = scene.build().unwrap();
     sim.run_until(T, |_, _| ControlFlow::Continue(())).unwrap();
     assert_eq!(sim.t(), T);

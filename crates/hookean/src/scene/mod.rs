@@ -223,6 +223,26 @@ mod tests {
         assert_eq!(s.integrator.h, StepScene::Value(0.01));
     }
 
+    /// A library user reads every shipped scene of the facade's models with
+    /// plain `from_file`: only the tutorial scenes (a model table of the
+    /// `hookean` program) need the program's keys.
+    #[test]
+    fn every_shipped_model_scene_is_a_facade_scene() {
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes");
+        let mut read = 0;
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            let text = std::fs::read_to_string(&path).unwrap();
+            if text.lines().any(|l| l.trim() == "[tutorial]") {
+                assert!(Scene::from_file(&path, &[]).is_err(), "{}", path.display());
+                continue;
+            }
+            Scene::from_file(&path, &[]).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            read += 1;
+        }
+        assert!(read >= 8, "{read} scenes");
+    }
+
     #[test]
     fn solver_defaults_are_the_drape_solver_and_drape_toml_spells_them_out() {
         // A bare scene solves its steps like `SimulationOptions::default()`
@@ -235,7 +255,7 @@ mod tests {
         assert_eq!(opts.solver.h, default.solver.h);
         assert_eq!(opts.solver.newton, default.solver.newton);
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/drape.toml");
-        let shipped = Scene::from_file_with::<Picture>(path, &[]).unwrap().0;
+        let shipped = Scene::from_file(path, &[]).unwrap();
         assert_eq!(shipped.simulation_options(), bare.simulation_options());
         assert_eq!(shipped.duration, bare.duration);
     }
@@ -370,17 +390,6 @@ mod tests {
             Err(e) => panic!("{e}"),
             Ok(_) => panic!("auto with implicit Euler was accepted"),
         }
-    }
-
-    /// The drape's picture size, a key of the `hookean` program.
-    #[derive(Debug, Deserialize)]
-    struct Picture {
-        #[serde(rename = "output")]
-        _output: toml::Table,
-    }
-
-    impl SceneExtension for Picture {
-        const KEYS: &'static [&'static str] = &["output.width", "output.height"];
     }
 
     /// A program's keys are split off with their positions and the facade
