@@ -18,20 +18,20 @@ fn small_coarse(smoother: AmgSmoother) -> AmgOptions {
     }
 }
 
-fn hierarchy3(amg: &Amg) -> &Hierarchy<3, f64> {
+fn hierarchy3(amg: &Amg) -> &hierarchy::Hierarchy<3, 3, f64> {
     match &amg.inner {
         Inner::Block {
-            h: Levels::Double(h),
+            h: Levels::D33(h),
             ..
         } => h,
         _ => panic!("not a double-precision block hierarchy"),
     }
 }
 
-fn hierarchy3_single(amg: &Amg) -> &Hierarchy<3, f32> {
+fn hierarchy3_single(amg: &Amg) -> &hierarchy::Hierarchy<3, 3, f32> {
     match &amg.inner {
         Inner::Block {
-            h: Levels::Single(h),
+            h: Levels::S33(h),
             ..
         } => h,
         _ => panic!("not a single-precision block hierarchy"),
@@ -56,7 +56,7 @@ fn dense_bsr<const B: usize, S: bsr::Entry>(m: &Bsr<B, S>) -> Vec<Vec<f64>> {
 
 /// Every coarse operator of `h` equals `P^T A P` of the stored level
 /// matrices, entry by entry to `tol` times the product's largest entry.
-fn assert_galerkin<S: bsr::Entry>(h: &Hierarchy<3, S>, tol: f64) {
+fn assert_galerkin<S: bsr::Entry>(h: &hierarchy::Hierarchy<3, 3, S>, tol: f64) {
     assert!(h.n_levels() >= 2);
     for l in 0..h.n_levels() - 1 {
         let (al, Some((p, _))) = h.level_matrices(l) else {
