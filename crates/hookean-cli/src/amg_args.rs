@@ -91,10 +91,18 @@ impl AmgArgs {
             return bad("amg-strength", "[0, 1)", format!("{:?}", self.amg_strength));
         }
         if !(1..=MAX_COARSE).contains(&self.amg_coarse_size) {
-            return bad("amg-coarse-size", "1 to 3000", self.amg_coarse_size.to_string());
+            return bad(
+                "amg-coarse-size",
+                "1 to 3000",
+                self.amg_coarse_size.to_string(),
+            );
         }
         if !(1..=MAX_LEVELS).contains(&self.amg_max_levels) {
-            return bad("amg-max-levels", "1 to 100", self.amg_max_levels.to_string());
+            return bad(
+                "amg-max-levels",
+                "1 to 100",
+                self.amg_max_levels.to_string(),
+            );
         }
         for (flag, w) in [
             ("amg-prolongation-weight", self.amg_prolongation_weight),

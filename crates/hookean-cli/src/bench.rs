@@ -405,10 +405,7 @@ fn load(
                 "csr" => Matrix::csr(csr.clone(), args.block_size.unwrap_or(3)),
                 _ => Matrix::Block(a),
             };
-            Ok((
-                System { a: csr, b, matrix },
-                Ok(Vec::new()),
-            ))
+            Ok((System { a: csr, b, matrix }, Ok(Vec::new())))
         }
         Source::File {
             matrix,

@@ -7,9 +7,9 @@ use std::time::Instant;
 
 use clap::Args;
 use hookean_sparse::{
-    AmgOptions, AmgStats, AnyPreconditioner, CgParams, CgProgress, CgWorkspace,
-    DirectCholesky, LinearOperator, PrecondKind, PreconditionerSetup, ReadOptions, SymBlockMatrix,
-    SymCsrMatrix, pcg, read_matrix_market_file_with, vecops::norm2,
+    AmgOptions, AmgStats, AnyPreconditioner, CgParams, CgProgress, CgWorkspace, DirectCholesky,
+    LinearOperator, PrecondKind, PreconditionerSetup, ReadOptions, SymBlockMatrix, SymCsrMatrix,
+    pcg, read_matrix_market_file_with, vecops::norm2,
 };
 use serde::Serialize;
 
@@ -428,7 +428,10 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     if let Some(v) = near_nullspace.iter().find(|v| v.len() != rows) {
         let (flag, path) = match (&args.nullspace, &args.coordinates) {
             (Some(p), _) => ("nullspace", p),
-            (_, p) => ("coordinates", p.as_ref().expect("a near-nullspace came from a file")),
+            (_, p) => (
+                "coordinates",
+                p.as_ref().expect("a near-nullspace came from a file"),
+            ),
         };
         return Err(input(
             flag,

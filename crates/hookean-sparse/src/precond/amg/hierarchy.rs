@@ -530,8 +530,15 @@ impl<const B: usize, const K: usize, S: Entry> Hierarchy<B, K, S> {
         while let Some((a, nullspace)) = next {
             theta *= 0.5;
             let level;
-            (level, next, _) =
-                build_level(a, &nullspace, coarse.len() + 1, theta, options, &numeric, &mut work)?;
+            (level, next, _) = build_level(
+                a,
+                &nullspace,
+                coarse.len() + 1,
+                theta,
+                options,
+                &numeric,
+                &mut work,
+            )?;
             coarse.push(level);
         }
         let coarsest = coarse.last().map_or(B * fine.a.nrows, |l| K * l.a.nrows);
@@ -582,12 +589,10 @@ impl<const B: usize, const K: usize, S: Entry> Hierarchy<B, K, S> {
                 Some(c) => chol.factor(&c.a),
                 None => chol.factor(&self.fine.a),
             };
-            factored.map_err(|row| {
-                SparseError::AmgNotPositiveDefinite {
-                    level,
-                    row,
-                    what: "coarsest operator",
-                }
+            factored.map_err(|row| SparseError::AmgNotPositiveDefinite {
+                level,
+                row,
+                what: "coarsest operator",
             })?;
         }
         Ok(())
@@ -1067,7 +1072,11 @@ impl<const B: usize, S: Entry> Hierarchy<B, B, S> {
     /// Test access: level `l`'s operator, prolongator and tentative prolongator.
     #[allow(clippy::type_complexity)]
     pub fn level_matrices(&self, l: usize) -> (&Bsr<B, S>, Option<(&Bsr<B, S>, &Bsr<B>)>) {
-        let level = if l == 0 { &self.fine } else { &self.coarse[l - 1] };
+        let level = if l == 0 {
+            &self.fine
+        } else {
+            &self.coarse[l - 1]
+        };
         (&level.a, level.transfer.as_ref().map(|t| (&t.p, &t.t)))
     }
 }

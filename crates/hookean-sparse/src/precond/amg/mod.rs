@@ -734,7 +734,10 @@ impl PreconditionerSetup<sprs::CsMat<f64>> for Amg {
         let result = match refill {
             Some(r) => r,
             None => {
-                let (b, k) = (self.options.block_size, self.vectors(self.options.block_size));
+                let (b, k) = (
+                    self.options.block_size,
+                    self.vectors(self.options.block_size),
+                );
                 with_block_sizes!(b, k, B, K => CsrLevels::new::<B, K>(a, &self.options),
                     _ => Err(unsupported(b, k)))
                 .map(|c| self.inner = Inner::Csr(c))
@@ -798,3 +801,6 @@ impl Preconditioner for Amg {
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod nullspace_tests;

@@ -104,7 +104,10 @@ pub(super) fn nullspace_blocks<const B: usize, const K: usize>(
         })
     };
     if vectors.is_empty() {
-        assert_eq!(B, K, "the default near-nullspace has one vector per unknown");
+        assert_eq!(
+            B, K,
+            "the default near-nullspace has one vector per unknown"
+        );
         let mut identity = zero::<B, K>();
         for (r, row) in identity.iter_mut().enumerate() {
             row[r] = 1.0;
