@@ -40,12 +40,17 @@ pub struct AmgArgs {
     /// Damped-Jacobi weight of `amg`'s block-jacobi smoother times rho(D^-1 A), in (0, 2).
     #[arg(long, default_value_t = 4.0 / 3.0, allow_negative_numbers = true)]
     pub amg_jacobi_weight: f64,
+    /// Power-method steps of `amg` estimating rho(D^-1 A) for the weights (AMGCL's
+    /// `power_iters`), 0 to 100; 0 takes Gershgorin's bound (cheaper; tight for scalar
+    /// M-matrices, loose for 3x3 blocks).
+    #[arg(long, default_value_t = 5)]
+    pub amg_power_iterations: usize,
     /// Storage of `amg`'s hierarchy: single (f32 entries, f64 arithmetic) or double.
     #[arg(long, default_value = "single")]
     pub amg_precision: String,
 }
 
-/// The most smoothing steps and levels the flags take.
+/// The most smoothing steps, power-method steps and levels the flags take.
 const MAX_SWEEPS: usize = 100;
 const MAX_LEVELS: usize = 100;
 /// The largest coarsest level (solved by a dense Cholesky factor).
@@ -87,6 +92,13 @@ impl AmgArgs {
         if !(1..=MAX_SWEEPS).contains(&self.amg_sweeps) {
             return bad("amg-sweeps", "1 to 100", self.amg_sweeps.to_string());
         }
+        if self.amg_power_iterations > MAX_SWEEPS {
+            return bad(
+                "amg-power-iterations",
+                "0 to 100",
+                self.amg_power_iterations.to_string(),
+            );
+        }
         if !(0.0..1.0).contains(&self.amg_strength) {
             return bad("amg-strength", "[0, 1)", format!("{:?}", self.amg_strength));
         }
@@ -120,6 +132,7 @@ impl AmgArgs {
             sweeps: self.amg_sweeps,
             jacobi_weight: self.amg_jacobi_weight,
             prolongation_weight: self.amg_prolongation_weight,
+            power_iterations: self.amg_power_iterations,
             near_nullspace,
             block_size,
             precision,
