@@ -417,9 +417,10 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         (None, None) => (Vec::new(), None),
     };
     let block_size = args.block_size.or(implied).unwrap_or(1);
-    // `auto` groups 3x3 blocks where it can; nodes of 1 or 2 unknowns ask for CSR.
+    // `auto` groups 3x3 blocks where it can; a near-nullspace on nodes of 1
+    // or 2 unknowns asks for CSR.
     let format = match args.format.as_str() {
-        "auto" if block_size != 3 => "csr",
+        "auto" if implied.is_some() && block_size != 3 => "csr",
         f => f,
     };
     let System { a, b, matrix } =
