@@ -426,14 +426,13 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let System { a, b, matrix } =
         load_system(&args.matrix, args.rhs.as_deref(), format, block_size, cap)?;
     let rows = a.rows();
-    if let Some(v) = near_nullspace.iter().find(|v| v.len() != rows) {
-        let (flag, path) = match (&args.nullspace, &args.coordinates) {
-            (Some(p), _) => ("nullspace", p),
-            (_, p) => (
-                "coordinates",
-                p.as_ref().expect("a near-nullspace came from a file"),
-            ),
-        };
+    let source = match (&args.nullspace, &args.coordinates) {
+        (Some(p), _) => Some(("nullspace", p)),
+        (None, Some(p)) => Some(("coordinates", p)),
+        (None, None) => None,
+    };
+    let short = near_nullspace.iter().find(|v| v.len() != rows);
+    if let (Some(v), Some((flag, path))) = (short, source) {
         return Err(input(
             flag,
             path,

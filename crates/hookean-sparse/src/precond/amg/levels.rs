@@ -53,26 +53,27 @@ pub(super) use with_block_sizes;
 pub(super) const SUPPORTED: &str =
     "1 vector on nodes of 1 unknown, 2 or 3 on nodes of 2, 3 or 6 on nodes of 3";
 
-/// A hierarchy of one supported pair of block sizes, in either precision.
+/// A hierarchy of one supported pair of block sizes, in either precision
+/// (boxed: one pointer in [`Amg`](super::Amg), whatever the variant).
 #[derive(Debug, Clone)]
 pub(super) enum Levels {
-    S11(Hierarchy<1, 1, f32>),
-    D11(Hierarchy<1, 1, f64>),
-    S22(Hierarchy<2, 2, f32>),
-    D22(Hierarchy<2, 2, f64>),
-    S23(Hierarchy<2, 3, f32>),
-    D23(Hierarchy<2, 3, f64>),
-    S33(Hierarchy<3, 3, f32>),
-    D33(Hierarchy<3, 3, f64>),
-    S36(Hierarchy<3, 6, f32>),
-    D36(Hierarchy<3, 6, f64>),
+    S11(Box<Hierarchy<1, 1, f32>>),
+    D11(Box<Hierarchy<1, 1, f64>>),
+    S22(Box<Hierarchy<2, 2, f32>>),
+    D22(Box<Hierarchy<2, 2, f64>>),
+    S23(Box<Hierarchy<2, 3, f32>>),
+    D23(Box<Hierarchy<2, 3, f64>>),
+    S33(Box<Hierarchy<3, 3, f32>>),
+    D33(Box<Hierarchy<3, 3, f64>>),
+    S36(Box<Hierarchy<3, 6, f32>>),
+    D36(Box<Hierarchy<3, 6, f64>>),
 }
 
 macro_rules! from_hierarchy {
     ($($variant:ident: $b:literal, $k:literal, $s:ty;)*) => {
         $(impl From<Hierarchy<$b, $k, $s>> for Levels {
             fn from(h: Hierarchy<$b, $k, $s>) -> Self {
-                Levels::$variant(h)
+                Levels::$variant(Box::new(h))
             }
         })*
     };
