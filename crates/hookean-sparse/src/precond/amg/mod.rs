@@ -378,8 +378,10 @@ impl CsrLevels {
 /// Smoothed-aggregation algebraic multigrid (Vaněk, Mandel, Brezina 1996)
 /// on the 3x3 blocks of a [`SymBlockMatrix`], and on CSR matrices grouped
 /// into blocks of 1, 2 or 3 unknowns per node ([`AmgOptions::block_size`]).
-/// Every level is stored as full block CSR of the same block size, so all
-/// kernels of the cycle run row by row (ready to be split across threads).
+/// Every level is stored as full block CSR: `B x B` blocks on the finest
+/// level, `k x k` on the coarser ones (`k` near-nullspace vectors), so all
+/// kernels of the cycle run row by row (ready to be split across threads),
+/// compiled for their block size.
 ///
 /// Set-up, per level `l` (`A_0 = A`):
 /// 1. strength of connection on blocks: `A_ij` is strong when
@@ -387,7 +389,10 @@ impl CsrLevels {
 /// 2. aggregation of the strong graph (three greedy passes);
 /// 3. the tentative prolongator `T` from the near-nullspace `N_l`, by a thin
 ///    QR on every aggregate (`N_l = T N_{l+1}`): the three translations per
-///    particle by default (the constant for scalar matrices);
+///    particle by default (the constant for scalar matrices), or the `k`
+///    vectors of [`AmgOptions::near_nullspace`] (the rigid-body modes of
+///    [`rigid_body_modes`]: `k = 3` on 2D nodes of 2 unknowns, 6 on 3D
+///    nodes of 3), so that every coarse node carries `k` unknowns;
 /// 4. the smoothed prolongator `P = (I - omega D_F^-1 A_F) T`, `A_F` the
 ///    filtered matrix (weak blocks lumped onto the diagonal) and
 ///    `omega = 4/3 / rho(D_F^-1 A_F)`;
