@@ -275,3 +275,58 @@ fn column_norm<const B: usize, const K: usize>(
         .sum::<f64>()
         .sqrt()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::nullspace::rigid_body_modes;
+    use super::*;
+
+    /// Two nodes on the x axis: the rotation about x moves neither, so the
+    /// six rigid-body modes have rank 5 on their aggregate and the QR
+    /// completes the sixth column; one node alone is too few unknowns.
+    #[test]
+    fn a_dependent_mode_is_completed_and_the_modes_are_reproduced() {
+        let modes = rigid_body_modes(&[0.0, 0.0, 0.0, 2.0, 0.0, 0.0], 3).unwrap();
+        let blocks: Vec<Blk<3, 6>> = (0..2)
+            .map(|i| {
+                let mut b = zero::<3, 6>();
+                for (r, row) in b.iter_mut().enumerate() {
+                    for (c, v) in modes.iter().enumerate() {
+                        row[c] = v[3 * i + r];
+                    }
+                }
+                b
+            })
+            .collect();
+        let (t, r) = tentative_prolongator(&[0, 0], 1, &blocks).unwrap();
+        // Column c of T: the 6 entries of the two blocks' column c.
+        let column = |c: usize| -> Vec<f64> {
+            t.val
+                .iter()
+                .flat_map(|b| b.iter().map(move |row| row[c]))
+                .collect()
+        };
+        for p in 0..6 {
+            for q in 0..6 {
+                let d: f64 = column(p).iter().zip(column(q)).map(|(x, y)| x * y).sum();
+                let e = if p == q { 1.0 } else { 0.0 };
+                assert!((d - e).abs() < 1e-14, "T^T T ({p},{q}) = {d}");
+            }
+        }
+        // The rotation about x (mode 3) is zero here: its pivot is zero.
+        assert!(r[0][3][3].abs() < 1e-12, "{:?}", r[0][3]);
+        // N = T R, entry by entry.
+        for (i, b) in blocks.iter().enumerate() {
+            for row in 0..3 {
+                for c in 0..6 {
+                    let tr: f64 = (0..6).map(|k| t.val[i][row][k] * r[0][k][c]).sum();
+                    assert!(
+                        (tr - b[row][c]).abs() < 1e-14,
+                        "node {i}, row {row}, mode {c}"
+                    );
+                }
+            }
+        }
+        assert!(tentative_prolongator(&[0], 1, &blocks[..1]).is_err());
+    }
+}
