@@ -22,8 +22,10 @@
 #  3. ROUNDS interleaved rounds; in each, matrix by matrix, one fresh set-up and
 #     solve of every solver (each tool in its own process, one thread):
 #       hookean   `hookean --threads 1 solve --format csr --block-size B
-#                  --precond jacobi,ssor,ic0,amg` (and --format block where
-#                  B = 3; --nullspace once `hookean solve` has it)
+#                  --precond jacobi,ssor,ic0,amg --nullspace NAME_nullspace.mtx`
+#                  (and --format block where B = 3), and "hookean csr gs": the
+#                  multigrid alone with pyamg's smoother (--amg-smoother
+#                  gauss-seidel: symmetric block Gauss-Seidel), off cloth
 #       eigen     ConjugateGradient (UpLo = Lower) + jacobi, ic (AMD), ic-natural, ssor (eigen_pcg)
 #       amgcl     smoothed aggregation + CG, smoothers damped_jacobi and ilu0:
 #                 "sa" with AMGCL's defaults (3x3 block values where B = 3, else
@@ -157,6 +159,10 @@ for round in $(seq 1 "$ROUNDS"); do
         if [ "$bs" = 3 ]; then
             run "$name" "hookean block" "$HOOKEAN" --threads 1 solve "$a" --rhs "$b" --rtol "$RTOL" \
                 --format block --precond jacobi,ssor,ic0,amg "${extra[@]}"
+        fi
+        if [ "$NULLSPACE_FLAG" = yes ] && [[ $name != cloth* ]]; then
+            run "$name" "hookean csr gs" "$HOOKEAN" --threads 1 solve "$a" --rhs "$b" --rtol "$RTOL" \
+                --format csr --block-size "$bs" --precond amg --amg-smoother gauss-seidel "${extra[@]}"
         fi
         run "$name" "eigen" "$WORK/eigen_pcg" "$a" "$b" --rtol "$RTOL" --precond jacobi,ic,ic-natural,ssor --label "$name"
         if [ "$bs" = 3 ]; then

@@ -19,11 +19,10 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use hookean_sparse::{
-    MatrixMarket, PrecondKind, ReadOptions, check_csr_symmetric, read_matrix_market_file_with,
-};
+use hookean_sparse::{PrecondKind, check_csr_symmetric};
 
 use crate::CliError;
+use crate::amg_args::{AmgArgs, read_columns};
 use crate::lineplot::{LogLogPlot, Series};
 use crate::solve::{
     Matrix, RunOptions, SolveRecord, Solver, SolverArgs, System, empty_record, load_system,
@@ -63,9 +62,8 @@ pub struct BenchArgs {
     /// SSOR relaxation, in (0, 2).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     omega: f64,
-    /// The smoother of `amg`: block-jacobi, gauss-seidel or ic0.
-    #[arg(long, default_value = "block-jacobi")]
-    amg_smoother: String,
+    #[command(flatten)]
+    amg: AmgArgs,
     /// Matrix storage for PCG: block (symmetric 3x3 blocks), csr, or auto (block when possible).
     #[arg(long, default_value = "auto")]
     format: String,
@@ -110,14 +108,6 @@ enum Source {
     Cloth(usize),
 }
 
-/// A system's near-nullspace for the multigrid.
-enum Loaded {
-    /// The vectors (empty: the multigrid's default).
-    Vectors(Vec<Vec<f64>>),
-    /// Why the file's vectors are not used (added to the multigrid's status).
-    Note(String),
-}
-
 /// One row of the table.
 struct Row {
     system: String,
@@ -135,7 +125,7 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
         rtol: args.rtol,
         max_iter: args.max_iter,
         repeat: args.repeat,
-        amg_smoother: args.amg_smoother.clone(),
+        amg: args.amg.clone(),
         max_memory: args.max_memory,
     };
     let (solvers, params) = solver_args.resolve()?;
@@ -322,7 +312,7 @@ fn bench(
                 let run = RunOptions {
                     trace: true,
                     near_nullspace: match (solver, &nullspace) {
-                        (Solver::Pcg(PrecondKind::Amg), Ok(Loaded::Vectors(v))) => v.clone(),
+                        (Solver::Pcg(PrecondKind::Amg), Ok(v)) => v.clone(),
                         _ => Vec::new(),
                     },
                 };
@@ -352,16 +342,13 @@ fn bench(
                 best[s] = Some(record);
             }
         }
-        for (solver, record) in solvers.iter().zip(best) {
+        for record in best {
             let Some(record) = record else { continue };
-            let mut status = match (&record.error, record.converged) {
+            let status = match (&record.error, record.converged) {
                 (Some(e), _) => format!("failed: {e}"),
                 (None, true) => "converged".to_string(),
                 (None, false) => format!("not converged (|r|/|b| = {:.1e})", record.rel_residual),
             };
-            if let (Solver::Pcg(PrecondKind::Amg), Ok(Loaded::Note(note))) = (solver, &nullspace) {
-                status = format!("{status}; {note}");
-            }
             if !args.quiet {
                 crate::errln!(
                     "  {:<13} {:>6} iterations, {:>10.3} ms, {status}",
@@ -409,7 +396,7 @@ fn load(
     input: &Input,
     args: &BenchArgs,
     cap: u64,
-) -> Result<(System, Result<Loaded, String>), String> {
+) -> Result<(System, Result<Vec<Vec<f64>>, String>), String> {
     match &input.source {
         Source::Cloth(n) => {
             let (a, b) = crate::deformed_cloth_system(*n, CLOTH_K).map_err(reason)?;
@@ -418,10 +405,7 @@ fn load(
                 "csr" => Matrix::csr(csr.clone(), args.block_size.unwrap_or(3)),
                 _ => Matrix::Block(a),
             };
-            Ok((
-                System { a: csr, b, matrix },
-                Ok(Loaded::Vectors(Vec::new())),
-            ))
+            Ok((System { a: csr, b, matrix }, Ok(Vec::new())))
         }
         Source::File {
             matrix,
@@ -429,7 +413,7 @@ fn load(
             nullspace,
         } => {
             let nullspace = match nullspace {
-                Some(p) => read_nullspace(p, cap),
+                Some(p) => read_columns(p, cap),
                 None => Ok(Vec::new()),
             };
             let block_size = args.block_size.unwrap_or(match &nullspace {
@@ -454,28 +438,9 @@ fn load(
                 )),
                 _ => Ok(v),
             });
-            // The multigrid takes as many near-nullspace vectors as unknowns
-            // per node; with more (rigid-body rotations), it runs on its
-            // default (the translations) and says so.
-            let note = match (&nullspace, &system.matrix) {
-                (Ok(v), Matrix::Csr { block_size, .. })
-                    if !v.is_empty() && v.len() != *block_size =>
-                {
-                    Some(format!(
-                        "near-nullspace of {} vectors not used: the multigrid takes one per unknown of a node ({block_size})",
-                        v.len()
-                    ))
-                }
-                (Ok(v), Matrix::Block(_)) if !v.is_empty() && v.len() != 3 => Some(format!(
-                    "near-nullspace of {} vectors not used: the block multigrid takes 3",
-                    v.len()
-                )),
-                _ => None,
-            };
-            let nullspace = match note {
-                Some(n) => Ok(Loaded::Note(n)),
-                None => nullspace.map(Loaded::Vectors),
-            };
+            // The multigrid takes k vectors on nodes of B unknowns for the
+            // pairs it supports (rigid-body modes: 3 on 2, 6 on 3); another
+            // pair is its row's error.
             Ok((system, nullspace))
         }
     }
@@ -488,27 +453,6 @@ fn reason(e: CliError) -> String {
         CliError::SolverFailed => "the solver failed".into(),
         CliError::OutputClosed => "output closed".into(),
     }
-}
-
-/// The columns of a near-nullspace file (Matrix Market, array or coordinate).
-fn read_nullspace(path: &Path, cap: u64) -> Result<Vec<Vec<f64>>, String> {
-    let opts = ReadOptions {
-        max_bytes: cap,
-        ..ReadOptions::default()
-    };
-    let m = read_matrix_market_file_with(path, &opts).map_err(|e| e.to_string())?;
-    let (rows, cols) = m.shape();
-    let values = match m {
-        MatrixMarket::Dense { values, .. } => values,
-        MatrixMarket::Sparse(a) => {
-            let mut v = vec![0.0; rows * cols];
-            for (&x, (r, c)) in a.iter() {
-                v[c * rows + r] = x;
-            }
-            v
-        }
-    };
-    Ok(values.chunks(rows.max(1)).map(<[f64]>::to_vec).collect())
 }
 
 /// `residual-NAME.svg`: the relative residual of every solver of `system`

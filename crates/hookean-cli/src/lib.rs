@@ -40,6 +40,7 @@ use clap::{Parser, Subcommand};
 pub use bench_precond::deformed_cloth_system;
 
 pub mod alloc;
+mod amg_args;
 mod bench;
 mod bench_precond;
 mod export_system;

@@ -7,13 +7,14 @@ use std::time::Instant;
 
 use clap::Args;
 use hookean_sparse::{
-    AmgOptions, AmgSmoother, AmgStats, AnyPreconditioner, CgParams, CgProgress, CgWorkspace,
-    DirectCholesky, LinearOperator, PrecondKind, PreconditionerSetup, ReadOptions, SymBlockMatrix,
-    SymCsrMatrix, pcg, read_matrix_market_file_with, vecops::norm2,
+    AmgOptions, AmgStats, AnyPreconditioner, CgParams, CgProgress, CgWorkspace, DirectCholesky,
+    LinearOperator, PrecondKind, PreconditionerSetup, ReadOptions, SymBlockMatrix, SymCsrMatrix,
+    pcg, read_matrix_market_file_with, vecops::norm2,
 };
 use serde::Serialize;
 
 use crate::CliError;
+use crate::amg_args::{AmgArgs, read_columns, read_rigid_body_modes};
 
 #[derive(Debug, Args)]
 pub struct SolveArgs {
@@ -29,9 +30,22 @@ pub struct SolveArgs {
     #[arg(long, default_value = "auto")]
     format: String,
     /// Unknowns per node for `--precond amg` on csr storage: 1, 2 (e.g. 2D
-    /// elasticity) or 3 (block storage always has 3).
-    #[arg(long, default_value_t = 1)]
-    block_size: usize,
+    /// elasticity) or 3 (block storage always has 3). Default: read off the
+    /// first vector of `--nullspace` (a translation, non-zero at every d-th
+    /// entry), or the columns of `--coordinates`, else 1.
+    #[arg(long)]
+    block_size: Option<usize>,
+    /// The near-nullspace of `--precond amg`: a Matrix Market file whose
+    /// columns are the vectors (e.g. the rigid-body modes: 3 on nodes of 2
+    /// unknowns, 6 on nodes of 3; as many as the unknowns per node, or one
+    /// for a scalar matrix). Default: the translations (the constant).
+    #[arg(long, conflicts_with = "coordinates")]
+    nullspace: Option<PathBuf>,
+    /// Node coordinates (Matrix Market, n x d, d = 2 or 3, one row per node,
+    /// d unknowns per node): `amg` takes their rigid-body modes (3 in 2D, 6 in
+    /// 3D) as its near-nullspace.
+    #[arg(long)]
+    coordinates: Option<PathBuf>,
 }
 
 /// The most runs `--repeat` asks for.
@@ -59,9 +73,8 @@ pub struct SolverArgs {
     /// Run each solver this many times (1 to 1000) and report the best times.
     #[arg(long, default_value_t = 1)]
     pub repeat: usize,
-    /// The smoother of `amg`: block-jacobi, gauss-seidel (symmetric) or ic0 (block IC(0)).
-    #[arg(long, default_value = "block-jacobi")]
-    pub amg_smoother: String,
+    #[command(flatten)]
+    pub amg: AmgArgs,
     /// Refuse a matrix, system or direct factor that would need more memory than this (GiB),
     /// in (0, the machine's memory].
     #[arg(
@@ -102,21 +115,9 @@ impl SolverArgs {
             max_iter: self.max_iter,
             ..Default::default()
         };
-        self.smoother()?;
+        self.amg.options(1, Vec::new())?;
         crate::memory::cap_bytes(self.max_memory)?;
         Ok((parse_solvers(&self.precond, omega)?, params))
-    }
-
-    /// The multigrid's smoother from `--amg-smoother`.
-    fn smoother(&self) -> Result<AmgSmoother, CliError> {
-        match self.amg_smoother.as_str() {
-            "block-jacobi" => Ok(AmgSmoother::BlockJacobi),
-            "gauss-seidel" => Ok(AmgSmoother::SymmetricGaussSeidel),
-            "ic0" => Ok(AmgSmoother::BlockIc0),
-            other => Err(CliError::Input(format!(
-                "--amg-smoother: unknown smoother '{other}' (expected block-jacobi, gauss-seidel or ic0)"
-            ))),
-        }
     }
 }
 
@@ -259,11 +260,11 @@ pub fn run_solver(
     run: &RunOptions,
 ) -> SolveRecord {
     let repeat = args.repeat;
-    let amg = |block_size| AmgOptions {
-        block_size,
-        smoother: args.smoother().unwrap_or_default(),
-        near_nullspace: run.near_nullspace.clone(),
-        ..Default::default()
+    // The flags were checked by `SolverArgs::resolve`.
+    let amg = |block_size| {
+        args.amg
+            .options(block_size, run.near_nullspace.clone())
+            .unwrap_or_default()
     };
     match solver {
         Solver::Pcg(kind) => {
@@ -399,14 +400,48 @@ pub fn load_system(
 pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let (solvers, params) = args.solver.resolve()?;
     let cap = crate::memory::cap_bytes(args.solver.max_memory)?;
-    let System { a, b, matrix } = load_system(
-        &args.matrix,
-        args.rhs.as_deref(),
-        &args.format,
-        args.block_size,
-        cap,
-    )?;
+    let input = |flag: &str, path: &std::path::Path, e: String| {
+        CliError::Input(format!("--{flag} {}: {e}", path.display()))
+    };
+    let (near_nullspace, implied) = match (&args.nullspace, &args.coordinates) {
+        (Some(p), _) => {
+            let v = read_columns(p, cap).map_err(|e| input("nullspace", p, e))?;
+            let d = nullspace_block_size(&v);
+            (v, d)
+        }
+        (None, Some(p)) => {
+            let v = read_rigid_body_modes(p, cap).map_err(|e| input("coordinates", p, e))?;
+            let d = if v.len() == 3 { 2 } else { 3 };
+            (v, Some(d))
+        }
+        (None, None) => (Vec::new(), None),
+    };
+    let block_size = args.block_size.or(implied).unwrap_or(1);
+    // `auto` groups 3x3 blocks where it can; a near-nullspace on nodes of 1
+    // or 2 unknowns asks for CSR.
+    let format = match args.format.as_str() {
+        "auto" if implied.is_some() && block_size != 3 => "csr",
+        f => f,
+    };
+    let System { a, b, matrix } =
+        load_system(&args.matrix, args.rhs.as_deref(), format, block_size, cap)?;
     let rows = a.rows();
+    let source = match (&args.nullspace, &args.coordinates) {
+        (Some(p), _) => Some(("nullspace", p)),
+        (None, Some(p)) => Some(("coordinates", p)),
+        (None, None) => None,
+    };
+    let short = near_nullspace.iter().find(|v| v.len() != rows);
+    if let (Some(v), Some((flag, path))) = (short, source) {
+        return Err(input(
+            flag,
+            path,
+            format!(
+                "the near-nullspace vectors have {} entries, the matrix has {rows} rows",
+                v.len()
+            ),
+        ));
+    }
     // MIC(0) exists for block storage only: "all" skips it on CSR.
     let solvers: Vec<Solver> = solvers
         .into_iter()
@@ -426,7 +461,10 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             &b,
             &params,
             &args.solver,
-            &RunOptions::default(),
+            &RunOptions {
+                near_nullspace: near_nullspace.clone(),
+                ..Default::default()
+            },
         );
         let record = SolveRecord {
             matrix: name.clone(),

@@ -284,3 +284,76 @@ fn a_closed_output_pipe_is_not_a_panic() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert_eq!(out.status.code(), Some(141), "{stderr}");
 }
+
+/// The multigrid's flags: each value out of range is an input error naming
+/// its flag; a near-nullspace from `--coordinates` (rigid-body modes: 6 on
+/// nodes of 3 unknowns) gives coarse levels of 6 unknowns per node; one of
+/// the wrong length is an input error naming `--nullspace`.
+#[test]
+fn amg_flags_are_checked_and_the_near_nullspace_is_used() {
+    let cloth = data("cloth16-A.mtx");
+    for (flag, value) in [
+        ("--amg-strength", "1.5"),
+        ("--amg-sweeps", "0"),
+        ("--amg-coarse-size", "0"),
+        ("--amg-max-levels", "0"),
+        ("--amg-prolongation-weight", "2"),
+        ("--amg-jacobi-weight", "0"),
+        ("--amg-power-iterations", "101"),
+        ("--amg-precision", "half"),
+        ("--amg-smoother", "sor"),
+    ] {
+        assert_input_error(
+            &hookean(&["solve", &cloth, "--precond", "amg", flag, value]),
+            flag,
+        );
+    }
+    // 256 nodes of the 16 x 16 cloth on a grid (not its true positions: any
+    // rigid-body modes are a valid near-nullspace).
+    let coordinates: String = (0..256)
+        .map(|i| format!("{}\n{}\n{}\n", i % 16, i / 16, 0.1 * (i % 3) as f64))
+        .collect::<Vec<_>>()
+        .join("");
+    // Array format is column-major: x of every node, then y, then z.
+    let mut columns = vec![String::new(); 3];
+    for (k, v) in coordinates.lines().enumerate() {
+        columns[k % 3].push_str(v);
+        columns[k % 3].push('\n');
+    }
+    let x = scratch(
+        "x.mtx",
+        &format!(
+            "%%MatrixMarket matrix array real general\n256 3\n{}",
+            columns.concat()
+        ),
+    );
+    for format in ["block", "csr"] {
+        let out = hookean(&[
+            "solve",
+            &cloth,
+            "--precond",
+            "amg",
+            "--coordinates",
+            &x,
+            "--format",
+            format,
+            "--amg-coarse-size",
+            "50",
+        ]);
+        assert!(out.status.success(), "{out:?}");
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(v["converged"], true, "{v}");
+        let rows = v["amg"]["rows"].as_array().unwrap();
+        assert!(rows.len() >= 2, "{v}");
+        assert_eq!(rows[0], 768);
+        assert_eq!(rows[1].as_u64().unwrap() % 6, 0, "{v}");
+    }
+    let short = scratch(
+        "ns.mtx",
+        "%%MatrixMarket matrix array real general\n3 1\n1\n1\n1\n",
+    );
+    assert_input_error(
+        &hookean(&["solve", &cloth, "--precond", "amg", "--nullspace", &short]),
+        "--nullspace",
+    );
+}

@@ -141,6 +141,6 @@ pub use power::{PowerHook, PowerInfo, PowerParams, power_method};
 pub use precond::{
     Amg, AmgLevelStats, AmgOptions, AmgPrecision, AmgReuse, AmgSmoother, AmgStats,
     AnyPreconditioner, BlockJacobi, Identity, IncompleteCholesky, Jacobi, PrecondKind,
-    Preconditioner, PreconditionerSetup, Ssor,
+    Preconditioner, PreconditionerSetup, Ssor, rigid_body_modes,
 };
 pub use symcsr::SymCsrMatrix;

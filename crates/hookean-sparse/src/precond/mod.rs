@@ -24,7 +24,9 @@ mod ic0;
 mod jacobi;
 mod ssor;
 
-pub use amg::{Amg, AmgLevelStats, AmgOptions, AmgPrecision, AmgReuse, AmgSmoother, AmgStats};
+pub use amg::{
+    Amg, AmgLevelStats, AmgOptions, AmgPrecision, AmgReuse, AmgSmoother, AmgStats, rigid_body_modes,
+};
 pub use any::{AnyPreconditioner, PrecondKind};
 pub use ic0::IncompleteCholesky;
 pub use jacobi::{BlockJacobi, Identity, Jacobi};

@@ -14,7 +14,7 @@
 use super::par;
 
 /// A dense `B x B` block, row-major.
-pub(crate) type Blk<const B: usize> = [[f64; B]; B];
+pub(crate) type Blk<const R: usize, const C: usize = R> = [[f64; C]; R];
 
 /// The type of a stored block entry: `f64`, or `f32` (single-precision
 /// levels: half the memory traffic of the V-cycle; the arithmetic stays in
@@ -57,14 +57,14 @@ impl Entry for f32 {
 }
 
 /// A stored `B x B` block.
-pub(crate) type SBlk<S, const B: usize> = [[S; B]; B];
+pub(crate) type SBlk<S, const R: usize, const C: usize = R> = [[S; C]; R];
 
 /// A stored block in `f64`.
 #[inline(always)]
-pub(crate) fn load<S: Entry, const B: usize>(m: &SBlk<S, B>) -> Blk<B> {
-    let mut out = zero::<B>();
-    for r in 0..B {
-        for c in 0..B {
+pub(crate) fn load<S: Entry, const R: usize, const C: usize>(m: &SBlk<S, R, C>) -> Blk<R, C> {
+    let mut out = [[0.0; C]; R];
+    for r in 0..R {
+        for c in 0..C {
             out[r][c] = m[r][c].load();
         }
     }
@@ -73,10 +73,10 @@ pub(crate) fn load<S: Entry, const B: usize>(m: &SBlk<S, B>) -> Blk<B> {
 
 /// A block rounded to the storage type.
 #[inline(always)]
-pub(crate) fn store<S: Entry, const B: usize>(m: &Blk<B>) -> SBlk<S, B> {
-    let mut out = [[S::default(); B]; B];
-    for r in 0..B {
-        for c in 0..B {
+pub(crate) fn store<S: Entry, const R: usize, const C: usize>(m: &Blk<R, C>) -> SBlk<S, R, C> {
+    let mut out = [[S::default(); C]; R];
+    for r in 0..R {
+        for c in 0..C {
             out[r][c] = S::store(m[r][c]);
         }
     }
@@ -85,16 +85,20 @@ pub(crate) fn store<S: Entry, const B: usize>(m: &Blk<B>) -> SBlk<S, B> {
 
 /// The zero stored block.
 #[inline(always)]
-pub(crate) fn szero<S: Entry, const B: usize>() -> SBlk<S, B> {
-    [[S::default(); B]; B]
+pub(crate) fn szero<S: Entry, const R: usize, const C: usize>() -> SBlk<S, R, C> {
+    [[S::default(); C]; R]
 }
 
 /// `y += m x` for a stored block.
 #[inline(always)]
-pub(crate) fn smul_add<S: Entry, const B: usize>(m: &SBlk<S, B>, x: &[f64; B], y: &mut [f64; B]) {
-    for r in 0..B {
+pub(crate) fn smul_add<S: Entry, const R: usize, const C: usize>(
+    m: &SBlk<S, R, C>,
+    x: &[f64; C],
+    y: &mut [f64; R],
+) {
+    for r in 0..R {
         let mut s = 0.0;
-        for c in 0..B {
+        for c in 0..C {
             s += m[r][c].load() * x[c];
         }
         y[r] += s;
@@ -103,21 +107,23 @@ pub(crate) fn smul_add<S: Entry, const B: usize>(m: &SBlk<S, B>, x: &[f64; B], y
 
 /// `c += a b` with `c` stored (rounded once after the block product).
 #[inline(always)]
-pub(crate) fn smul_mat_add<S: Entry, T: Entry, U: Entry, const B: usize>(
-    a: &SBlk<S, B>,
-    b: &SBlk<T, B>,
-    c: &mut SBlk<U, B>,
+pub(crate) fn smul_mat_add<
+    S: Entry,
+    T: Entry,
+    U: Entry,
+    const R: usize,
+    const M: usize,
+    const C: usize,
+>(
+    a: &SBlk<S, R, M>,
+    b: &SBlk<T, M, C>,
+    c: &mut SBlk<U, R, C>,
 ) {
-    let mut acc = zero::<B>();
-    for r in 0..B {
-        for c2 in 0..B {
-            acc[r][c2] = c[r][c2].load();
-        }
-    }
-    for r in 0..B {
-        for k in 0..B {
+    let mut acc = load(c);
+    for r in 0..R {
+        for k in 0..M {
             let ark = a[r][k].load();
-            for col in 0..B {
+            for col in 0..C {
                 acc[r][col] += ark * b[k][col].load();
             }
         }
@@ -127,10 +133,12 @@ pub(crate) fn smul_mat_add<S: Entry, T: Entry, U: Entry, const B: usize>(
 
 /// The transpose of a stored block.
 #[inline(always)]
-pub(crate) fn stranspose<S: Entry, const B: usize>(m: &SBlk<S, B>) -> SBlk<S, B> {
-    let mut t = *m;
-    for r in 0..B {
-        for c in 0..B {
+pub(crate) fn stranspose<S: Entry, const R: usize, const C: usize>(
+    m: &SBlk<S, R, C>,
+) -> SBlk<S, C, R> {
+    let mut t = [[S::default(); R]; C];
+    for r in 0..R {
+        for c in 0..C {
             t[c][r] = m[r][c];
         }
     }
@@ -139,25 +147,20 @@ pub(crate) fn stranspose<S: Entry, const B: usize>(m: &SBlk<S, B>) -> SBlk<S, B>
 
 /// The zero block.
 #[inline(always)]
-pub(crate) fn zero<const B: usize>() -> Blk<B> {
-    [[0.0; B]; B]
-}
-
-/// The identity block.
-pub(crate) fn identity<const B: usize>() -> Blk<B> {
-    let mut m = zero::<B>();
-    for (r, row) in m.iter_mut().enumerate() {
-        row[r] = 1.0;
-    }
-    m
+pub(crate) fn zero<const R: usize, const C: usize>() -> Blk<R, C> {
+    [[0.0; C]; R]
 }
 
 /// `y += m x`.
 #[inline(always)]
-pub(crate) fn mul_add<const B: usize>(m: &Blk<B>, x: &[f64; B], y: &mut [f64; B]) {
-    for r in 0..B {
+pub(crate) fn mul_add<const R: usize, const C: usize>(
+    m: &Blk<R, C>,
+    x: &[f64; C],
+    y: &mut [f64; R],
+) {
+    for r in 0..R {
         let mut s = 0.0;
-        for c in 0..B {
+        for c in 0..C {
             s += m[r][c] * x[c];
         }
         y[r] += s;
@@ -174,11 +177,15 @@ pub(crate) fn mul_vec<const B: usize>(m: &Blk<B>, x: &[f64; B]) -> [f64; B] {
 
 /// `c += a b`.
 #[inline(always)]
-pub(crate) fn mul_mat_add<const B: usize>(a: &Blk<B>, b: &Blk<B>, c: &mut Blk<B>) {
-    for r in 0..B {
-        for k in 0..B {
+pub(crate) fn mul_mat_add<const R: usize, const M: usize, const C: usize>(
+    a: &Blk<R, M>,
+    b: &Blk<M, C>,
+    c: &mut Blk<R, C>,
+) {
+    for r in 0..R {
+        for k in 0..M {
             let ark = a[r][k];
-            for col in 0..B {
+            for col in 0..C {
                 c[r][col] += ark * b[k][col];
             }
         }
@@ -188,7 +195,7 @@ pub(crate) fn mul_mat_add<const B: usize>(a: &Blk<B>, b: &Blk<B>, c: &mut Blk<B>
 /// `m^T`.
 #[inline(always)]
 pub(crate) fn transpose<const B: usize>(m: &Blk<B>) -> Blk<B> {
-    let mut t = zero::<B>();
+    let mut t = zero::<B, B>();
     for r in 0..B {
         for c in 0..B {
             t[c][r] = m[r][c];
@@ -199,7 +206,7 @@ pub(crate) fn transpose<const B: usize>(m: &Blk<B>) -> Blk<B> {
 
 /// The squared Frobenius norm.
 #[inline(always)]
-pub(crate) fn frobenius2<const B: usize>(m: &Blk<B>) -> f64 {
+pub(crate) fn frobenius2<const R: usize, const C: usize>(m: &Blk<R, C>) -> f64 {
     m.iter().flatten().map(|v| v * v).sum()
 }
 
@@ -209,11 +216,11 @@ pub(crate) fn frobenius2<const B: usize>(m: &Blk<B>) -> f64 {
 /// finite). The result is symmetric, so a smoother built from it is too.
 pub(crate) fn spd_inverse<const B: usize>(m: &Blk<B>) -> Option<Blk<B>> {
     if B == 3 {
-        let mut out = zero::<B>();
+        let mut out = zero::<B, B>();
         let done = spd_inverse3(m.as_flattened(), out.as_flattened_mut());
         return done.then_some(out);
     }
-    let mut l = zero::<B>();
+    let mut l = zero::<B, B>();
     let scale = (0..B).fold(0.0_f64, |s, i| s.max(m[i][i].abs()));
     for j in 0..B {
         let mut d = m[j][j];
@@ -234,7 +241,7 @@ pub(crate) fn spd_inverse<const B: usize>(m: &Blk<B>) -> Option<Blk<B>> {
         }
     }
     // Columns of the inverse: solve L L^T x = e_c.
-    let mut inv = zero::<B>();
+    let mut inv = zero::<B, B>();
     for c in 0..B {
         let mut y = [0.0; B];
         for i in 0..B {
@@ -322,19 +329,20 @@ pub(crate) fn determinant<const B: usize>(m: &Blk<B>) -> f64 {
     det
 }
 
-/// A sparse matrix of `B x B` blocks in block CSR, both triangles stored,
-/// columns sorted within each row, entries stored as `S`. Rectangular for
-/// prolongators.
+/// A sparse matrix of `B x C` blocks (square, `C = B`, for operators) in
+/// block CSR, both triangles stored, columns sorted within each row,
+/// entries stored as `S`. Rectangular (in blocks and in block rows) for
+/// prolongators: `B` unknowns per fine node, `C` per coarse node.
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) struct Bsr<const B: usize, S: Entry = f64> {
+pub(crate) struct Bsr<const B: usize, S: Entry = f64, const C: usize = B> {
     pub nrows: usize,
     pub ncols: usize,
     pub row_ptr: Vec<usize>,
     pub col: Vec<u32>,
-    pub val: Vec<SBlk<S, B>>,
+    pub val: Vec<SBlk<S, B, C>>,
 }
 
-impl<const B: usize, S: Entry> Bsr<B, S> {
+impl<const B: usize, S: Entry, const C: usize> Bsr<B, S, C> {
     /// An empty `nrows x ncols` matrix (no stored blocks).
     pub fn empty(nrows: usize, ncols: usize) -> Self {
         Self {
@@ -372,16 +380,16 @@ impl<const B: usize, S: Entry> Bsr<B, S> {
 
     /// `sum_j A_ij x_j` for row `i` (`x` as blocks).
     #[inline(always)]
-    pub fn row_times(&self, i: usize, x: &[[f64; B]]) -> [f64; B] {
+    pub fn row_times(&self, i: usize, x: &[[f64; C]]) -> [f64; B] {
         let r = self.row(i);
-        // The B^2 products m_rc x_c of all blocks of the row summed term by
+        // The B C products m_rc x_c of all blocks of the row summed term by
         // term (independent sums, no reduction per block), then each output
-        // entry as the sum of its B partial sums.
-        let mut acc = [[0.0; B]; B];
+        // entry as the sum of its C partial sums.
+        let mut acc = [[0.0; C]; B];
         for (&c, v) in self.col[r.clone()].iter().zip(&self.val[r]) {
             let xc = &x[c as usize];
             for rr in 0..B {
-                for cc in 0..B {
+                for cc in 0..C {
                     acc[rr][cc] += v[rr][cc].load() * xc[cc];
                 }
             }
@@ -395,7 +403,7 @@ impl<const B: usize, S: Entry> Bsr<B, S> {
 
     /// `y = A x` (rows split across threads).
     pub fn spmv(&self, x: &[f64], y: &mut [f64]) {
-        let (x3, _) = x.as_chunks::<B>();
+        let (x3, _) = x.as_chunks::<C>();
         let (y3, _) = y.as_chunks_mut::<B>();
         par::rows(&mut y3[..self.nrows], &|i, yi: &mut [f64; B]| {
             *yi = self.row_times(i, x3);
@@ -404,7 +412,7 @@ impl<const B: usize, S: Entry> Bsr<B, S> {
 
     /// `r = b - A x` (rows split across threads).
     pub fn residual(&self, b: &[f64], x: &[f64], r: &mut [f64]) {
-        let (x3, _) = x.as_chunks::<B>();
+        let (x3, _) = x.as_chunks::<C>();
         let (b3, _) = b.as_chunks::<B>();
         let (r3, _) = r.as_chunks_mut::<B>();
         par::rows(&mut r3[..self.nrows], &|i, ri: &mut [f64; B]| {
@@ -416,19 +424,19 @@ impl<const B: usize, S: Entry> Bsr<B, S> {
     }
 
     /// The same pattern with the entries stored as `T` (values zero).
-    pub fn pattern_as<T: Entry>(&self) -> Bsr<B, T> {
+    pub fn pattern_as<T: Entry>(&self) -> Bsr<B, T, C> {
         Bsr {
             nrows: self.nrows,
             ncols: self.ncols,
             row_ptr: self.row_ptr.clone(),
             col: self.col.clone(),
-            val: vec![szero::<T, B>(); self.col.len()],
+            val: vec![szero::<T, B, C>(); self.col.len()],
         }
     }
 
     /// The pattern of `A^T` (values zero) and, for every slot of it, the
     /// slot of `A` it transposes.
-    pub fn transpose_pattern(&self) -> (Self, Vec<u32>) {
+    pub fn transpose_pattern(&self) -> (Bsr<C, S, B>, Vec<u32>) {
         let mut count = vec![0usize; self.ncols + 1];
         for &c in &self.col {
             count[c as usize + 1] += 1;
@@ -450,20 +458,20 @@ impl<const B: usize, S: Entry> Bsr<B, S> {
                 map[p] = k as u32;
             }
         }
-        let t = Self {
+        let t = Bsr {
             nrows: self.ncols,
             ncols: self.nrows,
             row_ptr,
             col,
-            val: vec![szero::<S, B>(); nnz],
+            val: vec![szero::<S, C, B>(); nnz],
         };
         (t, map)
     }
 
     /// Refills `t` (built by [`transpose_pattern`](Self::transpose_pattern))
     /// with the transposed values of `self`.
-    pub fn fill_transpose(&self, t: &mut Self, map: &[u32]) {
-        par::row_slices(&t.row_ptr, &mut t.val, &|i, vals: &mut [SBlk<S, B>]| {
+    pub fn fill_transpose(&self, t: &mut Bsr<C, S, B>, map: &[u32]) {
+        par::row_slices(&t.row_ptr, &mut t.val, &|i, vals: &mut [SBlk<S, C, B>]| {
             for (v, &k) in vals.iter_mut().zip(&map[t.row_ptr[i]..]) {
                 *v = stranspose(&self.val[k as usize]);
             }
@@ -472,10 +480,17 @@ impl<const B: usize, S: Entry> Bsr<B, S> {
 }
 
 /// The pattern of the product `C = X Y` (values zero), columns sorted.
-pub(crate) fn product_pattern<const B: usize, S: Entry, T: Entry, U: Entry>(
-    x: &Bsr<B, S>,
-    y: &Bsr<B, T>,
-) -> Bsr<B, U> {
+pub(crate) fn product_pattern<
+    const B: usize,
+    const M: usize,
+    const C: usize,
+    S: Entry,
+    T: Entry,
+    U: Entry,
+>(
+    x: &Bsr<B, S, M>,
+    y: &Bsr<M, T, C>,
+) -> Bsr<B, U, C> {
     let mut marker = vec![usize::MAX; y.ncols];
     let mut row_ptr = Vec::with_capacity(x.nrows + 1);
     let mut col: Vec<u32> = Vec::new();
@@ -501,7 +516,7 @@ pub(crate) fn product_pattern<const B: usize, S: Entry, T: Entry, U: Entry>(
         ncols: y.ncols,
         row_ptr,
         col,
-        val: vec![szero::<U, B>(); nnz],
+        val: vec![szero::<U, B, C>(); nnz],
     }
 }
 
@@ -510,13 +525,20 @@ pub(crate) fn product_pattern<const B: usize, S: Entry, T: Entry, U: Entry>(
 /// of every product term in row `i` of `C` is found by a forward scan of
 /// the row's sorted columns (the columns of a row of `Y` are sorted too),
 /// so no scatter array is needed and rows are independent.
-pub(crate) fn product_values<const B: usize, S: Entry, T: Entry, U: Entry>(
-    x: &Bsr<B, S>,
-    y: &Bsr<B, T>,
-    c: &mut Bsr<B, U>,
+pub(crate) fn product_values<
+    const B: usize,
+    const M: usize,
+    const C: usize,
+    S: Entry,
+    T: Entry,
+    U: Entry,
+>(
+    x: &Bsr<B, S, M>,
+    y: &Bsr<M, T, C>,
+    c: &mut Bsr<B, U, C>,
 ) {
     let (c_ptr, c_col) = (&c.row_ptr, &c.col);
-    par::row_slices(c_ptr, &mut c.val, &|i, vals: &mut [SBlk<U, B>]| {
+    par::row_slices(c_ptr, &mut c.val, &|i, vals: &mut [SBlk<U, B, C>]| {
         let cols = &c_col[c_ptr[i]..c_ptr[i + 1]];
         product_row(x, y, i, cols, 0, vals, |_| true);
     });
@@ -527,18 +549,18 @@ pub(crate) fn product_values<const B: usize, S: Entry, T: Entry, U: Entry>(
 /// `C` stores `f64`, else in `f64` on the stack for rows up to
 /// [`ROW_BUFFER`] blocks and then rounded once.
 #[inline(always)]
-fn product_row<const B: usize, S: Entry, T: Entry, U: Entry>(
-    x: &Bsr<B, S>,
-    y: &Bsr<B, T>,
+fn product_row<const B: usize, const M: usize, const C: usize, S: Entry, T: Entry, U: Entry>(
+    x: &Bsr<B, S, M>,
+    y: &Bsr<M, T, C>,
     i: usize,
     cols: &[u32],
     first: usize,
-    vals: &mut [SBlk<U, B>],
+    vals: &mut [SBlk<U, B, C>],
     keep: impl Fn(u32) -> bool,
 ) {
     let n = cols.len() - first;
     if !U::EXACT && n <= ROW_BUFFER {
-        let mut acc = [zero::<B>(); ROW_BUFFER];
+        let mut acc = [zero::<B, C>(); ROW_BUFFER];
         product_terms(x, y, i, cols, first, keep, load, |xk, yq, p| {
             mul_mat_add(xk, &load(yq), &mut acc[p - first]);
         });
@@ -546,7 +568,7 @@ fn product_row<const B: usize, S: Entry, T: Entry, U: Entry>(
             *v = store(a);
         }
     } else {
-        vals[first..].fill(szero::<U, B>());
+        vals[first..].fill(szero::<U, B, C>());
         product_terms(
             x,
             y,
@@ -567,15 +589,15 @@ fn product_row<const B: usize, S: Entry, T: Entry, U: Entry>(
 /// (sorted, from `first`; `prepare` runs once per block of `X`).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn product_terms<const B: usize, S: Entry, T: Entry, P>(
-    x: &Bsr<B, S>,
-    y: &Bsr<B, T>,
+fn product_terms<const B: usize, const M: usize, const C: usize, S: Entry, T: Entry, P>(
+    x: &Bsr<B, S, M>,
+    y: &Bsr<M, T, C>,
     i: usize,
     cols: &[u32],
     first: usize,
     keep: impl Fn(u32) -> bool,
-    prepare: impl Fn(&SBlk<S, B>) -> P,
-    mut add: impl FnMut(&P, &SBlk<T, B>, usize),
+    prepare: impl Fn(&SBlk<S, B, M>) -> P,
+    mut add: impl FnMut(&P, &SBlk<T, M, C>, usize),
 ) {
     for k in x.row(i) {
         let xk = prepare(&x.val[k]);
@@ -605,9 +627,15 @@ const ROW_BUFFER: usize = 16;
 /// below are the transposes of their mirror blocks (`mirror[s]`: the slot
 /// of the transposed block of slot `s`, from [`Bsr::transpose_pattern`]).
 /// Half the block products, and `C` exactly symmetric.
-pub(crate) fn product_values_symmetric<const B: usize, S: Entry, T: Entry, U: Entry>(
-    x: &Bsr<B, S>,
-    y: &Bsr<B, T>,
+pub(crate) fn product_values_symmetric<
+    const B: usize,
+    const M: usize,
+    S: Entry,
+    T: Entry,
+    U: Entry,
+>(
+    x: &Bsr<B, S, M>,
+    y: &Bsr<M, T, B>,
     c: &mut Bsr<B, U>,
     mirror: &[u32],
 ) {
@@ -646,7 +674,7 @@ mod tests {
     fn spd_inverse_inverts_and_rejects_indefinite_blocks() {
         let m = [[4.0, 1.0, 0.5], [1.0, 3.0, -0.2], [0.5, -0.2, 2.0]];
         let inv = spd_inverse(&m).unwrap();
-        let mut p = zero::<3>();
+        let mut p = zero::<3, 3>();
         mul_mat_add(&m, &inv, &mut p);
         for r in 0..3 {
             for c in 0..3 {

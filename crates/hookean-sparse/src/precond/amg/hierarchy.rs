@@ -16,8 +16,10 @@ use crate::operator::MatrixFree;
 use crate::power::{PowerParams, power_iterate};
 use crate::vecops::dot;
 
+mod dense;
 mod prolong;
 
+use self::dense::DenseCholesky;
 use self::prolong::smooth_prolongator;
 
 /// The coarsest level is solved directly (dense Cholesky) when it has at
@@ -32,7 +34,7 @@ const MIN_COARSENING: f64 = 0.8;
 
 /// The transfer from one level to the next and what its numbers are computed from.
 #[derive(Debug, Clone)]
-struct Transfer<const B: usize, S: Entry> {
+struct Transfer<const B: usize, const K: usize, S: Entry> {
     /// Strong off-diagonal slots of `a`. The filtered matrix `A_F` of
     /// prolongator smoothing is never stored: its rows are the strong blocks
     /// of `A` and, on the diagonal, `A_ii` plus the weak blocks of row `i`
@@ -46,16 +48,16 @@ struct Transfer<const B: usize, S: Entry> {
     /// `D_F^-1`, the inverted diagonal blocks of `A_F` (of `a` where those
     /// are not positive definite).
     df_inv: Vec<Blk<B>>,
-    /// Tentative prolongator (at most one block per row) and where each
-    /// of its blocks sits in the pattern of `p`.
-    t: Bsr<B>,
+    /// Tentative prolongator (at most one `B x K` block per row) and where
+    /// each of its blocks sits in the pattern of `p`.
+    t: Bsr<B, f64, K>,
     t_in_p: Vec<usize>,
     /// Smoothed prolongator `P = (I - omega D_F^-1 A_F) T` and `R = P^T`.
-    p: Bsr<B, S>,
-    r: Bsr<B, S>,
+    p: Bsr<B, S, K>,
+    r: Bsr<K, S, B>,
     r_map: Vec<u32>,
     /// `A P`, the intermediate of the Galerkin product `R (A P)`.
-    ap: Bsr<B, S>,
+    ap: Bsr<B, S, K>,
     /// For every slot of the next level's operator `R (A P)` (structurally
     /// symmetric), the slot of its transposed block.
     galerkin_mirror: Vec<u32>,
@@ -65,10 +67,11 @@ struct Transfer<const B: usize, S: Entry> {
     eigenvector: Vec<f64>,
 }
 
-/// One level: its operator, the smoother's data and the transfer to the
-/// next level (`None` on the coarsest).
+/// One level (`B` unknowns per node): its operator, the smoother's data
+/// and the transfer to the next level (`K` unknowns per node; `None` on
+/// the coarsest).
 #[derive(Debug, Clone)]
-struct Level<const B: usize, S: Entry> {
+struct Level<const B: usize, const K: usize, S: Entry> {
     a: Bsr<B, S>,
     diag: Vec<usize>,
     /// The inverted (symmetrised) diagonal blocks of `a`.
@@ -77,107 +80,9 @@ struct Level<const B: usize, S: Entry> {
     omega: f64,
     /// The power method's eigenvector estimate of `D^-1 A` (warm start of refills).
     eigenvector: Vec<f64>,
-    transfer: Option<Transfer<B, S>>,
+    transfer: Option<Transfer<B, K, S>>,
     /// The block IC(0) factor of `a`, for [`AmgSmoother::BlockIc0`].
     ic0: Option<BlockIc0<B>>,
-}
-
-/// The dense Cholesky factor `L` (row-major, lower triangle) of the coarsest operator.
-#[derive(Debug, Clone)]
-struct DenseCholesky {
-    n: usize,
-    l: Vec<f64>,
-}
-
-impl DenseCholesky {
-    fn new(n: usize) -> Self {
-        Self {
-            n,
-            l: vec![0.0; n * n],
-        }
-    }
-
-    /// Factors the symmetric part of `a`; `Err(row)` at the first pivot that
-    /// is not positive (relative to the row's diagonal entry).
-    fn factor<const B: usize, S: Entry>(&mut self, a: &Bsr<B, S>) -> Result<(), usize> {
-        let n = self.n;
-        let m = &mut self.l;
-        m.fill(0.0);
-        for i in 0..a.nrows {
-            for k in a.row(i) {
-                let j = a.col[k] as usize;
-                for r in 0..B {
-                    for c in 0..B {
-                        m[(B * i + r) * n + B * j + c] += a.val[k][r][c].load();
-                    }
-                }
-            }
-        }
-        for i in 0..n {
-            for j in 0..i {
-                let s = 0.5 * (m[i * n + j] + m[j * n + i]);
-                m[i * n + j] = s;
-            }
-        }
-        // Row-oriented (left-looking) Cholesky: every entry is a dot product
-        // of two rows' prefixes, contiguous in row-major storage.
-        for j in 0..n {
-            let diag0 = m[j * n + j];
-            let (before, rest) = m.split_at_mut(j * n);
-            let row_j = &mut rest[..n];
-            let d = diag0 - dot4(&row_j[..j], &row_j[..j]);
-            if !(d > 1e-14 * diag0.abs() && d.is_finite()) {
-                return Err(j);
-            }
-            let ljj = d.sqrt();
-            row_j[j] = ljj;
-            let _ = before;
-            for i in j + 1..n {
-                let (upper, lower) = m.split_at_mut(i * n);
-                let row_j = &upper[j * n..j * n + j];
-                let row_i = &mut lower[..n];
-                let s = row_i[j] - dot4(&row_i[..j], row_j);
-                row_i[j] = s / ljj;
-            }
-        }
-        Ok(())
-    }
-
-    /// `x = (L L^T)^-1 b`.
-    fn solve(&self, b: &[f64], x: &mut [f64]) {
-        let n = self.n;
-        let l = &self.l;
-        for i in 0..n {
-            let s = dot4(&l[i * n..i * n + i], &x[..i]);
-            x[i] = (b[i] - s) / l[i * n + i];
-        }
-        for i in (0..n).rev() {
-            let xi = x[i] / l[i * n + i];
-            x[i] = xi;
-            // Column i of L^T is row i of L: subtract it from the rows above.
-            for (xk, lik) in x[..i].iter_mut().zip(&l[i * n..i * n + i]) {
-                *xk -= lik * xi;
-            }
-        }
-    }
-}
-
-/// `sum_k a_k b_k` with four independent partial sums (a fixed order, so
-/// the result does not depend on anything but the inputs).
-#[inline]
-fn dot4(a: &[f64], b: &[f64]) -> f64 {
-    let mut s = [0.0; 4];
-    let (a4, a_rest) = a.as_chunks::<4>();
-    let (b4, b_rest) = b.as_chunks::<4>();
-    for (x, y) in a4.iter().zip(b4) {
-        for q in 0..4 {
-            s[q] += x[q] * y[q];
-        }
-    }
-    for (x, y) in a_rest.iter().zip(b_rest) {
-        s[0] += x * y;
-    }
-    (s[0] + s[1]) + (s[2] + s[3])
 }
 
 /// Per-level scratch of the V-cycle: `t` (this level's residual), and the
@@ -212,25 +117,32 @@ struct Numeric {
     keep_prolongators: bool,
 }
 
-/// A smoothed-aggregation hierarchy with `B x B` blocks on every level,
-/// their entries stored as `S`.
+/// A smoothed-aggregation hierarchy with `B x B` blocks on the finest
+/// level and `K x K` blocks on every coarser one (`K` near-nullspace
+/// vectors: every coarse node carries one unknown per vector), their
+/// entries stored as `S`. Both block sizes are constants, so every kernel
+/// of every level is compiled for its block size.
 #[derive(Debug)]
-pub(crate) struct Hierarchy<const B: usize, S: Entry> {
-    levels: Vec<Level<B, S>>,
+pub(crate) struct Hierarchy<const B: usize, const K: usize, S: Entry> {
+    /// The finest level; its transfer (if any) goes to `coarse[0]`.
+    fine: Level<B, K, S>,
+    /// The coarser levels, finest first.
+    coarse: Vec<Level<K, K, S>>,
     /// Factor of the coarsest operator, when it is solved directly.
-    coarse: Option<DenseCholesky>,
+    direct: Option<DenseCholesky>,
     numeric: Numeric,
     /// The V-cycle's vectors; `apply` takes `&self`, so they sit behind a
     /// lock that is taken once per cycle (uncontended, no allocation).
     work: Mutex<Vec<Work>>,
 }
 
-impl<const B: usize, S: Entry> Clone for Hierarchy<B, S> {
+impl<const B: usize, const K: usize, S: Entry> Clone for Hierarchy<B, K, S> {
     fn clone(&self) -> Self {
         let work = self.work.lock().unwrap_or_else(|e| e.into_inner()).clone();
         Self {
-            levels: self.levels.clone(),
+            fine: self.fine.clone(),
             coarse: self.coarse.clone(),
+            direct: self.direct.clone(),
             numeric: self.numeric,
             work: Mutex::new(work),
         }
@@ -283,7 +195,7 @@ fn spectral_radius<const B: usize>(
 fn gershgorin_row<const B: usize>(dinv: &Blk<B>, blocks: impl Iterator<Item = Blk<B>>) -> [f64; B] {
     let mut sums = [0.0; B];
     for b in blocks {
-        let mut m = zero::<B>();
+        let mut m = zero::<B, B>();
         mul_mat_add(dinv, &b, &mut m);
         for r in 0..B {
             sums[r] += m[r].iter().map(|v| v.abs()).sum::<f64>();
@@ -338,14 +250,162 @@ fn invert_diagonal<const B: usize, S: Entry>(
     Ok(())
 }
 
-impl<const B: usize, S: Entry> Hierarchy<B, S> {
+/// Strength, aggregates, tentative prolongator and the patterns of
+/// `P = A_F T` (with where every block of `A_F` lands), `R` and `A P`;
+/// `None` when the level does not coarsen.
+#[allow(clippy::type_complexity)]
+fn symbolic_transfer<const B: usize, const K: usize, S: Entry>(
+    a: &Bsr<B, S>,
+    diag: &[usize],
+    nullspace: &[Blk<B, K>],
+    theta: f64,
+) -> Result<Option<(Transfer<B, K, S>, Vec<Blk<K>>)>, SparseError> {
+    let n = a.nrows;
+    let strong = strong_connections(a, diag, theta);
+    // Aggregates of at least K / B nodes, so that their unknowns can carry the K vectors.
+    let (agg, n_agg) = aggregate(a, &strong, K.div_ceil(B));
+    if n_agg == 0 || n_agg as f64 > MIN_COARSENING * n as f64 {
+        return Ok(None);
+    }
+    let (t, coarse_nullspace) = tentative_prolongator(&agg, n_agg, nullspace)?;
+    // The pattern of A_F (diagonal and strong blocks), for the pattern of A_F T.
+    let mut af = Bsr::<B>::empty(n, n);
+    af.row_ptr.clear();
+    af.row_ptr.push(0);
+    for i in 0..n {
+        for k in a.row(i) {
+            if k == diag[i] || strong[k] {
+                af.col.push(a.col[k]);
+            }
+        }
+        af.row_ptr.push(af.col.len());
+    }
+    let p: Bsr<B, S, K> = product_pattern(&af, &t);
+    drop(af);
+    let slot_in_p = |i: usize, c: u32| {
+        let row = p.row(i);
+        row.start
+            + p.col[row]
+                .binary_search(&c)
+                .expect("every block of A_F T is in the pattern of P")
+    };
+    let z_slot = (0..n)
+        .flat_map(|i| a.row(i).map(move |k| (i, k)))
+        .map(|(i, k)| {
+            let j = a.col[k] as usize;
+            match t.row(j).next() {
+                Some(q) if k == diag[i] || strong[k] => slot_in_p(i, t.col[q]) as u32,
+                _ => u32::MAX,
+            }
+        })
+        .collect();
+    let t_in_p = (0..n)
+        .map(|i| match t.row(i).next() {
+            Some(k) => slot_in_p(i, t.col[k]),
+            None => usize::MAX,
+        })
+        .collect();
+    debug_assert!(
+        agg.iter()
+            .all(|&g| g == NO_AGGREGATE || (g as usize) < n_agg)
+    );
+    let (r, r_map) = p.transpose_pattern();
+    let ap = product_pattern(a, &p);
+    Ok(Some((
+        Transfer {
+            strong,
+            z_slot,
+            df_inv: vec![zero::<B, B>(); n],
+            t,
+            t_in_p,
+            p,
+            r,
+            r_map,
+            ap,
+            galerkin_mirror: Vec::new(),
+            omega: 0.0,
+            eigenvector: vec![0.0; B * n],
+        },
+        coarse_nullspace,
+    )))
+}
+
+/// One level of the full set-up from its operator `a` (values filled) and
+/// near-nullspace: the symbolic transfer (unless the level is the last
+/// one), the patterns of `P`, `R`, `A P` and the next operator, and every
+/// number. Returns the level, the next operator with its near-nullspace
+/// (`None` on the coarsest level), and whether the level stopped because
+/// its aggregation stalled; pushes the level's work vectors onto `work`.
+#[allow(clippy::type_complexity)]
+fn build_level<const B: usize, const K: usize, S: Entry>(
+    a: Bsr<B, S>,
+    nullspace: &[Blk<B, K>],
+    l: usize,
+    theta: f64,
+    options: &AmgOptions,
+    numeric: &Numeric,
+    work: &mut Vec<Work>,
+) -> Result<(Level<B, K, S>, Option<(Bsr<K, S>, Vec<Blk<K>>)>, bool), SparseError> {
+    let diag = a.diagonal_slots().map_err(|i| {
+        if l == 0 {
+            SparseError::SingularBlock {
+                block: i,
+                determinant: 0.0,
+            }
+        } else {
+            SparseError::AmgNotPositiveDefinite {
+                level: l,
+                row: B * i,
+                what: "diagonal block",
+            }
+        }
+    })?;
+    let n = a.nrows;
+    let last = B * n <= options.coarse_size || l + 1 >= options.max_levels;
+    let symbolic = if last {
+        None
+    } else {
+        // Strength needs the diagonal blocks' values only.
+        symbolic_transfer(&a, &diag, nullspace, theta)?
+    };
+    let stalled = !last && symbolic.is_none();
+    let (mut transfer, coarse_nullspace) = match symbolic {
+        Some((t, ns)) => (Some(t), Some(ns)),
+        None => (None, None),
+    };
+    let mut next = transfer.as_mut().map(|t| {
+        let c: Bsr<K, S> = product_pattern(&t.r, &t.ap);
+        let (ct, mirror) = c.transpose_pattern();
+        debug_assert!(
+            ct.row_ptr == c.row_ptr && ct.col == c.col,
+            "R A P is symmetric"
+        );
+        t.galerkin_mirror = mirror;
+        c
+    });
+    let mut w = Work::new(B * n, next.as_ref().map_or(0, |c| K * c.nrows));
+    let mut level = Level {
+        dinv: vec![szero::<S, B, B>(); n],
+        omega: 0.0,
+        eigenvector: vec![0.0; B * n],
+        ic0: (options.smoother == AmgSmoother::BlockIc0).then(|| BlockIc0::new(&a, &diag)),
+        a,
+        diag,
+        transfer,
+    };
+    compute_level(&mut level, next.as_mut(), l, numeric, false, &mut w)?;
+    work.push(w);
+    Ok((level, next.zip(coarse_nullspace), stalled))
+}
+
+impl<const B: usize, const K: usize, S: Entry> Hierarchy<B, K, S> {
     /// The full set-up from the finest operator `a` (values filled) and its
-    /// near-nullspace (one `B x B` block per node: column `c` of the blocks
+    /// near-nullspace (one `B x K` block per node: column `c` of the blocks
     /// is vector `c`). Each level is computed numerically before the next
     /// one is aggregated (strength needs the Galerkin operator's values).
     pub fn new(
         a: Bsr<B, S>,
-        nullspace: Vec<Blk<B>>,
+        nullspace: Vec<Blk<B, K>>,
         options: &AmgOptions,
     ) -> Result<Self, SparseError> {
         par::install(|| Self::build(a, nullspace, options))
@@ -353,7 +413,7 @@ impl<const B: usize, S: Entry> Hierarchy<B, S> {
 
     fn build(
         a: Bsr<B, S>,
-        nullspace: Vec<Blk<B>>,
+        nullspace: Vec<Blk<B, K>>,
         options: &AmgOptions,
     ) -> Result<Self, SparseError> {
         let numeric = Numeric {
@@ -365,79 +425,27 @@ impl<const B: usize, S: Entry> Hierarchy<B, S> {
             refill_power_iterations: options.refill_power_iterations,
             keep_prolongators: options.keep_prolongators,
         };
-        let mut levels: Vec<Level<B, S>> = Vec::new();
         let mut work: Vec<Work> = Vec::new();
-        let mut a = a;
-        let mut nullspace = nullspace;
         let mut theta = options.strength_threshold;
-        // Whether the finest level stopped because its aggregation stalled
-        // (not because it was small enough or the level count was reached).
-        let mut finest_stalled = false;
-        loop {
-            let l = levels.len();
-            let diag = a.diagonal_slots().map_err(|i| {
-                if l == 0 {
-                    SparseError::SingularBlock {
-                        block: i,
-                        determinant: 0.0,
-                    }
-                } else {
-                    SparseError::AmgNotPositiveDefinite {
-                        level: l,
-                        row: B * i,
-                        what: "diagonal block",
-                    }
-                }
-            })?;
-            let n = a.nrows;
-            let last = B * n <= options.coarse_size || l + 1 >= options.max_levels;
-            let symbolic = if last {
-                None
-            } else {
-                // Strength needs the diagonal blocks' values only.
-                Self::symbolic_transfer(&a, &diag, &nullspace, theta)?
-            };
-            if l == 0 {
-                finest_stalled = !last && symbolic.is_none();
-            }
-            let (transfer, coarse_nullspace) = match symbolic {
-                Some((t, ns)) => (Some(t), Some(ns)),
-                None => (None, None),
-            };
-            let mut transfer = transfer;
-            let mut next = transfer.as_mut().map(|t| {
-                let c = product_pattern(&t.r, &t.ap);
-                let (ct, mirror) = c.transpose_pattern();
-                debug_assert!(
-                    ct.row_ptr == c.row_ptr && ct.col == c.col,
-                    "R A P is symmetric"
-                );
-                t.galerkin_mirror = mirror;
-                c
-            });
-            let mut w = Work::new(B * n, next.as_ref().map_or(0, |c| B * c.nrows));
-            let mut level = Level {
-                dinv: vec![szero::<S, B>(); n],
-                omega: 0.0,
-                eigenvector: vec![0.0; B * n],
-                ic0: (options.smoother == AmgSmoother::BlockIc0).then(|| BlockIc0::new(&a, &diag)),
+        let (fine, mut next, finest_stalled) =
+            build_level(a, &nullspace, 0, theta, options, &numeric, &mut work)?;
+        drop(nullspace);
+        let mut coarse: Vec<Level<K, K, S>> = Vec::new();
+        while let Some((a, nullspace)) = next {
+            theta *= 0.5;
+            let level;
+            (level, next, _) = build_level(
                 a,
-                diag,
-                transfer,
-            };
-            compute_level(&mut level, next.as_mut(), l, &numeric, false, &mut w)?;
-            levels.push(level);
-            work.push(w);
-            match (next, coarse_nullspace) {
-                (Some(c), Some(ns)) => {
-                    a = c;
-                    nullspace = ns;
-                    theta *= 0.5;
-                }
-                _ => break,
-            }
+                &nullspace,
+                coarse.len() + 1,
+                theta,
+                options,
+                &numeric,
+                &mut work,
+            )?;
+            coarse.push(level);
         }
-        let coarsest = B * levels.last().map_or(0, |l| l.a.nrows);
+        let coarsest = coarse.last().map_or(B * fine.a.nrows, |l| K * l.a.nrows);
         // A finest level whose aggregation stalls has few strong connections
         // (a mass-dominated system: a soft cloth, a small step, where no
         // block is strong): the smoother nearly solves it, and a dense
@@ -445,8 +453,9 @@ impl<const B: usize, S: Entry> Hierarchy<B, S> {
         // (1.5e8 flops for 768 unknowns, against 3e4 nonzeros).
         let direct = coarsest <= DIRECT_LIMIT && !finest_stalled;
         let mut h = Self {
-            levels,
-            coarse: direct.then(|| DenseCholesky::new(coarsest)),
+            fine,
+            coarse,
+            direct: direct.then(|| DenseCholesky::new(coarsest)),
             numeric,
             work: Mutex::new(work),
         };
@@ -454,88 +463,9 @@ impl<const B: usize, S: Entry> Hierarchy<B, S> {
         Ok(h)
     }
 
-    /// Strength, aggregates, tentative prolongator and the patterns of
-    /// `P = A_F T` (with where every block of `A_F` lands), `R` and `A P`;
-    /// `None` when the level does not coarsen.
-    #[allow(clippy::type_complexity)]
-    fn symbolic_transfer(
-        a: &Bsr<B, S>,
-        diag: &[usize],
-        nullspace: &[Blk<B>],
-        theta: f64,
-    ) -> Result<Option<(Transfer<B, S>, Vec<Blk<B>>)>, SparseError> {
-        let n = a.nrows;
-        let strong = strong_connections(a, diag, theta);
-        let (agg, n_agg) = aggregate(a, &strong);
-        if n_agg == 0 || n_agg as f64 > MIN_COARSENING * n as f64 {
-            return Ok(None);
-        }
-        let (t, coarse_nullspace) = tentative_prolongator(&agg, n_agg, nullspace)?;
-        // The pattern of A_F (diagonal and strong blocks), for the pattern of A_F T.
-        let mut af = Bsr::<B>::empty(n, n);
-        af.row_ptr.clear();
-        af.row_ptr.push(0);
-        for i in 0..n {
-            for k in a.row(i) {
-                if k == diag[i] || strong[k] {
-                    af.col.push(a.col[k]);
-                }
-            }
-            af.row_ptr.push(af.col.len());
-        }
-        let p: Bsr<B, S> = product_pattern(&af, &t);
-        drop(af);
-        let slot_in_p = |i: usize, c: u32| {
-            let row = p.row(i);
-            row.start
-                + p.col[row]
-                    .binary_search(&c)
-                    .expect("every block of A_F T is in the pattern of P")
-        };
-        let z_slot = (0..n)
-            .flat_map(|i| a.row(i).map(move |k| (i, k)))
-            .map(|(i, k)| {
-                let j = a.col[k] as usize;
-                match t.row(j).next() {
-                    Some(q) if k == diag[i] || strong[k] => slot_in_p(i, t.col[q]) as u32,
-                    _ => u32::MAX,
-                }
-            })
-            .collect();
-        let t_in_p = (0..n)
-            .map(|i| match t.row(i).next() {
-                Some(k) => slot_in_p(i, t.col[k]),
-                None => usize::MAX,
-            })
-            .collect();
-        debug_assert!(
-            agg.iter()
-                .all(|&g| g == NO_AGGREGATE || (g as usize) < n_agg)
-        );
-        let (r, r_map) = p.transpose_pattern();
-        let ap = product_pattern(a, &p);
-        Ok(Some((
-            Transfer {
-                strong,
-                z_slot,
-                df_inv: vec![zero::<B>(); n],
-                t,
-                t_in_p,
-                p,
-                r,
-                r_map,
-                ap,
-                galerkin_mirror: Vec::new(),
-                omega: 0.0,
-                eigenvector: vec![0.0; B * n],
-            },
-            coarse_nullspace,
-        )))
-    }
-
     /// Mutable access to the finest operator's values, for a refill.
     pub fn finest_mut(&mut self) -> &mut Bsr<B, S> {
-        &mut self.levels[0].a
+        &mut self.fine.a
     }
 
     /// Recomputes every number of the hierarchy from the finest operator's
@@ -544,24 +474,29 @@ impl<const B: usize, S: Entry> Hierarchy<B, S> {
     pub fn compute(&mut self) -> Result<(), SparseError> {
         par::install(|| {
             let work = self.work.get_mut().unwrap_or_else(|e| e.into_inner());
-            for l in 0..self.levels.len() {
-                let (head, tail) = self.levels.split_at_mut(l + 1);
+            let next = self.coarse.first_mut().map(|n| &mut n.a);
+            compute_level(&mut self.fine, next, 0, &self.numeric, true, &mut work[0])?;
+            for l in 0..self.coarse.len() {
+                let (head, tail) = self.coarse.split_at_mut(l + 1);
                 let next = tail.first_mut().map(|n| &mut n.a);
-                compute_level(&mut head[l], next, l, &self.numeric, true, &mut work[l])?;
+                let w = &mut work[l + 1];
+                compute_level(&mut head[l], next, l + 1, &self.numeric, true, w)?;
             }
             self.factor_coarsest()
         })
     }
 
     fn factor_coarsest(&mut self) -> Result<(), SparseError> {
-        if let Some(chol) = self.coarse.as_mut() {
-            let level = self.levels.len() - 1;
-            chol.factor(&self.levels[level].a).map_err(|row| {
-                SparseError::AmgNotPositiveDefinite {
-                    level,
-                    row,
-                    what: "coarsest operator",
-                }
+        if let Some(chol) = self.direct.as_mut() {
+            let level = self.coarse.len();
+            let factored = match self.coarse.last() {
+                Some(c) => chol.factor(&c.a),
+                None => chol.factor(&self.fine.a),
+            };
+            factored.map_err(|row| SparseError::AmgNotPositiveDefinite {
+                level,
+                row,
+                what: "coarsest operator",
             })?;
         }
         Ok(())
@@ -569,22 +504,17 @@ impl<const B: usize, S: Entry> Hierarchy<B, S> {
 
     /// Whether the coarsest level is solved directly (else only smoothed).
     pub fn coarsest_direct(&self) -> bool {
-        self.coarse.is_some()
+        self.direct.is_some()
     }
 
     /// Per-level statistics.
     pub fn level_stats(&self) -> impl Iterator<Item = AmgLevelStats> + '_ {
-        self.levels.iter().map(|l| AmgLevelStats {
-            rows: B * l.a.nrows,
-            nonzeros: B * B * l.a.nnz_blocks(),
-            smoother_weight: l.omega,
-            prolongation_weight: l.transfer.as_ref().map_or(0.0, |t| t.omega),
-        })
+        std::iter::once(self.fine.stats()).chain(self.coarse.iter().map(Level::stats))
     }
 
     /// Scalar dimension of the finest level.
     pub fn dim(&self) -> usize {
-        B * self.levels[0].a.nrows
+        B * self.fine.a.nrows
     }
 
     /// One V-cycle from a zero initial guess: `z = M^-1 r`.
@@ -599,7 +529,7 @@ impl<const B: usize, S: Entry> Hierarchy<B, S> {
     fn fusable(&self) -> bool {
         self.numeric.smoother == AmgSmoother::BlockJacobi
             && self.numeric.sweeps == 1
-            && self.levels[0].transfer.is_some()
+            && self.fine.transfer.is_some()
     }
 
     /// CG's residual update and preconditioner in one: `r -= alpha q`,
@@ -623,7 +553,7 @@ impl<const B: usize, S: Entry> Hierarchy<B, S> {
         }
         let mut guard = self.work.lock().unwrap_or_else(|e| e.into_inner());
         let work: &mut [Work] = &mut guard;
-        let level = &self.levels[0];
+        let level = &self.fine;
         let omega = level.omega;
         par::install(|| {
             // r -= alpha q; r . r; x = omega D^-1 r.
@@ -654,7 +584,7 @@ impl<const B: usize, S: Entry> Hierarchy<B, S> {
         }
         let mut guard = self.work.lock().unwrap_or_else(|e| e.into_inner());
         let work: &mut [Work] = &mut guard;
-        let level = &self.levels[0];
+        let level = &self.fine;
         let omega = level.omega;
         par::install(|| {
             // x = omega D^-1 r.
@@ -671,10 +601,10 @@ impl<const B: usize, S: Entry> Hierarchy<B, S> {
     /// The finest level after the fused pre-smoothing pass: the coarse-grid
     /// correction, then `x += omega D^-1 t` with `b . x`, which it returns.
     fn fused_rest(&self, b: &[f64], x: &mut [f64], work: &mut [Work]) -> f64 {
-        let level = &self.levels[0];
+        let level = &self.fine;
         let tr = level.transfer.as_ref().expect("fusable: a transfer");
         let (w, rest) = work.split_first_mut().expect("one work entry per level");
-        self.correct(0, tr, b, x, w, rest);
+        self.correct(0, level, tr, b, x, w, rest);
         let omega = level.omega;
         let (bx, _) = crate::par::tree_sum2_mut(x, &mut w.t, &|at, x, t| {
             let (x3, _) = x.as_chunks_mut::<B>();
@@ -695,10 +625,24 @@ impl<const B: usize, S: Entry> Hierarchy<B, S> {
     /// coarse-grid correction `x += P V_{l+1}(R (b - A x))`, post-smoothing
     /// (the adjoint of the pre-smoother, so the cycle is symmetric).
     fn cycle(&self, l: usize, b: &[f64], x: &mut [f64], work: &mut [Work]) {
-        let level = &self.levels[l];
+        match l {
+            0 => self.cycle_on(&self.fine, 0, b, x, work),
+            _ => self.cycle_on(&self.coarse[l - 1], l, b, x, work),
+        }
+    }
+
+    /// [`cycle`](Self::cycle) on `level`, level `l` of the hierarchy.
+    fn cycle_on<const M: usize, const N: usize>(
+        &self,
+        level: &Level<M, N, S>,
+        l: usize,
+        b: &[f64],
+        x: &mut [f64],
+        work: &mut [Work],
+    ) {
         let (w, rest) = work.split_first_mut().expect("one work entry per level");
         match &level.transfer {
-            None => match &self.coarse {
+            None => match &self.direct {
                 Some(chol) => chol.solve(b, x),
                 None => {
                     self.pre_smooth(level, b, x, &mut w.t);
@@ -708,12 +652,12 @@ impl<const B: usize, S: Entry> Hierarchy<B, S> {
             },
             Some(tr) => {
                 self.pre_smooth(level, b, x, &mut w.t);
-                self.correct(l, tr, b, x, w, rest);
+                self.correct(l, level, tr, b, x, w, rest);
                 if self.numeric.smoother == AmgSmoother::BlockJacobi {
                     let omega = level.omega;
-                    let (x3, _) = x.as_chunks_mut::<B>();
-                    let (t3, _) = w.t.as_chunks::<B>();
-                    par::rows(x3, &|i, xi: &mut [f64; B]| {
+                    let (x3, _) = x.as_chunks_mut::<M>();
+                    let (t3, _) = w.t.as_chunks::<M>();
+                    par::rows(x3, &|i, xi: &mut [f64; M]| {
                         mul_add_scaled(&level.dinv[i], omega, &t3[i], xi);
                     });
                     for _ in 1..self.numeric.sweeps {
@@ -735,35 +679,36 @@ impl<const B: usize, S: Entry> Hierarchy<B, S> {
     /// per row). With `f32` storage the stored `A P` is rounded and no
     /// longer equals `A P` of the rounded factors, so the residual is
     /// `b - A x` anew: the cycle stays exactly symmetric.
-    fn correct(
+    #[allow(clippy::too_many_arguments)]
+    fn correct<const M: usize, const N: usize>(
         &self,
         l: usize,
-        tr: &Transfer<B, S>,
+        level: &Level<M, N, S>,
+        tr: &Transfer<M, N, S>,
         b: &[f64],
         x: &mut [f64],
         w: &mut Work,
         rest: &mut [Work],
     ) {
-        let level = &self.levels[l];
         level.a.residual(b, x, &mut w.t);
         tr.r.spmv(&w.t, &mut w.bc);
         self.cycle(l + 1, &w.bc, &mut w.xc, rest);
         {
-            let (x3, _) = x.as_chunks_mut::<B>();
-            let (xc3, _) = w.xc.as_chunks::<B>();
-            par::rows(x3, &|i, xi: &mut [f64; B]| {
+            let (x3, _) = x.as_chunks_mut::<M>();
+            let (xc3, _) = w.xc.as_chunks::<N>();
+            par::rows(x3, &|i, xi: &mut [f64; M]| {
                 let px = tr.p.row_times(i, xc3);
-                for c in 0..B {
+                for c in 0..M {
                     xi[c] += px[c];
                 }
             });
         }
         if S::EXACT {
-            let (t3, _) = w.t.as_chunks_mut::<B>();
-            let (xc3, _) = w.xc.as_chunks::<B>();
-            par::rows(t3, &|i, ti: &mut [f64; B]| {
+            let (t3, _) = w.t.as_chunks_mut::<M>();
+            let (xc3, _) = w.xc.as_chunks::<N>();
+            par::rows(t3, &|i, ti: &mut [f64; M]| {
                 let apx = tr.ap.row_times(i, xc3);
-                for c in 0..B {
+                for c in 0..M {
                     ti[c] -= apx[c];
                 }
             });
@@ -773,15 +718,21 @@ impl<const B: usize, S: Entry> Hierarchy<B, S> {
     }
 
     /// `sweeps` smoothing steps from `x = 0`.
-    fn pre_smooth(&self, level: &Level<B, S>, b: &[f64], x: &mut [f64], t: &mut [f64]) {
+    fn pre_smooth<const M: usize, const N: usize>(
+        &self,
+        level: &Level<M, N, S>,
+        b: &[f64],
+        x: &mut [f64],
+        t: &mut [f64],
+    ) {
         match self.numeric.smoother {
             AmgSmoother::BlockJacobi => {
                 // The first step from zero: x = omega D^-1 b.
-                let (b3, _) = b.as_chunks::<B>();
-                let (x3, _) = x.as_chunks_mut::<B>();
+                let (b3, _) = b.as_chunks::<M>();
+                let (x3, _) = x.as_chunks_mut::<M>();
                 let omega = level.omega;
-                par::rows(x3, &|i, xi: &mut [f64; B]| {
-                    *xi = [0.0; B];
+                par::rows(x3, &|i, xi: &mut [f64; M]| {
+                    *xi = [0.0; M];
                     mul_add_scaled(&level.dinv[i], omega, &b3[i], xi);
                 });
                 for _ in 1..self.numeric.sweeps {
@@ -809,16 +760,22 @@ impl<const B: usize, S: Entry> Hierarchy<B, S> {
 
     /// `sweeps` smoothing steps, the adjoint of [`pre_smooth`](Self::pre_smooth),
     /// given the residual `t = b - A x` of the current `x`.
-    fn post_smooth(&self, level: &Level<B, S>, b: &[f64], x: &mut [f64], t: &mut [f64]) {
+    fn post_smooth<const M: usize, const N: usize>(
+        &self,
+        level: &Level<M, N, S>,
+        b: &[f64],
+        x: &mut [f64],
+        t: &mut [f64],
+    ) {
         for s in 0..self.numeric.sweeps {
             match self.numeric.smoother {
                 AmgSmoother::BlockJacobi => {
                     if s > 0 {
                         level.a.residual(b, x, t);
                     }
-                    let (t3, _) = t.as_chunks::<B>();
-                    let (x3, _) = x.as_chunks_mut::<B>();
-                    par::rows(x3, &|i, xi: &mut [f64; B]| {
+                    let (t3, _) = t.as_chunks::<M>();
+                    let (x3, _) = x.as_chunks_mut::<M>();
+                    par::rows(x3, &|i, xi: &mut [f64; M]| {
                         mul_add_scaled(&level.dinv[i], level.omega, &t3[i], xi);
                     });
                 }
@@ -835,7 +792,16 @@ impl<const B: usize, S: Entry> Hierarchy<B, S> {
     }
 }
 
-impl<const B: usize, S: Entry> Level<B, S> {
+impl<const B: usize, const K: usize, S: Entry> Level<B, K, S> {
+    fn stats(&self) -> AmgLevelStats {
+        AmgLevelStats {
+            rows: B * self.a.nrows,
+            nonzeros: B * B * self.a.nnz_blocks(),
+            smoother_weight: self.omega,
+            prolongation_weight: self.transfer.as_ref().map_or(0.0, |t| t.omega),
+        }
+    }
+
     /// `z = M^-1 z` with the block IC(0) factor.
     fn ic0_solve(&self, z: &mut [f64]) {
         let ic0 = self
@@ -872,9 +838,9 @@ fn mul_add_scaled<const B: usize, S: Entry>(
 ///
 /// A refill starts the power method from the previous eigenvector
 /// estimates and runs `refill_power_iterations` steps only.
-fn compute_level<const B: usize, S: Entry>(
-    level: &mut Level<B, S>,
-    next: Option<&mut Bsr<B, S>>,
+fn compute_level<const B: usize, const K: usize, S: Entry>(
+    level: &mut Level<B, K, S>,
+    next: Option<&mut Bsr<K, S>>,
     l: usize,
     num: &Numeric,
     refill: bool,
@@ -926,8 +892,8 @@ fn compute_level<const B: usize, S: Entry>(
 }
 
 /// One damped block-Jacobi step `x += omega D^-1 (b - A x)`.
-fn jacobi_step<const B: usize, S: Entry>(
-    level: &Level<B, S>,
+fn jacobi_step<const B: usize, const K: usize, S: Entry>(
+    level: &Level<B, K, S>,
     b: &[f64],
     x: &mut [f64],
     t: &mut [f64],
@@ -942,8 +908,8 @@ fn jacobi_step<const B: usize, S: Entry>(
 
 /// One block Gauss-Seidel sweep `x_i += D_i^-1 (b_i - sum_j A_ij x_j)`,
 /// rows in increasing order (`backward = false`) or decreasing order.
-fn gauss_seidel<const B: usize, S: Entry>(
-    level: &Level<B, S>,
+fn gauss_seidel<const B: usize, const K: usize, S: Entry>(
+    level: &Level<B, K, S>,
     b: &[f64],
     x: &mut [f64],
     backward: bool,
@@ -966,16 +932,55 @@ fn gauss_seidel<const B: usize, S: Entry>(
     }
 }
 
+/// A level's matrices as dense rows: `(A, Some((P, T)))`, `P` and `T`
+/// with `K` columns per coarse node.
 #[cfg(test)]
-impl<const B: usize, S: Entry> Hierarchy<B, S> {
-    /// Test access: level `l`'s operator, prolongator and tentative prolongator.
-    #[allow(clippy::type_complexity)]
-    pub fn level_matrices(&self, l: usize) -> (&Bsr<B, S>, Option<(&Bsr<B, S>, &Bsr<B>)>) {
-        let level = &self.levels[l];
-        (&level.a, level.transfer.as_ref().map(|t| (&t.p, &t.t)))
+pub(crate) type DenseLevel = (Vec<Vec<f64>>, Option<(Vec<Vec<f64>>, Vec<Vec<f64>>)>);
+
+#[cfg(test)]
+impl<const B: usize, const K: usize, S: Entry> Hierarchy<B, K, S> {
+    /// Test access: every level's operator, prolongator and tentative
+    /// prolongator, dense, finest first.
+    pub fn dense_levels(&self) -> Vec<DenseLevel> {
+        fn dense<const R: usize, const C: usize, T: Entry>(m: &Bsr<R, T, C>) -> Vec<Vec<f64>> {
+            let mut d = vec![vec![0.0; C * m.ncols]; R * m.nrows];
+            for i in 0..m.nrows {
+                for k in m.row(i) {
+                    for r in 0..R {
+                        for c in 0..C {
+                            d[R * i + r][C * m.col[k] as usize + c] = m.val[k][r][c].load();
+                        }
+                    }
+                }
+            }
+            d
+        }
+        fn level<const R: usize, const C: usize, T: Entry>(l: &Level<R, C, T>) -> DenseLevel {
+            (
+                dense(&l.a),
+                l.transfer.as_ref().map(|t| (dense(&t.p), dense(&t.t))),
+            )
+        }
+        std::iter::once(level(&self.fine))
+            .chain(self.coarse.iter().map(level))
+            .collect()
     }
 
     pub fn n_levels(&self) -> usize {
-        self.levels.len()
+        1 + self.coarse.len()
+    }
+}
+
+#[cfg(test)]
+impl<const B: usize, S: Entry> Hierarchy<B, B, S> {
+    /// Test access: level `l`'s operator, prolongator and tentative prolongator.
+    #[allow(clippy::type_complexity)]
+    pub fn level_matrices(&self, l: usize) -> (&Bsr<B, S>, Option<(&Bsr<B, S>, &Bsr<B>)>) {
+        let level = if l == 0 {
+            &self.fine
+        } else {
+            &self.coarse[l - 1]
+        };
+        (&level.a, level.transfer.as_ref().map(|t| (&t.p, &t.t)))
     }
 }

@@ -78,11 +78,11 @@ impl<const B: usize> BlockIc0<B> {
             }
         }
         Self {
-            values: vec![zero::<B>(); a.nnz_blocks()],
+            values: vec![zero::<B, B>(); a.nnz_blocks()],
             mirror,
             update_ptr,
             updates,
-            scratch: vec![zero::<B>(); longest],
+            scratch: vec![zero::<B, B>(); longest],
         }
     }
 
@@ -110,12 +110,12 @@ impl<const B: usize> BlockIc0<B> {
             self.values[d] = inv;
             let end = a.row_ptr[k + 1];
             for (s, w) in self.scratch.iter_mut().zip(&self.values[d + 1..end]) {
-                *s = zero::<B>();
+                *s = zero::<B, B>();
                 mul_mat_add(&inv, w, s);
             }
             for u in &self.updates[self.update_ptr[k]..self.update_ptr[k + 1]] {
                 let wt = transpose(&self.values[u.ki as usize]);
-                let mut prod = zero::<B>();
+                let mut prod = zero::<B, B>();
                 mul_mat_add(&wt, &self.scratch[u.kj as usize - d - 1], &mut prod);
                 let x = &mut self.values[u.ij as usize];
                 for r in 0..B {

@@ -5,13 +5,17 @@ mod aggregate;
 mod bsr;
 mod hierarchy;
 mod ic0;
+mod levels;
+mod nullspace;
 mod par;
 
 use std::sync::Arc;
 use std::time::Instant;
 
-use self::bsr::{Blk, Bsr, Entry, SBlk, identity, szero, transpose, zero};
-use self::hierarchy::Hierarchy;
+use self::bsr::{Bsr, Entry, SBlk, szero, transpose, zero};
+use self::levels::{Levels, SUPPORTED, with_block_sizes};
+use self::nullspace::nullspace_blocks;
+pub use self::nullspace::rigid_body_modes;
 use super::{Preconditioner, PreconditionerSetup, as_csr, square_dim};
 use crate::error::SparseError;
 use crate::matrix::{BlockPattern, SymBlockMatrix};
@@ -115,9 +119,12 @@ pub struct AmgOptions {
     /// What a `setup` with the same pattern does: rebuild, refill (default)
     /// or keep the hierarchy for some updates.
     pub reuse: AmgReuse,
-    /// Near-nullspace vectors of length `dim`, as many as the block size
-    /// (3 for block matrices, [`block_size`](Self::block_size) for CSR ones:
-    /// the coarse operators keep the block size). Empty (default): the
+    /// Near-nullspace vectors of length `dim` (e.g. the rigid-body modes of
+    /// [`rigid_body_modes`]), `k` of them on nodes of `B` unknowns
+    /// (`B` = 3 for block matrices, [`block_size`](Self::block_size) for CSR
+    /// ones): `k = B`, or `k = 3` on `B = 2` (2D rigid-body modes), or
+    /// `k = 6` on `B = 3` (3D). Every coarse node carries `k` unknowns (the
+    /// coarse operators have `k x k` blocks). Empty (default): the `B`
     /// translations (for a scalar matrix, the constant).
     pub near_nullspace: Vec<Vec<f64>>,
     /// Unknowns per node of a CSR matrix (node `i` owns rows
@@ -193,91 +200,8 @@ pub struct AmgStats {
     pub coarsest_direct: bool,
 }
 
-/// A hierarchy in either storage precision.
-#[derive(Debug, Clone)]
-enum Levels<const B: usize> {
-    Single(Hierarchy<B, f32>),
-    Double(Hierarchy<B, f64>),
-}
-
-/// `$body` with `$h` bound to the hierarchy of `$levels`, whatever its precision.
-macro_rules! with_levels {
-    ($levels:expr, $h:ident => $body:expr) => {
-        match $levels {
-            Levels::Single($h) => $body,
-            Levels::Double($h) => $body,
-        }
-    };
-}
-
-impl<const B: usize> Levels<B> {
-    /// The full set-up from the finest pattern `fine` (values zero), filled
-    /// from `source` in the storage precision of `options`.
-    fn new(
-        fine: &Bsr<B>,
-        source: &Source<'_>,
-        nullspace: Vec<Blk<B>>,
-        options: &AmgOptions,
-    ) -> Result<Self, SparseError> {
-        Ok(match options.precision {
-            AmgPrecision::Single => {
-                let mut a = fine.pattern_as::<f32>();
-                fill(&mut a, source)?;
-                Levels::Single(Hierarchy::new(a, nullspace, options)?)
-            }
-            AmgPrecision::Double => {
-                let mut a = fine.pattern_as::<f64>();
-                fill(&mut a, source)?;
-                Levels::Double(Hierarchy::new(a, nullspace, options)?)
-            }
-        })
-    }
-
-    /// Refills the finest level from `source` and recomputes every number.
-    fn refill(&mut self, source: &Source<'_>) -> Result<(), SparseError> {
-        with_levels!(self, h => {
-            fill(h.finest_mut(), source)?;
-            h.compute()
-        })
-    }
-
-    fn dim(&self) -> usize {
-        with_levels!(self, h => h.dim())
-    }
-
-    fn apply(&self, r: &[f64], z: &mut [f64]) {
-        with_levels!(self, h => h.apply(r, z))
-    }
-
-    fn update_and_apply(&self, alpha: f64, q: &[f64], r: &mut [f64], z: &mut [f64]) -> (f64, f64) {
-        with_levels!(self, h => h.update_and_apply(alpha, q, r, z))
-    }
-
-    fn apply_dot(&self, r: &[f64], z: &mut [f64]) -> f64 {
-        with_levels!(self, h => h.apply_dot(r, z))
-    }
-
-    fn level_stats(&self) -> Vec<AmgLevelStats> {
-        with_levels!(self, h => h.level_stats().collect())
-    }
-
-    /// Copies the smoothers' and prolongators' weights into `stats` (no allocation).
-    fn update_weights(&self, stats: &mut [AmgLevelStats]) {
-        with_levels!(self, h => {
-            for (s, l) in stats.iter_mut().zip(h.level_stats()) {
-                s.smoother_weight = l.smoother_weight;
-                s.prolongation_weight = l.prolongation_weight;
-            }
-        })
-    }
-
-    fn coarsest_direct(&self) -> bool {
-        with_levels!(self, h => h.coarsest_direct())
-    }
-}
-
 /// Where the finest level's values come from.
-enum Source<'a> {
+pub(super) enum Source<'a> {
     /// The blocks of a [`SymBlockMatrix`], slot by slot of the full storage
     /// (`(stored block, transposed)`, from [`full_pattern`]); 3x3 blocks only.
     Blocks(&'a [(u32, bool)], &'a SymBlockMatrix),
@@ -289,7 +213,7 @@ enum Source<'a> {
 /// a [`SymBlockMatrix`] with rows split across threads (a non-finite entry
 /// is reported by its first slot, searched again serially, independent of
 /// the schedule), or CSR entries serially (not the hot path of a simulation).
-fn fill<const B: usize, S: Entry>(
+pub(super) fn fill<const B: usize, S: Entry>(
     a: &mut Bsr<B, S>,
     source: &Source<'_>,
 ) -> Result<(), SparseError> {
@@ -326,7 +250,7 @@ fn fill<const B: usize, S: Entry>(
             }
         }
         Source::Csr(map, data) => {
-            a.val.fill(szero::<S, B>());
+            a.val.fill(szero::<S, B, B>());
             for (&(slot, r, c), &v) in map.iter().zip(data) {
                 a.val[slot as usize][r as usize][c as usize] = S::store(v);
             }
@@ -344,36 +268,40 @@ enum Inner {
     Block {
         source: Arc<BlockPattern>,
         map: Vec<(u32, bool)>,
-        h: Levels<3>,
+        h: Levels,
     },
     /// From a CSR matrix, with 1, 2 or 3 unknowns per node.
-    Csr1(CsrLevels<1>),
-    Csr2(CsrLevels<2>),
-    Csr3(CsrLevels<3>),
+    Csr(CsrLevels),
 }
 
 /// Where a CSR entry goes in block storage: `(block slot, row, column)`.
 type EntrySlot = (u32, u8, u8);
 
 /// A hierarchy set up from a scalar CSR matrix grouped into `B x B` blocks
-/// (node `i` owns rows `B i .. B i + B`), with the CSR pattern it came from
-/// and where every CSR entry goes: `(block slot, row, column)`.
+/// (node `i` owns rows `B i .. B i + B`, `B = block_size`), with the CSR
+/// pattern it came from and where every CSR entry goes: `(block slot, row,
+/// column)`.
 #[derive(Debug, Clone)]
-struct CsrLevels<const B: usize> {
+struct CsrLevels {
+    block_size: usize,
     indptr: Vec<usize>,
     indices: Vec<usize>,
     map: Vec<EntrySlot>,
-    h: Levels<B>,
+    h: Levels,
 }
 
-impl<const B: usize> CsrLevels<B> {
-    fn same_pattern(&self, a: &sprs::CsMat<f64>) -> bool {
-        self.indptr.as_slice() == &*a.proper_indptr() && self.indices.as_slice() == a.indices()
+impl CsrLevels {
+    fn same_pattern(&self, a: &sprs::CsMat<f64>, block_size: usize) -> bool {
+        self.block_size == block_size
+            && self.indptr.as_slice() == &*a.proper_indptr()
+            && self.indices.as_slice() == a.indices()
     }
 
     /// The block pattern of a CSR matrix (CSR storage order) and the map of
     /// its entries.
-    fn blocks(a: &sprs::CsMat<f64>) -> Result<(Bsr<B>, Vec<EntrySlot>), SparseError> {
+    fn blocks<const B: usize>(
+        a: &sprs::CsMat<f64>,
+    ) -> Result<(Bsr<B>, Vec<EntrySlot>), SparseError> {
         let dim = a.rows();
         if !dim.is_multiple_of(B) {
             return Err(SparseError::InvalidParameter {
@@ -415,16 +343,26 @@ impl<const B: usize> CsrLevels<B> {
             ncols: n,
             row_ptr,
             col,
-            val: vec![zero::<B>(); nnz],
+            val: vec![zero::<B, B>(); nnz],
         };
         Ok((bsr, map))
     }
 
-    fn new(a: &sprs::CsMat<f64>, amg: &Amg) -> Result<Self, SparseError> {
-        let (fine, map) = Self::blocks(a)?;
-        let nullspace = amg.nullspace::<B>(fine.nrows)?;
-        let h = Levels::new(&fine, &Source::Csr(&map, a.data()), nullspace, &amg.options)?;
+    /// The full set-up of `a` with `B` unknowns per node and `K`
+    /// near-nullspace vectors.
+    fn new<const B: usize, const K: usize>(
+        a: &sprs::CsMat<f64>,
+        options: &AmgOptions,
+    ) -> Result<Self, SparseError>
+    where
+        hierarchy::Hierarchy<B, K, f32>: Into<Levels>,
+        hierarchy::Hierarchy<B, K, f64>: Into<Levels>,
+    {
+        let (fine, map) = Self::blocks::<B>(a)?;
+        let nullspace = nullspace_blocks::<B, K>(&options.near_nullspace, fine.nrows)?;
+        let h = Levels::new(&fine, &Source::Csr(&map, a.data()), nullspace, options)?;
         Ok(Self {
+            block_size: B,
             indptr: a.proper_indptr().into_owned(),
             indices: a.indices().to_vec(),
             h,
@@ -440,8 +378,10 @@ impl<const B: usize> CsrLevels<B> {
 /// Smoothed-aggregation algebraic multigrid (Vaněk, Mandel, Brezina 1996)
 /// on the 3x3 blocks of a [`SymBlockMatrix`], and on CSR matrices grouped
 /// into blocks of 1, 2 or 3 unknowns per node ([`AmgOptions::block_size`]).
-/// Every level is stored as full block CSR of the same block size, so all
-/// kernels of the cycle run row by row (ready to be split across threads).
+/// Every level is stored as full block CSR: `B x B` blocks on the finest
+/// level, `k x k` on the coarser ones (`k` near-nullspace vectors), so all
+/// kernels of the cycle run row by row (ready to be split across threads),
+/// compiled for their block size.
 ///
 /// Set-up, per level `l` (`A_0 = A`):
 /// 1. strength of connection on blocks: `A_ij` is strong when
@@ -449,7 +389,10 @@ impl<const B: usize> CsrLevels<B> {
 /// 2. aggregation of the strong graph (three greedy passes);
 /// 3. the tentative prolongator `T` from the near-nullspace `N_l`, by a thin
 ///    QR on every aggregate (`N_l = T N_{l+1}`): the three translations per
-///    particle by default (the constant for scalar matrices);
+///    particle by default (the constant for scalar matrices), or the `k`
+///    vectors of [`AmgOptions::near_nullspace`] (the rigid-body modes of
+///    [`rigid_body_modes`]: `k = 3` on 2D nodes of 2 unknowns, 6 on 3D
+///    nodes of 3), so that every coarse node carries `k` unknowns;
 /// 4. the smoothed prolongator `P = (I - omega D_F^-1 A_F) T`, `A_F` the
 ///    filtered matrix (weak blocks lumped onto the diagonal) and
 ///    `omega = 4/3 / rho(D_F^-1 A_F)`;
@@ -623,44 +566,16 @@ impl Amg {
         }
     }
 
-    /// The near-nullspace as one `B x B` block per node (column `c` is vector `c`).
-    fn nullspace<const B: usize>(&self, n: usize) -> Result<Vec<Blk<B>>, SparseError> {
-        let vs = &self.options.near_nullspace;
-        if vs.is_empty() {
-            return Ok(vec![identity::<B>(); n]);
+    /// The near-nullspace vectors the hierarchy takes: `K` of them on nodes
+    /// of `block_size` unknowns (the translations when none are given).
+    fn vectors(&self, block_size: usize) -> usize {
+        match self.options.near_nullspace.len() {
+            0 => block_size,
+            k => k,
         }
-        if vs.len() != B {
-            return Err(SparseError::InvalidParameter {
-                name: "near_nullspace",
-                message: format!(
-                    "{} vectors given; the block size of this matrix is {B}, and the coarse levels keep it",
-                    vs.len()
-                ),
-            });
-        }
-        for (vector, v) in vs.iter().enumerate() {
-            if v.len() != B * n {
-                return Err(SparseError::NullspaceLength {
-                    vector,
-                    expected: B * n,
-                    found: v.len(),
-                });
-            }
-        }
-        Ok((0..n)
-            .map(|i| {
-                let mut blk = zero::<B>();
-                for (r, row) in blk.iter_mut().enumerate() {
-                    for (c, v) in vs.iter().enumerate() {
-                        row[c] = v[B * i + r];
-                    }
-                }
-                blk
-            })
-            .collect())
     }
 
-    fn record<const B: usize>(&mut self, h: &Levels<B>, seconds: f64, refill: bool) {
+    fn record(&mut self, h: &Levels, seconds: f64, refill: bool) {
         if refill {
             self.stats.refill_seconds = seconds;
             self.stats.refills += 1;
@@ -688,20 +603,22 @@ impl Amg {
                 self.record(&h, seconds, refill);
                 self.inner = Inner::Block { source, map, h };
             }
-            Inner::Csr1(c) => {
+            Inner::Csr(c) => {
                 self.record(&c.h, seconds, refill);
-                self.inner = Inner::Csr1(c);
-            }
-            Inner::Csr2(c) => {
-                self.record(&c.h, seconds, refill);
-                self.inner = Inner::Csr2(c);
-            }
-            Inner::Csr3(c) => {
-                self.record(&c.h, seconds, refill);
-                self.inner = Inner::Csr3(c);
+                self.inner = Inner::Csr(c);
             }
             Inner::Empty => {}
         }
+    }
+}
+
+/// The error for `k` near-nullspace vectors on nodes of `b` unknowns.
+fn unsupported(b: usize, k: usize) -> SparseError {
+    SparseError::InvalidParameter {
+        name: "near_nullspace",
+        message: format!(
+            "{k} vectors on nodes of {b} unknowns; the multigrid takes {SUPPORTED} (the coarse nodes carry one unknown per vector)"
+        ),
     }
 }
 
@@ -745,7 +662,7 @@ fn full_pattern(p: &BlockPattern) -> (Bsr<3>, Vec<(u32, bool)>) {
         ncols: n,
         row_ptr: full_ptr,
         col,
-        val: vec![zero::<3>(); nnz],
+        val: vec![zero::<3, 3>(); nnz],
     };
     (a, map)
 }
@@ -763,9 +680,15 @@ impl PreconditionerSetup<SymBlockMatrix> for Amg {
             Inner::Block { map, h, .. } if refill => h.refill(&Source::Blocks(map, a)),
             _ => {
                 let (fine, map) = full_pattern(a.pattern());
-                let built = self
-                    .nullspace::<3>(a.n_blocks())
-                    .and_then(|ns| Levels::new(&fine, &Source::Blocks(&map, a), ns, &self.options));
+                let source = Source::Blocks(&map, a);
+                let (o, n) = (&self.options, a.n_blocks());
+                let built = match self.vectors(3) {
+                    3 => nullspace_blocks::<3, 3>(&o.near_nullspace, n)
+                        .and_then(|ns| Levels::new(&fine, &source, ns, o)),
+                    6 => nullspace_blocks::<3, 6>(&o.near_nullspace, n)
+                        .and_then(|ns| Levels::new(&fine, &source, ns, o)),
+                    k => Err(unsupported(3, k)),
+                };
                 built.map(|h| {
                     self.inner = Inner::Block {
                         source: a.pattern().clone(),
@@ -798,10 +721,8 @@ impl PreconditionerSetup<sprs::CsMat<f64>> for Amg {
                 index: Some(k),
             });
         }
-        let same = match (&self.inner, self.options.block_size) {
-            (Inner::Csr1(c), 1) => c.same_pattern(a),
-            (Inner::Csr2(c), 2) => c.same_pattern(a),
-            (Inner::Csr3(c), 3) => c.same_pattern(a),
+        let same = match &self.inner {
+            Inner::Csr(c) => c.same_pattern(a, self.options.block_size),
             _ => false,
         };
         if !same {
@@ -811,19 +732,21 @@ impl PreconditionerSetup<sprs::CsMat<f64>> for Amg {
             return Ok(());
         };
         let refill = match &mut self.inner {
-            Inner::Csr1(c) if refill => Some(c.refill(a)),
-            Inner::Csr2(c) if refill => Some(c.refill(a)),
-            Inner::Csr3(c) if refill => Some(c.refill(a)),
+            Inner::Csr(c) if refill => Some(c.refill(a)),
             _ => None,
         };
         let refilled = refill.is_some();
         let result = match refill {
             Some(r) => r,
-            None => match self.options.block_size {
-                1 => CsrLevels::new(a, self).map(|c| self.inner = Inner::Csr1(c)),
-                2 => CsrLevels::new(a, self).map(|c| self.inner = Inner::Csr2(c)),
-                _ => CsrLevels::new(a, self).map(|c| self.inner = Inner::Csr3(c)),
-            },
+            None => {
+                let (b, k) = (
+                    self.options.block_size,
+                    self.vectors(self.options.block_size),
+                );
+                with_block_sizes!(b, k, B, K => CsrLevels::new::<B, K>(a, &self.options),
+                    _ => Err(unsupported(b, k)))
+                .map(|c| self.inner = Inner::Csr(c))
+            }
         };
         if let Err(e) = result {
             self.inner = Inner::Empty;
@@ -839,9 +762,7 @@ impl Preconditioner for Amg {
         Some(match &self.inner {
             Inner::Empty => 0,
             Inner::Block { h, .. } => h.dim(),
-            Inner::Csr1(c) => c.h.dim(),
-            Inner::Csr2(c) => c.h.dim(),
-            Inner::Csr3(c) => c.h.dim(),
+            Inner::Csr(c) => c.h.dim(),
         })
     }
 
@@ -849,9 +770,7 @@ impl Preconditioner for Amg {
         match &self.inner {
             Inner::Empty => z.copy_from_slice(r),
             Inner::Block { h, .. } => h.apply(r, z),
-            Inner::Csr1(c) => c.h.apply(r, z),
-            Inner::Csr2(c) => c.h.apply(r, z),
-            Inner::Csr3(c) => c.h.apply(r, z),
+            Inner::Csr(c) => c.h.apply(r, z),
         }
     }
 
@@ -863,9 +782,7 @@ impl Preconditioner for Amg {
                 crate::vecops::dot(r, z)
             }
             Inner::Block { h, .. } => h.apply_dot(r, z),
-            Inner::Csr1(c) => c.h.apply_dot(r, z),
-            Inner::Csr2(c) => c.h.apply_dot(r, z),
-            Inner::Csr3(c) => c.h.apply_dot(r, z),
+            Inner::Csr(c) => c.h.apply_dot(r, z),
         }
     }
 
@@ -882,12 +799,13 @@ impl Preconditioner for Amg {
                 (rr, rr)
             }
             Inner::Block { h, .. } => h.update_and_apply(alpha, q, r, z),
-            Inner::Csr1(c) => c.h.update_and_apply(alpha, q, r, z),
-            Inner::Csr2(c) => c.h.update_and_apply(alpha, q, r, z),
-            Inner::Csr3(c) => c.h.update_and_apply(alpha, q, r, z),
+            Inner::Csr(c) => c.h.update_and_apply(alpha, q, r, z),
         }
     }
 }
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod nullspace_tests;

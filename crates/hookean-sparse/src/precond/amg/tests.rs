@@ -18,21 +18,19 @@ fn small_coarse(smoother: AmgSmoother) -> AmgOptions {
     }
 }
 
-fn hierarchy3(amg: &Amg) -> &Hierarchy<3, f64> {
+fn hierarchy3(amg: &Amg) -> &hierarchy::Hierarchy<3, 3, f64> {
     match &amg.inner {
         Inner::Block {
-            h: Levels::Double(h),
-            ..
+            h: Levels::D33(h), ..
         } => h,
         _ => panic!("not a double-precision block hierarchy"),
     }
 }
 
-fn hierarchy3_single(amg: &Amg) -> &Hierarchy<3, f32> {
+fn hierarchy3_single(amg: &Amg) -> &hierarchy::Hierarchy<3, 3, f32> {
     match &amg.inner {
         Inner::Block {
-            h: Levels::Single(h),
-            ..
+            h: Levels::S33(h), ..
         } => h,
         _ => panic!("not a single-precision block hierarchy"),
     }
@@ -56,7 +54,7 @@ fn dense_bsr<const B: usize, S: bsr::Entry>(m: &Bsr<B, S>) -> Vec<Vec<f64>> {
 
 /// Every coarse operator of `h` equals `P^T A P` of the stored level
 /// matrices, entry by entry to `tol` times the product's largest entry.
-fn assert_galerkin<S: bsr::Entry>(h: &Hierarchy<3, S>, tol: f64) {
+fn assert_galerkin<S: bsr::Entry>(h: &hierarchy::Hierarchy<3, 3, S>, tol: f64) {
     assert!(h.n_levels() >= 2);
     for l in 0..h.n_levels() - 1 {
         let (al, Some((p, _))) = h.level_matrices(l) else {
@@ -77,13 +75,13 @@ fn assert_galerkin<S: bsr::Entry>(h: &Hierarchy<3, S>, tol: f64) {
     }
 }
 
-fn transpose_dense(m: &[Vec<f64>]) -> Vec<Vec<f64>> {
+pub(super) fn transpose_dense(m: &[Vec<f64>]) -> Vec<Vec<f64>> {
     (0..m[0].len())
         .map(|c| m.iter().map(|row| row[c]).collect())
         .collect()
 }
 
-fn matmul(a: &[Vec<f64>], b: &[Vec<f64>]) -> Vec<Vec<f64>> {
+pub(super) fn matmul(a: &[Vec<f64>], b: &[Vec<f64>]) -> Vec<Vec<f64>> {
     super::super::testutil::matmul(a, b)
 }
 
@@ -553,7 +551,7 @@ fn bad_input_gets_typed_errors() {
 
 /// PCG iterations to `|r| <= 1e-8 |b|` from zero with `amg`, after checking
 /// the true residual.
-fn pcg_iterations<A: LinearOperator>(a: &A, amg: &Amg, b: &[f64]) -> usize {
+pub(super) fn pcg_iterations<A: LinearOperator>(a: &A, amg: &Amg, b: &[f64]) -> usize {
     let n = b.len();
     let mut x = vec![0.0; n];
     let info = pcg(
@@ -619,7 +617,7 @@ fn scalar_amg_pcg_on_3d_poisson_needs_at_most_40_iterations() {
 /// elements on an `m x m` grid of the unit square, the left edge clamped
 /// (its rows and columns replaced by the identity); unknowns interleaved
 /// `(u_x, u_y)` per node.
-fn elasticity_q1(m: usize) -> sprs::CsMat<f64> {
+pub(super) fn elasticity_q1(m: usize) -> sprs::CsMat<f64> {
     let (e, nu) = (1.0, 0.3);
     let h = 1.0 / m as f64;
     let d = [
@@ -693,7 +691,7 @@ fn two_dof_amg_pcg_on_2d_elasticity_needs_at_most_40_iterations() {
 /// 3D linear elasticity (E = 1, nu = 0.3) with trilinear (Q1) hexahedra on
 /// an `m^3` grid of the unit cube, the face x = 0 clamped (identity rows
 /// and columns); unknowns interleaved `(u_x, u_y, u_z)` per node.
-fn elasticity_hex(m: usize) -> sprs::CsMat<f64> {
+pub(super) fn elasticity_hex(m: usize) -> sprs::CsMat<f64> {
     let (e, nu) = (1.0, 0.3);
     let lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
     let mu = e / (2.0 * (1.0 + nu));

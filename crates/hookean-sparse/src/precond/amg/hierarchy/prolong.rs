@@ -57,11 +57,11 @@ fn filtered_row_times<const B: usize, S: Entry>(
 /// `A_F` read from `A` row by row (its strong blocks, and the weak ones
 /// lumped onto the diagonal).
 #[allow(clippy::too_many_arguments)]
-pub(super) fn smooth_prolongator<const B: usize, S: Entry>(
+pub(super) fn smooth_prolongator<const B: usize, const K: usize, S: Entry>(
     a: &Bsr<B, S>,
     diag: &[usize],
     a_dinv: &[SBlk<S, B>],
-    tr: &mut Transfer<B, S>,
+    tr: &mut Transfer<B, K, S>,
     prolongation_weight: f64,
     iterations: Option<usize>,
     refill: bool,
@@ -103,14 +103,14 @@ pub(super) fn smooth_prolongator<const B: usize, S: Entry>(
     // scaled, then T added.
     let (df_inv, t, t_in_p, z_slot, omega) = (&tr.df_inv, &tr.t, &tr.t_in_p, &tr.z_slot, tr.omega);
     let p_ptr = &tr.p.row_ptr;
-    par::row_slices(p_ptr, &mut tr.p.val, &|i, vals: &mut [SBlk<S, B>]| {
+    par::row_slices(p_ptr, &mut tr.p.val, &|i, vals: &mut [SBlk<S, B, K>]| {
         let start = p_ptr[i];
-        let mut acc = [zero::<B>(); MAX_P_ROW];
+        let mut acc = [zero::<B, K>(); MAX_P_ROW];
         let wide = vals.len() > MAX_P_ROW;
         if wide {
-            vals.fill(szero::<S, B>());
+            vals.fill(szero::<S, B, K>());
         } else {
-            acc[..vals.len()].fill(zero::<B>());
+            acc[..vals.len()].fill(zero::<B, K>());
         }
         let d = lumped_diagonal(a, diag, strong, i);
         for k in a.row(i) {
@@ -132,7 +132,7 @@ pub(super) fn smooth_prolongator<const B: usize, S: Entry>(
         let dinv = &df_inv[i];
         for (s, v) in vals.iter_mut().enumerate() {
             let z = if wide { load(v) } else { acc[s] };
-            let mut m = zero::<B>();
+            let mut m = zero::<B, K>();
             mul_mat_add(dinv, &z, &mut m);
             for row in m.iter_mut() {
                 for x in row.iter_mut() {
@@ -143,7 +143,7 @@ pub(super) fn smooth_prolongator<const B: usize, S: Entry>(
                 && t_in_p[i] - start == s
             {
                 for r in 0..B {
-                    for c in 0..B {
+                    for c in 0..K {
                         m[r][c] += t.val[k][r][c];
                     }
                 }
