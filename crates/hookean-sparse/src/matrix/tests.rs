@@ -1,0 +1,403 @@
+use super::*;
+
+/// Row ranges and bandwidth against the input pairs: row `r` holds its
+/// diagonal plus the distinct `j > r` paired with it, and the bandwidth
+/// is the largest `|i - j|` of a pair.
+#[test]
+fn row_ranges_and_bandwidth_match_the_pairs() {
+    let pairs = [(0, 3), (1, 2), (4, 1), (2, 2), (3, 0), (5, 4)];
+    let n = 6;
+    let p = BlockPattern::new(n, pairs).unwrap();
+    let mut end = 0;
+    for r in 0..n {
+        let mut upper: Vec<usize> = pairs
+            .iter()
+            .filter(|&&(i, j)| i.min(j) == r && i != j)
+            .map(|&(i, j)| i.max(j))
+            .collect();
+        upper.sort_unstable();
+        upper.dedup();
+        let range = p.rows_value_range(r..r + 1);
+        assert_eq!(
+            range.start,
+            end,
+            "row {r} starts where row {} ends",
+            r.max(1) - 1
+        );
+        assert_eq!(range.len(), 1 + upper.len(), "row {r}");
+        for j in std::iter::once(r).chain(upper) {
+            assert!(range.contains(&p.find(r, j).unwrap().index()), "({r}, {j})");
+        }
+        end = range.end;
+    }
+    assert_eq!(p.rows_value_range(0..n), 0..p.stored_blocks());
+    assert_eq!(p.rows_value_range(2..5), p.row_ptr()[2]..p.row_ptr()[5]);
+    let widest = pairs.iter().map(|&(i, j)| i.abs_diff(j)).max().unwrap();
+    assert_eq!(p.bandwidth(), widest);
+    assert_eq!(BlockPattern::new(4, []).unwrap().bandwidth(), 0);
+    assert_eq!(BlockPattern::new(0, []).unwrap().bandwidth(), 0);
+}
+
+fn chain(n: usize) -> SymBlockMatrix {
+    let pattern = Arc::new(BlockPattern::new(n, (1..n).map(|i| (i - 1, i))).unwrap());
+    let mut a = SymBlockMatrix::new(pattern);
+    for i in 0..n {
+        let d = [
+            [4.0 + i as f64, 0.5, 0.0],
+            [0.5, 5.0, 0.25],
+            [0.0, 0.25, 6.0],
+        ];
+        a.add_to_block(i, i, &d).unwrap();
+        if i > 0 {
+            let b = [[-1.0, 0.2, 0.0], [0.1, -1.0, 0.3], [0.0, 0.0, -0.5]];
+            a.add_to_block(i, i - 1, &b).unwrap();
+        }
+    }
+    a
+}
+
+fn dense(a: &SymBlockMatrix) -> Vec<Vec<f64>> {
+    let n = a.n_blocks();
+    let mut d = vec![vec![0.0; 3 * n]; 3 * n];
+    for i in 0..n {
+        for j in 0..n {
+            let b = a.block(i, j).unwrap();
+            for r in 0..3 {
+                for c in 0..3 {
+                    d[3 * i + r][3 * j + c] = b[r][c];
+                }
+            }
+        }
+    }
+    d
+}
+
+#[test]
+fn pattern_dedups_and_orients_pairs() {
+    let p = BlockPattern::new(4, [(2, 1), (1, 2), (0, 3), (3, 3)]).unwrap();
+    assert_eq!(p.row_ptr(), &[0, 2, 4, 5, 6]);
+    assert_eq!(p.col_idx(), &[0, 3, 1, 2, 2, 3]);
+    assert_eq!(p.full_nnz(), 9 * (2 * 6 - 4));
+    assert!(p.find(1, 3).is_none());
+    assert!(p.find(2, 1).unwrap().transposed);
+}
+
+#[test]
+fn out_of_range_pair_is_an_error() {
+    assert_eq!(
+        BlockPattern::new(3, [(0, 3)]),
+        Err(SparseError::BlockIndexOutOfRange {
+            row: 0,
+            col: 3,
+            n: 3
+        })
+    );
+}
+
+#[test]
+fn writing_outside_the_pattern_is_an_error() {
+    let mut a = chain(3);
+    assert_eq!(
+        a.add_to_block(0, 2, &block::IDENTITY),
+        Err(SparseError::NotInPattern { row: 0, col: 2 })
+    );
+}
+
+#[test]
+fn lower_block_is_stored_transposed() {
+    let a = chain(3);
+    let upper = a.block(0, 1).unwrap();
+    let lower = a.block(1, 0).unwrap();
+    assert_eq!(
+        lower,
+        [[-1.0, 0.2, 0.0], [0.1, -1.0, 0.3], [0.0, 0.0, -0.5]]
+    );
+    assert_eq!(upper, block::transpose(&lower));
+}
+
+#[test]
+fn spmv_matches_dense_product() {
+    let a = chain(5);
+    let d = dense(&a);
+    let x: Vec<f64> = (0..15).map(|i| (i as f64 * 0.7).sin()).collect();
+    let mut y = vec![0.0; 15];
+    a.mul_vec(&x, &mut y).unwrap();
+    for r in 0..15 {
+        let expected: f64 = (0..15).map(|c| d[r][c] * x[c]).sum();
+        approx::assert_abs_diff_eq!(y[r], expected, epsilon = 1e-13);
+    }
+}
+
+/// A banded matrix big enough for the threaded kernels: block `i`
+/// coupled to `i + 1` and `i + w` (a cloth-like bandwidth `w`).
+fn banded(n: usize, w: usize) -> SymBlockMatrix {
+    let pairs = (0..n)
+        .flat_map(|i| [(i, i + 1), (i, i + w)])
+        .filter(|&(_, j)| j < n);
+    let pattern = Arc::new(BlockPattern::new(n, pairs).unwrap());
+    let mut a = SymBlockMatrix::new(pattern.clone());
+    for (k, b) in a.values_mut().iter_mut().enumerate() {
+        for r in 0..3 {
+            for c in 0..3 {
+                b[r][c] = ((k * 31 + r * 7 + c * 3) % 17) as f64 / 17.0 - 0.5;
+            }
+        }
+    }
+    for i in 0..n {
+        let d = &mut a.values_mut()[pattern.row_ptr()[i]];
+        *d = block::add(d, &block::transpose(d));
+        for c in 0..3 {
+            d[c][c] += 8.0;
+        }
+    }
+    a
+}
+
+fn in_pool<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
+#[test]
+fn threaded_spmv_gives_the_serial_bits() {
+    // The parts gather the contributions of earlier rows in the serial
+    // order, so y is bitwise the serial product for every split; the
+    // dot product differs by its summation order only.
+    let n = 3 * crate::par::MIN_PARALLEL_BLOCKS + 11;
+    let a = banded(n, 67);
+    let x: Vec<f64> = (0..3 * n).map(|i| (i as f64 * 0.37).sin()).collect();
+    let mut y1 = vec![f64::NAN; 3 * n];
+    let d1 = in_pool(1, || a.spmv_dot(&x, &mut y1));
+    let mut expected = vec![0.0; 3 * n];
+    a.spmv_dot_serial(&x, &mut expected);
+    assert_eq!(y1, expected);
+    for threads in [2, 3, 4] {
+        let mut y = vec![f64::NAN; 3 * n];
+        let d = in_pool(threads, || a.spmv_dot(&x, &mut y));
+        assert_eq!(y, expected, "{threads} threads");
+        approx::assert_relative_eq!(d, d1, max_relative = 1e-12);
+        let mut again = vec![0.0; 3 * n];
+        assert_eq!(
+            in_pool(threads, || a.spmv_dot(&x, &mut again)).to_bits(),
+            d.to_bits()
+        );
+    }
+    // The fused CG update on two threads: the serial bits for x, p, q.
+    let z: Vec<f64> = (0..3 * n).map(|i| (i as f64 * 0.11).cos()).collect();
+    let run = |threads: usize| {
+        let (mut xs, mut p, mut q) = (x.clone(), z.clone(), vec![0.0; 3 * n]);
+        p.reverse();
+        in_pool(threads, || {
+            a.update_spmv_dot(&z, 0.3, 0.7, &mut xs, &mut p, &mut q)
+        });
+        (xs, p, q)
+    };
+    assert_eq!(run(1), run(2));
+}
+
+#[test]
+fn fused_direction_update_and_product_match_the_separate_steps() {
+    let a = chain(6);
+    let z: Vec<f64> = (0..18).map(|i| (i as f64 * 0.3).cos()).collect();
+    let p0: Vec<f64> = (0..18).map(|i| (i as f64 * 0.9).sin()).collect();
+    let beta = 0.37;
+    let mut p = p0.clone();
+    let mut q = vec![f64::NAN; 18];
+    let x0: Vec<f64> = (0..18).map(|i| i as f64 * 0.1).collect();
+    let mut x = x0.clone();
+    let alpha = 0.8;
+    let pq = a.update_spmv_dot(&z, beta, alpha, &mut x, &mut p, &mut q);
+    for i in 0..18 {
+        assert_eq!(x[i], x0[i] + alpha * p0[i]);
+    }
+    let expected_p: Vec<f64> = z.iter().zip(&p0).map(|(z, p)| z + beta * p).collect();
+    let mut expected_q = vec![0.0; 18];
+    a.mul_vec(&expected_p, &mut expected_q).unwrap();
+    assert_eq!(p, expected_p);
+    for (u, v) in q.iter().zip(&expected_q) {
+        approx::assert_abs_diff_eq!(u, v, epsilon = 1e-14);
+    }
+    let expected_pq: f64 = expected_p.iter().zip(&expected_q).map(|(u, v)| u * v).sum();
+    approx::assert_relative_eq!(pq, expected_pq, max_relative = 1e-13);
+}
+
+#[test]
+fn diagonal_plus_combination_is_the_dense_formula() {
+    // A = diag(d) + a X + b Y entry by entry, with X a chain and Y = 2 X + I.
+    let x = chain(4);
+    let mut y = SymBlockMatrix::new(x.pattern().clone());
+    y.add_scaled(2.0, &x).unwrap();
+    y.add_to_diagonal(&[1.0; 12]).unwrap();
+    let d: Vec<f64> = (0..12).map(|k| 0.5 + k as f64).collect();
+    let (a, b) = (-1e-4, -1e-2);
+    let mut m = SymBlockMatrix::new(x.pattern().clone());
+    m.assign_diagonal_plus_combination(&d, a, &x, b, &y)
+        .unwrap();
+    let (dm, dx, dy) = (dense(&m), dense(&x), dense(&y));
+    for r in 0..12 {
+        for c in 0..12 {
+            let diag = if r == c { d[r] } else { 0.0 };
+            let expected = diag + a * dx[r][c] + b * dy[r][c];
+            assert!((dm[r][c] - expected).abs() <= 1e-15 * (1.0 + expected.abs()));
+        }
+    }
+    let other = chain(3);
+    assert!(
+        m.assign_diagonal_plus_combination(&d, a, &other, b, &y)
+            .is_err()
+    );
+    assert!(
+        m.assign_diagonal_plus_combination(&d[..3], a, &x, b, &y)
+            .is_err()
+    );
+}
+
+#[test]
+fn threaded_diagonal_plus_combination_gives_the_serial_bits() {
+    // Large enough to split (and with a last chunk shorter than the others).
+    let n = 3 * crate::par::MIN_PARALLEL_BLOCKS + 11;
+    let x = banded(n, 67);
+    let mut y = SymBlockMatrix::new(x.pattern().clone());
+    y.add_scaled(-0.3, &x).unwrap();
+    for (k, b) in y.values.iter_mut().enumerate() {
+        b[0][1] += (k as f64 * 0.7).sin();
+    }
+    let d: Vec<f64> = (0..3 * n).map(|k| 1.0 + (k as f64).cos()).collect();
+    let run = |threads: usize| {
+        let mut m = SymBlockMatrix::new(x.pattern().clone());
+        m.values.fill([[f64::NAN; 3]; 3]);
+        in_pool(threads, || {
+            m.assign_diagonal_plus_combination(&d, -1e-4, &x, -1e-2, &y)
+                .unwrap()
+        });
+        m.values
+    };
+    let serial = run(1);
+    assert!(serial.iter().flatten().flatten().all(|v| v.is_finite()));
+    assert_eq!(run(2), serial);
+    assert_eq!(run(3), serial);
+}
+
+#[test]
+fn csr_round_trip_and_faer_agree() {
+    let a = chain(4);
+    let csr = a.to_csr();
+    let d = dense(&a);
+    for (&v, (r, c)) in csr.iter() {
+        assert_eq!(v, d[r][c]);
+    }
+    let back = SymBlockMatrix::from_csr(&csr).unwrap();
+    assert_eq!(dense(&back), d);
+    #[cfg(feature = "faer")]
+    assert_eq!(a.to_faer().compute_nnz(), csr.nnz());
+}
+
+#[test]
+fn from_csr_rejects_bad_shapes_and_asymmetry() {
+    let mut t = sprs::TriMat::new((4, 4));
+    t.add_triplet(0, 0, 1.0);
+    assert_eq!(
+        SymBlockMatrix::from_csr(&t.to_csr()),
+        Err(SparseError::NotBlockAligned { dim: 4 })
+    );
+    let mut t = sprs::TriMat::new((3, 3));
+    t.add_triplet(0, 1, 1.0);
+    t.add_triplet(1, 0, 2.0);
+    assert!(matches!(
+        SymBlockMatrix::from_csr(&t.to_csr()),
+        Err(SparseError::NotSymmetric { .. })
+    ));
+    let mut t = sprs::TriMat::new((3, 6));
+    t.add_triplet(0, 1, 1.0);
+    assert_eq!(
+        SymBlockMatrix::from_csr(&t.to_csr()),
+        Err(SparseError::NotSquare { rows: 3, cols: 6 })
+    );
+}
+
+#[test]
+fn wrong_vector_length_is_an_error() {
+    let a = chain(2);
+    let mut y = vec![0.0; 6];
+    assert_eq!(
+        a.mul_vec(&[1.0; 5], &mut y),
+        Err(SparseError::DimensionMismatch {
+            what: "x",
+            expected: 6,
+            found: 5
+        })
+    );
+}
+
+/// `from_blocks` against a dense assembly written out here: each triplet
+/// lands at `(i, j)` and, off the diagonal, transposed at `(j, i)`;
+/// duplicates and both orientations sum.
+#[test]
+fn from_blocks_sums_triplets_like_a_dense_assembly() {
+    let n = 4;
+    let blk = |s: f64| -> Block3 {
+        let mut b = [[0.0; 3]; 3];
+        for (r, row) in b.iter_mut().enumerate() {
+            for (c, v) in row.iter_mut().enumerate() {
+                *v = s * (1.0 + r as f64) + 0.1 * c as f64;
+            }
+        }
+        b
+    };
+    let sym = |s: f64| -> Block3 { block::add(&blk(s), &block::transpose(&blk(s))) };
+    let triplets = vec![
+        (0, 0, sym(1.0)),
+        (1, 1, sym(2.0)),
+        (2, 2, sym(3.0)),
+        (3, 3, sym(4.0)),
+        (0, 1, blk(0.5)),
+        (2, 1, blk(-0.25)),
+        (0, 1, blk(1.5)), // duplicate of (0, 1)
+        (3, 0, blk(0.75)),
+        (2, 2, sym(1.0)), // duplicate diagonal
+    ];
+    let a = SymBlockMatrix::from_blocks(n, triplets.clone()).unwrap();
+    let mut dense = vec![vec![0.0; 3 * n]; 3 * n];
+    for (i, j, m) in &triplets {
+        for r in 0..3 {
+            for c in 0..3 {
+                dense[3 * i + r][3 * j + c] += m[r][c];
+                if i != j {
+                    dense[3 * j + c][3 * i + r] += m[r][c];
+                }
+            }
+        }
+    }
+    let csr = a.to_csr();
+    for (r, row) in dense.iter().enumerate() {
+        for (c, &v) in row.iter().enumerate() {
+            let got = csr.get(r, c).copied().unwrap_or(0.0);
+            assert!((got - v).abs() < 1e-14, "({r}, {c}): {got} vs {v}");
+        }
+    }
+    assert_eq!(a.pattern().stored_blocks(), n + 3);
+
+    let mut asym = [[0.0; 3]; 3];
+    asym[0][1] = 1.0;
+    assert_eq!(
+        SymBlockMatrix::from_blocks(2, [(1, 1, asym)]).unwrap_err(),
+        SparseError::NotSymmetric { row: 3, col: 4 }
+    );
+    assert!(matches!(
+        SymBlockMatrix::from_blocks(2, [(0, 2, blk(1.0))]),
+        Err(SparseError::BlockIndexOutOfRange {
+            row: 0,
+            col: 2,
+            n: 2
+        })
+    ));
+    let mut nan = blk(1.0);
+    nan[2][2] = f64::NAN;
+    assert!(matches!(
+        SymBlockMatrix::from_blocks(2, [(0, 0, sym(1.0)), (0, 1, nan)]),
+        Err(SparseError::NonFinite { index: Some(1), .. })
+    ));
+}
