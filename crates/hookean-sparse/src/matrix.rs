@@ -69,11 +69,12 @@ pub fn check_csr_symmetric(a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
 ///
 /// The test is on nodes, not on dense `B x B` blocks: writers drop exact
 /// zeros, and vector-valued stiffness has them inside node blocks (the
-/// x-y coupling of a node and its horizontal neighbour in bilinear 2D
-/// elasticity, the normal-tangential coupling of a flat cloth's springs),
-/// so pyamg's 2D elasticity fills 72% of its 2x2 blocks and the 3D bar 70%
-/// of its 3x3 ones. A scalar stencil coupling unknowns `i` and `i + 1`
-/// fails it. A pattern that passes for both 2 and 3 (a diagonal matrix, or
+/// x-y coupling of a node with itself and its horizontal and vertical
+/// neighbours in bilinear 2D elasticity on a uniform grid, the out-of-plane
+/// coupling of a flat cloth's springs), so pyamg's 2D elasticity fills 72%
+/// of its 2x2 blocks and the 3D bar 70% of its 3x3 ones. A scalar stencil
+/// coupling unknowns `i` and `i + 1` fails it. A flat cloth fails it too
+/// (its z rows miss neighbours that its x and y rows couple to), and says 1. A pattern that passes for both 2 and 3 (a diagonal matrix, or
 /// one of dense 6x6 blocks, where the two groupings chain rows `6 I .. 6 I
 /// + 6` together) says nothing about which: ambiguous, so 1. See
 /// [`is_block_pattern`] to test one `B`.
