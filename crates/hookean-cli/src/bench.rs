@@ -25,8 +25,8 @@ use crate::CliError;
 use crate::amg_args::{AmgArgs, read_columns};
 use crate::lineplot::{LogLogPlot, Series};
 use crate::solve::{
-    Matrix, RunOptions, SolveRecord, Solver, SolverArgs, System, empty_record, load_system,
-    nullspace_block_size, run_solver,
+    BlockSizeSource, Matrix, RunOptions, SolveRecord, Solver, SolverArgs, System, empty_record,
+    load_system, nullspace_block_size, run_solver,
 };
 
 #[derive(Debug, Args)]
@@ -64,11 +64,15 @@ pub struct BenchArgs {
     omega: f64,
     #[command(flatten)]
     amg: AmgArgs,
-    /// Matrix storage for PCG: block (symmetric 3x3 blocks), csr, or auto (block when possible).
+    /// Matrix storage for PCG: block (symmetric 3x3 blocks), csr, or auto (csr when the nodes have
+    /// 1 or 2 unknowns by --block-size, the `_nullspace.mtx` or the pattern; else block when
+    /// possible).
     #[arg(long, default_value = "auto")]
     format: String,
     /// Unknowns per node for `amg` on csr storage, 1 to 3 (default: read off the first vector of a
-    /// `_nullspace.mtx`, a translation non-zero at every d-th entry, else 1).
+    /// `_nullspace.mtx`, a translation non-zero at every d-th entry, else detected from the pattern:
+    /// 2 or 3 when every row of a node couples to the same nodes for exactly one of them, else 1).
+    /// The table's `unknowns per node` column says which.
     #[arg(long)]
     block_size: Option<usize>,
     /// Skip a matrix, or a direct factor, that would need more memory than this (GiB), in (0, the
@@ -336,6 +340,8 @@ fn bench(
                         &run,
                     ),
                 };
+                record.block_size = Some(system.block_size);
+                record.block_size_source = Some(system.block_size_source);
                 if let Some(prev) = best[s].take() {
                     record = merge(prev, record);
                 }
@@ -401,11 +407,22 @@ fn load(
         Source::Cloth(n) => {
             let (a, b) = crate::deformed_cloth_system(*n, CLOTH_K).map_err(reason)?;
             let csr = a.to_csr();
-            let matrix = match args.format.as_str() {
-                "csr" => Matrix::csr(csr.clone(), args.block_size.unwrap_or(3)),
-                _ => Matrix::Block(a),
+            let (block_size, source) = match args.block_size {
+                Some(d) => (d, BlockSizeSource::Flag),
+                None => (3, BlockSizeSource::Default),
             };
-            Ok((System { a: csr, b, matrix }, Ok(Vec::new())))
+            let (matrix, block_size) = match args.format.as_str() {
+                "csr" => (Matrix::csr(csr.clone(), block_size), block_size),
+                _ => (Matrix::Block(a), 3),
+            };
+            let system = System {
+                a: csr,
+                b,
+                matrix,
+                block_size,
+                block_size_source: source,
+            };
+            Ok((system, Ok(Vec::new())))
         }
         Source::File {
             matrix,
@@ -416,18 +433,17 @@ fn load(
                 Some(p) => read_columns(p, cap),
                 None => Ok(Vec::new()),
             };
-            let block_size = args.block_size.unwrap_or(match &nullspace {
-                Ok(v) => nullspace_block_size(v).unwrap_or(1),
-                Err(_) => 1,
-            });
-            // `auto` groups 3x3 blocks where it can; a near-nullspace saying
-            // the nodes have 1 or 2 unknowns asks for scalar storage.
-            let format = match (&nullspace, args.format.as_str()) {
-                (Ok(v), "auto") if nullspace_block_size(v).is_some_and(|d| d != 3) => "csr",
-                (_, f) => f,
-            };
-            let system =
-                load_system(matrix, rhs.as_deref(), format, block_size, cap).map_err(reason)?;
+            // The flag, else the near-nullspace's, else the pattern's (and
+            // `auto` takes scalar storage for nodes of 1 or 2 unknowns).
+            let block_size =
+                args.block_size
+                    .map(|d| (d, BlockSizeSource::Flag))
+                    .or(match &nullspace {
+                        Ok(v) => nullspace_block_size(v).map(|d| (d, BlockSizeSource::Nullspace)),
+                        Err(_) => None,
+                    });
+            let system = load_system(matrix, rhs.as_deref(), &args.format, block_size, cap)
+                .map_err(reason)?;
             check_csr_symmetric(&system.a)
                 .map_err(|e| format!("{}: {e} (PCG needs a symmetric matrix)", matrix.display()))?;
             let nullspace = nullspace.and_then(|v| match v.first() {
@@ -511,11 +527,11 @@ fn file_name(name: &str) -> String {
 /// of each system is bold.
 fn table(rows: &[Row]) -> (String, String) {
     let mut md = String::from(
-        "| system | rows | nonzeros | preconditioner | iterations | set-up (ms) | solve (ms) | total (ms) | \\|r\\|/\\|b\\| | set-up memory (MiB) | status |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| system | rows | nonzeros | unknowns per node | preconditioner | iterations | set-up (ms) | solve (ms) | total (ms) | \\|r\\|/\\|b\\| | set-up memory (MiB) | status |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let mut csv = String::from(
-        "system,rows,nonzeros,preconditioner,iterations,setup_s,solve_s,total_s,rel_residual,setup_memory_bytes,status\n",
+        "system,rows,nonzeros,block_size,block_size_source,preconditioner,iterations,setup_s,solve_s,total_s,rel_residual,setup_memory_bytes,status\n",
     );
     let mut fastest: BTreeMap<&str, f64> = BTreeMap::new();
     for r in rows {
@@ -538,21 +554,33 @@ fn table(rows: &[Row]) -> (String, String) {
     for r in rows {
         let md_status = r.status.replace('|', "\\|");
         let csv_status = format!("\"{}\"", r.status.replace('"', "\"\""));
+        // `3 (detected)` in the markdown, `3,detected` in the CSV.
+        let (nodes, csv_nodes) = match r
+            .record
+            .as_ref()
+            .and_then(|x| x.block_size.zip(x.block_size_source))
+        {
+            Some((d, source)) => (
+                format!("{d} ({})", source.name()),
+                format!("{d},{}", source.name()),
+            ),
+            None => ("-".into(), ",".into()),
+        };
         match &r.record {
             None => {
                 md.push_str(&format!(
-                    "| {} | - | - | - | - | - | - | - | - | - | {md_status} |\n",
+                    "| {} | - | - | - | - | - | - | - | - | - | - | {md_status} |\n",
                     r.system
                 ));
-                csv.push_str(&format!("{},,,,,,,,,,{csv_status}\n", r.system));
+                csv.push_str(&format!("{},,,,,,,,,,,,{csv_status}\n", r.system));
             }
             Some(rec) if rec.error.is_some() => {
                 md.push_str(&format!(
-                    "| {} | {} | {} | {} | - | - | - | - | - | - | {md_status} |\n",
+                    "| {} | {} | {} | {nodes} | {} | - | - | - | - | - | - | {md_status} |\n",
                     r.system, r.rows, r.nnz, rec.precond
                 ));
                 csv.push_str(&format!(
-                    "{},{},{},{},,,,,,,{csv_status}\n",
+                    "{},{},{},{csv_nodes},{},,,,,,,{csv_status}\n",
                     r.system, r.rows, r.nnz, rec.precond
                 ));
             }
@@ -568,7 +596,7 @@ fn table(rows: &[Row]) -> (String, String) {
                     format!("{:.1}", b as f64 / (1 << 20) as f64)
                 });
                 md.push_str(&format!(
-                    "| {} | {} | {} | {name} | {} | {} | {} | {} | {} | {memory} | {md_status} |\n",
+                    "| {} | {} | {} | {nodes} | {name} | {} | {} | {} | {} | {} | {memory} | {md_status} |\n",
                     r.system,
                     r.rows,
                     r.nnz,
@@ -583,7 +611,7 @@ fn table(rows: &[Row]) -> (String, String) {
                     },
                 ));
                 csv.push_str(&format!(
-                    "{},{},{},{},{},{:e},{:e},{:e},{:e},{},{csv_status}\n",
+                    "{},{},{},{csv_nodes},{},{},{:e},{:e},{:e},{:e},{},{csv_status}\n",
                     r.system,
                     r.rows,
                     r.nnz,

@@ -9,7 +9,7 @@ use clap::Args;
 use hookean_sparse::{
     AmgOptions, AmgStats, AnyPreconditioner, CgParams, CgProgress, CgWorkspace, DirectCholesky,
     LinearOperator, PrecondKind, PreconditionerSetup, ReadOptions, SymBlockMatrix, SymCsrMatrix,
-    pcg, read_matrix_market_file_with, vecops::norm2,
+    detect_block_size, pcg, read_matrix_market_file_with, vecops::norm2,
 };
 use serde::Serialize;
 
@@ -26,13 +26,17 @@ pub struct SolveArgs {
     #[command(flatten)]
     solver: SolverArgs,
     /// Matrix storage for PCG: block (symmetric 3x3 blocks, needs n divisible by 3
-    /// and a symmetric matrix), csr, or auto (block when possible).
+    /// and a symmetric matrix), csr, or auto (csr when the nodes have 1 or 2 unknowns
+    /// by --block-size, --nullspace, --coordinates or the pattern; else block when
+    /// possible).
     #[arg(long, default_value = "auto")]
     format: String,
     /// Unknowns per node for `--precond amg` on csr storage: 1, 2 (e.g. 2D
     /// elasticity) or 3 (block storage always has 3). Default: read off the
     /// first vector of `--nullspace` (a translation, non-zero at every d-th
-    /// entry), or the columns of `--coordinates`, else 1.
+    /// entry), or the columns of `--coordinates`, else detected from the
+    /// pattern (2 or 3 when every row of a node couples to the same nodes for
+    /// exactly one of them), else 1. The JSON's `block_size_source` says which.
     #[arg(long)]
     block_size: Option<usize>,
     /// The near-nullspace of `--precond amg`: a Matrix Market file whose
@@ -135,6 +139,13 @@ pub struct SolveRecord {
     pub iterations: usize,
     pub rel_residual: f64,
     pub converged: bool,
+    /// The unknowns per node of the storage (3 on block storage; the
+    /// multigrid's on csr), when the caller read the matrix.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub block_size: Option<usize>,
+    /// Where [`block_size`](Self::block_size) came from.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub block_size_source: Option<BlockSizeSource>,
     /// The multigrid hierarchy, for `amg`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub amg: Option<AmgRecord>,
@@ -302,6 +313,36 @@ pub fn run_solver(
     }
 }
 
+/// Where a system's unknowns per node came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BlockSizeSource {
+    /// `--block-size`.
+    Flag,
+    /// The near-nullspace file's first vector ([`nullspace_block_size`]).
+    Nullspace,
+    /// The dimension of `--coordinates`.
+    Coordinates,
+    /// The matrix's pattern ([`detect_block_size`]).
+    Detected,
+    /// Nothing said (or `--format block` over another size): 3 on block
+    /// storage, else 1.
+    Default,
+}
+
+impl BlockSizeSource {
+    /// The name in the JSON and in `hookean bench`'s table.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Flag => "flag",
+            Self::Nullspace => "nullspace",
+            Self::Coordinates => "coordinates",
+            Self::Detected => "detected",
+            Self::Default => "default",
+        }
+    }
+}
+
 /// A system read from Matrix Market files, scaled and in PCG's storage.
 pub struct System {
     /// `A`, scaled by a power of two to a largest entry in [1, 2).
@@ -310,11 +351,18 @@ pub struct System {
     pub b: Vec<f64>,
     /// `A` in the storage PCG runs on.
     pub matrix: Matrix,
+    /// The unknowns per node of `matrix` (3 on block storage).
+    pub block_size: usize,
+    /// Where `block_size` came from.
+    pub block_size_source: BlockSizeSource,
 }
 
 /// Reads `A` from `matrix` and `b` from `rhs` (default `A * ones`) within
 /// `cap` bytes, and stores `A` as `format` (`block`, `csr` or `auto`) with
-/// `block_size` unknowns per node for the multigrid on CSR.
+/// `block_size` unknowns per node for the multigrid on CSR: the caller's
+/// `(size, source)`, else [`detect_block_size`] of A's pattern. `auto`
+/// takes CSR when that size is 1 or 2 (from a source, not the default),
+/// else block storage when A allows it.
 ///
 /// Powers of two scale A and b exactly to largest entries near 1, so a
 /// system of tiny or huge numbers (entries of 1e-308) solves as its scaled
@@ -324,7 +372,7 @@ pub fn load_system(
     matrix: &std::path::Path,
     rhs: Option<&std::path::Path>,
     format: &str,
-    block_size: usize,
+    block_size: Option<(usize, BlockSizeSource)>,
     cap: u64,
 ) -> Result<System, CliError> {
     let opts = ReadOptions {
@@ -371,11 +419,19 @@ pub fn load_system(
         b.iter_mut().for_each(|v| *v = times_pow2(*v, -e));
         b
     });
+    let (block_size, source) = block_size.unwrap_or_else(|| match detect_block_size(&a) {
+        1 => (1, BlockSizeSource::Default),
+        d => (d, BlockSizeSource::Detected),
+    });
     if !(1..=3).contains(&block_size) {
         return Err(CliError::Input(format!(
             "--block-size must be 1, 2 or 3, got {block_size:?}"
         )));
     }
+    let format = match format {
+        "auto" if source != BlockSizeSource::Default && block_size != 3 => "csr",
+        f => f,
+    };
     let matrix = match format {
         "csr" => Matrix::csr(a.clone(), block_size),
         "block" => Matrix::Block(SymBlockMatrix::from_csr(&a).map_err(|e| {
@@ -394,7 +450,19 @@ pub fn load_system(
             )));
         }
     };
-    Ok(System { a, b, matrix })
+    let (block_size, block_size_source) = match matrix {
+        // Block storage has 3 whatever was asked for.
+        Matrix::Block(_) if block_size != 3 => (3, BlockSizeSource::Default),
+        Matrix::Block(_) => (3, source),
+        Matrix::Csr { block_size, .. } => (block_size, source),
+    };
+    Ok(System {
+        a,
+        b,
+        matrix,
+        block_size,
+        block_size_source,
+    })
 }
 
 pub fn run(args: &SolveArgs) -> Result<(), CliError> {
@@ -406,25 +474,33 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let (near_nullspace, implied) = match (&args.nullspace, &args.coordinates) {
         (Some(p), _) => {
             let v = read_columns(p, cap).map_err(|e| input("nullspace", p, e))?;
-            let d = nullspace_block_size(&v);
+            let d = nullspace_block_size(&v).map(|d| (d, BlockSizeSource::Nullspace));
             (v, d)
         }
         (None, Some(p)) => {
             let v = read_rigid_body_modes(p, cap).map_err(|e| input("coordinates", p, e))?;
             let d = if v.len() == 3 { 2 } else { 3 };
-            (v, Some(d))
+            (v, Some((d, BlockSizeSource::Coordinates)))
         }
         (None, None) => (Vec::new(), None),
     };
-    let block_size = args.block_size.or(implied).unwrap_or(1);
-    // `auto` groups 3x3 blocks where it can; a near-nullspace on nodes of 1
-    // or 2 unknowns asks for CSR.
-    let format = match args.format.as_str() {
-        "auto" if implied.is_some() && block_size != 3 => "csr",
-        f => f,
-    };
-    let System { a, b, matrix } =
-        load_system(&args.matrix, args.rhs.as_deref(), format, block_size, cap)?;
+    let block_size = args
+        .block_size
+        .map(|d| (d, BlockSizeSource::Flag))
+        .or(implied);
+    let System {
+        a,
+        b,
+        matrix,
+        block_size,
+        block_size_source,
+    } = load_system(
+        &args.matrix,
+        args.rhs.as_deref(),
+        &args.format,
+        block_size,
+        cap,
+    )?;
     let rows = a.rows();
     let source = match (&args.nullspace, &args.coordinates) {
         (Some(p), _) => Some(("nullspace", p)),
@@ -470,6 +546,8 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             matrix: name.clone(),
             rows,
             nnz: a.nnz(),
+            block_size: Some(block_size),
+            block_size_source: Some(block_size_source),
             ..record
         };
         // A failed solver, or one that did not reach the tolerance, fails the command.
@@ -542,6 +620,8 @@ pub(crate) fn empty_record(
         iterations: 0,
         rel_residual: f64::NAN,
         converged: false,
+        block_size: None,
+        block_size_source: None,
         amg: None,
         error: None,
         trace: Vec::new(),

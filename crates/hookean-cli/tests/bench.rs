@@ -108,6 +108,14 @@ fn a_folder_of_systems_gives_one_table_rows_for_failures_and_a_picture_each() {
         }
         assert!(row(system, "mic0")["status"].contains("MIC(0)"));
     }
+    // The unknowns per node and where they came from: the Laplacian's
+    // near-nullspace (the constant: 1), the built-in cloth's nodes of 3.
+    let nodes = |system: &str| {
+        let r = row(system, "amg");
+        (r["block_size"].as_str(), r["block_size_source"].as_str())
+    };
+    assert_eq!(nodes("lap"), ("1", "nullspace"));
+    assert_eq!(nodes("cloth8"), ("3", "default"));
     // Jacobi keeps the inverse diagonal: 8 bytes per unknown (768 here),
     // counted by the binary's allocator.
     let kept: usize = row("cloth16-A", "jacobi")["setup_memory_bytes"]

@@ -357,3 +357,76 @@ fn amg_flags_are_checked_and_the_near_nullspace_is_used() {
         "--nullspace",
     );
 }
+
+/// `(L + I/10) ⊗ K` in Matrix Market (lower triangle, symmetric): `L` the
+/// 5-point Laplacian of an `m x m` grid of nodes, `K` the `d x d` coupling
+/// of a node's unknowns (`[[2, 1], [1, 2]]` for d = 2, `[1]` for d = 1),
+/// SPD as a Kronecker product of SPD factors.
+fn grid_system(m: usize, d: usize) -> String {
+    let k = |p: usize, q: usize| if p == q { 2.0 } else { 1.0 };
+    let mut entries = Vec::new();
+    for node in 0..m * m {
+        let (x, y) = (node % m, node / m);
+        let mut neighbours = vec![(node, 4.1)];
+        if x > 0 {
+            neighbours.push((node - 1, -1.0));
+        }
+        if y > 0 {
+            neighbours.push((node - m, -1.0));
+        }
+        for (other, l) in neighbours {
+            for p in 0..d {
+                for q in 0..d {
+                    let (r, c) = (d * node + p, d * other + q);
+                    if c <= r {
+                        entries.push(format!("{} {} {}", r + 1, c + 1, l * k(p, q)));
+                    }
+                }
+            }
+        }
+    }
+    let n = m * m * d;
+    format!(
+        "%%MatrixMarket matrix coordinate real symmetric\n{n} {n} {}\n{}\n",
+        entries.len(),
+        entries.join("\n")
+    )
+}
+
+/// Without flags the multigrid takes the unknowns per node the pattern
+/// shows (2 on a 2D vector grid of 72 unknowns, which block storage would
+/// have grouped in 3s), a flag overrides it, and a scalar grid says
+/// nothing (the default: block storage's 3); the JSON names the source.
+#[test]
+fn the_block_size_is_detected_from_the_pattern_and_reported() {
+    let vector = scratch("vector2d.mtx", &grid_system(6, 2));
+    let scalar = scratch("scalar2d.mtx", &grid_system(6, 1));
+    let solve = |path: &str, extra: &[&str]| {
+        let mut args = vec!["solve", path, "--precond", "amg", "--amg-coarse-size", "10"];
+        args.extend_from_slice(extra);
+        let out = hookean(&args);
+        assert_ok(&out);
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(v["converged"], true, "{v}");
+        (
+            v["block_size"].as_u64().unwrap(),
+            v["block_size_source"].as_str().unwrap().to_string(),
+            v["format"].as_str().unwrap().to_string(),
+        )
+    };
+    let expect = |b: u64, source: &str, format: &str| (b, source.to_string(), format.to_string());
+    assert_eq!(solve(&vector, &[]), expect(2, "detected", "csr"));
+    assert_eq!(
+        solve(&vector, &["--block-size", "1"]),
+        expect(1, "flag", "csr")
+    );
+    assert_eq!(
+        solve(&vector, &["--format", "block"]),
+        expect(3, "default", "sym-block-3x3")
+    );
+    assert_eq!(solve(&scalar, &[]), expect(3, "default", "sym-block-3x3"));
+    assert_eq!(
+        solve(&scalar, &["--format", "csr"]),
+        expect(1, "default", "csr")
+    );
+}

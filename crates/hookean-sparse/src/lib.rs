@@ -130,7 +130,9 @@ pub use direct::DirectCholesky;
 pub use error::SparseError;
 pub use gmres::{GmresInfo, GmresParams, GmresWorkspace, gmres};
 pub use iso::{IsoBlockMatrix, IsoSlot};
-pub use matrix::{BlockPattern, Slot, SymBlockMatrix, check_csr_symmetric};
+pub use matrix::{
+    BlockPattern, Slot, SymBlockMatrix, check_csr_symmetric, detect_block_size, is_block_pattern,
+};
 pub use mtx::{
     MatrixMarket, ReadOptions, read_matrix_market, read_matrix_market_file,
     read_matrix_market_file_with, read_matrix_market_with, write_matrix_market,

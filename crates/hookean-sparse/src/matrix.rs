@@ -61,6 +61,58 @@ pub fn check_csr_symmetric(a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
     Ok(())
 }
 
+/// The unknowns per node `B` of `a`'s sparsity pattern: 3 or 2 when the
+/// pattern is one of nodes of `B` unknowns (node `I` owns rows and columns
+/// `B I .. B I + B`) and every row of a node couples to the same nodes,
+/// the structure of a vector-valued finite-element or mass-spring system;
+/// else 1.
+///
+/// The test is on nodes, not on dense `B x B` blocks: writers drop exact
+/// zeros, and vector-valued stiffness has them inside node blocks (the
+/// x-y coupling of a node with itself and its horizontal and vertical
+/// neighbours in bilinear 2D elasticity on a uniform grid, the out-of-plane
+/// coupling of a flat cloth's springs), so pyamg's 2D elasticity fills 72%
+/// of its 2x2 blocks and the 3D bar 70% of its 3x3 ones. A scalar stencil
+/// coupling unknowns `i` and `i + 1` fails it. A flat cloth fails it too
+/// (its z rows miss neighbours that its x and y rows couple to), and says 1. A pattern that passes for both 2 and 3 (a diagonal matrix, or
+/// one of dense 6x6 blocks, where the two groupings chain rows `6 I .. 6 I
+/// + 6` together) says nothing about which: ambiguous, so 1. See
+/// [`is_block_pattern`] to test one `B`.
+pub fn detect_block_size(a: &sprs::CsMat<f64>) -> usize {
+    match (is_block_pattern(a, 3), is_block_pattern(a, 2)) {
+        (true, false) => 3,
+        (false, true) => 2,
+        _ => 1,
+    }
+}
+
+/// Whether `a` is square with a dimension divisible by `b >= 1` and every
+/// row of each node of `b` unknowns couples to the same set of nodes (see
+/// [`detect_block_size`]); every square pattern passes for 1.
+pub fn is_block_pattern(a: &sprs::CsMat<f64>, b: usize) -> bool {
+    let (rows, cols) = a.shape();
+    if b == 0 || rows != cols || !rows.is_multiple_of(b) {
+        return false;
+    }
+    if !a.is_csr() {
+        return is_block_pattern(&a.to_csr(), b);
+    }
+    let (indptr, indices) = (a.indptr(), a.indices());
+    // The nodes row `r` couples to, each once (sprs keeps a row's indices
+    // sorted, so a node's columns are consecutive).
+    let nodes = |r: usize| {
+        let columns = &indices[indptr.index(r)..indptr.index(r + 1)];
+        columns
+            .iter()
+            .enumerate()
+            .filter(move |&(k, &c)| k == 0 || columns[k - 1] / b != c / b)
+            .map(move |(_, &c)| c / b)
+    };
+    (0..rows)
+        .step_by(b)
+        .all(|first| (first + 1..first + b).all(|r| nodes(r).eq(nodes(first))))
+}
+
 /// `Ok` when two matrices share their pattern (the same `Arc`, or equal
 /// patterns), as element-wise operations on their value arrays need.
 pub(crate) fn check_same_pattern(

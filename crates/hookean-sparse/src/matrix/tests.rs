@@ -401,3 +401,138 @@ fn from_blocks_sums_triplets_like_a_dense_assembly() {
         Err(SparseError::NonFinite { index: Some(1), .. })
     ));
 }
+
+/// The scalar pattern of `nodes` nodes of `dofs` unknowns each, every
+/// unknown of node `i` coupled to every unknown of node `j` for each
+/// `(i, j)` in `edges` and to its own node (values arbitrary, non-zero).
+fn node_pattern(nodes: usize, dofs: usize, edges: &[(usize, usize)]) -> sprs::CsMat<f64> {
+    let n = nodes * dofs;
+    let mut t = sprs::TriMat::new((n, n));
+    let mut couple = |i: usize, j: usize| {
+        for p in 0..dofs {
+            for q in 0..dofs {
+                t.add_triplet(dofs * i + p, dofs * j + q, 1.0 + (p + 2 * q) as f64);
+            }
+        }
+    };
+    for i in 0..nodes {
+        couple(i, i);
+    }
+    for &(i, j) in edges {
+        couple(i, j);
+        couple(j, i);
+    }
+    t.to_csr()
+}
+
+/// The edges of an `m x m` grid of nodes: right and down neighbours, and
+/// both diagonals of every cell when `diagonals` (cloth's shear springs).
+fn grid_edges(m: usize, diagonals: bool) -> Vec<(usize, usize)> {
+    let id = |x: usize, y: usize| y * m + x;
+    let mut e = Vec::new();
+    for y in 0..m {
+        for x in 0..m {
+            if x + 1 < m {
+                e.push((id(x, y), id(x + 1, y)));
+            }
+            if y + 1 < m {
+                e.push((id(x, y), id(x, y + 1)));
+            }
+            if diagonals && x + 1 < m && y + 1 < m {
+                e.push((id(x, y), id(x + 1, y + 1)));
+                e.push((id(x + 1, y), id(x, y + 1)));
+            }
+        }
+    }
+    e
+}
+
+/// 2D elasticity (2 unknowns per node) on a 3 x 3 grid: 18 unknowns,
+/// divisible by 2, 3 and 6, yet only the 2-blocking fits; stored as CSC
+/// it reads the same.
+#[test]
+fn a_two_dof_pattern_is_detected_as_2() {
+    let a = node_pattern(9, 2, &grid_edges(3, false));
+    assert_eq!(a.rows(), 18);
+    assert!(is_block_pattern(&a, 2));
+    assert!(!is_block_pattern(&a, 3));
+    assert_eq!(detect_block_size(&a), 2);
+    assert_eq!(detect_block_size(&a.to_csc()), 2);
+}
+
+/// Cloth (3 unknowns per node, structural and shear springs) on a 4 x 4
+/// grid: 48 unknowns, divisible by 2 and 6, detected as 3.
+#[test]
+fn a_three_dof_cloth_pattern_is_detected_as_3() {
+    let a = node_pattern(16, 3, &grid_edges(4, true));
+    assert_eq!(a.rows(), 48);
+    assert!(!is_block_pattern(&a, 2));
+    assert_eq!(detect_block_size(&a), 3);
+}
+
+/// The scalar 5-point Poisson pattern on a 6 x 6 grid (36 unknowns) has
+/// no node blocks.
+#[test]
+fn a_scalar_poisson_pattern_is_detected_as_1() {
+    let a = node_pattern(36, 1, &grid_edges(6, false));
+    assert!(is_block_pattern(&a, 1));
+    assert!(!is_block_pattern(&a, 2) && !is_block_pattern(&a, 3));
+    assert_eq!(detect_block_size(&a), 1);
+}
+
+/// Zeros dropped inside the node blocks (a node's x-y coupling, as in
+/// bilinear elasticity) keep the structure; one entry coupling a row to a
+/// node its node's other rows do not touch breaks it: the answer falls
+/// back to 1.
+#[test]
+fn a_pattern_broken_in_one_entry_falls_back_to_1() {
+    let without = |a: &sprs::CsMat<f64>, drop: &[(usize, usize)], add: Option<(usize, usize)>| {
+        let mut t = sprs::TriMat::new(a.shape());
+        for (&v, (i, j)) in a.iter() {
+            if !drop.contains(&(i, j)) {
+                t.add_triplet(i, j, v);
+            }
+        }
+        if let Some((i, j)) = add {
+            t.add_triplet(i, j, 1.0);
+        }
+        t.to_csr::<usize>()
+    };
+    for (dofs, nodes, edges, extra) in [
+        (2, 9, grid_edges(3, false), (0, 2 * 8)),
+        (3, 16, grid_edges(4, true), (4, 3 * 15 + 2)),
+        (3, 16, grid_edges(4, true), (47, 0)),
+    ] {
+        let full = node_pattern(nodes, dofs, &edges);
+        assert_eq!(detect_block_size(&full), dofs);
+        // Node 1 has neighbours of its own in both grids.
+        let thinned = without(&full, &[(dofs, dofs + 1), (dofs + 1, dofs)], None);
+        assert_eq!(thinned.nnz() + 2, full.nnz());
+        assert_eq!(detect_block_size(&thinned), dofs);
+        let broken = without(&full, &[], Some(extra));
+        assert_eq!(broken.nnz(), full.nnz() + 1, "{extra:?} is a new entry");
+        assert!(!is_block_pattern(&broken, dofs), "dofs {dofs}, {extra:?}");
+        assert_eq!(detect_block_size(&broken), 1);
+    }
+}
+
+/// A pattern of dense 6x6 blocks (two on the diagonal, or a dense 12 x 12
+/// matrix) or a diagonal one is both 2- and 3-blocked: ambiguous, so 1. An
+/// odd dimension is never 2-blocked, a non-square matrix never blocked.
+#[test]
+fn an_ambiguous_pattern_gives_1() {
+    for a in [
+        node_pattern(2, 6, &[]),
+        node_pattern(2, 6, &[(0, 1)]),
+        node_pattern(12, 1, &[]),
+    ] {
+        assert!(is_block_pattern(&a, 2) && is_block_pattern(&a, 3));
+        assert_eq!(detect_block_size(&a), 1);
+    }
+    let odd = node_pattern(3, 3, &[(0, 1)]);
+    assert!(is_block_pattern(&odd, 3) && !is_block_pattern(&odd, 2));
+    assert_eq!(detect_block_size(&odd), 3);
+    let wide: sprs::CsMat<f64> = sprs::CsMat::zero((6, 12));
+    assert!(!is_block_pattern(&wide, 3));
+    assert_eq!(detect_block_size(&wide), 1);
+}
