@@ -14,7 +14,7 @@
 //! ```
 //!
 //! Every command takes `--threads N` (default: the scene's `threads` key
-//! for `run`, else `RAYON_NUM_THREADS`, else all cores); see [`threads`].
+//! for `run`, else `RAYON_NUM_THREADS`, else all cores; `threads.rs` decides).
 //!
 //! Bad input (missing or malformed files, wrong sizes, unknown names) is a
 //! one-line message on stderr and exit code 2; a solver that fails on a
