@@ -6,8 +6,8 @@ use std::path::Path;
 
 use clap::Args;
 use hookean_sparse::{
-    AmgOptions, AmgPrecision, AmgSmoother, MatrixMarket, ReadOptions, read_matrix_market_file_with,
-    rigid_body_modes,
+    AMG_MAX_COARSE_SIZE, AMG_MAX_LEVELS, AMG_MAX_SWEEPS, AmgOptions, AmgPrecision, AmgSmoother,
+    MatrixMarket, ReadOptions, read_matrix_market_file_with, rigid_body_modes,
 };
 
 use crate::CliError;
@@ -28,10 +28,10 @@ pub struct AmgArgs {
     #[arg(long, default_value_t = 0.08, allow_negative_numbers = true)]
     pub amg_strength: f64,
     /// Coarsening of `amg` stops at this many unknowns (a dense Cholesky solve there; pyamg's
-    /// `max_coarse`, AMGCL's `coarse_enough`), 1 to 3000.
+    /// `max_coarse`, AMGCL's `coarse_enough`), 1 to 4096.
     #[arg(long, default_value_t = 500)]
     pub amg_coarse_size: usize,
-    /// At most this many levels of `amg` (pyamg's `max_levels`), 1 to 100.
+    /// At most this many levels of `amg` (pyamg's `max_levels`), 1 to 64.
     #[arg(long, default_value_t = 10)]
     pub amg_max_levels: usize,
     /// Prolongator-smoothing weight of `amg` times rho(D^-1 A) (pyamg's jacobi `omega`), in (0, 2).
@@ -49,12 +49,6 @@ pub struct AmgArgs {
     #[arg(long, default_value = "single")]
     pub amg_precision: String,
 }
-
-/// The most smoothing steps, power-method steps and levels the flags take.
-const MAX_SWEEPS: usize = 100;
-const MAX_LEVELS: usize = 100;
-/// The largest coarsest level (solved by a dense Cholesky factor).
-const MAX_COARSE: usize = 3000;
 
 impl AmgArgs {
     /// The library's options for `block_size` unknowns per node and the
@@ -89,32 +83,30 @@ impl AmgArgs {
                 )));
             }
         };
-        if !(1..=MAX_SWEEPS).contains(&self.amg_sweeps) {
-            return bad("amg-sweeps", "1 to 100", self.amg_sweeps.to_string());
-        }
-        if self.amg_power_iterations > MAX_SWEEPS {
-            return bad(
+        // The library's ranges (hookean-sparse owns them), checked here to
+        // name the flag.
+        for (flag, value, lo, hi) in [
+            ("amg-sweeps", self.amg_sweeps, 1, AMG_MAX_SWEEPS),
+            (
                 "amg-power-iterations",
-                "0 to 100",
-                self.amg_power_iterations.to_string(),
-            );
+                self.amg_power_iterations,
+                0,
+                AMG_MAX_SWEEPS,
+            ),
+            (
+                "amg-coarse-size",
+                self.amg_coarse_size,
+                1,
+                AMG_MAX_COARSE_SIZE,
+            ),
+            ("amg-max-levels", self.amg_max_levels, 1, AMG_MAX_LEVELS),
+        ] {
+            if !(lo..=hi).contains(&value) {
+                return bad(flag, &format!("{lo} to {hi}"), value.to_string());
+            }
         }
         if !(0.0..1.0).contains(&self.amg_strength) {
             return bad("amg-strength", "[0, 1)", format!("{:?}", self.amg_strength));
-        }
-        if !(1..=MAX_COARSE).contains(&self.amg_coarse_size) {
-            return bad(
-                "amg-coarse-size",
-                "1 to 3000",
-                self.amg_coarse_size.to_string(),
-            );
-        }
-        if !(1..=MAX_LEVELS).contains(&self.amg_max_levels) {
-            return bad(
-                "amg-max-levels",
-                "1 to 100",
-                self.amg_max_levels.to_string(),
-            );
         }
         for (flag, w) in [
             ("amg-prolongation-weight", self.amg_prolongation_weight),
@@ -154,7 +146,17 @@ pub fn read_columns(path: &Path, cap: u64) -> Result<Vec<Vec<f64>>, String> {
     let values = match m {
         MatrixMarket::Dense { values, .. } => values,
         MatrixMarket::Sparse(a) => {
-            let mut v = vec![0.0; rows * cols];
+            // Dense columns of a coordinate file: bounded by the byte cap
+            // before the allocation (its size line may declare any shape).
+            let entries = rows
+                .checked_mul(cols)
+                .filter(|&e| (e as u64).saturating_mul(8) <= cap);
+            let Some(entries) = entries else {
+                return Err(format!(
+                    "{rows} x {cols} dense columns would need more than the {cap} bytes allowed"
+                ));
+            };
+            let mut v = vec![0.0; entries];
             for (&x, (r, c)) in a.iter() {
                 v[c * rows + r] = x;
             }

@@ -300,6 +300,9 @@ fn amg_flags_are_checked_and_the_near_nullspace_is_used() {
         ("--amg-prolongation-weight", "2"),
         ("--amg-jacobi-weight", "0"),
         ("--amg-power-iterations", "101"),
+        ("--amg-sweeps", "101"),
+        ("--amg-coarse-size", "4097"),
+        ("--amg-max-levels", "65"),
         ("--amg-precision", "half"),
         ("--amg-smoother", "sor"),
     ] {
@@ -308,6 +311,16 @@ fn amg_flags_are_checked_and_the_near_nullspace_is_used() {
             flag,
         );
     }
+    // A coordinate-format nullspace whose size line declares 10^12 columns:
+    // refused by the byte cap before its dense columns are allocated.
+    let huge = scratch(
+        "huge_nullspace.mtx",
+        "%%MatrixMarket matrix coordinate real general\n768 1000000000000 1\n1 1 1.0\n",
+    );
+    assert_input_error(
+        &hookean(&["solve", &cloth, "--precond", "amg", "--nullspace", &huge]),
+        "huge_nullspace.mtx",
+    );
     // 256 nodes of the 16 x 16 cloth on a grid (not its true positions: any
     // rigid-body modes are a valid near-nullspace).
     let coordinates: String = (0..256)

@@ -211,6 +211,65 @@ fn block_construction_refuses_out_of_range_pairs_and_blocks() {
     assert!(a.add_to_diagonal(&[1.0; 5]).is_err());
 }
 
+/// The counts a user sets have upper ends (a billion sweeps or power steps
+/// would never end, a huge coarse level is a dense factor of its square):
+/// each is refused by name at the end past the library's range, and the
+/// range's own end is accepted.
+#[test]
+fn amg_counts_past_their_ranges_are_refused_by_name() {
+    use hookean_sparse::{AMG_MAX_COARSE_SIZE, AMG_MAX_LEVELS, AMG_MAX_SWEEPS, SparseError};
+    type WithCount = fn(usize) -> AmgOptions;
+    let cases: [(&str, WithCount, usize); 5] = [
+        (
+            "sweeps",
+            |v| AmgOptions {
+                sweeps: v,
+                ..Default::default()
+            },
+            AMG_MAX_SWEEPS,
+        ),
+        (
+            "coarse_size",
+            |v| AmgOptions {
+                coarse_size: v,
+                ..Default::default()
+            },
+            AMG_MAX_COARSE_SIZE,
+        ),
+        (
+            "max_levels",
+            |v| AmgOptions {
+                max_levels: v,
+                ..Default::default()
+            },
+            AMG_MAX_LEVELS,
+        ),
+        (
+            "power_iterations",
+            |v| AmgOptions {
+                power_iterations: v,
+                ..Default::default()
+            },
+            AMG_MAX_SWEEPS,
+        ),
+        (
+            "refill_power_iterations",
+            |v| AmgOptions {
+                refill_power_iterations: v,
+                ..Default::default()
+            },
+            AMG_MAX_SWEEPS,
+        ),
+    ];
+    for (name, options, max) in cases {
+        assert!(Amg::with_options(options(max)).is_ok(), "{name} = {max}");
+        match Amg::with_options(options(max + 1)) {
+            Err(SparseError::InvalidParameter { name: n, .. }) => assert_eq!(n, name),
+            other => panic!("{name} = {}: {other:?}", max + 1),
+        }
+    }
+}
+
 #[test]
 fn amg_options_out_of_range_are_errors() {
     let a = small();

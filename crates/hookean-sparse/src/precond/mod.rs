@@ -25,7 +25,8 @@ mod jacobi;
 mod ssor;
 
 pub use amg::{
-    Amg, AmgLevelStats, AmgOptions, AmgPrecision, AmgReuse, AmgSmoother, AmgStats, rigid_body_modes,
+    AMG_MAX_COARSE_SIZE, AMG_MAX_LEVELS, AMG_MAX_SWEEPS, Amg, AmgLevelStats, AmgOptions,
+    AmgPrecision, AmgReuse, AmgSmoother, AmgStats, rigid_body_modes,
 };
 pub use any::{AnyPreconditioner, PrecondKind};
 pub use ic0::IncompleteCholesky;

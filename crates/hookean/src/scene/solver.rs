@@ -224,17 +224,26 @@ pub struct AmgScene {
     #[serde(default)]
     pub smoother: AmgSmootherScene,
     /// Pre- and post-smoothing steps per level. Range 1 to 100. Default 1.
-    #[serde(default = "one_usize", deserialize_with = "int_in::<_, 1, 100>")]
+    #[serde(
+        default = "one_usize",
+        deserialize_with = "int_in::<_, 1, { hookean_sparse::AMG_MAX_SWEEPS }>"
+    )]
     pub sweeps: usize,
     /// Strength threshold on the finest level. Range [0, 1). Default 0.08.
     #[serde(default = "d_amg_theta", deserialize_with = "strength")]
     pub strength_threshold: f64,
     /// Unknowns of the coarsest level (solved directly, a dense factor).
     /// Range 1 to 4096. Default 500.
-    #[serde(default = "d_amg_coarse", deserialize_with = "int_in::<_, 1, 4096>")]
+    #[serde(
+        default = "d_amg_coarse",
+        deserialize_with = "int_in::<_, 1, { hookean_sparse::AMG_MAX_COARSE_SIZE }>"
+    )]
     pub coarse_size: usize,
     /// At most this many levels. Range 1 to 64. Default 10.
-    #[serde(default = "d_amg_levels", deserialize_with = "int_in::<_, 1, 64>")]
+    #[serde(
+        default = "d_amg_levels",
+        deserialize_with = "int_in::<_, 1, { hookean_sparse::AMG_MAX_LEVELS }>"
+    )]
     pub max_levels: usize,
     /// Block-Jacobi weight times rho(D^-1 A). Range (0, 2). Default 4/3.
     #[serde(default = "d_amg_weight", deserialize_with = "amg_weight")]
@@ -244,13 +253,16 @@ pub struct AmgScene {
     pub prolongation_weight: f64,
     /// Power-method steps of the spectral radius estimates (0: Gershgorin).
     /// Range 0 to 100. Default 5.
-    #[serde(default = "d_amg_power", deserialize_with = "int_in::<_, 0, 100>")]
+    #[serde(
+        default = "d_amg_power",
+        deserialize_with = "int_in::<_, 0, { hookean_sparse::AMG_MAX_SWEEPS }>"
+    )]
     pub power_iterations: usize,
     /// Power steps at a refill (0: keep the last estimates). Range 0 to 100.
     /// Default 0.
     #[serde(
         default = "d_amg_refill_power",
-        deserialize_with = "int_in::<_, 0, 100>"
+        deserialize_with = "int_in::<_, 0, { hookean_sparse::AMG_MAX_SWEEPS }>"
     )]
     pub refill_power_iterations: usize,
     /// A refill keeps the prolongators. Default false.

@@ -73,6 +73,17 @@ pub enum AmgPrecision {
     Double,
 }
 
+/// The largest [`AmgOptions::sweeps`], [`AmgOptions::power_iterations`]
+/// and [`AmgOptions::refill_power_iterations`] (each pass costs a sweep
+/// over a level; more never pays and a huge count would not end).
+pub const AMG_MAX_SWEEPS: usize = 100;
+/// The largest [`AmgOptions::coarse_size`]: the coarsest level is a dense
+/// Cholesky factor of `coarse_size^2` numbers.
+pub const AMG_MAX_COARSE_SIZE: usize = 4096;
+/// The largest [`AmgOptions::max_levels`] (each level coarsens by a
+/// factor; 64 is far beyond any matrix that fits in memory).
+pub const AMG_MAX_LEVELS: usize = 64;
+
 /// Options of [`Amg`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct AmgOptions {
@@ -500,11 +511,21 @@ impl Amg {
                 format!("{} is outside [0, 1)", o.strength_threshold),
             );
         }
-        if o.coarse_size == 0 || o.max_levels == 0 || o.sweeps == 0 {
-            return bad(
-                "coarse_size, max_levels, sweeps",
-                "must all be at least 1".into(),
-            );
+        for (name, value, lo, hi) in [
+            ("sweeps", o.sweeps, 1, AMG_MAX_SWEEPS),
+            ("coarse_size", o.coarse_size, 1, AMG_MAX_COARSE_SIZE),
+            ("max_levels", o.max_levels, 1, AMG_MAX_LEVELS),
+            ("power_iterations", o.power_iterations, 0, AMG_MAX_SWEEPS),
+            (
+                "refill_power_iterations",
+                o.refill_power_iterations,
+                0,
+                AMG_MAX_SWEEPS,
+            ),
+        ] {
+            if !(lo..=hi).contains(&value) {
+                return bad(name, format!("{value} is outside {lo} to {hi}"));
+            }
         }
         if !(1..=3).contains(&o.block_size) {
             return bad("block_size", format!("{} is not 1, 2 or 3", o.block_size));
