@@ -4,7 +4,7 @@
 //! scene file holds both kinds and every error names its file, line and
 //! column (or the `--set` that broke the scene) either way.
 
-use hookean::scene::{Scene, SceneExtension};
+use hookean::scene::{Scene, SceneExtension, finite};
 use serde::Deserialize;
 use serde::de::{Deserializer, Error as _};
 
@@ -123,15 +123,6 @@ fn example_number<'de, D: Deserializer<'de>>(d: D) -> Result<u8, D::Error> {
         Err(D::Error::custom(format!(
             "the tutorial scenes are examples 1 and 2 (example 3 is [particle]), got {v:?}"
         )))
-    }
-}
-
-fn finite<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    let v = f64::deserialize(d)?;
-    if v.is_finite() {
-        Ok(v)
-    } else {
-        Err(D::Error::custom("must be a finite number"))
     }
 }
 

@@ -237,7 +237,11 @@ pub(super) fn d_self_stiffness() -> f64 {
 #[serde(deny_unknown_fields)]
 pub struct ParticleScene {}
 
-pub(super) fn finite<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+/// A finite number (`deserialize_with = "finite"`): the scene's check of a
+/// real key with no narrower range, for a program's own tables
+/// ([`SceneExtension`](super::SceneExtension)) too, so their messages read
+/// like the facade's.
+pub fn finite<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
     let v = f64::deserialize(d)?;
     if v.is_finite() {
         Ok(v)
