@@ -18,15 +18,6 @@ const NONE: usize = usize::MAX;
 /// doubling, as Eigen's `IncompleteCholesky` does; [`shift`](Self::shift)
 /// reports the value that succeeded (0 when none was needed).
 ///
-/// Set-ups of one preconditioner on a sequence of similar matrices (the
-/// Newton matrices of a simulation) start the search where the last one
-/// ended rather than at 0: at the shift it needed when it needed a retry,
-/// else at half of it (0 below `initial_shift`), so the shift follows the
-/// matrices down as well as up with at most one failed attempt per set-up
-/// while it is steady. Each failed attempt is a factorisation up to the
-/// failing row; a deforming cloth's MIC(0) needed 2-5 of them per set-up
-/// from 0 (docs/PERFORMANCE.md, "Contact (issue 26)").
-///
 /// The symbolic part (the pattern of `L` and where each entry comes from)
 /// is computed once per sparsity pattern; refills only redo the numbers.
 ///
@@ -71,8 +62,6 @@ pub struct IncompleteCholesky {
     /// MIC(0) relaxation (0: IC(0)).
     omega: f64,
     shift: f64,
-    /// Where the next set-up's search starts (see the type's docs).
-    next_shift: f64,
     source: Source,
     l_ptr: Vec<usize>,
     l_col: Vec<usize>,
@@ -108,7 +97,6 @@ impl IncompleteCholesky {
             initial_shift: 1e-3,
             omega: 0.0,
             shift: 0.0,
-            next_shift: 0.0,
             source: Source::None,
             l_ptr: Vec::new(),
             l_col: Vec::new(),
@@ -211,10 +199,9 @@ impl IncompleteCholesky {
         self.shift_loop(min_diag, |this, shift| this.try_factor(values, shift))
     }
 
-    /// Factors with the shift the last set-up left in `next_shift` (or the
-    /// shift that makes a non-positive scaled diagonal `min_diag`
-    /// positive), doubling it from `initial_shift` after every failed
-    /// attempt, as Eigen does; then sets `next_shift` (the type's docs).
+    /// Factors with `shift = 0` (or the shift that makes a non-positive
+    /// scaled diagonal `min_diag` positive), doubling the shift from
+    /// `initial_shift` after every failed attempt, as Eigen does.
     fn shift_loop(
         &mut self,
         min_diag: f64,
@@ -223,22 +210,13 @@ impl IncompleteCholesky {
         let mut shift = if min_diag <= 0.0 {
             self.initial_shift - min_diag
         } else {
-            self.next_shift
+            0.0
         };
         let mut failed_row = 0;
-        for attempt_no in 0..64 {
+        for _attempt in 0..64 {
             match attempt(self, shift) {
                 Ok(()) => {
                     self.shift = shift;
-                    self.next_shift = if min_diag <= 0.0 {
-                        self.next_shift
-                    } else if attempt_no > 0 {
-                        shift
-                    } else if 0.5 * shift >= self.initial_shift {
-                        0.5 * shift
-                    } else {
-                        0.0
-                    };
                     return Ok(());
                 }
                 Err(row) => {
@@ -369,10 +347,7 @@ impl PreconditionerSetup<SymBlockMatrix> for IncompleteCholesky {
         let source = std::mem::replace(&mut self.source, Source::None);
         let mut factor = match source {
             Source::Block(f) if f.is_for(a.pattern()) => f,
-            _ => {
-                self.next_shift = 0.0;
-                Box::new(BlockFactor::new(a.pattern()))
-            }
+            _ => Box::new(BlockFactor::new(a.pattern())),
         };
         let min_diag = (0..a.n_blocks())
             .flat_map(|i| {
@@ -423,7 +398,6 @@ impl PreconditionerSetup<sprs::CsMat<f64>> for IncompleteCholesky {
         if !same {
             super::check_both_triangles(&indptr, a.indices(), "IC(0)")?;
             self.symbolic_csr(n, &indptr, a.indices());
-            self.next_shift = 0.0;
         }
         self.numeric(a.data())
     }
@@ -688,50 +662,6 @@ mod tests {
         let mut z = [0.0; 3];
         p.apply(&r, &mut z);
         assert!(z.iter().all(|v| v.is_finite()));
-    }
-
-    #[test]
-    fn the_shift_search_starts_where_the_last_set_up_ended() {
-        // The first set-up of a matrix that needs a shift doubles up to the
-        // least working power-of-two multiple of 1e-3, s (s / 2 failed).
-        // Set-ups on the same matrix then start at s (success at the first
-        // attempt), next at s / 2 (fails, back to s): the same s and the
-        // same preconditioner every time. On an M-matrix (no shift needed)
-        // the shift is halved down to 0 at the first attempts.
-        let mut a = spd_block_matrix(3, 3);
-        let lowest = (0..a.n_blocks())
-            .map(|i| a.diagonal_block(i)[0][0])
-            .fold(f64::INFINITY, f64::min);
-        let easy = a.clone();
-        a.add_to_diagonal(&vec![-0.9 * lowest; a.dim()]).unwrap();
-        let mut fresh = IncompleteCholesky::new();
-        fresh.setup(&a).unwrap();
-        let s = fresh.shift();
-        assert!(s >= 1e-3, "shift {s}");
-        let r = rhs(a.dim());
-        let mut want = vec![0.0; r.len()];
-        fresh.apply(&r, &mut want);
-        let mut p = fresh.clone();
-        for _ in 0..3 {
-            p.setup(&a).unwrap();
-            assert_eq!(p.shift(), s);
-            let mut z = vec![0.0; r.len()];
-            p.apply(&r, &mut z);
-            assert_eq!(z, want);
-        }
-        let mut shifts = Vec::new();
-        for _ in 0..40 {
-            p.setup(&easy).unwrap();
-            shifts.push(p.shift());
-        }
-        assert!(shifts.windows(2).all(|w| w[1] <= w[0]), "{shifts:?}");
-        assert_eq!(*shifts.last().unwrap(), 0.0, "{shifts:?}");
-        // A new pattern starts from 0 again.
-        let other = spd_block_matrix(4, 3);
-        p.setup(&other).unwrap();
-        let mut q = IncompleteCholesky::new();
-        q.setup(&other).unwrap();
-        assert_eq!(p.shift(), q.shift());
     }
 
     #[test]
