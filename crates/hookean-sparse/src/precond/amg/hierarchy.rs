@@ -20,7 +20,7 @@ mod dense;
 mod prolong;
 
 use self::dense::DenseCholesky;
-use self::prolong::smooth_prolongator;
+use self::prolong::{refill_prolongator, smooth_prolongator};
 
 /// The coarsest level is solved directly (dense Cholesky) when it has at
 /// most this many unknowns, even if coarsening stalled above the
@@ -149,20 +149,18 @@ impl<const B: usize, const K: usize, S: Entry> Clone for Hierarchy<B, K, S> {
     }
 }
 
-/// A matrix given by rows: `sum_j A_ij x_j` for row `i`.
-type RowTimes<'a, const B: usize> = &'a (dyn Fn(usize, &[[f64; B]]) -> [f64; B] + Sync);
-
 /// Gershgorin's bound `max_i sum_j |D_i^-1 A_ij|_inf >= rho(D^-1 A)`, or
 /// the power method's estimate after `power_iterations` steps, started from
 /// the eigenvector estimate in `v` if `warm` (`w` is scratch). The operator
 /// is given by rows: `row(i, x)` is `sum_j A_ij x_j`, `abs_row(i)` the
-/// absolute row sums of `D_i^-1 A_ij` (Gershgorin).
+/// absolute row sums of `D_i^-1 A_ij` (Gershgorin). Generic in the three
+/// (static dispatch: the rows are inlined into the power method's product).
 #[allow(clippy::too_many_arguments)]
 fn spectral_radius<const B: usize>(
     nrows: usize,
-    row: RowTimes<'_, B>,
-    abs_row: &dyn Fn(usize) -> [f64; B],
-    dinv: &(dyn Fn(usize) -> Blk<B> + Sync),
+    row: impl Fn(usize, &[[f64; B]]) -> [f64; B] + Sync,
+    abs_row: impl Fn(usize) -> [f64; B],
+    dinv: impl Fn(usize) -> Blk<B> + Sync,
     power_iterations: usize,
     warm: bool,
     v: &mut [f64],
@@ -853,7 +851,18 @@ fn compute_level<const B: usize, const K: usize, S: Entry>(
     };
     // A refill with no power steps keeps the last estimates of rho.
     let estimate = !(refill && num.power_iterations > 0 && iterations == 0);
-    invert_diagonal(&level.a, &level.diag, &mut level.dinv, l)?;
+    // A refill that keeps every omega: the smoother's diagonal, D_F^-1 and P
+    // in one pass over the rows of A.
+    let fused = !estimate && !num.keep_prolongators && next.is_some();
+    match level.transfer.as_mut() {
+        Some(tr) if fused => {
+            if !refill_prolongator(&level.a, &level.diag, &mut level.dinv, tr) {
+                // Reports the first diagonal block that is not positive definite.
+                invert_diagonal(&level.a, &level.diag, &mut level.dinv, l)?;
+            }
+        }
+        _ => invert_diagonal(&level.a, &level.diag, &mut level.dinv, l)?,
+    }
     if let Some(ic0) = level.ic0.as_mut() {
         ic0.factor(&level.a, &level.diag, l)?;
     }
@@ -861,9 +870,9 @@ fn compute_level<const B: usize, const K: usize, S: Entry>(
         let (a, dinv) = (&level.a, &level.dinv);
         let rho = spectral_radius(
             a.nrows,
-            &|i, x| a.row_times(i, x),
-            &|i| gershgorin_row(&load(&dinv[i]), a.row(i).map(|k| load(&a.val[k]))),
-            &|i| load(&dinv[i]),
+            |i, x| a.row_times(i, x),
+            |i| gershgorin_row(&load(&dinv[i]), a.row(i).map(|k| load(&a.val[k]))),
+            |i| load(&dinv[i]),
             iterations,
             refill,
             &mut level.eigenvector,
@@ -874,7 +883,7 @@ fn compute_level<const B: usize, const K: usize, S: Entry>(
     let (Some(tr), Some(next)) = (level.transfer.as_mut(), next) else {
         return Ok(());
     };
-    if !(refill && num.keep_prolongators) {
+    if !fused && !(refill && num.keep_prolongators) {
         smooth_prolongator(
             &level.a,
             &level.diag,

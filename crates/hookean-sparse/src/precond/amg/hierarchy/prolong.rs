@@ -8,6 +8,8 @@ use super::super::bsr::{
 };
 use super::super::par;
 use super::{Transfer, Work, gershgorin_row, spectral_radius};
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use crate::error::SparseError;
 
 /// The diagonal block of row `i` of `A_F`: `A_ii` plus the weak blocks of the row.
@@ -79,8 +81,8 @@ pub(super) fn smooth_prolongator<const B: usize, const K: usize, S: Entry>(
         let df_inv = &tr.df_inv;
         let rho = spectral_radius(
             a.nrows,
-            &|i, x| filtered_row_times(a, diag, strong, &lumped_diagonal(a, diag, strong, i), i, x),
-            &|i| {
+            |i, x| filtered_row_times(a, diag, strong, &lumped_diagonal(a, diag, strong, i), i, x),
+            |i| {
                 let d = lumped_diagonal(a, diag, strong, i);
                 let blocks = a.row(i).filter_map(|k| {
                     if k == diag[i] {
@@ -91,7 +93,7 @@ pub(super) fn smooth_prolongator<const B: usize, const K: usize, S: Entry>(
                 });
                 gershgorin_row(&df_inv[i], blocks)
             },
-            &|i| df_inv[i],
+            |i| df_inv[i],
             iterations,
             refill,
             &mut tr.eigenvector,
@@ -99,27 +101,83 @@ pub(super) fn smooth_prolongator<const B: usize, const K: usize, S: Entry>(
         )?;
         tr.omega = prolongation_weight / rho;
     }
-    // P = T - omega D_F^-1 (A_F T), row by row: A_F T in P's slots, then
-    // scaled, then T added.
-    let (df_inv, t, t_in_p, z_slot, omega) = (&tr.df_inv, &tr.t, &tr.t_in_p, &tr.z_slot, tr.omega);
-    let p_ptr = &tr.p.row_ptr;
-    par::row_slices(p_ptr, &mut tr.p.val, &|i, vals: &mut [SBlk<S, B, K>]| {
-        let start = p_ptr[i];
-        let mut acc = [zero::<B, K>(); MAX_P_ROW];
+    // P = T - omega D_F^-1 (A_F T), row by row.
+    let (df_inv, omega) = (&tr.df_inv, tr.omega);
+    let rows = Rows {
+        a,
+        diag,
+        t: &tr.t,
+        t_in_p: &tr.t_in_p,
+        z_slot: &tr.z_slot,
+        p_ptr: &tr.p.row_ptr,
+    };
+    par::row_slices_with(
+        rows.p_ptr,
+        &mut tr.p.val,
+        &p_row_buffer,
+        &|i, vals: &mut [SBlk<S, B, K>], acc| {
+            let d = lumped_diagonal(a, diag, strong, i);
+            rows.prolongator_row(i, &d, &df_inv[i], omega, vals, acc);
+        },
+    );
+    tr.p.fill_transpose(&mut tr.r, &tr.r_map);
+    Ok(())
+}
+
+/// Rows of `P` up to this many blocks are accumulated in `f64` on the stack
+/// (longer ones in their storage).
+const MAX_P_ROW: usize = 32;
+
+/// The accumulator of a row of `P`, made once per task of rows (zeroing
+/// all of it for every row cost as much as the rest of the smoothing; only
+/// the row's own part is zeroed).
+fn p_row_buffer<const B: usize, const K: usize>() -> [Blk<B, K>; MAX_P_ROW] {
+    [zero::<B, K>(); MAX_P_ROW]
+}
+
+/// What a row of `P` is computed from, besides its diagonal blocks.
+struct Rows<'a, const B: usize, const K: usize, S: Entry> {
+    a: &'a Bsr<B, S>,
+    diag: &'a [usize],
+    t: &'a Bsr<B, f64, K>,
+    t_in_p: &'a [usize],
+    z_slot: &'a [u32],
+    p_ptr: &'a [usize],
+}
+
+impl<const B: usize, const K: usize, S: Entry> Rows<'_, B, K, S> {
+    /// Row `i` of `P = T - omega D_F^-1 (A_F T)` into its slots `vals`:
+    /// `A_F T` (with `d` the lumped diagonal block of row `i`), then scaled
+    /// by `-omega D_F^-1` (`df_inv`, the row's block of `D_F^-1`), then `T` added.
+    #[inline(always)]
+    fn prolongator_row(
+        &self,
+        i: usize,
+        d: &Blk<B>,
+        df_inv: &Blk<B>,
+        omega: f64,
+        vals: &mut [SBlk<S, B, K>],
+        acc: &mut [Blk<B, K>; MAX_P_ROW],
+    ) {
+        let (a, t) = (self.a, self.t);
+        let start = self.p_ptr[i];
         let wide = vals.len() > MAX_P_ROW;
         if wide {
             vals.fill(szero::<S, B, K>());
         } else {
             acc[..vals.len()].fill(zero::<B, K>());
         }
-        let d = lumped_diagonal(a, diag, strong, i);
         for k in a.row(i) {
-            let z = z_slot[k];
+            let z = self.z_slot[k];
             if z == u32::MAX {
                 continue;
             }
             let q = t.row(a.col[k] as usize).start;
-            let blk = if k == diag[i] { d } else { load(&a.val[k]) };
+            let blk = if k == self.diag[i] {
+                *d
+            } else {
+                load(&a.val[k])
+            };
             let slot = z as usize - start;
             if wide {
                 let mut m = load(&vals[slot]);
@@ -129,18 +187,17 @@ pub(super) fn smooth_prolongator<const B: usize, const K: usize, S: Entry>(
                 mul_mat_add(&blk, &t.val[q], &mut acc[slot]);
             }
         }
-        let dinv = &df_inv[i];
         for (s, v) in vals.iter_mut().enumerate() {
             let z = if wide { load(v) } else { acc[s] };
             let mut m = zero::<B, K>();
-            mul_mat_add(dinv, &z, &mut m);
+            mul_mat_add(df_inv, &z, &mut m);
             for row in m.iter_mut() {
                 for x in row.iter_mut() {
                     *x *= -omega;
                 }
             }
             if let Some(k) = t.row(i).next()
-                && t_in_p[i] - start == s
+                && self.t_in_p[i] - start == s
             {
                 for r in 0..B {
                     for c in 0..K {
@@ -150,11 +207,51 @@ pub(super) fn smooth_prolongator<const B: usize, const K: usize, S: Entry>(
             }
             *v = store(&m);
         }
-    });
-    tr.p.fill_transpose(&mut tr.r, &tr.r_map);
-    Ok(())
+    }
 }
 
-/// Rows of `P` up to this many blocks are accumulated in `f64` on the stack
-/// (longer ones in their storage).
-const MAX_P_ROW: usize = 32;
+/// A refill that keeps `omega` (no spectral radius to estimate): the
+/// smoother's `D^-1` (into `a_dinv`), `D_F^-1` and `P` in one pass over the
+/// rows of `A` (each row read once, not three times), then `R = P^T`; the
+/// same numbers as [`invert_diagonal`](super::invert_diagonal) followed by
+/// [`smooth_prolongator`]. `false` when a diagonal block of `A` is not
+/// positive definite (the caller reports which).
+pub(super) fn refill_prolongator<const B: usize, const K: usize, S: Entry>(
+    a: &Bsr<B, S>,
+    diag: &[usize],
+    a_dinv: &mut [SBlk<S, B>],
+    tr: &mut Transfer<B, K, S>,
+) -> bool {
+    let failed = AtomicBool::new(false);
+    let omega = tr.omega;
+    let strong = &tr.strong;
+    let rows = Rows {
+        a,
+        diag,
+        t: &tr.t,
+        t_in_p: &tr.t_in_p,
+        z_slot: &tr.z_slot,
+        p_ptr: &tr.p.row_ptr,
+    };
+    par::rows_and_slices_with(
+        rows.p_ptr,
+        a_dinv,
+        &mut tr.df_inv,
+        &mut tr.p.val,
+        &p_row_buffer,
+        &|i, inv: &mut SBlk<S, B>, df: &mut Blk<B>, vals: &mut [SBlk<S, B, K>], acc| {
+            match spd_inverse(&load(&a.val[diag[i]])) {
+                Some(m) => *inv = store(&m),
+                None => failed.store(true, Ordering::Relaxed),
+            }
+            let d = lumped_diagonal(a, diag, strong, i);
+            *df = spd_inverse(&d).unwrap_or_else(|| load(inv));
+            rows.prolongator_row(i, &d, df, omega, vals, acc);
+        },
+    );
+    if failed.into_inner() {
+        return false;
+    }
+    tr.p.fill_transpose(&mut tr.r, &tr.r_map);
+    true
+}
