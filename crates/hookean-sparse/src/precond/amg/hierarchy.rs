@@ -41,6 +41,9 @@ struct Transfer<const B: usize, const K: usize, S: Entry> {
     /// (so `A_F` keeps the row sums of `A`, and with them the near-nullspace
     /// of translations).
     strong: Vec<bool>,
+    /// Whether every off-diagonal block is strong (`A_F = A`, `D_F = D`):
+    /// then `rho(D_F^-1 A_F)` is the smoother's `rho(D^-1 A)`, estimated once.
+    unfiltered: bool,
     /// For every slot of `a` in `A_F` (strong or diagonal) whose column is
     /// aggregated: the slot of `p` its product with `T` adds to (`u32::MAX`
     /// otherwise).
@@ -309,9 +312,11 @@ fn symbolic_transfer<const B: usize, const K: usize, S: Entry>(
     );
     let (r, r_map) = p.transpose_pattern();
     let ap = product_pattern(a, &p);
+    let unfiltered = (0..n).all(|i| a.row(i).all(|k| k == diag[i] || strong[k]));
     Ok(Some((
         Transfer {
             strong,
+            unfiltered,
             z_slot,
             df_inv: vec![zero::<B, B>(); n],
             t,
@@ -866,6 +871,8 @@ fn compute_level<const B: usize, const K: usize, S: Entry>(
     if let Some(ic0) = level.ic0.as_mut() {
         ic0.factor(&level.a, &level.diag, l)?;
     }
+    // The smoother's power-method estimate of rho(D^-1 A), if it made one.
+    let mut smoother_rho = None;
     if num.smoother == AmgSmoother::BlockJacobi && estimate {
         let (a, dinv) = (&level.a, &level.dinv);
         let rho = spectral_radius(
@@ -879,6 +886,7 @@ fn compute_level<const B: usize, const K: usize, S: Entry>(
             &mut work.t,
         )?;
         level.omega = num.jacobi_weight / rho;
+        smoother_rho = (iterations > 0).then_some(rho);
     }
     let (Some(tr), Some(next)) = (level.transfer.as_mut(), next) else {
         return Ok(());
@@ -891,6 +899,7 @@ fn compute_level<const B: usize, const K: usize, S: Entry>(
             tr,
             num.prolongation_weight,
             estimate.then_some(iterations),
+            smoother_rho.filter(|_| tr.unfiltered),
             refill,
             work,
         )?;

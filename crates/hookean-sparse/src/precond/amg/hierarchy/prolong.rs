@@ -55,7 +55,9 @@ fn filtered_row_times<const B: usize, S: Entry>(
     acc
 }
 
-/// `D_F^-1`, `omega` and `P = (I - omega D_F^-1 A_F) T`, `R = P^T`, with
+/// `D_F^-1`, `omega` (from `unfiltered_rho` when given: the smoother's
+/// estimate of `rho(D^-1 A)` on a level without weak blocks) and
+/// `P = (I - omega D_F^-1 A_F) T`, `R = P^T`, with
 /// `A_F` read from `A` row by row (its strong blocks, and the weak ones
 /// lumped onto the diagonal).
 #[allow(clippy::too_many_arguments)]
@@ -66,6 +68,7 @@ pub(super) fn smooth_prolongator<const B: usize, const K: usize, S: Entry>(
     tr: &mut Transfer<B, K, S>,
     prolongation_weight: f64,
     iterations: Option<usize>,
+    unfiltered_rho: Option<f64>,
     refill: bool,
     work: &mut Work,
 ) -> Result<(), SparseError> {
@@ -79,26 +82,34 @@ pub(super) fn smooth_prolongator<const B: usize, const K: usize, S: Entry>(
     });
     if let Some(iterations) = iterations {
         let df_inv = &tr.df_inv;
-        let rho = spectral_radius(
-            a.nrows,
-            |i, x| filtered_row_times(a, diag, strong, &lumped_diagonal(a, diag, strong, i), i, x),
-            |i| {
-                let d = lumped_diagonal(a, diag, strong, i);
-                let blocks = a.row(i).filter_map(|k| {
-                    if k == diag[i] {
-                        Some(d)
-                    } else {
-                        strong[k].then(|| load(&a.val[k]))
-                    }
-                });
-                gershgorin_row(&df_inv[i], blocks)
-            },
-            |i| df_inv[i],
-            iterations,
-            refill,
-            &mut tr.eigenvector,
-            &mut work.t,
-        )?;
+        // Without weak blocks `D_F^-1 A_F` is the smoother's `D^-1 A`
+        // (its `D^-1` only rounded to the storage): its estimate serves.
+        let rho = if let Some(rho) = unfiltered_rho {
+            rho
+        } else {
+            spectral_radius(
+                a.nrows,
+                |i, x| {
+                    filtered_row_times(a, diag, strong, &lumped_diagonal(a, diag, strong, i), i, x)
+                },
+                |i| {
+                    let d = lumped_diagonal(a, diag, strong, i);
+                    let blocks = a.row(i).filter_map(|k| {
+                        if k == diag[i] {
+                            Some(d)
+                        } else {
+                            strong[k].then(|| load(&a.val[k]))
+                        }
+                    });
+                    gershgorin_row(&df_inv[i], blocks)
+                },
+                |i| df_inv[i],
+                iterations,
+                refill,
+                &mut tr.eigenvector,
+                &mut work.t,
+            )?
+        };
         tr.omega = prolongation_weight / rho;
     }
     // P = T - omega D_F^-1 (A_F T), row by row.
