@@ -891,7 +891,7 @@ fn compute_level<const B: usize, const K: usize, S: Entry>(
     let (Some(tr), Some(next)) = (level.transfer.as_mut(), next) else {
         return Ok(());
     };
-    if !fused && !(refill && num.keep_prolongators) {
+    if !(fused || (refill && num.keep_prolongators)) {
         smooth_prolongator(
             &level.a,
             &level.diag,

@@ -70,28 +70,22 @@ where
     // Zero-sized per-row outputs: these vectors allocate nothing.
     let n = row_ptr.len() - 1;
     let (mut u, mut v) = (vec![(); n], vec![(); n]);
-    rows_and_slices_with(row_ptr, &mut u, &mut v, data, init, &|i, _, _, row, w| {
-        f(i, row, w)
-    });
+    rows_and_slices_with(
+        row_ptr,
+        0,
+        &mut u,
+        &mut v,
+        data,
+        init,
+        &|i, _, _, row, w| f(i, row, w),
+    );
 }
 
 /// [`row_slices_with`] with two per-row outputs besides the row's slice:
-/// `f(i, &mut x[i], &mut y[i], row, &mut w)`.
+/// `f(i, &mut x[i], &mut y[i], row, &mut w)` for the rows `i` from `start`
+/// (`x` and `y` hold one entry per row, `data` the rows' slices).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn rows_and_slices_with<X: Send, Y: Send, T: Send, W, I, F>(
-    row_ptr: &[usize],
-    x: &mut [X],
-    y: &mut [Y],
-    data: &mut [T],
-    init: &I,
-    f: &F,
-) where
-    I: Fn() -> W + Sync,
-    F: Fn(usize, &mut X, &mut Y, &mut [T], &mut W) + Sync,
-{
-    split(row_ptr, 0, x, y, data, init, f);
-}
-
-fn split<X: Send, Y: Send, T: Send, W, I, F>(
     row_ptr: &[usize],
     start: usize,
     x: &mut [X],
@@ -123,8 +117,8 @@ fn split<X: Send, Y: Send, T: Send, W, I, F>(
         let (y_lo, y_hi) = y.split_at_mut(mid);
         let (lo, hi) = data.split_at_mut(row_ptr[start + mid] - row_ptr[start]);
         join(
-            || split(row_ptr, start, x_lo, y_lo, lo, init, f),
-            || split(row_ptr, start + mid, x_hi, y_hi, hi, init, f),
+            || rows_and_slices_with(row_ptr, start, x_lo, y_lo, lo, init, f),
+            || rows_and_slices_with(row_ptr, start + mid, x_hi, y_hi, hi, init, f),
         );
     }
 }

@@ -112,25 +112,20 @@ pub(super) fn smooth_prolongator<const B: usize, const K: usize, S: Entry>(
         };
         tr.omega = prolongation_weight / rho;
     }
-    // P = T - omega D_F^-1 (A_F T), row by row.
-    let (df_inv, omega) = (&tr.df_inv, tr.omega);
-    let rows = Rows {
-        a,
-        diag,
-        t: &tr.t,
-        t_in_p: &tr.t_in_p,
-        z_slot: &tr.z_slot,
-        p_ptr: &tr.p.row_ptr,
-    };
+    // P = T - omega D_F^-1 (A_F T), row by row (its values taken out of
+    // `tr` while they are written: no allocation).
+    let mut p_val = std::mem::take(&mut tr.p.val);
+    let rows = Rows { a, diag, tr };
     par::row_slices_with(
-        rows.p_ptr,
-        &mut tr.p.val,
+        &tr.p.row_ptr,
+        &mut p_val,
         &p_row_buffer,
         &|i, vals: &mut [SBlk<S, B, K>], acc| {
-            let d = lumped_diagonal(a, diag, strong, i);
-            rows.prolongator_row(i, &d, &df_inv[i], omega, vals, acc);
+            let d = lumped_diagonal(a, diag, &tr.strong, i);
+            rows.prolongator_row(i, &d, &tr.df_inv[i], tr.omega, vals, acc);
         },
     );
+    tr.p.val = p_val;
     tr.p.fill_transpose(&mut tr.r, &tr.r_map);
     Ok(())
 }
@@ -146,14 +141,13 @@ fn p_row_buffer<const B: usize, const K: usize>() -> [Blk<B, K>; MAX_P_ROW] {
     [zero::<B, K>(); MAX_P_ROW]
 }
 
-/// What a row of `P` is computed from, besides its diagonal blocks.
+/// What a row of `P` is computed from, besides its diagonal blocks: `A`
+/// and the transfer's `T` and slot maps (its `P` values and `D_F^-1` taken
+/// out while they are written).
 struct Rows<'a, const B: usize, const K: usize, S: Entry> {
     a: &'a Bsr<B, S>,
     diag: &'a [usize],
-    t: &'a Bsr<B, f64, K>,
-    t_in_p: &'a [usize],
-    z_slot: &'a [u32],
-    p_ptr: &'a [usize],
+    tr: &'a Transfer<B, K, S>,
 }
 
 impl<const B: usize, const K: usize, S: Entry> Rows<'_, B, K, S> {
@@ -170,8 +164,8 @@ impl<const B: usize, const K: usize, S: Entry> Rows<'_, B, K, S> {
         vals: &mut [SBlk<S, B, K>],
         acc: &mut [Blk<B, K>; MAX_P_ROW],
     ) {
-        let (a, t) = (self.a, self.t);
-        let start = self.p_ptr[i];
+        let (a, t) = (self.a, &self.tr.t);
+        let start = self.tr.p.row_ptr[i];
         let wide = vals.len() > MAX_P_ROW;
         if wide {
             vals.fill(szero::<S, B, K>());
@@ -179,7 +173,7 @@ impl<const B: usize, const K: usize, S: Entry> Rows<'_, B, K, S> {
             acc[..vals.len()].fill(zero::<B, K>());
         }
         for k in a.row(i) {
-            let z = self.z_slot[k];
+            let z = self.tr.z_slot[k];
             if z == u32::MAX {
                 continue;
             }
@@ -208,7 +202,7 @@ impl<const B: usize, const K: usize, S: Entry> Rows<'_, B, K, S> {
                 }
             }
             if let Some(k) = t.row(i).next()
-                && self.t_in_p[i] - start == s
+                && self.tr.t_in_p[i] - start == s
             {
                 for r in 0..B {
                     for c in 0..K {
@@ -234,32 +228,30 @@ pub(super) fn refill_prolongator<const B: usize, const K: usize, S: Entry>(
     tr: &mut Transfer<B, K, S>,
 ) -> bool {
     let failed = AtomicBool::new(false);
-    let omega = tr.omega;
-    let strong = &tr.strong;
-    let rows = Rows {
-        a,
-        diag,
-        t: &tr.t,
-        t_in_p: &tr.t_in_p,
-        z_slot: &tr.z_slot,
-        p_ptr: &tr.p.row_ptr,
-    };
+    // `D_F^-1` and `P`'s values taken out of `tr` while they are written.
+    let (mut df_inv, mut p_val) = (
+        std::mem::take(&mut tr.df_inv),
+        std::mem::take(&mut tr.p.val),
+    );
+    let rows = Rows { a, diag, tr };
     par::rows_and_slices_with(
-        rows.p_ptr,
+        &tr.p.row_ptr,
+        0,
         a_dinv,
-        &mut tr.df_inv,
-        &mut tr.p.val,
+        &mut df_inv,
+        &mut p_val,
         &p_row_buffer,
         &|i, inv: &mut SBlk<S, B>, df: &mut Blk<B>, vals: &mut [SBlk<S, B, K>], acc| {
             match spd_inverse(&load(&a.val[diag[i]])) {
                 Some(m) => *inv = store(&m),
                 None => failed.store(true, Ordering::Relaxed),
             }
-            let d = lumped_diagonal(a, diag, strong, i);
+            let d = lumped_diagonal(a, diag, &tr.strong, i);
             *df = spd_inverse(&d).unwrap_or_else(|| load(inv));
-            rows.prolongator_row(i, &d, df, omega, vals, acc);
+            rows.prolongator_row(i, &d, df, tr.omega, vals, acc);
         },
     );
+    (tr.df_inv, tr.p.val) = (df_inv, p_val);
     if failed.into_inner() {
         return false;
     }
