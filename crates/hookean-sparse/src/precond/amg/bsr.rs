@@ -538,16 +538,21 @@ pub(crate) fn product_values<
     c: &mut Bsr<B, U, C>,
 ) {
     let (c_ptr, c_col) = (&c.row_ptr, &c.col);
-    par::row_slices(c_ptr, &mut c.val, &|i, vals: &mut [SBlk<U, B, C>]| {
-        let cols = &c_col[c_ptr[i]..c_ptr[i + 1]];
-        product_row(x, y, i, cols, 0, vals, |_| true);
-    });
+    par::row_slices_with(
+        c_ptr,
+        &mut c.val,
+        &row_buffer,
+        &|i, vals: &mut [SBlk<U, B, C>], acc| {
+            let cols = &c_col[c_ptr[i]..c_ptr[i + 1]];
+            product_row(x, y, i, cols, 0, vals, acc, |_| true);
+        },
+    );
 }
 
 /// Row `i` of `C = X Y` into `vals` (the slots of `cols[first..]`), for
 /// the product terms whose column passes `keep`: accumulated in place when
-/// `C` stores `f64`, else in `f64` on the stack for rows up to
-/// [`ROW_BUFFER`] blocks and then rounded once.
+/// `C` stores `f64`, else in `f64` in `acc` (the task's scratch, see
+/// [`row_buffer`]) for rows up to [`ROW_BUFFER`] blocks and then rounded once.
 #[inline(always)]
 fn product_row<const B: usize, const M: usize, const C: usize, S: Entry, T: Entry, U: Entry>(
     x: &Bsr<B, S, M>,
@@ -556,11 +561,12 @@ fn product_row<const B: usize, const M: usize, const C: usize, S: Entry, T: Entr
     cols: &[u32],
     first: usize,
     vals: &mut [SBlk<U, B, C>],
+    acc: &mut [Blk<B, C>; ROW_BUFFER],
     keep: impl Fn(u32) -> bool,
 ) {
     let n = cols.len() - first;
     if !U::EXACT && n <= ROW_BUFFER {
-        let mut acc = [zero::<B, C>(); ROW_BUFFER];
+        acc[..n].fill(zero::<B, C>());
         product_terms(x, y, i, cols, first, keep, load, |xk, yq, p| {
             mul_mat_add(xk, &load(yq), &mut acc[p - first]);
         });
@@ -620,6 +626,12 @@ fn product_terms<const B: usize, const M: usize, const C: usize, S: Entry, T: En
 /// `f64` (rows of `A P` and `R A P` of a cloth have 8-12).
 const ROW_BUFFER: usize = 16;
 
+/// The accumulator of [`product_row`], made once per task of rows (not
+/// zeroed whole for every row: only a row's own part is).
+fn row_buffer<const B: usize, const C: usize>() -> [Blk<B, C>; ROW_BUFFER] {
+    [zero::<B, C>(); ROW_BUFFER]
+}
+
 /// The numbers of the symmetric product `C = X Y` (the Galerkin operator
 /// `R (A P)` with `R = P^T`) on the pattern from [`product_pattern`], which
 /// is then structurally symmetric: the blocks on and above the diagonal are
@@ -640,23 +652,28 @@ pub(crate) fn product_values_symmetric<
     mirror: &[u32],
 ) {
     let (c_ptr, c_col) = (&c.row_ptr, &c.col);
-    par::row_slices(c_ptr, &mut c.val, &|i, vals: &mut [SBlk<U, B>]| {
-        let cols = &c_col[c_ptr[i]..c_ptr[i + 1]];
-        let first = cols.partition_point(|&j| (j as usize) < i);
-        product_row(x, y, i, cols, first, vals, |j| j as usize >= i);
-        // The diagonal block, symmetric in exact arithmetic, made exactly
-        // symmetric (its rounding would otherwise differ across the diagonal).
-        if cols.get(first) == Some(&(i as u32)) {
-            let d = load(&vals[first]);
-            let mut sym = d;
-            for r in 0..B {
-                for c in 0..B {
-                    sym[r][c] = 0.5 * (d[r][c] + d[c][r]);
+    par::row_slices_with(
+        c_ptr,
+        &mut c.val,
+        &row_buffer,
+        &|i, vals: &mut [SBlk<U, B>], acc| {
+            let cols = &c_col[c_ptr[i]..c_ptr[i + 1]];
+            let first = cols.partition_point(|&j| (j as usize) < i);
+            product_row(x, y, i, cols, first, vals, acc, |j| j as usize >= i);
+            // The diagonal block, symmetric in exact arithmetic, made exactly
+            // symmetric (its rounding would otherwise differ across the diagonal).
+            if cols.get(first) == Some(&(i as u32)) {
+                let d = load(&vals[first]);
+                let mut sym = d;
+                for r in 0..B {
+                    for c in 0..B {
+                        sym[r][c] = 0.5 * (d[r][c] + d[c][r]);
+                    }
                 }
+                vals[first] = store(&sym);
             }
-            vals[first] = store(&sym);
-        }
-    });
+        },
+    );
     for i in 0..c.nrows {
         for s in c.row(i) {
             if (c.col[s] as usize) < i {

@@ -20,7 +20,7 @@ mod dense;
 mod prolong;
 
 use self::dense::DenseCholesky;
-use self::prolong::smooth_prolongator;
+use self::prolong::{refill_prolongator, smooth_prolongator};
 
 /// The coarsest level is solved directly (dense Cholesky) when it has at
 /// most this many unknowns, even if coarsening stalled above the
@@ -41,6 +41,9 @@ struct Transfer<const B: usize, const K: usize, S: Entry> {
     /// (so `A_F` keeps the row sums of `A`, and with them the near-nullspace
     /// of translations).
     strong: Vec<bool>,
+    /// Whether every off-diagonal block is strong (`A_F = A`, `D_F = D`):
+    /// then `rho(D_F^-1 A_F)` is the smoother's `rho(D^-1 A)`, estimated once.
+    unfiltered: bool,
     /// For every slot of `a` in `A_F` (strong or diagonal) whose column is
     /// aggregated: the slot of `p` its product with `T` adds to (`u32::MAX`
     /// otherwise).
@@ -149,20 +152,18 @@ impl<const B: usize, const K: usize, S: Entry> Clone for Hierarchy<B, K, S> {
     }
 }
 
-/// A matrix given by rows: `sum_j A_ij x_j` for row `i`.
-type RowTimes<'a, const B: usize> = &'a (dyn Fn(usize, &[[f64; B]]) -> [f64; B] + Sync);
-
 /// Gershgorin's bound `max_i sum_j |D_i^-1 A_ij|_inf >= rho(D^-1 A)`, or
 /// the power method's estimate after `power_iterations` steps, started from
 /// the eigenvector estimate in `v` if `warm` (`w` is scratch). The operator
 /// is given by rows: `row(i, x)` is `sum_j A_ij x_j`, `abs_row(i)` the
-/// absolute row sums of `D_i^-1 A_ij` (Gershgorin).
+/// absolute row sums of `D_i^-1 A_ij` (Gershgorin). Generic in the three
+/// (static dispatch: the rows are inlined into the power method's product).
 #[allow(clippy::too_many_arguments)]
 fn spectral_radius<const B: usize>(
     nrows: usize,
-    row: RowTimes<'_, B>,
-    abs_row: &dyn Fn(usize) -> [f64; B],
-    dinv: &(dyn Fn(usize) -> Blk<B> + Sync),
+    row: impl Fn(usize, &[[f64; B]]) -> [f64; B] + Sync,
+    abs_row: impl Fn(usize) -> [f64; B],
+    dinv: impl Fn(usize) -> Blk<B> + Sync,
     power_iterations: usize,
     warm: bool,
     v: &mut [f64],
@@ -311,9 +312,11 @@ fn symbolic_transfer<const B: usize, const K: usize, S: Entry>(
     );
     let (r, r_map) = p.transpose_pattern();
     let ap = product_pattern(a, &p);
+    let unfiltered = (0..n).all(|i| a.row(i).all(|k| k == diag[i] || strong[k]));
     Ok(Some((
         Transfer {
             strong,
+            unfiltered,
             z_slot,
             df_inv: vec![zero::<B, B>(); n],
             t,
@@ -853,28 +856,42 @@ fn compute_level<const B: usize, const K: usize, S: Entry>(
     };
     // A refill with no power steps keeps the last estimates of rho.
     let estimate = !(refill && num.power_iterations > 0 && iterations == 0);
-    invert_diagonal(&level.a, &level.diag, &mut level.dinv, l)?;
+    // A refill that keeps every omega: the smoother's diagonal, D_F^-1 and P
+    // in one pass over the rows of A.
+    let fused = !estimate && !num.keep_prolongators && next.is_some();
+    match level.transfer.as_mut() {
+        Some(tr) if fused => {
+            if !refill_prolongator(&level.a, &level.diag, &mut level.dinv, tr) {
+                // Reports the first diagonal block that is not positive definite.
+                invert_diagonal(&level.a, &level.diag, &mut level.dinv, l)?;
+            }
+        }
+        _ => invert_diagonal(&level.a, &level.diag, &mut level.dinv, l)?,
+    }
     if let Some(ic0) = level.ic0.as_mut() {
         ic0.factor(&level.a, &level.diag, l)?;
     }
+    // The smoother's power-method estimate of rho(D^-1 A), if it made one.
+    let mut smoother_rho = None;
     if num.smoother == AmgSmoother::BlockJacobi && estimate {
         let (a, dinv) = (&level.a, &level.dinv);
         let rho = spectral_radius(
             a.nrows,
-            &|i, x| a.row_times(i, x),
-            &|i| gershgorin_row(&load(&dinv[i]), a.row(i).map(|k| load(&a.val[k]))),
-            &|i| load(&dinv[i]),
+            |i, x| a.row_times(i, x),
+            |i| gershgorin_row(&load(&dinv[i]), a.row(i).map(|k| load(&a.val[k]))),
+            |i| load(&dinv[i]),
             iterations,
             refill,
             &mut level.eigenvector,
             &mut work.t,
         )?;
         level.omega = num.jacobi_weight / rho;
+        smoother_rho = (iterations > 0).then_some(rho);
     }
     let (Some(tr), Some(next)) = (level.transfer.as_mut(), next) else {
         return Ok(());
     };
-    if !(refill && num.keep_prolongators) {
+    if !(fused || (refill && num.keep_prolongators)) {
         smooth_prolongator(
             &level.a,
             &level.diag,
@@ -882,6 +899,7 @@ fn compute_level<const B: usize, const K: usize, S: Entry>(
             tr,
             num.prolongation_weight,
             estimate.then_some(iterations),
+            smoother_rho.filter(|_| tr.unfiltered),
             refill,
             work,
         )?;

@@ -55,27 +55,70 @@ pub(crate) fn row_slices<T: Send, F: Fn(usize, &mut [T]) + Sync>(
     data: &mut [T],
     f: &F,
 ) {
-    row_slices_in(row_ptr, 0, row_ptr.len() - 1, data, f);
+    row_slices_with(row_ptr, data, &|| (), &|i, row, _: &mut ()| f(i, row));
 }
 
-fn row_slices_in<T: Send, F: Fn(usize, &mut [T]) + Sync>(
+/// [`row_slices`] with scratch: `f(i, row, &mut w)` with `w = init()` made
+/// once per task (a run of up to [`ROWS_PER_TASK`] rows on one thread), not
+/// once per row. `f` must not let a row's result depend on what an earlier
+/// row left in `w` (the split into tasks depends on the thread count).
+pub(crate) fn row_slices_with<T: Send, W, I, F>(row_ptr: &[usize], data: &mut [T], init: &I, f: &F)
+where
+    I: Fn() -> W + Sync,
+    F: Fn(usize, &mut [T], &mut W) + Sync,
+{
+    // Zero-sized per-row outputs: these vectors allocate nothing.
+    let n = row_ptr.len() - 1;
+    let (mut u, mut v) = (vec![(); n], vec![(); n]);
+    rows_and_slices_with(
+        row_ptr,
+        0,
+        &mut u,
+        &mut v,
+        data,
+        init,
+        &|i, _, _, row, w| f(i, row, w),
+    );
+}
+
+/// [`row_slices_with`] with two per-row outputs besides the row's slice:
+/// `f(i, &mut x[i], &mut y[i], row, &mut w)` for the rows `i` from `start`
+/// (`x` and `y` hold one entry per row, `data` the rows' slices).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn rows_and_slices_with<X: Send, Y: Send, T: Send, W, I, F>(
     row_ptr: &[usize],
     start: usize,
-    end: usize,
+    x: &mut [X],
+    y: &mut [Y],
     data: &mut [T],
+    init: &I,
     f: &F,
-) {
-    if sequential(end - start) {
+) where
+    I: Fn() -> W + Sync,
+    F: Fn(usize, &mut X, &mut Y, &mut [T], &mut W) + Sync,
+{
+    let rows = x.len();
+    if sequential(rows) {
         let base = row_ptr[start];
-        for i in start..end {
-            f(i, &mut data[row_ptr[i] - base..row_ptr[i + 1] - base]);
+        let mut w = init();
+        for (k, (xi, yi)) in x.iter_mut().zip(y.iter_mut()).enumerate() {
+            let i = start + k;
+            f(
+                i,
+                xi,
+                yi,
+                &mut data[row_ptr[i] - base..row_ptr[i + 1] - base],
+                &mut w,
+            );
         }
     } else {
-        let mid = start + (end - start) / 2;
-        let (lo, hi) = data.split_at_mut(row_ptr[mid] - row_ptr[start]);
+        let mid = rows / 2;
+        let (x_lo, x_hi) = x.split_at_mut(mid);
+        let (y_lo, y_hi) = y.split_at_mut(mid);
+        let (lo, hi) = data.split_at_mut(row_ptr[start + mid] - row_ptr[start]);
         join(
-            || row_slices_in(row_ptr, start, mid, lo, f),
-            || row_slices_in(row_ptr, mid, end, hi, f),
+            || rows_and_slices_with(row_ptr, start, x_lo, y_lo, lo, init, f),
+            || rows_and_slices_with(row_ptr, start + mid, x_hi, y_hi, hi, init, f),
         );
     }
 }

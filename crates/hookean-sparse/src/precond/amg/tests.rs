@@ -888,3 +888,91 @@ fn single_precision_levels_are_the_galerkin_products_of_the_rounded_matrices() {
         "{its_single} vs {its_double}"
     );
 }
+
+#[test]
+fn a_refill_that_keeps_omega_reproduces_the_set_up_in_one_pass() {
+    // The default refill (refill_power_iterations = 0) keeps every omega and
+    // computes D^-1, D_F^-1 and P in one pass over A's rows: on the values of
+    // the set-up it must give the set-up's hierarchy bit for bit (the two-pass
+    // path computed each number with the same operations), in both
+    // precisions; on 3 A, P stays (D_F^-1 A_F is unchanged) and every
+    // operator triples, still the Galerkin products.
+    let a = spd_block_matrix(16, 14);
+    for precision in [AmgPrecision::Double, AmgPrecision::Single] {
+        let options = AmgOptions {
+            precision,
+            ..small_coarse(AmgSmoother::BlockJacobi)
+        };
+        assert_eq!(options.refill_power_iterations, 0);
+        let mut amg = Amg::with_options(options).unwrap();
+        amg.setup(&a).unwrap();
+        let before = match precision {
+            AmgPrecision::Double => hierarchy3(&amg).dense_levels(),
+            AmgPrecision::Single => hierarchy3_single(&amg).dense_levels(),
+        };
+        assert!(before.len() >= 3, "{} levels", before.len());
+        amg.setup(&a).unwrap();
+        assert_eq!(amg.stats().refills, 1);
+        let after = match precision {
+            AmgPrecision::Double => hierarchy3(&amg).dense_levels(),
+            AmgPrecision::Single => hierarchy3_single(&amg).dense_levels(),
+        };
+        assert!(
+            before == after,
+            "{precision:?}: the refill changed the hierarchy"
+        );
+    }
+    let mut amg = Amg::with_options(small_coarse(AmgSmoother::BlockJacobi)).unwrap();
+    amg.setup(&a).unwrap();
+    let p_before: Vec<_> = hierarchy3(&amg)
+        .dense_levels()
+        .into_iter()
+        .map(|(_, pt)| pt)
+        .collect();
+    let mut a3 = a.clone();
+    a3.scale(3.0);
+    amg.setup(&a3).unwrap();
+    let h = hierarchy3(&amg);
+    assert_galerkin(h, 1e-13);
+    for (p, (_, pt)) in p_before.iter().zip(h.dense_levels()) {
+        let (Some((p0, _)), Some((p1, _))) = (p, pt) else {
+            continue;
+        };
+        for (r0, r1) in p0.iter().zip(&p1) {
+            for (x, y) in r0.iter().zip(r1) {
+                approx::assert_abs_diff_eq!(x, y, epsilon = 1e-12 * (1.0 + x.abs()));
+            }
+        }
+    }
+}
+
+#[test]
+fn without_weak_blocks_the_prolongator_takes_the_smoothers_spectral_radius() {
+    // 3D Poisson: every off-diagonal entry of the finest level is strong
+    // (A_F = A, D_F = D), so rho(D_F^-1 A_F) is the smoother's rho(D^-1 A),
+    // estimated once: with equal weights (4/3) the two omegas are equal.
+    // On a matrix with weak blocks (the jittered block matrix) they are two
+    // estimates of two operators and differ.
+    let a = poisson(16, 3);
+    let mut amg = Amg::with_options(AmgOptions {
+        coarse_size: 40,
+        ..Default::default()
+    })
+    .unwrap();
+    amg.setup(&a).unwrap();
+    // The finest level (the 7-point Laplacian: every neighbour strong; the
+    // coarser Galerkin operators have weak blocks).
+    let l0 = &amg.stats().levels[0];
+    assert_eq!(l0.smoother_weight, l0.prolongation_weight);
+    // rho(D^-1 A) of the Laplacian is below 2: omega above 2/3.
+    assert!(
+        l0.smoother_weight > 4.0 / 3.0 / 2.0,
+        "{}",
+        l0.smoother_weight
+    );
+    let b = spd_block_matrix(16, 14);
+    let mut amg = Amg::with_options(small_coarse(AmgSmoother::BlockJacobi)).unwrap();
+    amg.setup(&b).unwrap();
+    let l0 = &amg.stats().levels[0];
+    assert_ne!(l0.smoother_weight, l0.prolongation_weight);
+}

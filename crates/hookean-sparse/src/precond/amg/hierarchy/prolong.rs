@@ -8,6 +8,8 @@ use super::super::bsr::{
 };
 use super::super::par;
 use super::{Transfer, Work, gershgorin_row, spectral_radius};
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use crate::error::SparseError;
 
 /// The diagonal block of row `i` of `A_F`: `A_ii` plus the weak blocks of the row.
@@ -53,7 +55,9 @@ fn filtered_row_times<const B: usize, S: Entry>(
     acc
 }
 
-/// `D_F^-1`, `omega` and `P = (I - omega D_F^-1 A_F) T`, `R = P^T`, with
+/// `D_F^-1`, `omega` (from `unfiltered_rho` when given: the smoother's
+/// estimate of `rho(D^-1 A)` on a level without weak blocks) and
+/// `P = (I - omega D_F^-1 A_F) T`, `R = P^T`, with
 /// `A_F` read from `A` row by row (its strong blocks, and the weak ones
 /// lumped onto the diagonal).
 #[allow(clippy::too_many_arguments)]
@@ -64,6 +68,7 @@ pub(super) fn smooth_prolongator<const B: usize, const K: usize, S: Entry>(
     tr: &mut Transfer<B, K, S>,
     prolongation_weight: f64,
     iterations: Option<usize>,
+    unfiltered_rho: Option<f64>,
     refill: bool,
     work: &mut Work,
 ) -> Result<(), SparseError> {
@@ -77,49 +82,107 @@ pub(super) fn smooth_prolongator<const B: usize, const K: usize, S: Entry>(
     });
     if let Some(iterations) = iterations {
         let df_inv = &tr.df_inv;
-        let rho = spectral_radius(
-            a.nrows,
-            &|i, x| filtered_row_times(a, diag, strong, &lumped_diagonal(a, diag, strong, i), i, x),
-            &|i| {
-                let d = lumped_diagonal(a, diag, strong, i);
-                let blocks = a.row(i).filter_map(|k| {
-                    if k == diag[i] {
-                        Some(d)
-                    } else {
-                        strong[k].then(|| load(&a.val[k]))
-                    }
-                });
-                gershgorin_row(&df_inv[i], blocks)
-            },
-            &|i| df_inv[i],
-            iterations,
-            refill,
-            &mut tr.eigenvector,
-            &mut work.t,
-        )?;
+        // Without weak blocks `D_F^-1 A_F` is the smoother's `D^-1 A`
+        // (its `D^-1` only rounded to the storage): its estimate serves.
+        let rho = if let Some(rho) = unfiltered_rho {
+            rho
+        } else {
+            spectral_radius(
+                a.nrows,
+                |i, x| {
+                    filtered_row_times(a, diag, strong, &lumped_diagonal(a, diag, strong, i), i, x)
+                },
+                |i| {
+                    let d = lumped_diagonal(a, diag, strong, i);
+                    let blocks = a.row(i).filter_map(|k| {
+                        if k == diag[i] {
+                            Some(d)
+                        } else {
+                            strong[k].then(|| load(&a.val[k]))
+                        }
+                    });
+                    gershgorin_row(&df_inv[i], blocks)
+                },
+                |i| df_inv[i],
+                iterations,
+                refill,
+                &mut tr.eigenvector,
+                &mut work.t,
+            )?
+        };
         tr.omega = prolongation_weight / rho;
     }
-    // P = T - omega D_F^-1 (A_F T), row by row: A_F T in P's slots, then
-    // scaled, then T added.
-    let (df_inv, t, t_in_p, z_slot, omega) = (&tr.df_inv, &tr.t, &tr.t_in_p, &tr.z_slot, tr.omega);
-    let p_ptr = &tr.p.row_ptr;
-    par::row_slices(p_ptr, &mut tr.p.val, &|i, vals: &mut [SBlk<S, B, K>]| {
-        let start = p_ptr[i];
-        let mut acc = [zero::<B, K>(); MAX_P_ROW];
+    // P = T - omega D_F^-1 (A_F T), row by row (its values taken out of
+    // `tr` while they are written: no allocation).
+    let mut p_val = std::mem::take(&mut tr.p.val);
+    let rows = Rows { a, diag, tr };
+    par::row_slices_with(
+        &tr.p.row_ptr,
+        &mut p_val,
+        &p_row_buffer,
+        &|i, vals: &mut [SBlk<S, B, K>], acc| {
+            let d = lumped_diagonal(a, diag, &tr.strong, i);
+            rows.prolongator_row(i, &d, &tr.df_inv[i], tr.omega, vals, acc);
+        },
+    );
+    tr.p.val = p_val;
+    tr.p.fill_transpose(&mut tr.r, &tr.r_map);
+    Ok(())
+}
+
+/// Rows of `P` up to this many blocks are accumulated in `f64` on the stack
+/// (longer ones in their storage).
+const MAX_P_ROW: usize = 32;
+
+/// The accumulator of a row of `P`, made once per task of rows (zeroing
+/// all of it for every row cost as much as the rest of the smoothing; only
+/// the row's own part is zeroed).
+fn p_row_buffer<const B: usize, const K: usize>() -> [Blk<B, K>; MAX_P_ROW] {
+    [zero::<B, K>(); MAX_P_ROW]
+}
+
+/// What a row of `P` is computed from, besides its diagonal blocks: `A`
+/// and the transfer's `T` and slot maps (its `P` values and `D_F^-1` taken
+/// out while they are written).
+struct Rows<'a, const B: usize, const K: usize, S: Entry> {
+    a: &'a Bsr<B, S>,
+    diag: &'a [usize],
+    tr: &'a Transfer<B, K, S>,
+}
+
+impl<const B: usize, const K: usize, S: Entry> Rows<'_, B, K, S> {
+    /// Row `i` of `P = T - omega D_F^-1 (A_F T)` into its slots `vals`:
+    /// `A_F T` (with `d` the lumped diagonal block of row `i`), then scaled
+    /// by `-omega D_F^-1` (`df_inv`, the row's block of `D_F^-1`), then `T` added.
+    #[inline(always)]
+    fn prolongator_row(
+        &self,
+        i: usize,
+        d: &Blk<B>,
+        df_inv: &Blk<B>,
+        omega: f64,
+        vals: &mut [SBlk<S, B, K>],
+        acc: &mut [Blk<B, K>; MAX_P_ROW],
+    ) {
+        let (a, t) = (self.a, &self.tr.t);
+        let start = self.tr.p.row_ptr[i];
         let wide = vals.len() > MAX_P_ROW;
         if wide {
             vals.fill(szero::<S, B, K>());
         } else {
             acc[..vals.len()].fill(zero::<B, K>());
         }
-        let d = lumped_diagonal(a, diag, strong, i);
         for k in a.row(i) {
-            let z = z_slot[k];
+            let z = self.tr.z_slot[k];
             if z == u32::MAX {
                 continue;
             }
             let q = t.row(a.col[k] as usize).start;
-            let blk = if k == diag[i] { d } else { load(&a.val[k]) };
+            let blk = if k == self.diag[i] {
+                *d
+            } else {
+                load(&a.val[k])
+            };
             let slot = z as usize - start;
             if wide {
                 let mut m = load(&vals[slot]);
@@ -129,18 +192,17 @@ pub(super) fn smooth_prolongator<const B: usize, const K: usize, S: Entry>(
                 mul_mat_add(&blk, &t.val[q], &mut acc[slot]);
             }
         }
-        let dinv = &df_inv[i];
         for (s, v) in vals.iter_mut().enumerate() {
             let z = if wide { load(v) } else { acc[s] };
             let mut m = zero::<B, K>();
-            mul_mat_add(dinv, &z, &mut m);
+            mul_mat_add(df_inv, &z, &mut m);
             for row in m.iter_mut() {
                 for x in row.iter_mut() {
                     *x *= -omega;
                 }
             }
             if let Some(k) = t.row(i).next()
-                && t_in_p[i] - start == s
+                && self.tr.t_in_p[i] - start == s
             {
                 for r in 0..B {
                     for c in 0..K {
@@ -150,11 +212,49 @@ pub(super) fn smooth_prolongator<const B: usize, const K: usize, S: Entry>(
             }
             *v = store(&m);
         }
-    });
-    tr.p.fill_transpose(&mut tr.r, &tr.r_map);
-    Ok(())
+    }
 }
 
-/// Rows of `P` up to this many blocks are accumulated in `f64` on the stack
-/// (longer ones in their storage).
-const MAX_P_ROW: usize = 32;
+/// A refill that keeps `omega` (no spectral radius to estimate): the
+/// smoother's `D^-1` (into `a_dinv`), `D_F^-1` and `P` in one pass over the
+/// rows of `A` (each row read once, not three times), then `R = P^T`; the
+/// same numbers as [`invert_diagonal`](super::invert_diagonal) followed by
+/// [`smooth_prolongator`]. `false` when a diagonal block of `A` is not
+/// positive definite (the caller reports which).
+pub(super) fn refill_prolongator<const B: usize, const K: usize, S: Entry>(
+    a: &Bsr<B, S>,
+    diag: &[usize],
+    a_dinv: &mut [SBlk<S, B>],
+    tr: &mut Transfer<B, K, S>,
+) -> bool {
+    let failed = AtomicBool::new(false);
+    // `D_F^-1` and `P`'s values taken out of `tr` while they are written.
+    let (mut df_inv, mut p_val) = (
+        std::mem::take(&mut tr.df_inv),
+        std::mem::take(&mut tr.p.val),
+    );
+    let rows = Rows { a, diag, tr };
+    par::rows_and_slices_with(
+        &tr.p.row_ptr,
+        0,
+        a_dinv,
+        &mut df_inv,
+        &mut p_val,
+        &p_row_buffer,
+        &|i, inv: &mut SBlk<S, B>, df: &mut Blk<B>, vals: &mut [SBlk<S, B, K>], acc| {
+            match spd_inverse(&load(&a.val[diag[i]])) {
+                Some(m) => *inv = store(&m),
+                None => failed.store(true, Ordering::Relaxed),
+            }
+            let d = lumped_diagonal(a, diag, &tr.strong, i);
+            *df = spd_inverse(&d).unwrap_or_else(|| load(inv));
+            rows.prolongator_row(i, &d, df, tr.omega, vals, acc);
+        },
+    );
+    (tr.df_inv, tr.p.val) = (df_inv, p_val);
+    if failed.into_inner() {
+        return false;
+    }
+    tr.p.fill_transpose(&mut tr.r, &tr.r_map);
+    true
+}
