@@ -220,6 +220,10 @@ impl Preconditioner for AnyPreconditioner {
     fn update_and_apply(&self, alpha: f64, q: &[f64], r: &mut [f64], z: &mut [f64]) -> (f64, f64) {
         dispatch!(self, pc => pc.update_and_apply(alpha, q, r, z))
     }
+    /// The multigrid: a V-cycle costs about three products with `A`.
+    fn costly(&self) -> bool {
+        matches!(self, AnyPreconditioner::Amg(_))
+    }
 }
 
 impl<A: ?Sized> PreconditionerSetup<A> for AnyPreconditioner
