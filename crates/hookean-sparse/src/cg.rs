@@ -406,9 +406,17 @@ where
     if params.record_history {
         info.residual_history.push(rel(r_norm));
     }
-    // z = P M^-1 r and r . z (r lies in range(P), so r . P z = r . z).
-    let mut rz = precond.apply_dot(r, z);
+    // z = P M^-1 r and r . z (r lies in range(P), so r . P z = r . z); not
+    // needed when the start already meets the tolerance.
+    let mut rz = if r_norm <= threshold && precond.costly() {
+        0.0
+    } else {
+        precond.apply_dot(r, z)
+    };
     filter.project(z);
+    // |r| one iteration back: the last residual reduction predicts whether
+    // the next iteration ends the solve (see `likely_last` below).
+    let mut r_norm_prev = f64::NAN;
     p.fill(0.0);
     let mut beta = 0.0;
     // The step x += alpha p of an iteration is applied inside the next
@@ -482,8 +490,25 @@ where
         }
         let alpha = rz / pq;
         pending = alpha;
-        // r -= alpha q; z = M^-1 r; one pass for pointwise preconditioners.
-        let (rr, rz_new) = precond.update_and_apply(alpha, q, r, z);
+        // r -= alpha q; z = M^-1 r; one pass for pointwise preconditioners
+        // (and the multigrid's pre-smoothing). The iteration that meets the
+        // tolerance, or the last one allowed, never uses its z: where the
+        // last reduction of |r| predicts that, |r| is updated first and the
+        // preconditioner applied only if the solve goes on (a V-cycle saved
+        // per solve for one more pass over r and q).
+        let likely_last = precond.costly()
+            && (k + 1 >= max_iter || r_norm * (r_norm / r_norm_prev) <= LIKELY_LAST * threshold);
+        r_norm_prev = r_norm;
+        let (rr, rz_new) = if likely_last {
+            let rr = update_residual(alpha, q, r);
+            if rr.sqrt() <= threshold || k + 1 >= max_iter {
+                (rr, rz)
+            } else {
+                (rr, precond.apply_dot(r, z))
+            }
+        } else {
+            precond.update_and_apply(alpha, q, r, z)
+        };
         filter.project(z);
         r_norm = rr.sqrt();
         beta = rz_new / rz;
@@ -494,6 +519,23 @@ where
         }
     }
     Ok(info)
+}
+
+/// How far above the tolerance the predicted next `|r|` (the last one
+/// times the last reduction factor) may lie for CG to test `|r|` before
+/// applying the preconditioner: a wrong guess costs one pass over two
+/// vectors, a right one a preconditioner application (a V-cycle).
+const LIKELY_LAST: f64 = 2.0;
+
+/// `r -= alpha q`, returning the new `r . r` (the first half of
+/// [`Preconditioner::update_and_apply`]'s default).
+fn update_residual(alpha: f64, q: &[f64], r: &mut [f64]) -> f64 {
+    let mut rr = 0.0;
+    for (ri, qi) in r.iter_mut().zip(q) {
+        *ri -= alpha * qi;
+        rr += *ri * *ri;
+    }
+    rr
 }
 
 /// `r . M^-1 r` must be positive and finite for a usable preconditioner.
@@ -563,6 +605,76 @@ mod tests {
             assert!(norm2(&res) <= 1e-9 * norm2(&b), "{kind}");
             assert!(rel_diff(&x, &exact) < 1e-8, "{kind}");
         }
+    }
+
+    /// A preconditioner that counts its applications and claims to be costly or not.
+    struct Counted<'a> {
+        inner: &'a IncompleteCholesky,
+        costly: bool,
+        applications: std::sync::atomic::AtomicUsize,
+    }
+
+    impl Preconditioner for Counted<'_> {
+        fn dim(&self) -> Option<usize> {
+            self.inner.dim()
+        }
+        fn apply(&self, r: &[f64], z: &mut [f64]) {
+            self.applications
+                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            self.inner.apply(r, z);
+        }
+        fn costly(&self) -> bool {
+            self.costly
+        }
+    }
+
+    #[test]
+    fn a_costly_preconditioner_is_not_applied_in_the_iteration_that_converges() {
+        let a = spd_block_matrix(12, 12);
+        let b = rhs(a.dim());
+        let mut ic = IncompleteCholesky::new();
+        ic.setup(&a).unwrap();
+        let mut ws = CgWorkspace::new(a.dim());
+        let solve = |costly: bool, rtol: f64, max_iter: Option<usize>, ws: &mut CgWorkspace| {
+            let p = Counted {
+                inner: &ic,
+                costly,
+                applications: 0.into(),
+            };
+            let mut x = vec![0.0; a.dim()];
+            let params = CgParams {
+                rtol,
+                max_iter,
+                ..Default::default()
+            };
+            let info = pcg(&a, &p, &b, &mut x, &params, ws, None).unwrap();
+            (info, x, p.applications.into_inner())
+        };
+        for rtol in [1e-2, 1e-6, 1e-10] {
+            let (cheap, x_cheap, n_cheap) = solve(false, rtol, None, &mut ws);
+            let (costly, x_costly, n_costly) = solve(true, rtol, None, &mut ws);
+            assert!(cheap.converged && costly.converged, "rtol {rtol}");
+            assert!(cheap.iterations >= 2, "rtol {rtol}: a test of nothing");
+            // The same iterates (the same r . z, p . A p): the fused pass
+            // applies M^-1 once per iteration plus the start's.
+            assert_eq!(costly.iterations, cheap.iterations, "rtol {rtol}");
+            assert_eq!(x_costly, x_cheap, "rtol {rtol}");
+            assert_eq!(n_cheap, cheap.iterations + 1, "rtol {rtol}");
+            // The converging iteration tests |r| first and skips its application.
+            assert_eq!(n_costly, costly.iterations, "rtol {rtol}");
+            // The true residual meets the tolerance.
+            let mut ax = vec![0.0; a.dim()];
+            a.mul_vec(&x_costly, &mut ax).unwrap();
+            let res: Vec<f64> = ax.iter().zip(&b).map(|(u, v)| u - v).collect();
+            assert!(norm2(&res) <= 1.01 * rtol * norm2(&b), "rtol {rtol}");
+        }
+        // The last iteration allowed never applies it either.
+        let (info, _, n) = solve(true, 1e-14, Some(3), &mut ws);
+        assert!(!info.converged);
+        assert_eq!((info.iterations, n), (3, 3));
+        // A start that already meets the tolerance: no application at all.
+        let (info, _, n) = solve(true, 2.0, None, &mut ws);
+        assert_eq!((info.iterations, n), (0, 0));
     }
 
     #[test]

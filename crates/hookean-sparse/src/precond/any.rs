@@ -220,6 +220,9 @@ impl Preconditioner for AnyPreconditioner {
     fn update_and_apply(&self, alpha: f64, q: &[f64], r: &mut [f64], z: &mut [f64]) -> (f64, f64) {
         dispatch!(self, pc => pc.update_and_apply(alpha, q, r, z))
     }
+    fn costly(&self) -> bool {
+        dispatch!(self, pc => pc.costly())
+    }
 }
 
 impl<A: ?Sized> PreconditionerSetup<A> for AnyPreconditioner

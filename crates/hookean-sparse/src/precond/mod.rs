@@ -67,6 +67,16 @@ pub trait Preconditioner {
         }
         (rr, self.apply_dot(r, z))
     }
+
+    /// Whether one application costs several products with `A` (multigrid),
+    /// so that CG should, in an iteration predicted to be its last, update
+    /// `r` and test `|r|` before applying the preconditioner instead of
+    /// calling the fused [`update_and_apply`](Self::update_and_apply): one
+    /// more pass over `r` and `q` against an application saved per solve.
+    /// Default `false` (cheap preconditioners keep the fused pass and their bits).
+    fn costly(&self) -> bool {
+        false
+    }
 }
 
 /// Builds (or rebuilds) a preconditioner from a matrix of type `A`.
@@ -93,6 +103,9 @@ impl<P: Preconditioner + ?Sized> Preconditioner for &P {
     }
     fn update_and_apply(&self, alpha: f64, q: &[f64], r: &mut [f64], z: &mut [f64]) -> (f64, f64) {
         (**self).update_and_apply(alpha, q, r, z)
+    }
+    fn costly(&self) -> bool {
+        (**self).costly()
     }
 }
 

@@ -779,6 +779,12 @@ impl PreconditionerSetup<sprs::CsMat<f64>> for Amg {
 }
 
 impl Preconditioner for Amg {
+    /// A V-cycle costs about three products with `A`: CG does not apply it
+    /// in the iteration it predicts to be its last.
+    fn costly(&self) -> bool {
+        true
+    }
+
     fn dim(&self) -> Option<usize> {
         Some(match &self.inner {
             Inner::Empty => 0,
