@@ -23,7 +23,7 @@ use criterion::{BenchmarkId, Criterion};
 use faer::{Accum, MatMut, MatRef, Par};
 use hookean_sparse::{
     AnyPreconditioner, CgParams, CgWorkspace, LinearOperator, PrecondKind, Preconditioner,
-    PreconditionerSetup, SymBlockMatrix, pcg,
+    PreconditionerSetup, SymBlockMatrix, SymCsrMatrix, pcg,
 };
 use hookean_testkit::cloth::{ClothSystemParams, cloth_system};
 
@@ -346,12 +346,14 @@ fn bandwidth() {
     }
 }
 
-/// `--spmv-files A.mtx...`: the CSR SpMV `hookean solve --format csr` runs
-/// (the [`LinearOperator`] of `sprs::CsMat`, 8-byte indices) on each file, best
-/// of about a second of runs, and STREAM's triad on vectors as large as the bytes
-/// the SpMV must stream (values and indices, row pointers, `x` read, `y`
-/// written), in the current pool (`RAYON_NUM_THREADS=1` for one thread). One JSON
-/// line per file, for scripts/peers/compare.sh (issue 29).
+/// `--spmv-files A.mtx...`: the CSR SpMV on each file, best of about a second
+/// of runs, two kernels: the product `hookean solve --format csr` runs (the
+/// symmetric [`SymCsrMatrix`]: diagonal, upper triangle, `u32` indices) and the
+/// [`LinearOperator`] of the full `sprs::CsMat` (8-byte indices); each with
+/// STREAM's triad on vectors as large as the bytes the kernel must stream
+/// (values and indices, row pointers, the diagonal, `x` read, `y` written), in
+/// the current pool (`RAYON_NUM_THREADS=1` for one thread). One JSON line per
+/// file and kernel, for scripts/peers/compare.sh (issue 29).
 fn spmv_files(paths: &[String]) {
     for path in paths {
         let a = match hookean_sparse::read_matrix_market_file(path) {
@@ -364,17 +366,25 @@ fn spmv_files(paths: &[String]) {
         let (n, nnz) = (a.rows(), a.nnz());
         let x = vec![1.0; n];
         let mut y = vec![0.0; n];
-        let once = best_of(1, || a.apply(black_box(&x), &mut y));
-        let reps = ((1.0 / once) as usize).clamp(10, 100_000);
-        let t = best_of(reps, || a.apply(black_box(&x), &mut y));
         let word = std::mem::size_of::<usize>() as f64;
+        let mut report = |tool: &str, index_bytes: f64, bytes: f64, op: &dyn LinearOperator| {
+            let once = best_of(1, || op.apply(black_box(&x), &mut y));
+            let reps = ((1.0 / once) as usize).clamp(10, 100_000);
+            let t = best_of(reps, || op.apply(black_box(&x), &mut y));
+            let len = (bytes / 24.0) as usize;
+            let triad = triad_gbs(len.max(1024), reps.min(1000));
+            println!(
+                "{{\"kind\":\"spmv\",\"matrix\":\"{path}\",\"tool\":\"{tool}\",\"index_bytes\":{index_bytes},\"rows\":{n},\"nnz\":{nnz},\"spmv_s\":{t:.6e},\"bytes\":{bytes:.0},\"triad_gbs\":{triad:.2},\"check\":{:.6e}}}",
+                y.iter().sum::<f64>()
+            );
+        };
+        if let Ok(s) = SymCsrMatrix::from_csr(&a) {
+            let m = (s.stored() - n) as f64;
+            let bytes = m * 12.0 + (n + 1) as f64 * word + 24.0 * n as f64;
+            report("hookean symmetric CSR", 4.0, bytes, &s);
+        }
         let bytes = nnz as f64 * (8.0 + word) + (n + 1) as f64 * word + 16.0 * n as f64;
-        let len = (bytes / 24.0) as usize;
-        let triad = triad_gbs(len.max(1024), reps.min(1000));
-        println!(
-            "{{\"kind\":\"spmv\",\"matrix\":\"{path}\",\"tool\":\"hookean CSR\",\"index_bytes\":{word},\"rows\":{n},\"nnz\":{nnz},\"spmv_s\":{t:.6e},\"bytes\":{bytes:.0},\"triad_gbs\":{triad:.2},\"check\":{:.6e}}}",
-            y.iter().sum::<f64>()
-        );
+        report("hookean CSR", word, bytes, &a);
     }
 }
 

@@ -13,9 +13,8 @@
 use crate::error::SparseError;
 use crate::operator::LinearOperator;
 
-/// A symmetric `n x n` matrix as the upper triangle of CSR: each row holds
-/// its diagonal entry first (zero when the input has none), then the
-/// entries right of the diagonal in increasing column order.
+/// A symmetric `n x n` matrix as its diagonal and strict upper triangle
+/// in CSR (`u32` column indices, increasing in each row).
 ///
 /// ```
 /// use hookean_sparse::{LinearOperator, SymCsrMatrix, sprs};
@@ -27,12 +26,14 @@ use crate::operator::LinearOperator;
 /// assert_eq!(y, [6.0, 7.0]);
 /// # Ok::<(), hookean_sparse::SparseError>(())
 /// ```
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct SymCsrMatrix {
-    n: usize,
-    row_ptr: Vec<usize>,
-    col: Vec<u32>,
-    val: Vec<f64>,
+    /// `a_ii` (zero where the input stores none).
+    pub(crate) diag: Vec<f64>,
+    /// Row `i`'s entries right of the diagonal: `row_ptr[i]..row_ptr[i + 1]`.
+    pub(crate) row_ptr: Vec<usize>,
+    pub(crate) col: Vec<u32>,
+    pub(crate) val: Vec<f64>,
 }
 
 impl SymCsrMatrix {
@@ -46,6 +47,21 @@ impl SymCsrMatrix {
     /// triangle is such a matrix), [`SparseError::InvalidParameter`] above
     /// `u32::MAX` rows.
     pub fn from_csr(a: &sprs::CsMat<f64>) -> Result<Self, SparseError> {
+        crate::precond::square_dim(a)?;
+        crate::matrix::check_csr_symmetric(a)?;
+        let mut s = Self::default();
+        s.refill_upper(a)?;
+        Ok(s)
+    }
+
+    /// Refills `self` with the diagonal and upper triangle of `a`, reusing
+    /// the storage (no allocation once it is large enough). Symmetry is the
+    /// caller's to check: the lower triangle is not read.
+    ///
+    /// # Errors
+    /// [`SparseError::NotSquare`], [`SparseError::InvalidParameter`] above
+    /// `u32::MAX` rows.
+    pub(crate) fn refill_upper(&mut self, a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
         let n = crate::precond::square_dim(a)?;
         if n > u32::MAX as usize {
             return Err(SparseError::InvalidParameter {
@@ -53,89 +69,124 @@ impl SymCsrMatrix {
                 message: format!("{n} rows exceed the u32 index range"),
             });
         }
-        crate::matrix::check_csr_symmetric(a)?;
         let csr = crate::precond::as_csr(a);
         let indptr = csr.proper_indptr();
         let (indices, data) = (csr.indices(), csr.data());
-        let mut row_ptr = Vec::with_capacity(n + 1);
-        let mut col = Vec::new();
-        let mut val = Vec::new();
-        row_ptr.push(0);
-        for i in 0..n {
-            let (s, e) = (indptr[i], indptr[i + 1]);
-            let diag = (s..e).find(|&k| indices[k] == i).map_or(0.0, |k| data[k]);
-            col.push(i as u32);
-            val.push(diag);
-            for k in s..e {
-                if indices[k] > i {
-                    col.push(indices[k] as u32);
-                    val.push(data[k]);
+        self.diag.clear();
+        self.row_ptr.clear();
+        self.col.clear();
+        self.val.clear();
+        self.row_ptr.push(0);
+        for (i, w) in indptr.windows(2).enumerate() {
+            let (cols, vals) = (&indices[w[0]..w[1]], &data[w[0]..w[1]]);
+            let mut diag = 0.0;
+            for (&j, &v) in cols.iter().zip(vals) {
+                if j == i {
+                    diag = v;
+                } else if j > i {
+                    self.col.push(j as u32);
+                    self.val.push(v);
                 }
             }
-            row_ptr.push(col.len());
+            self.diag.push(diag);
+            self.row_ptr.push(self.col.len());
         }
-        Ok(Self {
-            n,
-            row_ptr,
-            col,
-            val,
-        })
+        Ok(())
     }
 
     /// The dimension `n`.
     pub fn dim(&self) -> usize {
-        self.n
+        self.diag.len()
     }
 
     /// Entries stored (the diagonal and the upper triangle).
     pub fn stored(&self) -> usize {
-        self.val.len()
+        self.diag.len() + self.val.len()
     }
 
-    /// Row `i`'s `(p_i after the update, y_i from the upper triangle, the
-    /// off-diagonal part of p . A p)`, adding `a_ij p_i` to the `y_j` of the
-    /// rows right of the diagonal. Rows are visited in decreasing order, so
-    /// `p_j` (j > i) is already updated and `y_j` already assigned.
-    #[inline]
-    fn row(&self, i: usize, pi: f64, p: &[f64], y: &mut [f64]) -> (f64, f64) {
+    /// Row `i`'s columns and values right of the diagonal.
+    #[inline(always)]
+    pub(crate) fn upper_row(&self, i: usize) -> (&[u32], &[f64]) {
         let (s, e) = (self.row_ptr[i], self.row_ptr[i + 1]);
-        let mut yi = self.val[s] * pi;
-        let mut off = 0.0;
-        for (&j, &a) in self.col[s + 1..e].iter().zip(&self.val[s + 1..e]) {
-            let j = j as usize;
-            let pj = p[j];
-            yi += a * pj;
-            off += a * pj;
-            y[j] += a * pi;
-        }
-        (yi, off)
+        (&self.col[s..e], &self.val[s..e])
     }
+}
+
+/// `sum_j a_ij p_j` over one row's upper entries, adding `a_ij p_i` to
+/// `y_j` (the transposed entry's share of row `j`). Two partial sums, so
+/// the adds do not wait on each other's latency.
+#[inline(always)]
+pub(crate) fn row_gather_scatter(
+    cols: &[u32],
+    vals: &[f64],
+    pi: f64,
+    p: &[f64],
+    y: &mut [f64],
+) -> f64 {
+    let (c2, c1) = cols.as_chunks::<2>();
+    let (v2, v1) = vals.as_chunks::<2>();
+    let (mut s0, mut s1) = (0.0, 0.0);
+    for (c, v) in c2.iter().zip(v2) {
+        let (j0, j1) = (c[0] as usize, c[1] as usize);
+        s0 += v[0] * p[j0];
+        y[j0] += v[0] * pi;
+        s1 += v[1] * p[j1];
+        y[j1] += v[1] * pi;
+    }
+    for (&j, &v) in c1.iter().zip(v1) {
+        let j = j as usize;
+        s0 += v * p[j];
+        y[j] += v * pi;
+    }
+    s0 + s1
+}
+
+/// `sum_j a_ij z_j` over one row's upper entries, in two partial sums.
+#[inline(always)]
+pub(crate) fn row_dot(cols: &[u32], vals: &[f64], z: &[f64]) -> f64 {
+    let (c2, c1) = cols.as_chunks::<2>();
+    let (v2, v1) = vals.as_chunks::<2>();
+    let (mut s0, mut s1) = (0.0, 0.0);
+    for (c, v) in c2.iter().zip(v2) {
+        s0 += v[0] * z[c[0] as usize];
+        s1 += v[1] * z[c[1] as usize];
+    }
+    for (&j, &v) in c1.iter().zip(v1) {
+        s0 += v * z[j as usize];
+    }
+    s0 + s1
 }
 
 impl LinearOperator for SymCsrMatrix {
     fn nrows(&self) -> usize {
-        self.n
+        self.dim()
     }
 
     fn apply(&self, x: &[f64], y: &mut [f64]) {
         self.apply_dot(x, y);
     }
 
-    /// `y = A x` and `x . A x` in one pass: `sum a_ii x_i^2 + 2 sum_{i<j}
-    /// a_ij x_i x_j` from the stored entries.
+    /// `y = A x` and `x . A x` in one pass, rows in decreasing order (row
+    /// `i` assigns `y_i` from its own entries after the rows `j > i`, and
+    /// adds `a_ij x_i` to their `y_j`): `x . A x = sum a_ii x_i^2 + 2
+    /// sum_{i<j} a_ij x_i x_j` from the stored entries.
     fn apply_dot(&self, x: &[f64], y: &mut [f64]) -> f64 {
+        let n = self.dim();
+        let (x, y) = (&x[..n], &mut y[..n]);
         let mut dot = 0.0;
-        for i in (0..self.n).rev() {
-            let xi = x[i];
-            let (yi, off) = self.row(i, xi, x, y);
-            y[i] = yi;
-            dot += self.val[self.row_ptr[i]] * xi * xi + 2.0 * xi * off;
+        for i in (0..n).rev() {
+            let (cols, vals) = self.upper_row(i);
+            let (xi, d) = (x[i], self.diag[i]);
+            let off = row_gather_scatter(cols, vals, xi, x, y);
+            y[i] = d * xi + off;
+            dot += xi * (d * xi + 2.0 * off);
         }
         dot
     }
 
     /// CG's `x += alpha p`, `p = z + beta p`, `q = A p` and `p . q` in one
-    /// pass over the matrix and the vectors.
+    /// pass over the matrix and the vectors, rows in decreasing order:
+    /// row `i`'s neighbours `j > i` hold their new `p_j` already.
     fn update_and_apply_dot(
         &self,
         z: &[f64],
@@ -145,14 +196,18 @@ impl LinearOperator for SymCsrMatrix {
         p: &mut [f64],
         q: &mut [f64],
     ) -> f64 {
+        let n = self.dim();
+        let (z, x, p, q) = (&z[..n], &mut x[..n], &mut p[..n], &mut q[..n]);
         let mut dot = 0.0;
-        for i in (0..self.n).rev() {
+        for i in (0..n).rev() {
+            let (cols, vals) = self.upper_row(i);
             x[i] += alpha * p[i];
             let pi = z[i] + beta * p[i];
             p[i] = pi;
-            let (qi, off) = self.row(i, pi, p, q);
-            q[i] = qi;
-            dot += self.val[self.row_ptr[i]] * pi * pi + 2.0 * pi * off;
+            let d = self.diag[i];
+            let off = row_gather_scatter(cols, vals, pi, p, q);
+            q[i] = d * pi + off;
+            dot += pi * (d * pi + 2.0 * off);
         }
         dot
     }

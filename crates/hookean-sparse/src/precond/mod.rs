@@ -161,62 +161,6 @@ pub(crate) fn check_both_triangles(
     })
 }
 
-/// A scalar CSR copy of a `sprs` matrix (converted from CSC if needed) with
-/// the position of every row's diagonal entry.
-#[derive(Debug, Clone, Default)]
-pub(crate) struct ScalarCsr {
-    pub indptr: Vec<usize>,
-    pub indices: Vec<usize>,
-    pub data: Vec<f64>,
-    /// Position of the diagonal entry of each row in `indices`/`data`.
-    pub diag: Vec<usize>,
-}
-
-impl ScalarCsr {
-    /// Refills `self` from `a`, reusing storage when the pattern is unchanged.
-    /// Every row must store its diagonal entry.
-    pub fn refill(&mut self, a: &sprs::CsMat<f64>, who: &'static str) -> Result<(), SparseError> {
-        let n = square_dim(a)?;
-        let a = &*as_csr(a);
-        let indptr = a.proper_indptr();
-        let same = self.indptr.as_slice() == &*indptr && self.indices.as_slice() == a.indices();
-        if !same {
-            check_both_triangles(&indptr, a.indices(), who)?;
-            self.indptr = indptr.into_owned();
-            self.indices = a.indices().to_vec();
-            self.diag.clear();
-            for i in 0..n {
-                let row = &self.indices[self.indptr[i]..self.indptr[i + 1]];
-                match row.binary_search(&i) {
-                    Ok(k) => self.diag.push(self.indptr[i] + k),
-                    Err(_) => {
-                        // Forget the half-built pattern so a later call starts afresh.
-                        self.indptr.clear();
-                        return Err(SparseError::NonPositiveDiagonal {
-                            preconditioner: who,
-                            row: i,
-                            value: 0.0,
-                        });
-                    }
-                }
-            }
-        }
-        self.data.clear();
-        self.data.extend_from_slice(a.data());
-        if let Some(k) = self.data.iter().position(|v| !v.is_finite()) {
-            return Err(SparseError::NonFinite {
-                what: "matrix",
-                index: Some(k),
-            });
-        }
-        Ok(())
-    }
-
-    pub fn n(&self) -> usize {
-        self.diag.len()
-    }
-}
-
 #[cfg(test)]
 pub(crate) mod testutil {
     //! Dense references for preconditioner tests.

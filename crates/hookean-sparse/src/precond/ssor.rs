@@ -2,9 +2,10 @@
 
 use std::sync::Arc;
 
-use super::{Preconditioner, PreconditionerSetup, ScalarCsr};
+use super::{Preconditioner, PreconditionerSetup};
 use crate::error::SparseError;
 use crate::matrix::SymBlockMatrix;
+use crate::symcsr::{SymCsrMatrix, row_dot};
 
 /// SSOR with relaxation `omega` in (0, 2):
 ///
@@ -24,7 +25,9 @@ pub struct Ssor {
 enum Storage {
     Empty,
     Block(SymBlockMatrix),
-    Csr(ScalarCsr),
+    /// A scalar matrix's diagonal and upper triangle (the lower one is its
+    /// transpose).
+    Csr(SymCsrMatrix),
 }
 
 impl Ssor {
@@ -123,24 +126,40 @@ impl Ssor {
         }
     }
 
-    fn apply_csr(&self, a: &ScalarCsr, r: &[f64], z: &mut [f64]) {
+    /// The forward sweep on scalar storage, in place: `(D + wL) y = z`.
+    /// `L = U^T` is read by columns: each finished `y_i` is pushed into the
+    /// later rows `j` of its upper row.
+    fn forward_csr(&self, a: &SymCsrMatrix, z: &mut [f64]) {
+        let w = self.omega;
+        let n = a.dim();
+        let (z, inv) = (&mut z[..n], &self.inv_diag[..n]);
+        for i in 0..n {
+            let yi = z[i] * inv[i];
+            z[i] = yi;
+            let wy = w * yi;
+            let (cols, vals) = a.upper_row(i);
+            for (&j, &v) in cols.iter().zip(vals) {
+                z[j as usize] -= v * wy;
+            }
+        }
+    }
+
+    /// The backward sweep on scalar storage, in place: `(D + wU) z = w (2 -
+    /// w) D y`, pulling the finished `z_j`, `j > i`; returns `r . z`.
+    fn backward_csr(&self, a: &SymCsrMatrix, r: &[f64], z: &mut [f64]) -> f64 {
         let w = self.omega;
         let c = w * (2.0 - w);
-        let n = a.n();
-        for i in 0..n {
-            let mut acc = r[i];
-            for k in a.indptr[i]..a.diag[i] {
-                acc -= w * a.data[k] * z[a.indices[k]];
-            }
-            z[i] = acc * self.inv_diag[i];
-        }
+        let n = a.dim();
+        let (r, z, inv) = (&r[..n], &mut z[..n], &self.inv_diag[..n]);
+        let mut rz = 0.0;
         for i in (0..n).rev() {
-            let mut acc = c * self.diag[i] * z[i];
-            for k in a.diag[i] + 1..a.indptr[i + 1] {
-                acc -= w * a.data[k] * z[a.indices[k]];
-            }
-            z[i] = acc * self.inv_diag[i];
+            let (cols, vals) = a.upper_row(i);
+            let s = row_dot(cols, vals, z);
+            let zi = (c * a.diag[i] * z[i] - w * s) * inv[i];
+            z[i] = zi;
+            rz += r[i] * zi;
         }
+        rz
     }
 }
 
@@ -149,7 +168,7 @@ impl Preconditioner for Ssor {
         Some(match &self.storage {
             Storage::Empty => 0,
             Storage::Block(a) => a.dim(),
-            Storage::Csr(a) => a.n(),
+            Storage::Csr(a) => a.dim(),
         })
     }
 
@@ -157,8 +176,47 @@ impl Preconditioner for Ssor {
         match &self.storage {
             Storage::Empty => panic!("SSOR preconditioner used before setup"),
             Storage::Block(a) => self.apply_block(a, r, z),
-            Storage::Csr(a) => self.apply_csr(a, r, z),
+            Storage::Csr(a) => {
+                z.copy_from_slice(r);
+                self.forward_csr(a, z);
+                self.backward_csr(a, r, z);
+            }
         }
+    }
+
+    fn apply_dot(&self, r: &[f64], z: &mut [f64]) -> f64 {
+        match &self.storage {
+            Storage::Csr(a) => {
+                z.copy_from_slice(r);
+                self.forward_csr(a, z);
+                self.backward_csr(a, r, z)
+            }
+            _ => {
+                self.apply(r, z);
+                crate::vecops::dot(r, z)
+            }
+        }
+    }
+
+    /// On scalar storage: `r -= alpha q` and `z = r` in one pass, then the
+    /// two sweeps, the backward one forming `r . z`.
+    fn update_and_apply(&self, alpha: f64, q: &[f64], r: &mut [f64], z: &mut [f64]) -> (f64, f64) {
+        let Storage::Csr(a) = &self.storage else {
+            let mut rr = 0.0;
+            for (ri, qi) in r.iter_mut().zip(q) {
+                *ri -= alpha * qi;
+                rr += *ri * *ri;
+            }
+            return (rr, self.apply_dot(r, z));
+        };
+        let mut rr = 0.0;
+        for ((ri, qi), zi) in r.iter_mut().zip(q).zip(z.iter_mut()) {
+            *ri -= alpha * qi;
+            rr += *ri * *ri;
+            *zi = *ri;
+        }
+        self.forward_csr(a, z);
+        (rr, self.backward_csr(a, r, z))
     }
 }
 
@@ -183,13 +241,26 @@ impl PreconditionerSetup<SymBlockMatrix> for Ssor {
 }
 
 impl PreconditionerSetup<sprs::CsMat<f64>> for Ssor {
+    /// Keeps the diagonal and the upper triangle of `a` (`u32` indices):
+    /// `a` must be symmetric (PCG's matrices are); its lower triangle is
+    /// taken to be the transpose of the upper one.
     fn setup(&mut self, a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
         let mut csr = match std::mem::replace(&mut self.storage, Storage::Empty) {
             Storage::Csr(c) => c,
-            _ => ScalarCsr::default(),
+            _ => SymCsrMatrix::default(),
         };
-        csr.refill(a, "SSOR")?;
-        self.store_diag(csr.n(), |i| csr.data[csr.diag[i]])?;
+        {
+            let a = super::as_csr(a);
+            super::check_both_triangles(&a.proper_indptr(), a.indices(), "SSOR")?;
+        }
+        csr.refill_upper(a)?;
+        if let Some(k) = csr.val.iter().position(|v| !v.is_finite()) {
+            return Err(SparseError::NonFinite {
+                what: "matrix",
+                index: Some(k),
+            });
+        }
+        self.store_diag(csr.dim(), |i| csr.diag[i])?;
         self.storage = Storage::Csr(csr);
         Ok(())
     }
@@ -244,6 +315,35 @@ mod tests {
             p.apply(&r, &mut z);
             assert!(rel_diff(&z, &expected) < 1e-12, "csr, omega {w}");
         }
+    }
+
+    /// The fused pass of scalar storage (`r -= alpha q`, the sweeps, `r . r`
+    /// and `r . z`) against the updated residual and the dense formula.
+    #[test]
+    fn csr_residual_update_and_sweeps_match_the_formula() {
+        let a = spd_block_matrix(3, 3);
+        let d = dense(&a);
+        let n = a.dim();
+        let q = rhs(n);
+        let mut r: Vec<f64> = q.iter().map(|v| (3.0 * v).cos()).collect();
+        let alpha = 0.4;
+        let r_new: Vec<f64> = r.iter().zip(&q).map(|(r, q)| r - alpha * q).collect();
+        let w = 1.3;
+        let expected = dense_solve(&ssor_matrix(&d, w), &r_new);
+        let mut p = Ssor::new(w).unwrap();
+        p.setup(&a.to_csr()).unwrap();
+        let mut z = vec![f64::NAN; n];
+        let (rr, rz) = p.update_and_apply(alpha, &q, &mut r, &mut z);
+        assert_eq!(r, r_new);
+        assert!(rel_diff(&z, &expected) < 1e-12);
+        let rr_ref: f64 = r_new.iter().map(|v| v * v).sum();
+        let rz_ref: f64 = r_new.iter().zip(&expected).map(|(a, b)| a * b).sum();
+        approx::assert_relative_eq!(rr, rr_ref, max_relative = 1e-12);
+        approx::assert_relative_eq!(rz, rz_ref, max_relative = 1e-10);
+        let mut z2 = vec![f64::NAN; n];
+        let rz2 = p.apply_dot(&r_new, &mut z2);
+        assert_eq!(z, z2);
+        assert_eq!(rz, rz2);
     }
 
     #[test]
