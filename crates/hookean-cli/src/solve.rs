@@ -300,7 +300,16 @@ pub fn run_solver(
                     product: Some(s),
                     ..
                 } => pcg.run(s, a),
-                Matrix::Csr { a, .. } => pcg.run(a, a),
+                // No symmetric product: `a` is not symmetric (or not finite),
+                // and PCG, like the direct solver, would solve another system.
+                Matrix::Csr { a, .. } => match hookean_sparse::check_csr_symmetric(a) {
+                    Ok(()) => pcg.run(a, a),
+                    Err(e) => {
+                        let mut record = empty_record("hookean-pcg", kind.to_string(), format);
+                        record.error = Some(format!("{e} (PCG needs a symmetric matrix)"));
+                        record
+                    }
+                },
             }
         }
         Solver::Direct => {

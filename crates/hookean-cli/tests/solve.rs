@@ -219,9 +219,9 @@ fn a_matrix_that_is_not_positive_definite_is_reported_per_solver() {
 }
 
 /// A solve that stops short of its tolerance is a failed run (exit 1), its
-/// JSON saying `"converged": false`; so is a direct (Cholesky) solve of a
-/// nonsymmetric matrix, which would otherwise read one triangle and solve
-/// another system.
+/// JSON saying `"converged": false`; so is a direct (Cholesky) or PCG solve
+/// of a nonsymmetric matrix, which would otherwise read one triangle and
+/// solve another system.
 #[test]
 fn unconverged_and_nonsymmetric_solves_exit_1() {
     let one_line = |out: &Output| -> serde_json::Value {
@@ -240,14 +240,17 @@ fn unconverged_and_nonsymmetric_solves_exit_1() {
         "nonsym.mtx",
         "%%MatrixMarket matrix coordinate real general\n2 2 3\n1 1 2.0\n1 2 1.0\n2 2 2.0\n",
     );
-    let out = hookean(&["solve", &general, "--precond", "direct"]);
-    assert_eq!(out.status.code(), Some(1));
-    let v = one_line(&out);
-    assert!(
-        v["error"].as_str().unwrap().contains("not symmetric"),
-        "{v}"
-    );
-    assert_eq!(v["converged"], false);
+    // PCG too: SSOR reads one triangle, CG assumes A = A^T.
+    for precond in ["direct", "jacobi", "ssor", "ic0", "amg"] {
+        let out = hookean(&["solve", &general, "--precond", precond]);
+        assert_eq!(out.status.code(), Some(1), "{precond}");
+        let v = one_line(&out);
+        assert!(
+            v["error"].as_str().unwrap().contains("not symmetric"),
+            "{precond}: {v}"
+        );
+        assert_eq!(v["converged"], false, "{precond}");
+    }
 }
 
 /// A reader that closes the pipe early (`hookean solve ... | head -1`) ends
