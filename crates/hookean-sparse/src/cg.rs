@@ -7,7 +7,7 @@ use crate::constraints::Constraints;
 use crate::error::{SparseError, check_finite, check_len};
 use crate::operator::LinearOperator;
 use crate::precond::Preconditioner;
-use crate::vecops::norm2;
+use crate::vecops::{norm2, update_residual};
 
 /// Where CG starts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -526,17 +526,6 @@ where
 /// applying the preconditioner: a wrong guess costs one pass over two
 /// vectors, a right one a preconditioner application (a V-cycle).
 const LIKELY_LAST: f64 = 2.0;
-
-/// `r -= alpha q`, returning the new `r . r` (the first half of
-/// [`Preconditioner::update_and_apply`]'s default).
-fn update_residual(alpha: f64, q: &[f64], r: &mut [f64]) -> f64 {
-    let mut rr = 0.0;
-    for (ri, qi) in r.iter_mut().zip(q) {
-        *ri -= alpha * qi;
-        rr += *ri * *ri;
-    }
-    rr
-}
 
 /// `r . M^-1 r` must be positive and finite for a usable preconditioner.
 fn check_preconditioned(rz: f64, iteration: usize) -> Result<(), SparseError> {

@@ -9,6 +9,18 @@ pub fn dot(x: &[f64], y: &[f64]) -> f64 {
     crate::par::tree_sum(n, &|a, b| dot_serial(&x[a..b], &y[a..b]))
 }
 
+/// CG's residual update `r -= alpha q`, returning the new `r . r`
+/// (summed serially in index order: the bits every fused variant keeps).
+#[inline]
+pub(crate) fn update_residual(alpha: f64, q: &[f64], r: &mut [f64]) -> f64 {
+    let mut rr = 0.0;
+    for (ri, qi) in r.iter_mut().zip(q) {
+        *ri -= alpha * qi;
+        rr += *ri * *ri;
+    }
+    rr
+}
+
 /// The serial kernel of [`dot`].
 #[inline]
 fn dot_serial(x: &[f64], y: &[f64]) -> f64 {

@@ -60,11 +60,7 @@ pub trait Preconditioner {
     /// `z = M^-1 r`; returns `(r . r, r . z)` of the new `r`. Pointwise
     /// preconditioners (Jacobi) do it in one pass.
     fn update_and_apply(&self, alpha: f64, q: &[f64], r: &mut [f64], z: &mut [f64]) -> (f64, f64) {
-        let mut rr = 0.0;
-        for (ri, qi) in r.iter_mut().zip(q) {
-            *ri -= alpha * qi;
-            rr += *ri * *ri;
-        }
+        let rr = crate::vecops::update_residual(alpha, q, r);
         (rr, self.apply_dot(r, z))
     }
 

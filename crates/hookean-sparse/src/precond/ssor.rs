@@ -202,11 +202,7 @@ impl Preconditioner for Ssor {
     /// two sweeps, the backward one forming `r . z`.
     fn update_and_apply(&self, alpha: f64, q: &[f64], r: &mut [f64], z: &mut [f64]) -> (f64, f64) {
         let Storage::Csr(a) = &self.storage else {
-            let mut rr = 0.0;
-            for (ri, qi) in r.iter_mut().zip(q) {
-                *ri -= alpha * qi;
-                rr += *ri * *ri;
-            }
+            let rr = crate::vecops::update_residual(alpha, q, r);
             return (rr, self.apply_dot(r, z));
         };
         let mut rr = 0.0;
