@@ -114,6 +114,25 @@ pub(crate) const SOLVE: &[Case] = &[
         "not symmetric",
     ),
     case(
+        "solve: a nonsymmetric general matrix given to PCG",
+        &[(
+            "a.mtx",
+            "%%MatrixMarket matrix coordinate real general\n2 2 3\n1 1 2.0\n1 2 1.0\n2 2 2.0\n",
+        )],
+        &[
+            "solve",
+            "{}/a.mtx",
+            "--precond",
+            "ssor",
+            "--format",
+            "csr",
+            "--block-size",
+            "1",
+        ],
+        1,
+        "not symmetric",
+    ),
+    case(
         "solve: an indefinite matrix with PCG",
         &[
             (
