@@ -862,6 +862,67 @@ mod tests {
         }
     }
 
+    /// Product rows whose columns span more than [`SLOT_WINDOW`] (the
+    /// forward scan) and fewer (the slot table), in `f64` and in `f32`
+    /// storage, against the dense product of the same entries.
+    #[test]
+    fn product_values_match_dense_products_on_wide_and_narrow_rows() {
+        let n = SLOT_WINDOW + 1000;
+        // Y: entry k + 1 at (k, k) and 1 / 2 at (k, k + 100 mod n).
+        let mut y = Bsr::<1>::empty(n, n);
+        y.row_ptr.clear();
+        y.row_ptr.push(0);
+        for k in 0..n {
+            let mut row = [(k, (k + 1) as f64), ((k + 100) % n, 0.5)];
+            row.sort_by_key(|e| e.0);
+            for (j, v) in row {
+                y.col.push(j as u32);
+                y.val.push([[v]]);
+            }
+            y.row_ptr.push(y.col.len());
+        }
+        // X: row 0 spans the whole width (columns 0 and n - 1), row 1 is narrow.
+        let x = Bsr::<1> {
+            nrows: 2,
+            ncols: n,
+            row_ptr: vec![0, 2, 4],
+            col: vec![0, n as u32 - 1, 5, 10],
+            val: vec![[[2.0]], [[-3.0]], [[1.5]], [[4.0]]],
+        };
+        let dense = |i: usize, j: usize| -> f64 {
+            let yv = |k: usize| {
+                let r = y.row(k);
+                y.col[r.clone()]
+                    .iter()
+                    .zip(&y.val[r])
+                    .find(|(c, _)| **c as usize == j)
+                    .map_or(0.0, |(_, v)| v[0][0])
+            };
+            let r = x.row(i);
+            x.col[r.clone()]
+                .iter()
+                .zip(&x.val[r])
+                .map(|(&k, v)| v[0][0] * yv(k as usize))
+                .sum()
+        };
+        let mut c64: Bsr<1> = product_pattern(&x, &y);
+        let mut c32: Bsr<1, f32> = product_pattern(&x, &y);
+        let spans: Vec<u32> = (0..2)
+            .map(|i| c64.col[c64.row_ptr[i + 1] - 1] - c64.col[c64.row_ptr[i]])
+            .collect();
+        assert!(spans[0] as usize >= SLOT_WINDOW && (spans[1] as usize) < SLOT_WINDOW);
+        product_values(&x, &y, &mut c64);
+        product_values(&x, &y, &mut c32);
+        for i in 0..2 {
+            for s in c64.row(i) {
+                let e = dense(i, c64.col[s] as usize);
+                assert!(e != 0.0);
+                assert_eq!(c64.val[s][0][0], e, "row {i}, column {}", c64.col[s]);
+                assert_eq!(c32.val[s][0][0], e as f32, "row {i}, column {}", c64.col[s]);
+            }
+        }
+    }
+
     #[test]
     fn product_and_transpose_match_dense_products() {
         // X: 3x2 block rows/cols of 2x2 blocks, Y: 2x3.
