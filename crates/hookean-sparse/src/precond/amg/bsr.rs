@@ -437,27 +437,17 @@ impl<const B: usize, S: Entry, const C: usize> Bsr<B, S, C> {
     /// The pattern of `A^T` (values zero) and, for every slot of it, the
     /// slot of `A` it transposes.
     pub fn transpose_pattern(&self) -> (Bsr<C, S, B>, Vec<u32>) {
-        let mut count = vec![0usize; self.ncols + 1];
-        for &c in &self.col {
-            count[c as usize + 1] += 1;
-        }
-        for j in 0..self.ncols {
-            count[j + 1] += count[j];
-        }
-        let row_ptr = count.clone();
-        let mut next = count;
+        let row_ptr = column_pointers(self.ncols, &self.col);
         let nnz = self.col.len();
         let mut col = vec![0u32; nnz];
         let mut map = vec![0u32; nnz];
-        for i in 0..self.nrows {
-            for k in self.row(i) {
-                let j = self.col[k] as usize;
-                let p = next[j];
-                next[j] += 1;
-                col[p] = i as u32;
-                map[p] = k as u32;
-            }
-        }
+        scatter_transpose(
+            &self.row_ptr,
+            &self.col,
+            &mut row_ptr.clone(),
+            &mut col,
+            |p, k| map[p] = k as u32,
+        );
         let t = Bsr {
             nrows: self.ncols,
             ncols: self.nrows,
@@ -479,7 +469,51 @@ impl<const B: usize, S: Entry, const C: usize> Bsr<B, S, C> {
     }
 }
 
-/// The pattern of the product `C = X Y` (values zero), columns sorted.
+/// The row pointers of the transpose of a pattern with `ncols` columns
+/// whose column indices are `col`: the prefix sums of the column counts.
+fn column_pointers(ncols: usize, col: &[u32]) -> Vec<usize> {
+    let mut ptr = vec![0usize; ncols + 1];
+    for &c in col {
+        ptr[c as usize + 1] += 1;
+    }
+    for j in 0..ncols {
+        ptr[j + 1] += ptr[j];
+    }
+    ptr
+}
+
+/// The counting-sort transpose of the pattern `(row_ptr, col)` into `col_t`,
+/// `next` holding on entry the row pointers of the transpose
+/// ([`column_pointers`]): rows are visited in order, so every row of the
+/// transpose comes out sorted whatever the order of the columns within the
+/// rows of the input. `moved(p, k)`: slot `p` of the transpose is slot `k`
+/// of the input.
+#[inline(always)]
+fn scatter_transpose(
+    row_ptr: &[usize],
+    col: &[u32],
+    next: &mut [usize],
+    col_t: &mut [u32],
+    mut moved: impl FnMut(usize, usize),
+) {
+    for i in 0..row_ptr.len() - 1 {
+        for k in row_ptr[i]..row_ptr[i + 1] {
+            let j = col[k] as usize;
+            let p = next[j];
+            next[j] += 1;
+            col_t[p] = i as u32;
+            moved(p, k);
+        }
+    }
+}
+
+/// The pattern of the product `C = X Y` (values zero), columns sorted,
+/// without a sort: Gustavson's symbolic product (row `i` of `C` is the
+/// union of the rows of `Y` that row `i` of `X` selects, found with one
+/// marker per column) leaves every row's columns in the order they were
+/// found; two counting-sort transposes, `C -> C^T -> C`, put them in order
+/// in `O(nnz(C) + n)` (Gustavson 1978, "Two fast algorithms for sparse
+/// matrices: multiplication and permuted transposition").
 pub(crate) fn product_pattern<
     const B: usize,
     const M: usize,
@@ -491,25 +525,28 @@ pub(crate) fn product_pattern<
     x: &Bsr<B, S, M>,
     y: &Bsr<M, T, C>,
 ) -> Bsr<B, U, C> {
-    let mut marker = vec![usize::MAX; y.ncols];
+    // Row `i` marks column `j` with `i + 1` (0: no row yet).
+    let mut marker = vec![0u32; y.ncols];
     let mut row_ptr = Vec::with_capacity(x.nrows + 1);
-    let mut col: Vec<u32> = Vec::new();
+    let mut col: Vec<u32> = Vec::with_capacity(x.col.len());
     row_ptr.push(0);
     for i in 0..x.nrows {
-        let start = col.len();
+        let mark = i as u32 + 1;
         for k in x.row(i) {
-            let m = x.col[k] as usize;
-            for q in y.row(m) {
-                let j = y.col[q] as usize;
-                if marker[j] != i {
-                    marker[j] = i;
-                    col.push(j as u32);
+            for &j in &y.col[y.row(x.col[k] as usize)] {
+                if marker[j as usize] != mark {
+                    marker[j as usize] = mark;
+                    col.push(j);
                 }
             }
         }
-        col[start..].sort_unstable();
         row_ptr.push(col.len());
     }
+    drop(marker);
+    let t_ptr = column_pointers(y.ncols, &col);
+    let mut t_col = vec![0u32; col.len()];
+    scatter_transpose(&row_ptr, &col, &mut t_ptr.clone(), &mut t_col, |_, _| {});
+    scatter_transpose(&t_ptr, &t_col, &mut row_ptr.clone(), &mut col, |_, _| {});
     let nnz = col.len();
     Bsr {
         nrows: x.nrows,
@@ -522,9 +559,11 @@ pub(crate) fn product_pattern<
 
 /// The numbers of `C = X Y` on the pattern from [`product_pattern`]
 /// (Gustavson's row-by-row product, rows split across threads). The slot
-/// of every product term in row `i` of `C` is found by a forward scan of
-/// the row's sorted columns (the columns of a row of `Y` are sorted too),
-/// so no scatter array is needed and rows are independent.
+/// of every product term in row `i` of `C` is read from a table of the
+/// row's columns when they span at most [`SLOT_WINDOW`] columns, else
+/// found by a forward scan of the row's sorted columns (the columns of a
+/// row of `Y` are sorted too); either way rows are independent and the
+/// terms are added in the same order.
 pub(crate) fn product_values<
     const B: usize,
     const M: usize,
@@ -541,18 +580,19 @@ pub(crate) fn product_values<
     par::row_slices_with(
         c_ptr,
         &mut c.val,
-        &row_buffer,
-        &|i, vals: &mut [SBlk<U, B, C>], acc| {
+        &RowScratch::new,
+        &|i, vals: &mut [SBlk<U, B, C>], scratch| {
             let cols = &c_col[c_ptr[i]..c_ptr[i + 1]];
-            product_row(x, y, i, cols, 0, vals, acc, |_| true);
+            product_row(x, y, i, cols, 0, vals, scratch, |_| true);
         },
     );
 }
 
 /// Row `i` of `C = X Y` into `vals` (the slots of `cols[first..]`), for
 /// the product terms whose column passes `keep`: accumulated in place when
-/// `C` stores `f64`, else in `f64` in `acc` (the task's scratch, see
-/// [`row_buffer`]) for rows up to [`ROW_BUFFER`] blocks and then rounded once.
+/// `C` stores `f64`, else in `f64` in the task's scratch for rows up to
+/// [`ROW_BUFFER`] blocks and then rounded once.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn product_row<const B: usize, const M: usize, const C: usize, S: Entry, T: Entry, U: Entry>(
     x: &Bsr<B, S, M>,
@@ -561,13 +601,15 @@ fn product_row<const B: usize, const M: usize, const C: usize, S: Entry, T: Entr
     cols: &[u32],
     first: usize,
     vals: &mut [SBlk<U, B, C>],
-    acc: &mut [Blk<B, C>; ROW_BUFFER],
+    scratch: &mut RowScratch<B, C>,
     keep: impl Fn(u32) -> bool,
 ) {
     let n = cols.len() - first;
+    let RowScratch { acc, slots } = scratch;
+    let table = SlotTable::new(cols, first, slots);
     if !U::EXACT && n <= ROW_BUFFER {
         acc[..n].fill(zero::<B, C>());
-        product_terms(x, y, i, cols, first, keep, load, |xk, yq, p| {
+        product_terms(x, y, i, &table, keep, load, |xk, yq, p| {
             mul_mat_add(xk, &load(yq), &mut acc[p - first]);
         });
         for (v, a) in vals[first..].iter_mut().zip(&acc[..n]) {
@@ -579,8 +621,7 @@ fn product_row<const B: usize, const M: usize, const C: usize, S: Entry, T: Entr
             x,
             y,
             i,
-            cols,
-            first,
+            &table,
             keep,
             |b| *b,
             |xk, yq, p| {
@@ -590,17 +631,45 @@ fn product_row<const B: usize, const M: usize, const C: usize, S: Entry, T: Entr
     }
 }
 
+/// Where the column `j` of a product term sits in a row's sorted columns
+/// `cols[first..]`: `slots[j - cols[first]]` when the columns span at most
+/// [`SLOT_WINDOW`] (the table filled for the row: one write per column),
+/// else a forward scan from `first` (restarted for every block of `X`).
+struct SlotTable<'a> {
+    cols: &'a [u32],
+    first: usize,
+    window: Option<(u32, &'a [u32; SLOT_WINDOW])>,
+}
+
+impl<'a> SlotTable<'a> {
+    #[inline(always)]
+    fn new(cols: &'a [u32], first: usize, slots: &'a mut [u32; SLOT_WINDOW]) -> Self {
+        let window = match (cols.get(first), cols.last()) {
+            (Some(&lo), Some(&hi)) if ((hi - lo) as usize) < SLOT_WINDOW => {
+                for (p, &j) in cols.iter().enumerate().skip(first) {
+                    slots[(j - lo) as usize] = p as u32;
+                }
+                Some((lo, &*slots))
+            }
+            _ => None,
+        };
+        Self {
+            cols,
+            first,
+            window,
+        }
+    }
+}
+
 /// Every term `X_ik Y_kj` of row `i` of `X Y` whose column `j` is kept:
-/// `add(prepare(X_ik), Y_kj, p)` with `p` the slot of `j` in `cols`
-/// (sorted, from `first`; `prepare` runs once per block of `X`).
-#[allow(clippy::too_many_arguments)]
+/// `add(prepare(X_ik), Y_kj, p)` with `p` the slot of `j` in the row's
+/// columns (`table`; `prepare` runs once per block of `X`).
 #[inline(always)]
 fn product_terms<const B: usize, const M: usize, const C: usize, S: Entry, T: Entry, P>(
     x: &Bsr<B, S, M>,
     y: &Bsr<M, T, C>,
     i: usize,
-    cols: &[u32],
-    first: usize,
+    table: &SlotTable<'_>,
     keep: impl Fn(u32) -> bool,
     prepare: impl Fn(&SBlk<S, B, M>) -> P,
     mut add: impl FnMut(&P, &SBlk<T, M, C>, usize),
@@ -608,16 +677,28 @@ fn product_terms<const B: usize, const M: usize, const C: usize, S: Entry, T: En
     for k in x.row(i) {
         let xk = prepare(&x.val[k]);
         let m = x.col[k] as usize;
-        let mut p = first;
-        for q in y.row(m) {
-            let j = y.col[q];
-            if !keep(j) {
-                continue;
+        let row = y.row(m);
+        let terms = y.col[row.clone()].iter().zip(&y.val[row]);
+        match table.window {
+            Some((lo, slots)) => {
+                for (&j, yq) in terms {
+                    if keep(j) {
+                        add(&xk, yq, slots[(j - lo) as usize] as usize);
+                    }
+                }
             }
-            while cols[p] != j {
-                p += 1;
+            None => {
+                let mut p = table.first;
+                for (&j, yq) in terms {
+                    if !keep(j) {
+                        continue;
+                    }
+                    while table.cols[p] != j {
+                        p += 1;
+                    }
+                    add(&xk, yq, p);
+                }
             }
-            add(&xk, &y.val[q], p);
         }
     }
 }
@@ -626,10 +707,24 @@ fn product_terms<const B: usize, const M: usize, const C: usize, S: Entry, T: En
 /// `f64` (rows of `A P` and `R A P` of a cloth have 8-12).
 const ROW_BUFFER: usize = 16;
 
-/// The accumulator of [`product_row`], made once per task of rows (not
-/// zeroed whole for every row: only a row's own part is).
-fn row_buffer<const B: usize, const C: usize>() -> [Blk<B, C>; ROW_BUFFER] {
-    [zero::<B, C>(); ROW_BUFFER]
+/// Product rows whose columns span at most this many get a slot table.
+const SLOT_WINDOW: usize = 2048;
+
+/// The scratch of [`product_row`], made once per task of rows (not zeroed
+/// whole for every row: only a row's own part is written): the `f64`
+/// accumulator of a row and the slot table of [`SlotTable`].
+struct RowScratch<const B: usize, const C: usize> {
+    acc: [Blk<B, C>; ROW_BUFFER],
+    slots: [u32; SLOT_WINDOW],
+}
+
+impl<const B: usize, const C: usize> RowScratch<B, C> {
+    fn new() -> Self {
+        Self {
+            acc: [zero::<B, C>(); ROW_BUFFER],
+            slots: [0; SLOT_WINDOW],
+        }
+    }
 }
 
 /// The numbers of the symmetric product `C = X Y` (the Galerkin operator
@@ -655,11 +750,11 @@ pub(crate) fn product_values_symmetric<
     par::row_slices_with(
         c_ptr,
         &mut c.val,
-        &row_buffer,
-        &|i, vals: &mut [SBlk<U, B>], acc| {
+        &RowScratch::new,
+        &|i, vals: &mut [SBlk<U, B>], scratch| {
             let cols = &c_col[c_ptr[i]..c_ptr[i + 1]];
             let first = cols.partition_point(|&j| (j as usize) < i);
-            product_row(x, y, i, cols, first, vals, acc, |j| j as usize >= i);
+            product_row(x, y, i, cols, first, vals, scratch, |j| j as usize >= i);
             // The diagonal block, symmetric in exact arithmetic, made exactly
             // symmetric (its rounding would otherwise differ across the diagonal).
             if cols.get(first) == Some(&(i as u32)) {
@@ -705,6 +800,127 @@ mod tests {
             (determinant(&m) - (4.0 * (6.0 - 0.04) - (2.0 + 0.1) + 0.5 * (-0.2 - 1.5))).abs()
                 < 1e-12
         );
+    }
+
+    /// A pattern (values zero) from a dense boolean matrix, each row's
+    /// columns in increasing order, or decreasing when `reversed`.
+    fn pattern_of(dense: &[Vec<bool>], ncols: usize, reversed: bool) -> Bsr<1> {
+        let mut m = Bsr::<1>::empty(dense.len(), ncols);
+        m.row_ptr.clear();
+        m.row_ptr.push(0);
+        for row in dense {
+            let mut cols: Vec<u32> = (0..ncols as u32).filter(|&j| row[j as usize]).collect();
+            if reversed {
+                cols.reverse();
+            }
+            m.col.extend(cols);
+            m.row_ptr.push(m.col.len());
+        }
+        m.val = vec![szero::<f64, 1, 1>(); m.col.len()];
+        m
+    }
+
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The sort-free symbolic product against the nonzero pattern of the
+        /// dense boolean product `C_ij = OR_k X_ik Y_kj` (rows of `X` and
+        /// `Y` given in any column order), and its transpose against the
+        /// dense transpose.
+        #[test]
+        fn product_pattern_is_the_dense_products_pattern(
+            (n, m, l, bits) in (1usize..12, 1usize..12, 1usize..12).prop_flat_map(|(n, m, l)| {
+                (Just(n), Just(m), Just(l), proptest::collection::vec(0u8..4, n * m + m * l))
+            }),
+            reversed in any::<bool>(),
+        ) {
+            // About one entry in four is structurally nonzero.
+            let xd: Vec<Vec<bool>> = (0..n).map(|i| (0..m).map(|k| bits[i * m + k] == 0).collect()).collect();
+            let yd: Vec<Vec<bool>> = (0..m).map(|k| (0..l).map(|j| bits[n * m + k * l + j] == 0).collect()).collect();
+            let x = pattern_of(&xd, m, reversed);
+            let y = pattern_of(&yd, l, !reversed);
+            let c: Bsr<1> = product_pattern(&x, &y);
+            let cd: Vec<Vec<bool>> = (0..n)
+                .map(|i| (0..l).map(|j| (0..m).any(|k| xd[i][k] && yd[k][j])).collect())
+                .collect();
+            let expected = pattern_of(&cd, l, false);
+            prop_assert_eq!((c.nrows, c.ncols), (n, l));
+            prop_assert_eq!(&c.row_ptr, &expected.row_ptr);
+            prop_assert_eq!(&c.col, &expected.col);
+            let (ct, map) = c.transpose_pattern();
+            let ctd: Vec<Vec<bool>> = (0..l).map(|j| (0..n).map(|i| cd[i][j]).collect()).collect();
+            let expected_t = pattern_of(&ctd, n, false);
+            prop_assert_eq!(&ct.row_ptr, &expected_t.row_ptr);
+            prop_assert_eq!(&ct.col, &expected_t.col);
+            for j in 0..l {
+                for p in ct.row(j) {
+                    let k = map[p] as usize;
+                    let i = c.row_ptr.partition_point(|&s| s <= k) - 1;
+                    prop_assert_eq!((i as u32, c.col[k]), (ct.col[p], j as u32));
+                }
+            }
+        }
+    }
+
+    /// Product rows whose columns span more than [`SLOT_WINDOW`] (the
+    /// forward scan) and fewer (the slot table), in `f64` and in `f32`
+    /// storage, against the dense product of the same entries.
+    #[test]
+    fn product_values_match_dense_products_on_wide_and_narrow_rows() {
+        let n = SLOT_WINDOW + 1000;
+        // Y: entry k + 1 at (k, k) and 1 / 2 at (k, k + 100 mod n).
+        let mut y = Bsr::<1>::empty(n, n);
+        y.row_ptr.clear();
+        y.row_ptr.push(0);
+        for k in 0..n {
+            let mut row = [(k, (k + 1) as f64), ((k + 100) % n, 0.5)];
+            row.sort_by_key(|e| e.0);
+            for (j, v) in row {
+                y.col.push(j as u32);
+                y.val.push([[v]]);
+            }
+            y.row_ptr.push(y.col.len());
+        }
+        // X: row 0 spans the whole width (columns 0 and n - 1), row 1 is narrow.
+        let x = Bsr::<1> {
+            nrows: 2,
+            ncols: n,
+            row_ptr: vec![0, 2, 4],
+            col: vec![0, n as u32 - 1, 5, 10],
+            val: vec![[[2.0]], [[-3.0]], [[1.5]], [[4.0]]],
+        };
+        let dense = |i: usize, j: usize| -> f64 {
+            let yv = |k: usize| {
+                let r = y.row(k);
+                y.col[r.clone()]
+                    .iter()
+                    .zip(&y.val[r])
+                    .find(|(c, _)| **c as usize == j)
+                    .map_or(0.0, |(_, v)| v[0][0])
+            };
+            let r = x.row(i);
+            x.col[r.clone()]
+                .iter()
+                .zip(&x.val[r])
+                .map(|(&k, v)| v[0][0] * yv(k as usize))
+                .sum()
+        };
+        let mut c64: Bsr<1> = product_pattern(&x, &y);
+        let mut c32: Bsr<1, f32> = product_pattern(&x, &y);
+        let spans: Vec<u32> = (0..2)
+            .map(|i| c64.col[c64.row_ptr[i + 1] - 1] - c64.col[c64.row_ptr[i]])
+            .collect();
+        assert!(spans[0] as usize >= SLOT_WINDOW && (spans[1] as usize) < SLOT_WINDOW);
+        product_values(&x, &y, &mut c64);
+        product_values(&x, &y, &mut c32);
+        for i in 0..2 {
+            for s in c64.row(i) {
+                let e = dense(i, c64.col[s] as usize);
+                assert!(e != 0.0);
+                assert_eq!(c64.val[s][0][0], e, "row {i}, column {}", c64.col[s]);
+                assert_eq!(c32.val[s][0][0], e as f32, "row {i}, column {}", c64.col[s]);
+            }
+        }
     }
 
     #[test]

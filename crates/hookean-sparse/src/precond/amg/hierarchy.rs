@@ -283,29 +283,29 @@ fn symbolic_transfer<const B: usize, const K: usize, S: Entry>(
     }
     let p: Bsr<B, S, K> = product_pattern(&af, &t);
     drop(af);
-    let slot_in_p = |i: usize, c: u32| {
-        let row = p.row(i);
-        row.start
-            + p.col[row]
-                .binary_search(&c)
-                .expect("every block of A_F T is in the pattern of P")
-    };
-    let z_slot = (0..n)
-        .flat_map(|i| a.row(i).map(move |k| (i, k)))
-        .map(|(i, k)| {
-            let j = a.col[k] as usize;
-            match t.row(j).next() {
-                Some(q) if k == diag[i] || strong[k] => slot_in_p(i, t.col[q]) as u32,
-                _ => u32::MAX,
+    // Row by row, the slot of every column of `P`'s row (`slot[c]`, valid
+    // for the row's columns only), for where each block of `A_F T` lands.
+    let mut slot = vec![0u32; p.ncols];
+    let mut z_slot = vec![u32::MAX; a.col.len()];
+    let mut t_in_p = vec![usize::MAX; n];
+    for i in 0..n {
+        for s in p.row(i) {
+            slot[p.col[s] as usize] = s as u32;
+        }
+        for k in a.row(i) {
+            if let Some(q) = t.row(a.col[k] as usize).next()
+                && (k == diag[i] || strong[k])
+            {
+                z_slot[k] = slot[t.col[q] as usize];
+                debug_assert_eq!(p.col[z_slot[k] as usize], t.col[q], "A_F T is in P");
             }
-        })
-        .collect();
-    let t_in_p = (0..n)
-        .map(|i| match t.row(i).next() {
-            Some(k) => slot_in_p(i, t.col[k]),
-            None => usize::MAX,
-        })
-        .collect();
+        }
+        if let Some(q) = t.row(i).next() {
+            t_in_p[i] = slot[t.col[q] as usize] as usize;
+            debug_assert_eq!(p.col[t_in_p[i]], t.col[q], "T is in P");
+        }
+    }
+    drop(slot);
     debug_assert!(
         agg.iter()
             .all(|&g| g == NO_AGGREGATE || (g as usize) < n_agg)

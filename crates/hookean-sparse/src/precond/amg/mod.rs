@@ -322,6 +322,20 @@ impl CsrLevels {
         }
         let n = dim / B;
         let indptr = a.proper_indptr();
+        let sorted = |r: std::ops::Range<usize>| a.indices()[r].is_sorted_by(|x, y| x < y);
+        if B == 1 && (0..n).all(|i| sorted(indptr[i]..indptr[i + 1])) {
+            // One unknown per node, columns sorted and distinct: the CSR
+            // pattern is the block pattern, entry `k` its slot `k`.
+            let bsr = Bsr {
+                nrows: n,
+                ncols: n,
+                row_ptr: indptr.to_vec(),
+                col: a.indices().iter().map(|&j| j as u32).collect(),
+                val: vec![zero::<B, B>(); a.nnz()],
+            };
+            let map = (0..a.nnz()).map(|k| (k as u32, 0, 0)).collect();
+            return Ok((bsr, map));
+        }
         let mut marker = vec![usize::MAX; n];
         let mut row_ptr = Vec::with_capacity(n + 1);
         let mut col: Vec<u32> = Vec::new();
