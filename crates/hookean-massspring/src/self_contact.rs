@@ -25,6 +25,7 @@ use hookean_geometry::proximity::{Proximity, edge_edge_proximity, vertex_face_pr
 use hookean_geometry::{Aabb, Bvh, Overlaps, closest_point_triangle, closest_points_segments};
 use hookean_sparse::block::Block3;
 use nalgebra::{Matrix3, Vector3};
+use rayon::prelude::*;
 
 use crate::error::MassSpringError;
 
@@ -98,6 +99,21 @@ struct Candidate {
     ee: bool,
 }
 
+/// A feature pair of two triangles that share a vertex: the topology fixes
+/// these, so they are listed once ([`SelfContact::near`]) instead of being
+/// met in every traversal of the tree, where they are most of the
+/// overlapping triangle pairs (every triangle's box overlaps those of its
+/// twelve neighbours on a grid). `idx` as in [`Candidate`]; `face` the
+/// triangle of a vertex-face pair, `NONE` for edge-edge.
+#[derive(Debug, Clone, Copy)]
+struct Near {
+    idx: [u32; 4],
+    face: u32,
+}
+
+/// Feature pairs of [`Near`] per threaded task.
+const NEAR_CHUNK: usize = 1024;
+
 /// An impact found by the continuous pass.
 #[derive(Debug, Clone, Copy)]
 struct Hit {
@@ -138,6 +154,12 @@ pub(crate) struct SelfContact {
     owned_vertices: Vec<u8>,
     /// Bit `k`: triangle owns its edge `k` (vertex `k` to `k + 1`).
     owned_edges: Vec<u8>,
+    /// The owned feature pairs of triangles sharing a vertex, in a fixed
+    /// order; the traversals skip those triangle pairs.
+    near: Vec<Near>,
+    /// Per task of a pass over `near`: what it found (storage reused).
+    near_found: Vec<Vec<Candidate>>,
+    near_hits: Vec<Vec<Hit>>,
     bvh: Option<Bvh>,
     /// Per particle and per triangle: boxes of the current pass (a point
     /// or swept path, grown by half the pass's distance).
@@ -197,11 +219,15 @@ impl SelfContact {
                 owned_edges[e.2 as usize] |= 1 << e.3;
             }
         }
+        let near = near_pairs(n, &tris, &owned_vertices, &owned_edges);
         Ok(Self {
             opts,
             tris,
             owned_vertices,
             owned_edges,
+            near,
+            near_found: Vec::new(),
+            near_hits: Vec::new(),
             bvh: None,
             vbox: vec![Aabb::EMPTY; n],
             tbox: vec![Aabb::EMPTY; faces.len()],
@@ -249,45 +275,64 @@ impl SelfContact {
 
     /// Every owned feature pair (vertex-face, edge-edge; sharing no vertex)
     /// of the triangles `i` and `j` whose particle boxes overlap, handed to
-    /// `f(particles, edge_edge)`.
+    /// `f(particles, edge_edge)`; nothing for triangles that share a vertex
+    /// (their pairs are in [`Self::near`]).
     fn feature_pairs(&self, i: usize, j: usize, mut f: impl FnMut([u32; 4], bool)) {
         let (ti, tj) = (&self.tris[i], &self.tris[j]);
-        let (ov, oe, vbox, tbox) = (
+        if ti.iter().any(|p| tj.contains(p)) {
+            return;
+        }
+        owned_feature_pairs(
+            &self.tris,
             &self.owned_vertices,
             &self.owned_edges,
-            &self.vbox,
-            &self.tbox,
+            i,
+            j,
+            |idx, face| {
+                let near = Near { idx, face };
+                if self.boxes_overlap(&near) {
+                    f(idx, face == NONE);
+                }
+            },
         );
-        for (a, ta, b, tb) in [(i, ti, j, tj), (j, tj, i, ti)] {
-            for k in 0..3 {
-                let p = ta[k];
-                if ov[a] & (1 << k) != 0 && !tb.contains(&p) && vbox[p as usize].overlaps(&tbox[b])
-                {
-                    f([p, tb[0], tb[1], tb[2]], false);
-                }
-            }
+    }
+
+    /// Whether the particle boxes of a feature pair overlap (the vertex's
+    /// and the face's, or the two edges').
+    #[inline]
+    fn boxes_overlap(&self, c: &Near) -> bool {
+        let b = |p: u32| &self.vbox[p as usize];
+        let [p, q, r, s] = c.idx;
+        if c.face != NONE {
+            b(p).overlaps(&self.tbox[c.face as usize])
+        } else {
+            b(p).union(b(q)).overlaps(&b(r).union(b(s)))
         }
-        for ka in 0..3 {
-            if oe[i] & (1 << ka) == 0 {
-                continue;
-            }
-            let (p, q) = (ti[ka], ti[(ka + 1) % 3]);
-            let ea = vbox[p as usize].union(&vbox[q as usize]);
-            for kb in 0..3 {
-                if oe[j] & (1 << kb) == 0 {
-                    continue;
-                }
-                let (r, s) = (tj[kb], tj[(kb + 1) % 3]);
-                if p != r
-                    && p != s
-                    && q != r
-                    && q != s
-                    && ea.overlaps(&vbox[r as usize].union(&vbox[s as usize]))
-                {
-                    f([p, q, r, s], true);
-                }
-            }
+    }
+
+    /// Runs `test` on every pair of [`Self::near`] whose boxes overlap, on
+    /// the rayon pool in fixed chunks: `out` holds what each chunk found, in
+    /// the list's order for every thread count.
+    fn near_pass<T: Send>(
+        &self,
+        out: &mut Vec<Vec<T>>,
+        test: impl Fn([u32; 4], bool) -> Option<T> + Sync,
+    ) {
+        let chunks = self.near.len().div_ceil(NEAR_CHUNK);
+        if out.len() < chunks {
+            out.resize_with(chunks, Vec::new);
         }
+        out.truncate(chunks);
+        out.par_iter_mut()
+            .zip(self.near.par_chunks(NEAR_CHUNK))
+            .for_each(|(found, near)| {
+                found.clear();
+                found.extend(
+                    near.iter()
+                        .filter(|c| self.boxes_overlap(c))
+                        .filter_map(|c| test(c.idx, c.face == NONE)),
+                );
+            });
     }
 
     /// The candidate list (a Verlet list): every owned feature pair closer
@@ -297,26 +342,28 @@ impl SelfContact {
         self.traversals += 1;
         let radius = (1.0 + SKIN) * self.opts.thickness;
         self.fill_boxes(x, None, 0.5 * radius);
-        let at = |p: u32| pt(x, p);
+        let close = |idx: [u32; 4], ee: bool| {
+            let y = idx.map(|p| pt(x, p));
+            let d = if ee {
+                let (_, _, c1, c2) = closest_points_segments(&y[0], &y[1], &y[2], &y[3]);
+                (c1 - c2).norm()
+            } else {
+                (y[0] - closest_point_triangle(&y[0], &y[1], &y[2], &y[3]).point).norm()
+            };
+            (d < radius).then_some(Candidate { idx, ee })
+        };
+        let mut near = std::mem::take(&mut self.near_found);
+        self.near_pass(&mut near, close);
         let mut found = std::mem::take(&mut self.found);
         let bvh = self.bvh.as_ref().expect("built by fill_boxes");
         bvh.self_overlaps(&mut found, |i, j, out| {
-            self.feature_pairs(i, j, |idx, ee| {
-                let y = idx.map(at);
-                let d = if ee {
-                    let (_, _, c1, c2) = closest_points_segments(&y[0], &y[1], &y[2], &y[3]);
-                    (c1 - c2).norm()
-                } else {
-                    (y[0] - closest_point_triangle(&y[0], &y[1], &y[2], &y[3]).point).norm()
-                };
-                if d < radius {
-                    out.push(Candidate { idx, ee });
-                }
-            });
+            self.feature_pairs(i, j, |idx, ee| out.extend(close(idx, ee)));
         });
         self.candidates.clear();
+        self.candidates.extend(near.iter().flatten().copied());
         self.candidates.extend(found.iter().copied());
         self.found = found;
+        self.near_found = near;
         self.reference.clear();
         self.reference.extend_from_slice(x);
     }
@@ -435,17 +482,17 @@ impl SelfContact {
         }
         self.traversals += 1;
         self.fill_boxes(x0, Some(x1), 0.5 * eta);
+        let mut near = std::mem::take(&mut self.near_hits);
+        self.near_pass(&mut near, |idx, ee| ccd(idx, ee, x0, x1, eta));
         let mut found = std::mem::take(&mut self.hits);
         let bvh = self.bvh.as_ref().expect("built by fill_boxes");
         bvh.self_overlaps(&mut found, |i, j, out| {
-            self.feature_pairs(i, j, |idx, ee| {
-                if let Some(hit) = ccd(idx, ee, x0, x1, eta) {
-                    out.push(hit);
-                }
-            });
+            self.feature_pairs(i, j, |idx, ee| out.extend(ccd(idx, ee, x0, x1, eta)));
         });
+        self.impacts.extend(near.iter().flatten().copied());
         self.impacts.extend(found.iter().copied());
         self.hits = found;
+        self.near_hits = near;
         self.impacts.len()
     }
 
@@ -567,6 +614,94 @@ impl SelfContact {
         }
         zones
     }
+}
+
+/// Every owned feature pair sharing no vertex of the triangles `i` and `j`
+/// (`i != j`), handed to `f(particles, face)`: vertex-face pairs (`face` the
+/// triangle of the face), those of `i`'s owned vertices first, then `j`'s,
+/// then edge-edge pairs (`face = NONE`).
+fn owned_feature_pairs(
+    tris: &[[u32; 3]],
+    owned_vertices: &[u8],
+    owned_edges: &[u8],
+    i: usize,
+    j: usize,
+    mut f: impl FnMut([u32; 4], u32),
+) {
+    let (ti, tj) = (&tris[i], &tris[j]);
+    for (a, ta, b, tb) in [(i, ti, j, tj), (j, tj, i, ti)] {
+        for k in 0..3 {
+            let p = ta[k];
+            if owned_vertices[a] & (1 << k) != 0 && !tb.contains(&p) {
+                f([p, tb[0], tb[1], tb[2]], b as u32);
+            }
+        }
+    }
+    for ka in 0..3 {
+        if owned_edges[i] & (1 << ka) == 0 {
+            continue;
+        }
+        let (p, q) = (ti[ka], ti[(ka + 1) % 3]);
+        for kb in 0..3 {
+            if owned_edges[j] & (1 << kb) == 0 {
+                continue;
+            }
+            let (r, s) = (tj[kb], tj[(kb + 1) % 3]);
+            if p != r && p != s && q != r && q != s {
+                f([p, q, r, s], NONE);
+            }
+        }
+    }
+}
+
+/// The [`Near`] list of a triangle mesh of `n` particles: the owned
+/// feature pairs of every two triangles that share a vertex, by the first
+/// triangle, then the second.
+fn near_pairs(
+    n: usize,
+    tris: &[[u32; 3]],
+    owned_vertices: &[u8],
+    owned_edges: &[u8],
+) -> Vec<Near> {
+    let mut start = vec![0u32; n + 1];
+    for t in tris {
+        for &p in t {
+            start[p as usize + 1] += 1;
+        }
+    }
+    for p in 0..n {
+        start[p + 1] += start[p];
+    }
+    let mut fill = start.clone();
+    let mut of_vertex = vec![0u32; start[n] as usize];
+    for (ti, t) in tris.iter().enumerate() {
+        for &p in t {
+            of_vertex[fill[p as usize] as usize] = ti as u32;
+            fill[p as usize] += 1;
+        }
+    }
+    let mut near = Vec::new();
+    let mut others: Vec<u32> = Vec::new();
+    for (i, t) in tris.iter().enumerate() {
+        others.clear();
+        for &p in t {
+            let range = start[p as usize] as usize..start[p as usize + 1] as usize;
+            others.extend(of_vertex[range].iter().filter(|&&j| j as usize > i).copied());
+        }
+        others.sort_unstable();
+        others.dedup();
+        for &j in &others {
+            owned_feature_pairs(
+                tris,
+                owned_vertices,
+                owned_edges,
+                i,
+                j as usize,
+                |idx, face| near.push(Near { idx, face }),
+            );
+        }
+    }
+    near
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
