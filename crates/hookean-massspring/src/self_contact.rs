@@ -142,6 +142,11 @@ const ZONE_ROUNDS: usize = 40;
 const ETA: f64 = 0.01;
 /// The candidate list's margin beyond the thickness, relative to it.
 const SKIN: f64 = 1.0;
+/// The margin when the cloth moved so fast in the last step (`2 M >= SKIN
+/// h_th`) that a list with [`SKIN`] would not outlive the next step: the
+/// list is then rebuilt every step anyway, and a thin margin finds fewer
+/// pairs to test.
+const THIN_SKIN: f64 = 0.25;
 
 const NONE: u32 = u32::MAX;
 
@@ -165,8 +170,13 @@ pub(crate) struct SelfContact {
     /// or swept path, grown by half the pass's distance).
     vbox: Vec<Aabb>,
     tbox: Vec<Aabb>,
-    /// Feature pairs within `(1 + SKIN) h_th` of each other at `reference`.
+    /// Feature pairs within `radius` of each other at `reference`.
     candidates: Vec<Candidate>,
+    /// The candidate list's radius `R = (1 + skin) h_th` (0 before the
+    /// first build).
+    radius: f64,
+    /// The motion `M` of the last detected step ([`relative_move`]).
+    last_move: f64,
     reference: Vec<f64>,
     found: Overlaps<Candidate>,
     hits: Overlaps<Hit>,
@@ -232,6 +242,8 @@ impl SelfContact {
             vbox: vec![Aabb::EMPTY; n],
             tbox: vec![Aabb::EMPTY; faces.len()],
             candidates: Vec::new(),
+            radius: 0.0,
+            last_move: 0.0,
             reference: Vec::new(),
             found: Overlaps::default(),
             hits: Overlaps::default(),
@@ -335,12 +347,25 @@ impl SelfContact {
             });
     }
 
+    /// The radius of the next candidate list: `(1 + SKIN) h_th`, or `(1 +
+    /// THIN_SKIN) h_th` after a step that moved more than `SKIN h_th / 2`.
+    fn next_radius(&self) -> f64 {
+        let th = self.opts.thickness;
+        let skin = if 2.0 * self.last_move < SKIN * th {
+            SKIN
+        } else {
+            THIN_SKIN
+        };
+        (1.0 + skin) * th
+    }
+
     /// The candidate list (a Verlet list): every owned feature pair closer
-    /// than `R = (1 + SKIN) h_th` at the positions `x`, which become the
-    /// reference positions.
+    /// than `R` ([`Self::next_radius`]) at the positions `x`, which become
+    /// the reference positions.
     fn build_candidates(&mut self, x: &[f64]) {
         self.traversals += 1;
-        let radius = (1.0 + SKIN) * self.opts.thickness;
+        let radius = self.next_radius();
+        self.radius = radius;
         self.fill_boxes(x, None, 0.5 * radius);
         let close = |idx: [u32; 4], ee: bool| {
             let y = idx.map(|p| pt(x, p));
@@ -380,13 +405,13 @@ impl SelfContact {
 
     /// Finds the proximity pairs of the positions `x` (the step's start)
     /// among the candidates, rebuilt first when a particle has moved more
-    /// than `SKIN h_th / 2` beyond the cloth's common translation since they
+    /// than `(R - h_th) / 2` beyond the cloth's common translation since they
     /// were found (or a position is NaN) (then no pair closer than
     /// `h_th` can be missing: distance is 1-Lipschitz in each point). Returns
     /// their number.
     pub(crate) fn find_proximity(&mut self, x: &[f64]) -> usize {
         let th = self.opts.thickness;
-        if !(2.0 * self.drift(x) < SKIN * th) {
+        if !(2.0 * self.drift(x) < self.radius - th) {
             self.build_candidates(x);
         }
         self.pairs.clear();
@@ -466,13 +491,13 @@ impl SelfContact {
     fn detect(&mut self, x0: &[f64], x1: &[f64]) -> usize {
         let th = self.opts.thickness;
         let eta = ETA * th;
-        let radius = (1.0 + SKIN) * th;
-        let reach = 2.0 * relative_move(x0, x1) + eta;
-        if reach + 2.0 * self.drift(x0) >= radius && reach < radius {
+        self.last_move = relative_move(x0, x1);
+        let reach = 2.0 * self.last_move + eta;
+        if reach + 2.0 * self.drift(x0) >= self.radius && reach < self.next_radius() {
             self.build_candidates(x0);
         }
         self.impacts.clear();
-        if reach + 2.0 * self.drift(x0) < radius {
+        if reach + 2.0 * self.drift(x0) < self.radius {
             for c in &self.candidates {
                 if let Some(hit) = ccd(c.idx, c.ee, x0, x1, eta) {
                     self.impacts.push(hit);
