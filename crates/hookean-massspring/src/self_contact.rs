@@ -103,12 +103,14 @@ struct Candidate {
 /// these, so they are listed once ([`SelfContact::near`]) instead of being
 /// met in every traversal of the tree, where they are most of the
 /// overlapping triangle pairs (every triangle's box overlaps those of its
-/// twelve neighbours on a grid). `idx` as in [`Candidate`]; `face` the
-/// triangle of a vertex-face pair, `NONE` for edge-edge.
+/// twelve neighbours on a grid). `idx` as in [`Candidate`]; `a = NONE`
+/// and `b` the face's triangle for a vertex-face pair, `a` and `b` the two
+/// edges (indices into [`SelfContact::edges`]) for an edge-edge pair.
 #[derive(Debug, Clone, Copy)]
 struct Near {
     idx: [u32; 4],
-    face: u32,
+    a: u32,
+    b: u32,
 }
 
 /// Feature pairs of [`Near`] per threaded task.
@@ -157,8 +159,13 @@ pub(crate) struct SelfContact {
     tris: Vec<[u32; 3]>,
     /// Bit `k`: triangle owns its vertex `k` (the first triangle of a vertex).
     owned_vertices: Vec<u8>,
-    /// Bit `k`: triangle owns its edge `k` (vertex `k` to `k + 1`).
-    owned_edges: Vec<u8>,
+    /// Per triangle and local edge `k` (vertex `k` to `k + 1`): the edge's
+    /// index in `edges` if the triangle owns it (its first triangle), else
+    /// `NONE`.
+    edge_ids: Vec<[u32; 3]>,
+    /// Every edge once, and its box in the current pass.
+    edges: Vec<[u32; 2]>,
+    ebox: Vec<Aabb>,
     /// The owned feature pairs of triangles sharing a vertex, in a fixed
     /// order; the traversals skip those triangle pairs.
     near: Vec<Near>,
@@ -223,18 +230,22 @@ impl SelfContact {
             }
         }
         edges.sort_unstable();
-        let mut owned_edges = vec![0u8; tris.len()];
+        let mut edge_ids = vec![[NONE; 3]; tris.len()];
+        let mut unique = Vec::new();
         for (k, e) in edges.iter().enumerate() {
             if k == 0 || (edges[k - 1].0, edges[k - 1].1) != (e.0, e.1) {
-                owned_edges[e.2 as usize] |= 1 << e.3;
+                edge_ids[e.2 as usize][e.3 as usize] = unique.len() as u32;
+                unique.push([e.0, e.1]);
             }
         }
-        let near = near_pairs(n, &tris, &owned_vertices, &owned_edges);
+        let near = near_pairs(n, &tris, &owned_vertices, &edge_ids);
         Ok(Self {
             opts,
             tris,
             owned_vertices,
-            owned_edges,
+            edge_ids,
+            ebox: vec![Aabb::EMPTY; unique.len()],
+            edges: unique,
             near,
             near_found: Vec::new(),
             near_hits: Vec::new(),
@@ -272,6 +283,9 @@ impl SelfContact {
             *b = bx.inflated(r);
         }
         let vbox = &self.vbox;
+        for (e, b) in self.edges.iter().zip(self.ebox.iter_mut()) {
+            *b = vbox[e[0] as usize].union(&vbox[e[1] as usize]);
+        }
         for (t, b) in self.tbox.iter_mut().enumerate() {
             let [i, j, k] = self.tris[t];
             *b = vbox[i as usize]
@@ -297,13 +311,13 @@ impl SelfContact {
         owned_feature_pairs(
             &self.tris,
             &self.owned_vertices,
-            &self.owned_edges,
+            &self.edge_ids,
             i,
             j,
-            |idx, face| {
-                let near = Near { idx, face };
+            |idx, a, b| {
+                let near = Near { idx, a, b };
                 if self.boxes_overlap(&near) {
-                    f(idx, face == NONE);
+                    f(idx, a != NONE);
                 }
             },
         );
@@ -313,12 +327,10 @@ impl SelfContact {
     /// and the face's, or the two edges').
     #[inline]
     fn boxes_overlap(&self, c: &Near) -> bool {
-        let b = |p: u32| &self.vbox[p as usize];
-        let [p, q, r, s] = c.idx;
-        if c.face != NONE {
-            b(p).overlaps(&self.tbox[c.face as usize])
+        if c.a == NONE {
+            self.vbox[c.idx[0] as usize].overlaps(&self.tbox[c.b as usize])
         } else {
-            b(p).union(b(q)).overlaps(&b(r).union(b(s)))
+            self.ebox[c.a as usize].overlaps(&self.ebox[c.b as usize])
         }
     }
 
@@ -342,7 +354,7 @@ impl SelfContact {
                 found.extend(
                     near.iter()
                         .filter(|c| self.boxes_overlap(c))
-                        .filter_map(|c| test(c.idx, c.face == NONE)),
+                        .filter_map(|c| test(c.idx, c.a != NONE)),
                 );
             });
     }
@@ -642,38 +654,40 @@ impl SelfContact {
 }
 
 /// Every owned feature pair sharing no vertex of the triangles `i` and `j`
-/// (`i != j`), handed to `f(particles, face)`: vertex-face pairs (`face` the
-/// triangle of the face), those of `i`'s owned vertices first, then `j`'s,
-/// then edge-edge pairs (`face = NONE`).
+/// (`i != j`), handed to `f(particles, a, b)` as in [`Near`]: vertex-face
+/// pairs, those of `i`'s owned vertices first, then `j`'s, then edge-edge
+/// pairs.
 fn owned_feature_pairs(
     tris: &[[u32; 3]],
     owned_vertices: &[u8],
-    owned_edges: &[u8],
+    edge_ids: &[[u32; 3]],
     i: usize,
     j: usize,
-    mut f: impl FnMut([u32; 4], u32),
+    mut f: impl FnMut([u32; 4], u32, u32),
 ) {
     let (ti, tj) = (&tris[i], &tris[j]);
     for (a, ta, b, tb) in [(i, ti, j, tj), (j, tj, i, ti)] {
         for k in 0..3 {
             let p = ta[k];
             if owned_vertices[a] & (1 << k) != 0 && !tb.contains(&p) {
-                f([p, tb[0], tb[1], tb[2]], b as u32);
+                f([p, tb[0], tb[1], tb[2]], NONE, b as u32);
             }
         }
     }
     for ka in 0..3 {
-        if owned_edges[i] & (1 << ka) == 0 {
+        let ea = edge_ids[i][ka];
+        if ea == NONE {
             continue;
         }
         let (p, q) = (ti[ka], ti[(ka + 1) % 3]);
         for kb in 0..3 {
-            if owned_edges[j] & (1 << kb) == 0 {
+            let eb = edge_ids[j][kb];
+            if eb == NONE {
                 continue;
             }
             let (r, s) = (tj[kb], tj[(kb + 1) % 3]);
             if p != r && p != s && q != r && q != s {
-                f([p, q, r, s], NONE);
+                f([p, q, r, s], ea, eb);
             }
         }
     }
@@ -686,7 +700,7 @@ fn near_pairs(
     n: usize,
     tris: &[[u32; 3]],
     owned_vertices: &[u8],
-    owned_edges: &[u8],
+    edge_ids: &[[u32; 3]],
 ) -> Vec<Near> {
     let mut start = vec![0u32; n + 1];
     for t in tris {
@@ -719,10 +733,10 @@ fn near_pairs(
             owned_feature_pairs(
                 tris,
                 owned_vertices,
-                owned_edges,
+                edge_ids,
                 i,
                 j as usize,
-                |idx, face| near.push(Near { idx, face }),
+                |idx, a, b| near.push(Near { idx, a, b }),
             );
         }
     }
