@@ -22,7 +22,10 @@
 
 use hookean_geometry::ccd::{Impact, edge_edge, vertex_face};
 use hookean_geometry::proximity::{Proximity, edge_edge_proximity, vertex_face_proximity};
-use hookean_geometry::{Aabb, Bvh, Overlaps, closest_point_triangle, closest_points_segments};
+use hookean_geometry::{
+    Aabb, Bvh, Overlaps, closest_point_triangle, closest_points_segments,
+    point_triangle_farther_than, segments_farther_than,
+};
 use hookean_sparse::block::Block3;
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
@@ -381,6 +384,16 @@ impl SelfContact {
         self.fill_boxes(x, None, 0.5 * radius);
         let close = |idx: [u32; 4], ee: bool| {
             let y = idx.map(|p| pt(x, p));
+            // A separating axis first: most pairs whose boxes overlap lie
+            // side by side in the cloth, farther than `R` apart.
+            let far = if ee {
+                segments_farther_than(&y[0], &y[1], &y[2], &y[3], radius)
+            } else {
+                point_triangle_farther_than(&y[0], &y[1], &y[2], &y[3], radius)
+            };
+            if far {
+                return None;
+            }
             let d = if ee {
                 let (_, _, c1, c2) = closest_points_segments(&y[0], &y[1], &y[2], &y[3]);
                 (c1 - c2).norm()
