@@ -301,7 +301,11 @@ mod tests {
         assert!(!segments_farther_than(&p1, &q1, &p3, &q3, d));
         // A point in the plane on the line from the centroid through
         // vertex a: its distance sqrt(2) to a.
-        let (a, b, c) = (V3::new(0.0, 0.0, 0.0), V3::new(1.0, 0.0, 0.0), V3::new(0.0, 1.0, 0.0));
+        let (a, b, c) = (
+            V3::new(0.0, 0.0, 0.0),
+            V3::new(1.0, 0.0, 0.0),
+            V3::new(0.0, 1.0, 0.0),
+        );
         let p = V3::new(-1.0, -1.0, 0.0);
         let d = (p - closest_point_triangle(&p, &a, &b, &c).point).norm();
         assert_eq!(d, 2f64.sqrt());

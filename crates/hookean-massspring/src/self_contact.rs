@@ -738,7 +738,12 @@ fn near_pairs(
         others.clear();
         for &p in t {
             let range = start[p as usize] as usize..start[p as usize + 1] as usize;
-            others.extend(of_vertex[range].iter().filter(|&&j| j as usize > i).copied());
+            others.extend(
+                of_vertex[range]
+                    .iter()
+                    .filter(|&&j| j as usize > i)
+                    .copied(),
+            );
         }
         others.sort_unstable();
         others.dedup();
