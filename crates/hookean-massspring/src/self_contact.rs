@@ -278,23 +278,26 @@ impl SelfContact {
     /// the points `x0`), grown by `r`, and refits the tree to them (built on
     /// first use). No allocation after the first call.
     fn fill_boxes(&mut self, x0: &[f64], x1: Option<&[f64]>, r: f64) {
-        for (p, b) in self.vbox.iter_mut().enumerate() {
+        self.vbox.par_iter_mut().enumerate().for_each(|(p, b)| {
             let mut bx = Aabb::point(&pt(x0, p as u32));
             if let Some(x1) = x1 {
                 bx.add_point(&pt(x1, p as u32));
             }
             *b = bx.inflated(r);
-        }
+        });
         let vbox = &self.vbox;
-        for (e, b) in self.edges.iter().zip(self.ebox.iter_mut()) {
-            *b = vbox[e[0] as usize].union(&vbox[e[1] as usize]);
-        }
-        for (t, b) in self.tbox.iter_mut().enumerate() {
-            let [i, j, k] = self.tris[t];
-            *b = vbox[i as usize]
-                .union(&vbox[j as usize])
-                .union(&vbox[k as usize]);
-        }
+        self.edges
+            .par_iter()
+            .zip(self.ebox.par_iter_mut())
+            .for_each(|(e, b)| *b = vbox[e[0] as usize].union(&vbox[e[1] as usize]));
+        self.tris
+            .par_iter()
+            .zip(self.tbox.par_iter_mut())
+            .for_each(|([i, j, k], b)| {
+                *b = vbox[*i as usize]
+                    .union(&vbox[*j as usize])
+                    .union(&vbox[*k as usize]);
+            });
         let tbox = &self.tbox;
         match &mut self.bvh {
             Some(bvh) => bvh.refit(|t| tbox[t]),
@@ -964,5 +967,103 @@ mod tests {
         approx::assert_abs_diff_eq!(relative_move(&a, &b), 0.15, epsilon = 1e-14);
         b[4] = f64::NAN;
         assert!(relative_move(&a, &b).is_nan());
+    }
+
+    /// A crumpled 9 x 9 grid (every quad split in two) whose layers come
+    /// within the candidate radius of each other: the candidate list (the
+    /// `near` pass plus the traversal) is exactly the set of feature pairs
+    /// closer than `R` found by brute force over every vertex-face and
+    /// edge-edge pair sharing no vertex, each pair once.
+    #[test]
+    fn candidates_equal_brute_force_on_a_crumpled_grid() {
+        let m = 9;
+        let id = |i: usize, j: usize| (i + m * j) as u32;
+        let mut faces = Vec::new();
+        for j in 0..m - 1 {
+            for i in 0..m - 1 {
+                let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i, j + 1), id(i + 1, j + 1));
+                faces.push([a as usize, b as usize, c as usize]);
+                faces.push([b as usize, d as usize, c as usize]);
+            }
+        }
+        // Folded over along x twice (a Z of three layers 0.04 apart), with
+        // a deterministic wobble.
+        let mut x = Vec::new();
+        for j in 0..m {
+            for i in 0..m {
+                let u = i as f64 * 0.1;
+                let (px, pz) = match i {
+                    0..=2 => (u, 0.0),
+                    3..=5 => (0.5 - u, 0.04),
+                    _ => (u - 0.6, 0.08),
+                };
+                let w = 0.01 * ((7 * i + 3 * j) as f64).sin();
+                x.extend([px + w, j as f64 * 0.1, pz + w]);
+            }
+        }
+        let opts = SelfCollision {
+            thickness: 0.03,
+            ..Default::default()
+        };
+        let mut sc = SelfContact::new(m * m, &faces, opts).unwrap();
+        sc.build_candidates(&x);
+        let radius = sc.radius;
+        assert_eq!(radius, (1.0 + SKIN) * 0.03);
+        let key = |idx: [u32; 4], ee: bool| -> (bool, [u32; 4]) {
+            if ee {
+                let (e, f) = ([idx[0].min(idx[1]), idx[0].max(idx[1])], [
+                    idx[2].min(idx[3]),
+                    idx[2].max(idx[3]),
+                ]);
+                let (e, f) = (e.min(f), e.max(f));
+                (true, [e[0], e[1], f[0], f[1]])
+            } else {
+                let mut t = [idx[1], idx[2], idx[3]];
+                t.sort_unstable();
+                (false, [idx[0], t[0], t[1], t[2]])
+            }
+        };
+        let mut got: Vec<_> = sc.candidates.iter().map(|c| key(c.idx, c.ee)).collect();
+        got.sort_unstable();
+        let before = got.len();
+        got.dedup();
+        assert_eq!(got.len(), before, "a pair listed twice");
+        // Brute force, with the distances of the tests' own formulas.
+        let p3 = |p: u32| pt(&x, p);
+        let mut edges: Vec<[u32; 2]> = faces
+            .iter()
+            .flat_map(|f| (0..3).map(move |k| (f[k] as u32, f[(k + 1) % 3] as u32)))
+            .map(|(a, b)| [a.min(b), a.max(b)])
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        let mut want = Vec::new();
+        for p in 0..(m * m) as u32 {
+            for f in &faces {
+                let f = f.map(|v| v as u32);
+                if f.contains(&p) {
+                    continue;
+                }
+                let q = closest_point_triangle(&p3(p), &p3(f[0]), &p3(f[1]), &p3(f[2]));
+                if (p3(p) - q.point).norm() < radius {
+                    want.push(key([p, f[0], f[1], f[2]], false));
+                }
+            }
+        }
+        for (k, e) in edges.iter().enumerate() {
+            for f in &edges[k + 1..] {
+                if e.iter().any(|v| f.contains(v)) {
+                    continue;
+                }
+                let (_, _, c1, c2) = closest_points_segments(&p3(e[0]), &p3(e[1]), &p3(f[0]), &p3(f[1]));
+                if (c1 - c2).norm() < radius {
+                    want.push(key([e[0], e[1], f[0], f[1]], true));
+                }
+            }
+        }
+        want.sort_unstable();
+        // The layers are close: far more pairs than the flat grid's.
+        assert!(want.len() > 500, "{} pairs", want.len());
+        assert_eq!(got, want);
     }
 }
