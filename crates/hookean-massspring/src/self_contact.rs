@@ -1011,10 +1011,10 @@ mod tests {
         assert_eq!(radius, (1.0 + SKIN) * 0.03);
         let key = |idx: [u32; 4], ee: bool| -> (bool, [u32; 4]) {
             if ee {
-                let (e, f) = ([idx[0].min(idx[1]), idx[0].max(idx[1])], [
-                    idx[2].min(idx[3]),
-                    idx[2].max(idx[3]),
-                ]);
+                let (e, f) = (
+                    [idx[0].min(idx[1]), idx[0].max(idx[1])],
+                    [idx[2].min(idx[3]), idx[2].max(idx[3])],
+                );
                 let (e, f) = (e.min(f), e.max(f));
                 (true, [e[0], e[1], f[0], f[1]])
             } else {
@@ -1055,7 +1055,8 @@ mod tests {
                 if e.iter().any(|v| f.contains(v)) {
                     continue;
                 }
-                let (_, _, c1, c2) = closest_points_segments(&p3(e[0]), &p3(e[1]), &p3(f[0]), &p3(f[1]));
+                let (_, _, c1, c2) =
+                    closest_points_segments(&p3(e[0]), &p3(e[1]), &p3(f[0]), &p3(f[1]));
                 if (c1 - c2).norm() < radius {
                     want.push(key([e[0], e[1], f[0], f[1]], true));
                 }
