@@ -3,7 +3,9 @@
 //!
 //! 1. **Proximity** (at the start of the step): vertex-face and edge-edge
 //!    pairs of non-adjacent features closer than the thickness `h_th` (a
-//!    tree of the triangles' boxes grown by `h_th / 2`, refitted each step).
+//!    tree of the triangles' boxes grown by `h_th / 2`, refitted each step;
+//!    the pairs of triangles that share a vertex from a list the topology
+//!    fixes, `Near`).
 //!    Each pair repels inside the implicit step with the penalty force of
 //!    energy `k (h_th - g)^2 / 2` on the gap `g = n . sum_i w_i x_i` along the
 //!    pair's normal `n` at the step's start (section 7.2's spring, as a force
