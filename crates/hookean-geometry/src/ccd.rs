@@ -21,7 +21,10 @@
 
 use nalgebra::Vector3;
 
-use crate::closest::{closest_point_triangle, closest_points_segments};
+use crate::closest::{
+    closest_point_triangle, closest_points_segments, point_triangle_farther_than,
+    segments_farther_than,
+};
 
 type V3 = Vector3<f64>;
 
@@ -202,8 +205,13 @@ fn impact_if_closing(
 pub fn vertex_face(x0: &[V3; 4], x1: &[V3; 4], eta: f64) -> Option<Impact> {
     // Distance is 1-Lipschitz in each point: features farther apart at the
     // start than their largest motions can close do not meet.
+    // (The separating-axis test first: cheaper, and enough for most pairs.)
+    let motion = moved(x0, x1, 0..1) + moved(x0, x1, 1..4);
+    if point_triangle_farther_than(&x0[0], &x0[1], &x0[2], &x0[3], motion + eta) {
+        return None;
+    }
     let d0 = (x0[0] - closest_point_triangle(&x0[0], &x0[1], &x0[2], &x0[3]).point).norm();
-    if d0 - (moved(x0, x1, 0..1) + moved(x0, x1, 1..4)) > eta {
+    if d0 - motion > eta {
         return None;
     }
     let c = coplanarity_cubic(x0, x1, [1, 2, 3, 0]);
@@ -236,8 +244,12 @@ pub fn vertex_face(x0: &[V3; 4], x1: &[V3; 4], eta: f64) -> Option<Impact> {
 /// `eta` of edge `(x[2], x[3])` while closing in on it, all four moving
 /// linearly from `x0` to `x1`; `None` if it never does.
 pub fn edge_edge(x0: &[V3; 4], x1: &[V3; 4], eta: f64) -> Option<Impact> {
+    let motion = moved(x0, x1, 0..2) + moved(x0, x1, 2..4);
+    if segments_farther_than(&x0[0], &x0[1], &x0[2], &x0[3], motion + eta) {
+        return None;
+    }
     let (_, _, c1, c2) = closest_points_segments(&x0[0], &x0[1], &x0[2], &x0[3]);
-    if (c1 - c2).norm() - (moved(x0, x1, 0..2) + moved(x0, x1, 2..4)) > eta {
+    if (c1 - c2).norm() - motion > eta {
         return None;
     }
     let c = coplanarity_cubic(x0, x1, [0, 1, 2, 3]);

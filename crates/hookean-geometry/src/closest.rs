@@ -185,6 +185,37 @@ pub fn closest_points_segments(p1: &V3, q1: &V3, p2: &V3, q2: &V3) -> (f64, f64,
     (s, t, p1 + d1 * s, p2 + d2 * t)
 }
 
+/// Relative margin of the separating-axis tests below: they answer `true`
+/// only when the bound beats `r` by this much, far more than round-off.
+const AXIS_MARGIN: f64 = 1e-9;
+
+/// True when segments `p1 q1` and `p2 q2` are provably farther apart than
+/// `r > 0`: their projections on the line through their midpoints (a
+/// separating axis; projection does not lengthen distances) are more than
+/// `r` apart. No square root or division, so much cheaper than
+/// [`closest_points_segments`]; exact for side-by-side and end-to-end
+/// segments (a cloth's common near pairs), `false` when unsure.
+#[inline]
+pub fn segments_farther_than(p1: &V3, q1: &V3, p2: &V3, q2: &V3, r: f64) -> bool {
+    let m = (p2 + q2 - p1 - q1) * 0.5;
+    let len2 = m.norm_squared();
+    // gap * |m| = |m|^2 - (|e1 . m| + |e2 . m|) / 2.
+    let g = len2 - 0.5 * ((q1 - p1).dot(&m).abs() + (q2 - p2).dot(&m).abs());
+    g > 0.0 && g * g > r * r * len2 * (1.0 + AXIS_MARGIN)
+}
+
+/// True when `p` is provably farther than `r > 0` from triangle `(a, b,
+/// c)`: the triangle's projection on the line from `p` to its centroid
+/// starts more than `r` beyond `p` (a separating axis). Cheap; `false` when
+/// unsure.
+#[inline]
+pub fn point_triangle_farther_than(p: &V3, a: &V3, b: &V3, c: &V3, r: f64) -> bool {
+    let (da, db, dc) = (a - p, b - p, c - p);
+    let m = da + db + dc; // 3 (centroid - p)
+    let near = da.dot(&m).min(db.dot(&m)).min(dc.dot(&m));
+    near > 0.0 && near * near > r * r * m.norm_squared() * (1.0 + AXIS_MARGIN)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -211,6 +242,7 @@ mod tests {
             assert!((from_bary - q.point).norm() < 1e-12);
             assert!(q.bary.iter().all(|&w| w >= -1e-12));
             let d = (p - q.point).norm();
+            assert!(!point_triangle_farther_than(&p, &a, &b, &c, d));
             let n = 60;
             for i in 0..=n {
                 for j in 0..=n - i {
@@ -240,6 +272,7 @@ mod tests {
             let (s, t, c1, c2) = closest_points_segments(&p1, &q1, &p2, &q2);
             assert!((0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&t));
             let d = (c1 - c2).norm();
+            assert!(!segments_farther_than(&p1, &q1, &p2, &q2, d), "case {k}");
             for i in 0..=50 {
                 for j in 0..=50 {
                     let a = p1 + (q1 - p1) * (i as f64 / 50.0);
@@ -248,5 +281,40 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The separating-axis tests are exact where a cloth's near pairs are:
+    /// parallel segments side by side or end to end, a point facing a
+    /// triangle's vertex in its plane; and never claim more than the truth.
+    #[test]
+    fn separating_axis_tests_are_tight_on_side_by_side_features() {
+        let (p1, q1) = (V3::new(0.0, 0.0, 0.0), V3::new(1.0, 1.0, 0.0));
+        let off = V3::new(0.3, -0.3, 0.0); // distance 0.3 sqrt(2)
+        let d = off.norm();
+        let (p2, q2) = (p1 + off, q1 + off);
+        assert!(segments_farther_than(&p1, &q1, &p2, &q2, 0.999 * d));
+        assert!(!segments_farther_than(&p1, &q1, &p2, &q2, d));
+        // End to end along a line: the gap between the ends, 0.5 |q1|.
+        let (p3, q3) = (q1 * 1.5, q1 * 2.0);
+        let d = 0.5 * q1.norm();
+        assert!(segments_farther_than(&p1, &q1, &p3, &q3, 0.999 * d));
+        assert!(!segments_farther_than(&p1, &q1, &p3, &q3, d));
+        // A point in the plane on the line from the centroid through
+        // vertex a: its distance sqrt(2) to a.
+        let (a, b, c) = (
+            V3::new(0.0, 0.0, 0.0),
+            V3::new(1.0, 0.0, 0.0),
+            V3::new(0.0, 1.0, 0.0),
+        );
+        let p = V3::new(-1.0, -1.0, 0.0);
+        let d = (p - closest_point_triangle(&p, &a, &b, &c).point).norm();
+        assert_eq!(d, 2f64.sqrt());
+        assert!(point_triangle_farther_than(&p, &a, &b, &c, 0.999 * d));
+        assert!(!point_triangle_farther_than(&p, &a, &b, &c, d));
+        // Crossing segments and a point over the face: no claim.
+        let (p4, q4) = (V3::new(0.0, 1.0, 0.0), V3::new(1.0, 0.0, 0.0));
+        assert!(!segments_farther_than(&p1, &q1, &p4, &q4, 1e-9));
+        let over = V3::new(0.2, 0.2, 0.5);
+        assert!(!point_triangle_farther_than(&over, &a, &b, &c, 0.4));
     }
 }

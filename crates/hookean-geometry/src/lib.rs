@@ -49,6 +49,9 @@ pub mod proximity;
 
 pub use aabb::Aabb;
 pub use bvh::{Bvh, Overlaps};
-pub use closest::{Feature, TrianglePoint, closest_point_triangle, closest_points_segments};
+pub use closest::{
+    Feature, TrianglePoint, closest_point_triangle, closest_points_segments,
+    point_triangle_farther_than, segments_farther_than,
+};
 pub use error::GeometryError;
 pub use mesh::{Closest, TriMesh};

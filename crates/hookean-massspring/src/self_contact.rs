@@ -3,7 +3,9 @@
 //!
 //! 1. **Proximity** (at the start of the step): vertex-face and edge-edge
 //!    pairs of non-adjacent features closer than the thickness `h_th` (a
-//!    tree of the triangles' boxes grown by `h_th / 2`, refitted each step).
+//!    tree of the triangles' boxes grown by `h_th / 2`, refitted each step;
+//!    the pairs of triangles that share a vertex from a list the topology
+//!    fixes, `Near`).
 //!    Each pair repels inside the implicit step with the penalty force of
 //!    energy `k (h_th - g)^2 / 2` on the gap `g = n . sum_i w_i x_i` along the
 //!    pair's normal `n` at the step's start (section 7.2's spring, as a force
@@ -22,9 +24,13 @@
 
 use hookean_geometry::ccd::{Impact, edge_edge, vertex_face};
 use hookean_geometry::proximity::{Proximity, edge_edge_proximity, vertex_face_proximity};
-use hookean_geometry::{Aabb, Bvh, Overlaps, closest_point_triangle, closest_points_segments};
+use hookean_geometry::{
+    Aabb, Bvh, Overlaps, closest_point_triangle, closest_points_segments,
+    point_triangle_farther_than, segments_farther_than,
+};
 use hookean_sparse::block::Block3;
 use nalgebra::{Matrix3, Vector3};
+use rayon::prelude::*;
 
 use crate::error::MassSpringError;
 
@@ -98,6 +104,23 @@ struct Candidate {
     ee: bool,
 }
 
+/// A feature pair of two triangles that share a vertex: the topology fixes
+/// these, so they are listed once ([`SelfContact::near`]) instead of being
+/// met in every traversal of the tree, where they are most of the
+/// overlapping triangle pairs (every triangle's box overlaps those of its
+/// twelve neighbours on a grid). `idx` as in [`Candidate`]; `a = NONE`
+/// and `b` the face's triangle for a vertex-face pair, `a` and `b` the two
+/// edges (indices into [`SelfContact::edges`]) for an edge-edge pair.
+#[derive(Debug, Clone, Copy)]
+struct Near {
+    idx: [u32; 4],
+    a: u32,
+    b: u32,
+}
+
+/// Feature pairs of [`Near`] per threaded task.
+const NEAR_CHUNK: usize = 1024;
+
 /// An impact found by the continuous pass.
 #[derive(Debug, Clone, Copy)]
 struct Hit {
@@ -126,6 +149,11 @@ const ZONE_ROUNDS: usize = 40;
 const ETA: f64 = 0.01;
 /// The candidate list's margin beyond the thickness, relative to it.
 const SKIN: f64 = 1.0;
+/// The margin when the cloth moved so fast in the last step (`2 M >= SKIN
+/// h_th`) that a list with [`SKIN`] would not outlive the next step: the
+/// list is then rebuilt every step anyway, and a thin margin finds fewer
+/// pairs to test.
+const THIN_SKIN: f64 = 0.25;
 
 const NONE: u32 = u32::MAX;
 
@@ -136,15 +164,31 @@ pub(crate) struct SelfContact {
     tris: Vec<[u32; 3]>,
     /// Bit `k`: triangle owns its vertex `k` (the first triangle of a vertex).
     owned_vertices: Vec<u8>,
-    /// Bit `k`: triangle owns its edge `k` (vertex `k` to `k + 1`).
-    owned_edges: Vec<u8>,
+    /// Per triangle and local edge `k` (vertex `k` to `k + 1`): the edge's
+    /// index in `edges` if the triangle owns it (its first triangle), else
+    /// `NONE`.
+    edge_ids: Vec<[u32; 3]>,
+    /// Every edge once, and its box in the current pass.
+    edges: Vec<[u32; 2]>,
+    ebox: Vec<Aabb>,
+    /// The owned feature pairs of triangles sharing a vertex, in a fixed
+    /// order; the traversals skip those triangle pairs.
+    near: Vec<Near>,
+    /// Per task of a pass over `near`: what it found (storage reused).
+    near_found: Vec<Vec<Candidate>>,
+    near_hits: Vec<Vec<Hit>>,
     bvh: Option<Bvh>,
     /// Per particle and per triangle: boxes of the current pass (a point
     /// or swept path, grown by half the pass's distance).
     vbox: Vec<Aabb>,
     tbox: Vec<Aabb>,
-    /// Feature pairs within `(1 + SKIN) h_th` of each other at `reference`.
+    /// Feature pairs within `radius` of each other at `reference`.
     candidates: Vec<Candidate>,
+    /// The candidate list's radius `R = (1 + skin) h_th` (0 before the
+    /// first build).
+    radius: f64,
+    /// The motion `M` of the last detected step ([`relative_move`]).
+    last_move: f64,
     reference: Vec<f64>,
     found: Overlaps<Candidate>,
     hits: Overlaps<Hit>,
@@ -191,21 +235,31 @@ impl SelfContact {
             }
         }
         edges.sort_unstable();
-        let mut owned_edges = vec![0u8; tris.len()];
+        let mut edge_ids = vec![[NONE; 3]; tris.len()];
+        let mut unique = Vec::new();
         for (k, e) in edges.iter().enumerate() {
             if k == 0 || (edges[k - 1].0, edges[k - 1].1) != (e.0, e.1) {
-                owned_edges[e.2 as usize] |= 1 << e.3;
+                edge_ids[e.2 as usize][e.3 as usize] = unique.len() as u32;
+                unique.push([e.0, e.1]);
             }
         }
+        let near = near_pairs(n, &tris, &owned_vertices, &edge_ids);
         Ok(Self {
             opts,
             tris,
             owned_vertices,
-            owned_edges,
+            edge_ids,
+            ebox: vec![Aabb::EMPTY; unique.len()],
+            edges: unique,
+            near,
+            near_found: Vec::new(),
+            near_hits: Vec::new(),
             bvh: None,
             vbox: vec![Aabb::EMPTY; n],
             tbox: vec![Aabb::EMPTY; faces.len()],
             candidates: Vec::new(),
+            radius: 0.0,
+            last_move: 0.0,
             reference: Vec::new(),
             found: Overlaps::default(),
             hits: Overlaps::default(),
@@ -226,20 +280,26 @@ impl SelfContact {
     /// the points `x0`), grown by `r`, and refits the tree to them (built on
     /// first use). No allocation after the first call.
     fn fill_boxes(&mut self, x0: &[f64], x1: Option<&[f64]>, r: f64) {
-        for (p, b) in self.vbox.iter_mut().enumerate() {
+        self.vbox.par_iter_mut().enumerate().for_each(|(p, b)| {
             let mut bx = Aabb::point(&pt(x0, p as u32));
             if let Some(x1) = x1 {
                 bx.add_point(&pt(x1, p as u32));
             }
             *b = bx.inflated(r);
-        }
+        });
         let vbox = &self.vbox;
-        for (t, b) in self.tbox.iter_mut().enumerate() {
-            let [i, j, k] = self.tris[t];
-            *b = vbox[i as usize]
-                .union(&vbox[j as usize])
-                .union(&vbox[k as usize]);
-        }
+        self.edges
+            .par_iter()
+            .zip(self.ebox.par_iter_mut())
+            .for_each(|(e, b)| *b = vbox[e[0] as usize].union(&vbox[e[1] as usize]));
+        self.tris
+            .par_iter()
+            .zip(self.tbox.par_iter_mut())
+            .for_each(|([i, j, k], b)| {
+                *b = vbox[*i as usize]
+                    .union(&vbox[*j as usize])
+                    .union(&vbox[*k as usize]);
+            });
         let tbox = &self.tbox;
         match &mut self.bvh {
             Some(bvh) => bvh.refit(|t| tbox[t]),
@@ -249,74 +309,116 @@ impl SelfContact {
 
     /// Every owned feature pair (vertex-face, edge-edge; sharing no vertex)
     /// of the triangles `i` and `j` whose particle boxes overlap, handed to
-    /// `f(particles, edge_edge)`.
+    /// `f(particles, edge_edge)`; nothing for triangles that share a vertex
+    /// (their pairs are in [`Self::near`]).
     fn feature_pairs(&self, i: usize, j: usize, mut f: impl FnMut([u32; 4], bool)) {
         let (ti, tj) = (&self.tris[i], &self.tris[j]);
-        let (ov, oe, vbox, tbox) = (
-            &self.owned_vertices,
-            &self.owned_edges,
-            &self.vbox,
-            &self.tbox,
-        );
-        for (a, ta, b, tb) in [(i, ti, j, tj), (j, tj, i, ti)] {
-            for k in 0..3 {
-                let p = ta[k];
-                if ov[a] & (1 << k) != 0 && !tb.contains(&p) && vbox[p as usize].overlaps(&tbox[b])
-                {
-                    f([p, tb[0], tb[1], tb[2]], false);
-                }
-            }
+        if ti.iter().any(|p| tj.contains(p)) {
+            return;
         }
-        for ka in 0..3 {
-            if oe[i] & (1 << ka) == 0 {
-                continue;
-            }
-            let (p, q) = (ti[ka], ti[(ka + 1) % 3]);
-            let ea = vbox[p as usize].union(&vbox[q as usize]);
-            for kb in 0..3 {
-                if oe[j] & (1 << kb) == 0 {
-                    continue;
+        owned_feature_pairs(
+            &self.tris,
+            &self.owned_vertices,
+            &self.edge_ids,
+            i,
+            j,
+            |idx, a, b| {
+                let near = Near { idx, a, b };
+                if self.boxes_overlap(&near) {
+                    f(idx, a != NONE);
                 }
-                let (r, s) = (tj[kb], tj[(kb + 1) % 3]);
-                if p != r
-                    && p != s
-                    && q != r
-                    && q != s
-                    && ea.overlaps(&vbox[r as usize].union(&vbox[s as usize]))
-                {
-                    f([p, q, r, s], true);
-                }
-            }
+            },
+        );
+    }
+
+    /// Whether the particle boxes of a feature pair overlap (the vertex's
+    /// and the face's, or the two edges').
+    #[inline]
+    fn boxes_overlap(&self, c: &Near) -> bool {
+        if c.a == NONE {
+            self.vbox[c.idx[0] as usize].overlaps(&self.tbox[c.b as usize])
+        } else {
+            self.ebox[c.a as usize].overlaps(&self.ebox[c.b as usize])
         }
     }
 
+    /// Runs `test` on every pair of [`Self::near`] whose boxes overlap, on
+    /// the rayon pool in fixed chunks: `out` holds what each chunk found, in
+    /// the list's order for every thread count.
+    fn near_pass<T: Send>(
+        &self,
+        out: &mut Vec<Vec<T>>,
+        test: impl Fn([u32; 4], bool) -> Option<T> + Sync,
+    ) {
+        let chunks = self.near.len().div_ceil(NEAR_CHUNK);
+        if out.len() < chunks {
+            out.resize_with(chunks, Vec::new);
+        }
+        out.truncate(chunks);
+        out.par_iter_mut()
+            .zip(self.near.par_chunks(NEAR_CHUNK))
+            .for_each(|(found, near)| {
+                found.clear();
+                found.extend(
+                    near.iter()
+                        .filter(|c| self.boxes_overlap(c))
+                        .filter_map(|c| test(c.idx, c.a != NONE)),
+                );
+            });
+    }
+
+    /// The radius of the next candidate list: `(1 + SKIN) h_th`, or `(1 +
+    /// THIN_SKIN) h_th` after a step that moved more than `SKIN h_th / 2`.
+    fn next_radius(&self) -> f64 {
+        let th = self.opts.thickness;
+        let skin = if 2.0 * self.last_move < SKIN * th {
+            SKIN
+        } else {
+            THIN_SKIN
+        };
+        (1.0 + skin) * th
+    }
+
     /// The candidate list (a Verlet list): every owned feature pair closer
-    /// than `R = (1 + SKIN) h_th` at the positions `x`, which become the
-    /// reference positions.
+    /// than `R` ([`Self::next_radius`]) at the positions `x`, which become
+    /// the reference positions.
     fn build_candidates(&mut self, x: &[f64]) {
         self.traversals += 1;
-        let radius = (1.0 + SKIN) * self.opts.thickness;
+        let radius = self.next_radius();
+        self.radius = radius;
         self.fill_boxes(x, None, 0.5 * radius);
-        let at = |p: u32| pt(x, p);
+        let close = |idx: [u32; 4], ee: bool| {
+            let y = idx.map(|p| pt(x, p));
+            // A separating axis first: most pairs whose boxes overlap lie
+            // side by side in the cloth, farther than `R` apart.
+            let far = if ee {
+                segments_farther_than(&y[0], &y[1], &y[2], &y[3], radius)
+            } else {
+                point_triangle_farther_than(&y[0], &y[1], &y[2], &y[3], radius)
+            };
+            if far {
+                return None;
+            }
+            let d = if ee {
+                let (_, _, c1, c2) = closest_points_segments(&y[0], &y[1], &y[2], &y[3]);
+                (c1 - c2).norm()
+            } else {
+                (y[0] - closest_point_triangle(&y[0], &y[1], &y[2], &y[3]).point).norm()
+            };
+            (d < radius).then_some(Candidate { idx, ee })
+        };
+        let mut near = std::mem::take(&mut self.near_found);
+        self.near_pass(&mut near, close);
         let mut found = std::mem::take(&mut self.found);
         let bvh = self.bvh.as_ref().expect("built by fill_boxes");
         bvh.self_overlaps(&mut found, |i, j, out| {
-            self.feature_pairs(i, j, |idx, ee| {
-                let y = idx.map(at);
-                let d = if ee {
-                    let (_, _, c1, c2) = closest_points_segments(&y[0], &y[1], &y[2], &y[3]);
-                    (c1 - c2).norm()
-                } else {
-                    (y[0] - closest_point_triangle(&y[0], &y[1], &y[2], &y[3]).point).norm()
-                };
-                if d < radius {
-                    out.push(Candidate { idx, ee });
-                }
-            });
+            self.feature_pairs(i, j, |idx, ee| out.extend(close(idx, ee)));
         });
         self.candidates.clear();
+        self.candidates.extend(near.iter().flatten().copied());
         self.candidates.extend(found.iter().copied());
         self.found = found;
+        self.near_found = near;
         self.reference.clear();
         self.reference.extend_from_slice(x);
     }
@@ -333,13 +435,13 @@ impl SelfContact {
 
     /// Finds the proximity pairs of the positions `x` (the step's start)
     /// among the candidates, rebuilt first when a particle has moved more
-    /// than `SKIN h_th / 2` beyond the cloth's common translation since they
+    /// than `(R - h_th) / 2` beyond the cloth's common translation since they
     /// were found (or a position is NaN) (then no pair closer than
     /// `h_th` can be missing: distance is 1-Lipschitz in each point). Returns
     /// their number.
     pub(crate) fn find_proximity(&mut self, x: &[f64]) -> usize {
         let th = self.opts.thickness;
-        if !(2.0 * self.drift(x) < SKIN * th) {
+        if !(2.0 * self.drift(x) < self.radius - th) {
             self.build_candidates(x);
         }
         self.pairs.clear();
@@ -419,13 +521,13 @@ impl SelfContact {
     fn detect(&mut self, x0: &[f64], x1: &[f64]) -> usize {
         let th = self.opts.thickness;
         let eta = ETA * th;
-        let radius = (1.0 + SKIN) * th;
-        let reach = 2.0 * relative_move(x0, x1) + eta;
-        if reach + 2.0 * self.drift(x0) >= radius && reach < radius {
+        self.last_move = relative_move(x0, x1);
+        let reach = 2.0 * self.last_move + eta;
+        if reach + 2.0 * self.drift(x0) >= self.radius && reach < self.next_radius() {
             self.build_candidates(x0);
         }
         self.impacts.clear();
-        if reach + 2.0 * self.drift(x0) < radius {
+        if reach + 2.0 * self.drift(x0) < self.radius {
             for c in &self.candidates {
                 if let Some(hit) = ccd(c.idx, c.ee, x0, x1, eta) {
                     self.impacts.push(hit);
@@ -435,17 +537,17 @@ impl SelfContact {
         }
         self.traversals += 1;
         self.fill_boxes(x0, Some(x1), 0.5 * eta);
+        let mut near = std::mem::take(&mut self.near_hits);
+        self.near_pass(&mut near, |idx, ee| ccd(idx, ee, x0, x1, eta));
         let mut found = std::mem::take(&mut self.hits);
         let bvh = self.bvh.as_ref().expect("built by fill_boxes");
         bvh.self_overlaps(&mut found, |i, j, out| {
-            self.feature_pairs(i, j, |idx, ee| {
-                if let Some(hit) = ccd(idx, ee, x0, x1, eta) {
-                    out.push(hit);
-                }
-            });
+            self.feature_pairs(i, j, |idx, ee| out.extend(ccd(idx, ee, x0, x1, eta)));
         });
+        self.impacts.extend(near.iter().flatten().copied());
         self.impacts.extend(found.iter().copied());
         self.hits = found;
+        self.near_hits = near;
         self.impacts.len()
     }
 
@@ -567,6 +669,101 @@ impl SelfContact {
         }
         zones
     }
+}
+
+/// Every owned feature pair sharing no vertex of the triangles `i` and `j`
+/// (`i != j`), handed to `f(particles, a, b)` as in [`Near`]: vertex-face
+/// pairs, those of `i`'s owned vertices first, then `j`'s, then edge-edge
+/// pairs.
+fn owned_feature_pairs(
+    tris: &[[u32; 3]],
+    owned_vertices: &[u8],
+    edge_ids: &[[u32; 3]],
+    i: usize,
+    j: usize,
+    mut f: impl FnMut([u32; 4], u32, u32),
+) {
+    let (ti, tj) = (&tris[i], &tris[j]);
+    for (a, ta, b, tb) in [(i, ti, j, tj), (j, tj, i, ti)] {
+        for k in 0..3 {
+            let p = ta[k];
+            if owned_vertices[a] & (1 << k) != 0 && !tb.contains(&p) {
+                f([p, tb[0], tb[1], tb[2]], NONE, b as u32);
+            }
+        }
+    }
+    for ka in 0..3 {
+        let ea = edge_ids[i][ka];
+        if ea == NONE {
+            continue;
+        }
+        let (p, q) = (ti[ka], ti[(ka + 1) % 3]);
+        for kb in 0..3 {
+            let eb = edge_ids[j][kb];
+            if eb == NONE {
+                continue;
+            }
+            let (r, s) = (tj[kb], tj[(kb + 1) % 3]);
+            if p != r && p != s && q != r && q != s {
+                f([p, q, r, s], ea, eb);
+            }
+        }
+    }
+}
+
+/// The [`Near`] list of a triangle mesh of `n` particles: the owned
+/// feature pairs of every two triangles that share a vertex, by the first
+/// triangle, then the second.
+fn near_pairs(
+    n: usize,
+    tris: &[[u32; 3]],
+    owned_vertices: &[u8],
+    edge_ids: &[[u32; 3]],
+) -> Vec<Near> {
+    let mut start = vec![0u32; n + 1];
+    for t in tris {
+        for &p in t {
+            start[p as usize + 1] += 1;
+        }
+    }
+    for p in 0..n {
+        start[p + 1] += start[p];
+    }
+    let mut fill = start.clone();
+    let mut of_vertex = vec![0u32; start[n] as usize];
+    for (ti, t) in tris.iter().enumerate() {
+        for &p in t {
+            of_vertex[fill[p as usize] as usize] = ti as u32;
+            fill[p as usize] += 1;
+        }
+    }
+    let mut near = Vec::new();
+    let mut others: Vec<u32> = Vec::new();
+    for (i, t) in tris.iter().enumerate() {
+        others.clear();
+        for &p in t {
+            let range = start[p as usize] as usize..start[p as usize + 1] as usize;
+            others.extend(
+                of_vertex[range]
+                    .iter()
+                    .filter(|&&j| j as usize > i)
+                    .copied(),
+            );
+        }
+        others.sort_unstable();
+        others.dedup();
+        for &j in &others {
+            owned_feature_pairs(
+                tris,
+                owned_vertices,
+                edge_ids,
+                i,
+                j as usize,
+                |idx, a, b| near.push(Near { idx, a, b }),
+            );
+        }
+    }
+    near
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -772,5 +969,104 @@ mod tests {
         approx::assert_abs_diff_eq!(relative_move(&a, &b), 0.15, epsilon = 1e-14);
         b[4] = f64::NAN;
         assert!(relative_move(&a, &b).is_nan());
+    }
+
+    /// A crumpled 9 x 9 grid (every quad split in two) whose layers come
+    /// within the candidate radius of each other: the candidate list (the
+    /// `near` pass plus the traversal) is exactly the set of feature pairs
+    /// closer than `R` found by brute force over every vertex-face and
+    /// edge-edge pair sharing no vertex, each pair once.
+    #[test]
+    fn candidates_equal_brute_force_on_a_crumpled_grid() {
+        let m = 9;
+        let id = |i: usize, j: usize| (i + m * j) as u32;
+        let mut faces = Vec::new();
+        for j in 0..m - 1 {
+            for i in 0..m - 1 {
+                let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i, j + 1), id(i + 1, j + 1));
+                faces.push([a as usize, b as usize, c as usize]);
+                faces.push([b as usize, d as usize, c as usize]);
+            }
+        }
+        // Folded over along x twice (a Z of three layers 0.04 apart), with
+        // a deterministic wobble.
+        let mut x = Vec::new();
+        for j in 0..m {
+            for i in 0..m {
+                let u = i as f64 * 0.1;
+                let (px, pz) = match i {
+                    0..=2 => (u, 0.0),
+                    3..=5 => (0.5 - u, 0.04),
+                    _ => (u - 0.6, 0.08),
+                };
+                let w = 0.01 * ((7 * i + 3 * j) as f64).sin();
+                x.extend([px + w, j as f64 * 0.1, pz + w]);
+            }
+        }
+        let opts = SelfCollision {
+            thickness: 0.03,
+            ..Default::default()
+        };
+        let mut sc = SelfContact::new(m * m, &faces, opts).unwrap();
+        sc.build_candidates(&x);
+        let radius = sc.radius;
+        assert_eq!(radius, (1.0 + SKIN) * 0.03);
+        let key = |idx: [u32; 4], ee: bool| -> (bool, [u32; 4]) {
+            if ee {
+                let (e, f) = (
+                    [idx[0].min(idx[1]), idx[0].max(idx[1])],
+                    [idx[2].min(idx[3]), idx[2].max(idx[3])],
+                );
+                let (e, f) = (e.min(f), e.max(f));
+                (true, [e[0], e[1], f[0], f[1]])
+            } else {
+                let mut t = [idx[1], idx[2], idx[3]];
+                t.sort_unstable();
+                (false, [idx[0], t[0], t[1], t[2]])
+            }
+        };
+        let mut got: Vec<_> = sc.candidates.iter().map(|c| key(c.idx, c.ee)).collect();
+        got.sort_unstable();
+        let before = got.len();
+        got.dedup();
+        assert_eq!(got.len(), before, "a pair listed twice");
+        // Brute force, with the distances of the tests' own formulas.
+        let p3 = |p: u32| pt(&x, p);
+        let mut edges: Vec<[u32; 2]> = faces
+            .iter()
+            .flat_map(|f| (0..3).map(move |k| (f[k] as u32, f[(k + 1) % 3] as u32)))
+            .map(|(a, b)| [a.min(b), a.max(b)])
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        let mut want = Vec::new();
+        for p in 0..(m * m) as u32 {
+            for f in &faces {
+                let f = f.map(|v| v as u32);
+                if f.contains(&p) {
+                    continue;
+                }
+                let q = closest_point_triangle(&p3(p), &p3(f[0]), &p3(f[1]), &p3(f[2]));
+                if (p3(p) - q.point).norm() < radius {
+                    want.push(key([p, f[0], f[1], f[2]], false));
+                }
+            }
+        }
+        for (k, e) in edges.iter().enumerate() {
+            for f in &edges[k + 1..] {
+                if e.iter().any(|v| f.contains(v)) {
+                    continue;
+                }
+                let (_, _, c1, c2) =
+                    closest_points_segments(&p3(e[0]), &p3(e[1]), &p3(f[0]), &p3(f[1]));
+                if (c1 - c2).norm() < radius {
+                    want.push(key([e[0], e[1], f[0], f[1]], true));
+                }
+            }
+        }
+        want.sort_unstable();
+        // The layers are close: far more pairs than the flat grid's.
+        assert!(want.len() > 500, "{} pairs", want.len());
+        assert_eq!(got, want);
     }
 }
