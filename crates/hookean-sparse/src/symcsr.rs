@@ -150,9 +150,10 @@ impl SymCsrMatrix {
 }
 
 /// `sum_j a_ij p_j` over one row's upper entries, adding `a_ij p_i` to
-/// `y_{j - s}` (the transposed entry's share of row `j`; `y` holds rows
-/// `s..`), with `BELOW` only for `j < e` (a part's last rows, whose entries
-/// reach rows of later parts). Two partial sums, so the adds do not wait on
+/// `y_j` (the transposed entry's share of row `j`), with `BELOW` only for
+/// `j < e` (a part's last rows, whose entries reach rows of later parts).
+/// `p` and `y` hold entries `s..`: a row `i >= s` reads no column before
+/// `s`, and slices of one length share their bounds check. Two partial sums, so the adds do not wait on
 /// each other's latency.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
@@ -170,18 +171,18 @@ pub(crate) fn row_gather_scatter<const BELOW: bool>(
     let (mut s0, mut s1) = (0.0, 0.0);
     for (c, v) in c2.iter().zip(v2) {
         let (j0, j1) = (c[0] as usize, c[1] as usize);
-        s0 += v[0] * p[j0];
+        s0 += v[0] * p[j0 - s];
         if !BELOW || j0 < e {
             y[j0 - s] += v[0] * pi;
         }
-        s1 += v[1] * p[j1];
+        s1 += v[1] * p[j1 - s];
         if !BELOW || j1 < e {
             y[j1 - s] += v[1] * pi;
         }
     }
     for (&j, &v) in c1.iter().zip(v1) {
         let j = j as usize;
-        s0 += v * p[j];
+        s0 += v * p[j - s];
         if !BELOW || j < e {
             y[j - s] += v * pi;
         }
@@ -246,14 +247,17 @@ impl SymCsrMatrix {
     #[inline(always)]
     fn product_rows(&self, x: &[f64], y: &mut [f64], s: usize) -> f64 {
         let (e, n) = (s + y.len(), x.len());
+        // x from row s on: to the part's end for rows that reach no later
+        // part (the length of y), to n for the others.
+        let (x_part, x_on) = (&x[s..e], &x[s..]);
         let mut dot = 0.0;
         for i in (s..e).rev() {
             let (cols, vals) = self.upper_row(i);
             let (xi, d) = (x[i], self.diag[i]);
             let off = if e == n || cols.last().is_none_or(|&j| (j as usize) < e) {
-                row_gather_scatter::<false>(cols, vals, xi, x, y, s, e)
+                row_gather_scatter::<false>(cols, vals, xi, x_part, y, s, e)
             } else {
-                row_gather_scatter::<true>(cols, vals, xi, x, y, s, e)
+                row_gather_scatter::<true>(cols, vals, xi, x_on, y, s, e)
             };
             y[i - s] = d * xi + off;
             dot += xi * (d * xi + 2.0 * off);
