@@ -196,6 +196,17 @@ fn to_usize<T: TryInto<usize>>(v: T) -> usize {
     v.try_into().unwrap_or(usize::MAX)
 }
 
+/// Runs `f` in a fresh rayon pool of `threads` threads (the tests' way to
+/// compare thread counts).
+#[cfg(test)]
+pub(crate) fn in_pool<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -210,13 +221,7 @@ mod tests {
         let exact: f64 = x.iter().sum();
         let sums: Vec<f64> = [1, 2, 3]
             .iter()
-            .map(|&t| {
-                rayon::ThreadPoolBuilder::new()
-                    .num_threads(t)
-                    .build()
-                    .unwrap()
-                    .install(|| tree_sum(n, &leaf))
-            })
+            .map(|&t| in_pool(t, || tree_sum(n, &leaf)))
             .collect();
         assert!((sums[1] - exact).abs() <= 1e-9 * n as f64);
         // With one thread the kernel does not fork (one leaf over all of it);
@@ -228,25 +233,21 @@ mod tests {
     fn tree_sum2_updates_every_entry_once_and_sums_in_a_fixed_order() {
         let n = 3 * MIN_PARALLEL_BLOCKS * 3 + 5;
         let run = |threads: usize| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap()
-                .install(|| {
-                    let mut a = vec![1.0; n];
-                    let mut b: Vec<f64> = (0..n).map(|i| i as f64).collect();
-                    let s = tree_sum2_mut(&mut a, &mut b, &|at, a, b| {
-                        let mut s = (0.0, 0.0);
-                        for k in 0..a.len() {
-                            a[k] += (at + k) as f64;
-                            b[k] *= 0.5;
-                            s.0 += a[k];
-                            s.1 += b[k];
-                        }
-                        s
-                    });
-                    (a, b, s)
-                })
+            in_pool(threads, || {
+                let mut a = vec![1.0; n];
+                let mut b: Vec<f64> = (0..n).map(|i| i as f64).collect();
+                let s = tree_sum2_mut(&mut a, &mut b, &|at, a, b| {
+                    let mut s = (0.0, 0.0);
+                    for k in 0..a.len() {
+                        a[k] += (at + k) as f64;
+                        b[k] *= 0.5;
+                        s.0 += a[k];
+                        s.1 += b[k];
+                    }
+                    s
+                });
+                (a, b, s)
+            })
         };
         let (a1, b1, s1) = run(1);
         let (a2, b2, s2) = run(2);

@@ -414,17 +414,13 @@ mod tests {
         let x: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin()).collect();
         let z: Vec<f64> = (0..n).map(|i| (i as f64 * 0.11).cos()).collect();
         let run = |threads: usize| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap()
-                .install(|| {
-                    let mut y = vec![f64::NAN; n];
-                    let dot = s.apply_dot(&x, &mut y);
-                    let (mut x1, mut p1, mut q1) = (x.clone(), z.clone(), vec![f64::NAN; n]);
-                    let pq = s.update_and_apply_dot(&z, 0.7, 0.3, &mut x1, &mut p1, &mut q1);
-                    (y, dot, x1, p1, q1, pq)
-                })
+            crate::par::in_pool(threads, || {
+                let mut y = vec![f64::NAN; n];
+                let dot = s.apply_dot(&x, &mut y);
+                let (mut x1, mut p1, mut q1) = (x.clone(), z.clone(), vec![f64::NAN; n]);
+                let pq = s.update_and_apply_dot(&z, 0.7, 0.3, &mut x1, &mut p1, &mut q1);
+                (y, dot, x1, p1, q1, pq)
+            })
         };
         let serial = run(1);
         let mut y_ref = vec![0.0; n];
