@@ -350,11 +350,14 @@ fn bandwidth() {
 /// of runs, two kernels: the product `hookean solve --format csr` runs (the
 /// symmetric [`SymCsrMatrix`]: diagonal, upper triangle, `u32` indices) and the
 /// [`LinearOperator`] of the full `sprs::CsMat` (8-byte indices); each with
-/// STREAM's triad on vectors as large as the bytes the kernel must stream
-/// (values and indices, row pointers, the diagonal, `x` read, `y` written), in
-/// the current pool (`RAYON_NUM_THREADS=1` for one thread). One JSON line per
-/// file and kernel, for scripts/peers/compare.sh (issue 29).
+/// two STREAM triads in the current pool (`RAYON_NUM_THREADS=1` for one
+/// thread): on vectors as large as the bytes the kernel must stream (values
+/// and indices, row pointers, the diagonal, `x` read, `y` written; in L3 for
+/// a matrix that fits), and on three vectors of 128 MiB each, four times the
+/// 32 MiB L3 as STREAM asks (DRAM, the memory-bandwidth bound). One JSON line
+/// per file and kernel, for scripts/peers/compare.sh (issue 29).
 fn spmv_files(paths: &[String]) {
+    let dram = triad_gbs((128 << 20) / 8, 20);
     for path in paths {
         let a = match hookean_sparse::read_matrix_market_file(path) {
             Ok(m) => m.into_csr(),
@@ -374,13 +377,14 @@ fn spmv_files(paths: &[String]) {
             let len = (bytes / 24.0) as usize;
             let triad = triad_gbs(len.max(1024), reps.min(1000));
             println!(
-                "{{\"kind\":\"spmv\",\"matrix\":\"{path}\",\"tool\":\"{tool}\",\"index_bytes\":{index_bytes},\"rows\":{n},\"nnz\":{nnz},\"spmv_s\":{t:.6e},\"bytes\":{bytes:.0},\"triad_gbs\":{triad:.2},\"check\":{:.6e}}}",
+                "{{\"kind\":\"spmv\",\"matrix\":\"{path}\",\"tool\":\"{tool}\",\"index_bytes\":{index_bytes},\"rows\":{n},\"nnz\":{nnz},\"spmv_s\":{t:.6e},\"bytes\":{bytes:.0},\"triad_gbs\":{triad:.2},\"dram_triad_gbs\":{dram:.2},\"check\":{:.6e}}}",
                 y.iter().sum::<f64>()
             );
         };
         if let Ok(s) = SymCsrMatrix::from_csr(&a) {
             let m = (s.stored() - n) as f64;
-            let bytes = m * 12.0 + (n + 1) as f64 * word + 24.0 * n as f64;
+            // u32 columns and row pointers; the diagonal, x and y.
+            let bytes = m * 12.0 + (n + 1) as f64 * 4.0 + 24.0 * n as f64;
             report("hookean symmetric CSR", 4.0, bytes, &s);
         }
         let bytes = nnz as f64 * (8.0 + word) + (n + 1) as f64 * word + 16.0 * n as f64;

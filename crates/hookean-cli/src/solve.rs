@@ -239,14 +239,14 @@ pub enum Matrix {
     Csr {
         a: sprs::CsMat<f64>,
         block_size: usize,
-        product: Option<SymCsrMatrix>,
+        product: Option<Box<SymCsrMatrix>>,
     },
 }
 
 impl Matrix {
     /// CSR storage of `a`, with the symmetric product when `a` is symmetric.
     pub fn csr(a: sprs::CsMat<f64>, block_size: usize) -> Self {
-        let product = SymCsrMatrix::from_csr(&a).ok();
+        let product = SymCsrMatrix::from_csr(&a).ok().map(Box::new);
         Matrix::Csr {
             a,
             block_size,
@@ -299,7 +299,7 @@ pub fn run_solver(
                     a,
                     product: Some(s),
                     ..
-                } => pcg.run(s, a),
+                } => pcg.run(&**s, a),
                 // No symmetric product: `a` is not symmetric (or not finite),
                 // and PCG, like the direct solver, would solve another system.
                 Matrix::Csr { a, .. } => match hookean_sparse::check_csr_symmetric(a) {

@@ -14,6 +14,7 @@ use std::sync::Arc;
 
 use crate::block::{self, Block3};
 use crate::error::{SparseError, check_len};
+use crate::par::LowerIndex;
 
 /// The sparsity pattern of a [`SymBlockMatrix`]: which 3x3 blocks are stored.
 ///
@@ -25,11 +26,8 @@ pub struct BlockPattern {
     row_ptr: Vec<usize>,
     col_idx: Vec<u32>,
     /// The transpose's index, for the threaded SpMV: column `j`'s stored
-    /// upper blocks `(i, j)`, `i < j`, are `lower_row[k]` / `lower_slot[k]`
-    /// for `k` in `lower_ptr[j]..lower_ptr[j + 1]`, rows ascending.
-    lower_ptr: Vec<usize>,
-    lower_row: Vec<u32>,
-    lower_slot: Vec<usize>,
+    /// upper blocks `(i, j)`, `i < j`.
+    lower: LowerIndex,
 }
 
 /// `Ok` when the square `sprs` matrix `a` is finite and symmetric: every
@@ -195,33 +193,12 @@ impl BlockPattern {
             }
             row_ptr.push(col_idx.len());
         }
-        // The transposed index by counting sort: rows visited in increasing
-        // order leave every column's list sorted by row.
-        let mut lower_ptr = vec![0usize; n + 1];
-        for &(_, j) in &upper {
-            lower_ptr[j as usize + 1] += 1;
-        }
-        for j in 0..n {
-            lower_ptr[j + 1] += lower_ptr[j];
-        }
-        let mut fill = lower_ptr.clone();
-        let mut lower_row = vec![0u32; upper.len()];
-        let mut lower_slot = vec![0usize; upper.len()];
-        for i in 0..n {
-            for k in row_ptr[i] + 1..row_ptr[i + 1] {
-                let j = col_idx[k] as usize;
-                lower_row[fill[j]] = i as u32;
-                lower_slot[fill[j]] = k;
-                fill[j] += 1;
-            }
-        }
+        let lower = LowerIndex::of_upper(&row_ptr, &col_idx, 1);
         Ok(Self {
             n,
             row_ptr,
             col_idx,
-            lower_ptr,
-            lower_row,
-            lower_slot,
+            lower,
         })
     }
 
@@ -229,11 +206,7 @@ impl BlockPattern {
     /// of stored blocks (`t = parts` gives `n`). A fixed function of the
     /// pattern and `parts`, so threaded kernels split the same way every call.
     pub fn part_start(&self, t: usize, parts: usize) -> usize {
-        if t >= parts {
-            return self.n;
-        }
-        let target = self.col_idx.len() * t / parts;
-        self.row_ptr[..self.n].partition_point(|&p| p < target)
+        crate::par::part_start(&self.row_ptr, t, parts)
     }
 
     /// Number of block rows (and block columns).
@@ -602,12 +575,12 @@ impl SymBlockMatrix {
         } else {
             for (j, yj) in (s..e).zip(y3.iter_mut()) {
                 let mut acc = [0.0; 3];
-                for k in p.lower_ptr[j]..p.lower_ptr[j + 1] {
-                    let i = p.lower_row[k] as usize;
+                for k in p.lower.ptr[j]..p.lower.ptr[j + 1] {
+                    let i = p.lower.row[k] as usize;
                     if i >= s {
                         break;
                     }
-                    let u = block::mul_transpose_vec(&vals[p.lower_slot[k]], &x3[i]);
+                    let u = block::mul_transpose_vec(&vals[p.lower.slot[k]], &x3[i]);
                     acc[0] += u[0];
                     acc[1] += u[1];
                     acc[2] += u[2];
@@ -674,12 +647,7 @@ impl SymBlockMatrix {
     ) -> f64 {
         let n = self.pattern.n;
         if crate::par::parts_for(n) > 1 {
-            crate::par::for_each_chunk3(x, p, z, |xc, pc, zc| {
-                for ((xi, pi), zi) in xc.iter_mut().zip(pc.iter_mut()).zip(zc) {
-                    *xi += alpha * *pi;
-                    *pi = zi + beta * *pi;
-                }
-            });
+            crate::vecops::update_x_p(z, beta, alpha, x, p);
             return self.spmv_dot(p, q);
         }
         let (z3, _) = z.as_chunks::<3>();

@@ -38,10 +38,7 @@ pub trait LinearOperator {
         p: &mut [f64],
         q: &mut [f64],
     ) -> f64 {
-        for ((xi, pi), zi) in x.iter_mut().zip(p.iter_mut()).zip(z) {
-            *xi += alpha * *pi;
-            *pi = zi + beta * *pi;
-        }
+        crate::vecops::update_x_p(z, beta, alpha, x, p);
         self.apply_dot(p, q)
     }
 }

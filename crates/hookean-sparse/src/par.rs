@@ -126,6 +126,87 @@ fn tree_sum2_leaves(
     (x.0 + y.0, x.1 + y.1)
 }
 
+/// The transpose's index of a symmetric matrix stored as its upper triangle
+/// in CSR, for the threaded products: column `j`'s stored entries `(i, j)`,
+/// `i < j`, are row `row[k]` at slot `slot[k]` for `k` in
+/// `ptr[j]..ptr[j + 1]`, rows ascending. A part of rows `s..e` gathers
+/// through it what the rows before `s` add to its rows, so no part writes
+/// another's rows (the block and the scalar symmetric products).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub(crate) struct LowerIndex {
+    pub(crate) ptr: Vec<usize>,
+    pub(crate) row: Vec<u32>,
+    pub(crate) slot: Vec<usize>,
+}
+
+impl LowerIndex {
+    /// The index of the pattern `row_ptr` / `col` whose rows hold `skip`
+    /// leading slots that are not strictly upper (1 for a diagonal stored
+    /// first, 0 for the strict upper triangle), by counting sort: rows
+    /// visited in increasing order leave every column's list sorted by row.
+    pub(crate) fn of_upper<T: Copy + TryInto<usize>>(
+        row_ptr: &[T],
+        col: &[u32],
+        skip: usize,
+    ) -> Self {
+        let n = row_ptr.len() - 1;
+        let at = |i: usize| to_usize(row_ptr[i]);
+        let rows = || (0..n).map(|i| (i, at(i) + skip..at(i + 1)));
+        let mut ptr = vec![0usize; n + 1];
+        for (_, slots) in rows() {
+            for &j in &col[slots] {
+                ptr[j as usize + 1] += 1;
+            }
+        }
+        for j in 0..n {
+            ptr[j + 1] += ptr[j];
+        }
+        let mut fill = ptr.clone();
+        let mut row = vec![0u32; ptr[n]];
+        let mut slot = vec![0usize; ptr[n]];
+        for (i, slots) in rows() {
+            for k in slots {
+                let j = col[k] as usize;
+                row[fill[j]] = i as u32;
+                slot[fill[j]] = k;
+                fill[j] += 1;
+            }
+        }
+        Self { ptr, row, slot }
+    }
+}
+
+/// First row of part `t` of `parts` parts of a CSR pattern's rows with
+/// about equal numbers of stored entries (`t = parts` gives `n`): a fixed
+/// function of the pattern and `parts`, so a threaded kernel splits the same
+/// way every call.
+pub(crate) fn part_start<T: Copy + TryInto<usize>>(row_ptr: &[T], t: usize, parts: usize) -> usize {
+    let n = row_ptr.len() - 1;
+    if t >= parts {
+        return n;
+    }
+    let target = to_usize(row_ptr[n]) * t / parts;
+    row_ptr[..n].partition_point(|&p| to_usize(p) < target)
+}
+
+/// A row pointer (`usize`, or `u32` where the storage is checked to fit) as
+/// a `usize`.
+#[inline(always)]
+fn to_usize<T: TryInto<usize>>(v: T) -> usize {
+    v.try_into().unwrap_or(usize::MAX)
+}
+
+/// Runs `f` in a fresh rayon pool of `threads` threads (the tests' way to
+/// compare thread counts).
+#[cfg(test)]
+pub(crate) fn in_pool<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -140,13 +221,7 @@ mod tests {
         let exact: f64 = x.iter().sum();
         let sums: Vec<f64> = [1, 2, 3]
             .iter()
-            .map(|&t| {
-                rayon::ThreadPoolBuilder::new()
-                    .num_threads(t)
-                    .build()
-                    .unwrap()
-                    .install(|| tree_sum(n, &leaf))
-            })
+            .map(|&t| in_pool(t, || tree_sum(n, &leaf)))
             .collect();
         assert!((sums[1] - exact).abs() <= 1e-9 * n as f64);
         // With one thread the kernel does not fork (one leaf over all of it);
@@ -158,25 +233,21 @@ mod tests {
     fn tree_sum2_updates_every_entry_once_and_sums_in_a_fixed_order() {
         let n = 3 * MIN_PARALLEL_BLOCKS * 3 + 5;
         let run = |threads: usize| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap()
-                .install(|| {
-                    let mut a = vec![1.0; n];
-                    let mut b: Vec<f64> = (0..n).map(|i| i as f64).collect();
-                    let s = tree_sum2_mut(&mut a, &mut b, &|at, a, b| {
-                        let mut s = (0.0, 0.0);
-                        for k in 0..a.len() {
-                            a[k] += (at + k) as f64;
-                            b[k] *= 0.5;
-                            s.0 += a[k];
-                            s.1 += b[k];
-                        }
-                        s
-                    });
-                    (a, b, s)
-                })
+            in_pool(threads, || {
+                let mut a = vec![1.0; n];
+                let mut b: Vec<f64> = (0..n).map(|i| i as f64).collect();
+                let s = tree_sum2_mut(&mut a, &mut b, &|at, a, b| {
+                    let mut s = (0.0, 0.0);
+                    for k in 0..a.len() {
+                        a[k] += (at + k) as f64;
+                        b[k] *= 0.5;
+                        s.0 += a[k];
+                        s.1 += b[k];
+                    }
+                    s
+                });
+                (a, b, s)
+            })
         };
         let (a1, b1, s1) = run(1);
         let (a2, b2, s2) = run(2);

@@ -21,6 +21,19 @@ pub(crate) fn update_residual(alpha: f64, q: &[f64], r: &mut [f64]) -> f64 {
     rr
 }
 
+/// CG's direction update `x <- x + alpha p` (the previous step, old `p`),
+/// then `p <- z + beta p`, element by element (threaded on long vectors:
+/// the same bits for every split).
+#[inline]
+pub(crate) fn update_x_p(z: &[f64], beta: f64, alpha: f64, x: &mut [f64], p: &mut [f64]) {
+    crate::par::for_each_chunk3(x, p, z, |xc, pc, zc| {
+        for ((xi, pi), zi) in xc.iter_mut().zip(pc.iter_mut()).zip(zc) {
+            *xi += alpha * *pi;
+            *pi = zi + beta * *pi;
+        }
+    });
+}
+
 /// The serial kernel of [`dot`].
 #[inline]
 fn dot_serial(x: &[f64], y: &[f64]) -> f64 {

@@ -153,14 +153,6 @@ fn banded(n: usize, w: usize) -> SymBlockMatrix {
     a
 }
 
-fn in_pool<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap()
-        .install(f)
-}
-
 #[test]
 fn threaded_spmv_gives_the_serial_bits() {
     // The parts gather the contributions of earlier rows in the serial
@@ -170,18 +162,18 @@ fn threaded_spmv_gives_the_serial_bits() {
     let a = banded(n, 67);
     let x: Vec<f64> = (0..3 * n).map(|i| (i as f64 * 0.37).sin()).collect();
     let mut y1 = vec![f64::NAN; 3 * n];
-    let d1 = in_pool(1, || a.spmv_dot(&x, &mut y1));
+    let d1 = crate::par::in_pool(1, || a.spmv_dot(&x, &mut y1));
     let mut expected = vec![0.0; 3 * n];
     a.spmv_dot_serial(&x, &mut expected);
     assert_eq!(y1, expected);
     for threads in [2, 3, 4] {
         let mut y = vec![f64::NAN; 3 * n];
-        let d = in_pool(threads, || a.spmv_dot(&x, &mut y));
+        let d = crate::par::in_pool(threads, || a.spmv_dot(&x, &mut y));
         assert_eq!(y, expected, "{threads} threads");
         approx::assert_relative_eq!(d, d1, max_relative = 1e-12);
         let mut again = vec![0.0; 3 * n];
         assert_eq!(
-            in_pool(threads, || a.spmv_dot(&x, &mut again)).to_bits(),
+            crate::par::in_pool(threads, || a.spmv_dot(&x, &mut again)).to_bits(),
             d.to_bits()
         );
     }
@@ -190,7 +182,7 @@ fn threaded_spmv_gives_the_serial_bits() {
     let run = |threads: usize| {
         let (mut xs, mut p, mut q) = (x.clone(), z.clone(), vec![0.0; 3 * n]);
         p.reverse();
-        in_pool(threads, || {
+        crate::par::in_pool(threads, || {
             a.update_spmv_dot(&z, 0.3, 0.7, &mut xs, &mut p, &mut q)
         });
         (xs, p, q)
@@ -269,7 +261,7 @@ fn threaded_diagonal_plus_combination_gives_the_serial_bits() {
     let run = |threads: usize| {
         let mut m = SymBlockMatrix::new(x.pattern().clone());
         m.values.fill([[f64::NAN; 3]; 3]);
-        in_pool(threads, || {
+        crate::par::in_pool(threads, || {
             m.assign_diagonal_plus_combination(&d, -1e-4, &x, -1e-2, &y)
                 .unwrap()
         });
