@@ -2,6 +2,10 @@
 
 use crate::{Case, RHS3, SPD, case};
 
+/// A general 2 x 2 matrix whose (1, 2) entry has no (2, 1) partner.
+const NONSYMMETRIC: &str =
+    "%%MatrixMarket matrix coordinate real general\n2 2 3\n1 1 2.0\n1 2 1.0\n2 2 2.0\n";
+
 pub(crate) const SOLVE: &[Case] = &[
     case(
         "solve: a missing matrix file",
@@ -96,10 +100,7 @@ pub(crate) const SOLVE: &[Case] = &[
     ),
     case(
         "solve: a nonsymmetric general matrix given to the direct solver",
-        &[(
-            "a.mtx",
-            "%%MatrixMarket matrix coordinate real general\n2 2 3\n1 1 2.0\n1 2 1.0\n2 2 2.0\n",
-        )],
+        &[("a.mtx", NONSYMMETRIC)],
         &[
             "solve",
             "{}/a.mtx",
@@ -115,10 +116,7 @@ pub(crate) const SOLVE: &[Case] = &[
     ),
     case(
         "solve: a nonsymmetric general matrix given to PCG",
-        &[(
-            "a.mtx",
-            "%%MatrixMarket matrix coordinate real general\n2 2 3\n1 1 2.0\n1 2 1.0\n2 2 2.0\n",
-        )],
+        &[("a.mtx", NONSYMMETRIC)],
         &[
             "solve",
             "{}/a.mtx",
