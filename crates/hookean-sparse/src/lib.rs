@@ -111,6 +111,7 @@ mod power;
 mod precond;
 mod symcsr;
 pub mod text;
+mod transpose;
 pub mod vecops;
 
 /// `sprs`, which the scalar-CSR part of this API speaks (`sprs::CsMat<f64>`

@@ -12,6 +12,7 @@
 //! What stays serial: MIC(0)/IC(0)'s triangular solves (each row needs the
 //! rows before it), SSOR's sweeps, and the direct solver.
 
+use crate::transpose::{column_pointers, scatter_transpose, to_usize};
 use rayon::prelude::*;
 
 /// Block rows (3 unknowns each) below which a kernel does not fork:
@@ -150,28 +151,12 @@ impl LowerIndex {
         skip: usize,
     ) -> Self {
         let n = row_ptr.len() - 1;
-        let at = |i: usize| to_usize(row_ptr[i]);
-        let rows = || (0..n).map(|i| (i, at(i) + skip..at(i + 1)));
-        let mut ptr = vec![0usize; n + 1];
-        for (_, slots) in rows() {
-            for &j in &col[slots] {
-                ptr[j as usize + 1] += 1;
-            }
-        }
-        for j in 0..n {
-            ptr[j + 1] += ptr[j];
-        }
-        let mut fill = ptr.clone();
+        let ptr = column_pointers(n, row_ptr, col, skip);
         let mut row = vec![0u32; ptr[n]];
         let mut slot = vec![0usize; ptr[n]];
-        for (i, slots) in rows() {
-            for k in slots {
-                let j = col[k] as usize;
-                row[fill[j]] = i as u32;
-                slot[fill[j]] = k;
-                fill[j] += 1;
-            }
-        }
+        scatter_transpose(row_ptr, col, skip, &mut ptr.clone(), &mut row, |p, k| {
+            slot[p] = k;
+        });
         Self { ptr, row, slot }
     }
 }
@@ -187,13 +172,6 @@ pub(crate) fn part_start<T: Copy + TryInto<usize>>(row_ptr: &[T], t: usize, part
     }
     let target = to_usize(row_ptr[n]) * t / parts;
     row_ptr[..n].partition_point(|&p| to_usize(p) < target)
-}
-
-/// A row pointer (`usize`, or `u32` where the storage is checked to fit) as
-/// a `usize`.
-#[inline(always)]
-fn to_usize<T: TryInto<usize>>(v: T) -> usize {
-    v.try_into().unwrap_or(usize::MAX)
 }
 
 /// Runs `f` in a fresh rayon pool of `threads` threads (the tests' way to

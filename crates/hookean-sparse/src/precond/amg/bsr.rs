@@ -12,6 +12,7 @@
 //! prolongation are split by row ranges across threads ([`super::par`]).
 
 use super::par;
+use crate::transpose::{column_pointers, scatter_transpose};
 
 /// A dense `B x B` block, row-major.
 pub(crate) type Blk<const R: usize, const C: usize = R> = [[f64; C]; R];
@@ -437,13 +438,14 @@ impl<const B: usize, S: Entry, const C: usize> Bsr<B, S, C> {
     /// The pattern of `A^T` (values zero) and, for every slot of it, the
     /// slot of `A` it transposes.
     pub fn transpose_pattern(&self) -> (Bsr<C, S, B>, Vec<u32>) {
-        let row_ptr = column_pointers(self.ncols, &self.col);
+        let row_ptr = column_pointers(self.ncols, &self.row_ptr, &self.col, 0);
         let nnz = self.col.len();
         let mut col = vec![0u32; nnz];
         let mut map = vec![0u32; nnz];
         scatter_transpose(
             &self.row_ptr,
             &self.col,
+            0,
             &mut row_ptr.clone(),
             &mut col,
             |p, k| map[p] = k as u32,
@@ -466,44 +468,6 @@ impl<const B: usize, S: Entry, const C: usize> Bsr<B, S, C> {
                 *v = stranspose(&self.val[k as usize]);
             }
         });
-    }
-}
-
-/// The row pointers of the transpose of a pattern with `ncols` columns
-/// whose column indices are `col`: the prefix sums of the column counts.
-fn column_pointers(ncols: usize, col: &[u32]) -> Vec<usize> {
-    let mut ptr = vec![0usize; ncols + 1];
-    for &c in col {
-        ptr[c as usize + 1] += 1;
-    }
-    for j in 0..ncols {
-        ptr[j + 1] += ptr[j];
-    }
-    ptr
-}
-
-/// The counting-sort transpose of the pattern `(row_ptr, col)` into `col_t`,
-/// `next` holding on entry the row pointers of the transpose
-/// ([`column_pointers`]): rows are visited in order, so every row of the
-/// transpose comes out sorted whatever the order of the columns within the
-/// rows of the input. `moved(p, k)`: slot `p` of the transpose is slot `k`
-/// of the input.
-#[inline(always)]
-fn scatter_transpose(
-    row_ptr: &[usize],
-    col: &[u32],
-    next: &mut [usize],
-    col_t: &mut [u32],
-    mut moved: impl FnMut(usize, usize),
-) {
-    for i in 0..row_ptr.len() - 1 {
-        for k in row_ptr[i]..row_ptr[i + 1] {
-            let j = col[k] as usize;
-            let p = next[j];
-            next[j] += 1;
-            col_t[p] = i as u32;
-            moved(p, k);
-        }
     }
 }
 
@@ -543,10 +507,10 @@ pub(crate) fn product_pattern<
         row_ptr.push(col.len());
     }
     drop(marker);
-    let t_ptr = column_pointers(y.ncols, &col);
+    let t_ptr = column_pointers(y.ncols, &row_ptr, &col, 0);
     let mut t_col = vec![0u32; col.len()];
-    scatter_transpose(&row_ptr, &col, &mut t_ptr.clone(), &mut t_col, |_, _| {});
-    scatter_transpose(&t_ptr, &t_col, &mut row_ptr.clone(), &mut col, |_, _| {});
+    scatter_transpose(&row_ptr, &col, 0, &mut t_ptr.clone(), &mut t_col, |_, _| {});
+    scatter_transpose(&t_ptr, &t_col, 0, &mut row_ptr.clone(), &mut col, |_, _| {});
     let nnz = col.len();
     Bsr {
         nrows: x.nrows,
