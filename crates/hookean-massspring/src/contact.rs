@@ -33,7 +33,7 @@ use hookean_sparse::block::{self, Block3};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use crate::collide::{Collider, touch};
+use crate::collide::{Collider, Touch, touch};
 use crate::model::{Dirs, MassSpringModel, point};
 use crate::self_contact::SelfContact;
 
@@ -84,10 +84,26 @@ pub struct ContactStats {
 #[derive(Debug, Clone, Default)]
 pub(crate) struct ContactState {
     pub(crate) sliding: Vec<Sliding>,
+    /// The contacts `begin_step` found, `n_colliders` per particle in
+    /// collider order (`None`: outside that collider's band); kept so that
+    /// its storage is reused.
+    found: Vec<Option<(Touch, f64, f64)>>,
     /// The size of the last accepted step (0 before the first).
     pub(crate) h_last: f64,
     pub(crate) self_contact: Option<Box<SelfContact>>,
     pub(crate) stats: ContactStats,
+}
+
+/// A particle at `xp` within a collider's band but closer than `target`
+/// (0 for planes and spheres, the thickness for meshes), moved along the
+/// contact normal to `target`.
+fn pushed_out(xp: &Vector3<f64>, touch: &Touch, target: f64) -> Vector3<f64> {
+    let (phi, normal) = (touch.phi, touch.normal);
+    if target == 0.0 {
+        xp - normal * phi
+    } else {
+        xp + normal * (target - phi)
+    }
 }
 
 /// Two unit vectors completing `n` to an orthonormal basis.
@@ -128,29 +144,25 @@ impl MassSpringModel {
         if self.colliders.is_empty() {
             return;
         }
+        let n_colliders = self.colliders.len();
+        let mut found = std::mem::take(&mut self.contact.found);
+        if !self.find_contacts(t, x, &mut found) {
+            // No particle within a band: nothing below would change.
+            self.contact.found = found;
+            return;
+        }
         // The force with permanent constraints only, to release contacts
         // that the force pulls away from the surface.
         let mut f = std::mem::take(&mut self.scratch);
         self.eval_force(x, v, &mut f);
         for p in 0..n {
-            if self.fixes[p].count == 3 {
-                continue;
-            }
-            for c in 0..self.colliders.len() {
-                let xp = point(x, p);
-                let Some((touch, target, band)) = touch(&self.colliders[c], t, &xp) else {
+            for c in 0..n_colliders {
+                let Some((touch, target, _)) = found[p * n_colliders + c] else {
                     continue;
                 };
                 let (phi, normal) = (touch.phi, touch.normal);
-                if phi.is_nan() || phi > band {
-                    continue;
-                }
                 if phi < target {
-                    let y = if target == 0.0 {
-                        xp - normal * phi
-                    } else {
-                        xp + normal * (target - phi)
-                    };
+                    let y = pushed_out(&point(x, p), &touch, target);
                     x[3 * p..3 * p + 3].copy_from_slice(y.as_slice());
                 }
                 let vp = point(v, p);
@@ -236,6 +248,48 @@ impl MassSpringModel {
         }
         self.contact.stats.contacts = self.active_set.contact_count;
         self.scratch = f;
+        self.contact.found = found;
+    }
+
+    /// The first pass of the collider contacts: for every particle (not
+    /// pinned in all three directions) and collider, in collider order, the
+    /// contact at the particle's position after the push-outs of the
+    /// colliders before (`touch`), kept in `found` where the particle is
+    /// within the collider's band. The push-outs do not depend on the force
+    /// or the velocities, so this pass sees the positions the second pass
+    /// will. Particles are independent: threaded, the same bits for every
+    /// thread count; `x` is not changed. True if some particle is within a
+    /// band.
+    fn find_contacts(&self, t: f64, x: &[f64], found: &mut Vec<Option<(Touch, f64, f64)>>) -> bool {
+        let n_colliders = self.colliders.len();
+        found.resize(self.n_particles() * n_colliders, None);
+        let (colliders, fixes) = (&self.colliders, &self.fixes);
+        x.par_chunks_exact(3)
+            .zip(found.par_chunks_exact_mut(n_colliders))
+            .enumerate()
+            .map(|(p, (xp, out))| {
+                out.fill(None);
+                if fixes[p].count == 3 {
+                    return false;
+                }
+                let mut xp = Vector3::from_column_slice(xp);
+                let mut any = false;
+                for (c, slot) in colliders.iter().zip(out.iter_mut()) {
+                    let Some((touch, target, band)) = touch(c, t, &xp) else {
+                        continue;
+                    };
+                    if touch.phi.is_nan() || touch.phi > band {
+                        continue;
+                    }
+                    if touch.phi < target {
+                        xp = pushed_out(&xp, &touch, target);
+                    }
+                    *slot = Some((touch, target, band));
+                    any = true;
+                }
+                any
+            })
+            .reduce(|| false, |a, b| a || b)
     }
 
     /// Adds the contact forces of the step to `f` (before the rows of
