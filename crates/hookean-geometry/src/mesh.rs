@@ -8,7 +8,7 @@ use nalgebra::Vector3;
 
 use crate::aabb::Aabb;
 use crate::bvh::Bvh;
-use crate::closest::{Feature, closest_point_triangle};
+use crate::closest::{Feature, TrianglePoint, closest_point_triangle};
 use crate::error::GeometryError;
 
 type V3 = Vector3<f64>;
@@ -212,15 +212,24 @@ impl TriMesh {
     /// The closest surface point to `p`, its signed distance and the
     /// contact normal (branch and bound over the tree; no allocation).
     pub fn closest(&self, p: &V3) -> Closest {
+        // The nearest triangle's point, kept as the search finds it: the
+        // search takes a triangle exactly when its squared distance is
+        // below the best so far (from infinity), so the same rule here
+        // keeps the winner's point.
+        let mut best: (f64, Option<TrianglePoint>) = (f64::INFINITY, None);
         let (triangle, _) = self
             .bvh
             .nearest(p, |t| {
                 let [a, b, c] = self.corners(t);
-                (p - closest_point_triangle(p, &a, &b, &c).point).norm_squared()
+                let q = closest_point_triangle(p, &a, &b, &c);
+                let d2 = (p - q.point).norm_squared();
+                if d2 < best.0 {
+                    best = (d2, Some(q));
+                }
+                d2
             })
             .expect("a validated mesh has triangles");
-        let [a, b, c] = self.corners(triangle);
-        let q = closest_point_triangle(p, &a, &b, &c);
+        let q = best.1.expect("the search measured the triangle it found");
         let pseudo = match q.feature {
             Feature::Face => self.face_normals[triangle],
             Feature::Edge(k) => self.edge_normals[triangle][k as usize],
