@@ -3,7 +3,7 @@
 
 use crate::block::{self, Block3};
 use crate::error::SparseError;
-use crate::matrix::SymBlockMatrix;
+use crate::matrix::{BlockPattern, SymBlockMatrix};
 
 const NONE: usize = usize::MAX;
 
@@ -28,10 +28,32 @@ const NONE: usize = usize::MAX;
 /// assert_eq!(v, [0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.0]);
 /// # Ok::<(), hookean_sparse::SparseError>(())
 /// ```
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Default)]
 pub struct Constraints {
     slot: Vec<usize>,
     entries: Vec<Entry>,
+    /// The filter `P_p` of every entry (same index), formed as the entry
+    /// changes: [`filter_matrix`](Self::filter_matrix) reads it for every
+    /// stored block of a constrained row or column.
+    projectors: Vec<Block3>,
+}
+
+impl Clone for Constraints {
+    fn clone(&self) -> Self {
+        Self {
+            slot: self.slot.clone(),
+            entries: self.entries.clone(),
+            projectors: self.projectors.clone(),
+        }
+    }
+
+    /// Copies into the storage at hand (the linear solver's copy of a
+    /// step's constraints): no allocation once it has grown.
+    fn clone_from(&mut self, source: &Self) {
+        self.slot.clone_from(&source.slot);
+        self.entries.clone_from(&source.entries);
+        self.projectors.clone_from(&source.projectors);
+    }
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -42,12 +64,31 @@ struct Entry {
     values: [f64; 3],
 }
 
+impl Entry {
+    /// The filter `P = I - sum_k d_k d_k^T` of this particle.
+    fn projector(&self) -> Block3 {
+        let mut p = [[0.0; 3]; 3];
+        for (r, row) in p.iter_mut().enumerate() {
+            row[r] = 1.0;
+        }
+        for d in &self.dirs[..self.count] {
+            for (r, row) in p.iter_mut().enumerate() {
+                for (c, v) in row.iter_mut().enumerate() {
+                    *v -= d[r] * d[c];
+                }
+            }
+        }
+        p
+    }
+}
+
 impl Constraints {
     /// No constraints on `n_particles` particles.
     pub fn new(n_particles: usize) -> Self {
         Self {
             slot: vec![NONE; n_particles],
             entries: Vec::new(),
+            projectors: Vec::new(),
         }
     }
 
@@ -72,6 +113,7 @@ impl Constraints {
             self.slot[e.particle] = NONE;
         }
         self.entries.clear();
+        self.projectors.clear();
     }
 
     /// The constrained particles and their numbers of constrained
@@ -152,8 +194,10 @@ impl Constraints {
         if s == NONE {
             self.slot[particle] = self.entries.len();
             self.entries.push(entry);
+            self.projectors.push(entry.projector());
         } else {
             self.entries[s] = entry;
+            self.projectors[s] = entry.projector();
         }
         Ok(())
     }
@@ -208,22 +252,7 @@ impl Constraints {
     /// (`None` for an unconstrained particle).
     pub fn projector(&self, particle: usize) -> Option<Block3> {
         let s = *self.slot.get(particle)?;
-        if s == NONE {
-            return None;
-        }
-        let e = &self.entries[s];
-        let mut p = [[0.0; 3]; 3];
-        for (r, row) in p.iter_mut().enumerate() {
-            row[r] = 1.0;
-        }
-        for d in &e.dirs[..e.count] {
-            for (r, row) in p.iter_mut().enumerate() {
-                for (c, v) in row.iter_mut().enumerate() {
-                    *v -= d[r] * d[c];
-                }
-            }
-        }
-        Some(p)
+        (s != NONE).then(|| self.projectors[s])
     }
 
     /// Replaces `A` by the filtered matrix `P A P + (I - P) s (I - P)` that
@@ -234,15 +263,49 @@ impl Constraints {
     /// filtered matrix sees the constrained particles as the Dirichlet
     /// boundary they are for the step (Baraff and Witkin's filter), instead
     /// of couplings through them that the solve never uses. One pass over
-    /// the stored blocks; no allocation.
+    /// the stored blocks, threaded by row parts (every block is its own
+    /// function of the input: the same bits for every thread count); no
+    /// allocation.
     pub fn filter_matrix(&self, a: &mut SymBlockMatrix) {
         if self.entries.is_empty() {
             return;
         }
         let pattern = std::sync::Arc::clone(a.pattern());
+        let parts = crate::par::parts_for(pattern.n_blocks());
+        self.filter_parts(&pattern, a.values_mut(), 0, parts, parts);
+    }
+
+    /// [`filter_matrix`](Self::filter_matrix) on the rows of parts `p0..p1`
+    /// of `parts` (`vals`: their stored blocks).
+    fn filter_parts(
+        &self,
+        pattern: &BlockPattern,
+        vals: &mut [Block3],
+        p0: usize,
+        p1: usize,
+        parts: usize,
+    ) {
+        let (r0, r1) = (pattern.part_start(p0, parts), pattern.part_start(p1, parts));
+        if p1 - p0 == 1 {
+            self.filter_rows(pattern, vals, r0, r1);
+            return;
+        }
+        let mid = (p0 + p1) / 2;
+        let row_ptr = pattern.row_ptr();
+        let split = row_ptr[pattern.part_start(mid, parts)] - row_ptr[r0];
+        let (va, vb) = vals.split_at_mut(split);
+        rayon::join(
+            || self.filter_parts(pattern, va, p0, mid, parts),
+            || self.filter_parts(pattern, vb, mid, p1, parts),
+        );
+    }
+
+    /// Rows `r0..r1` of [`filter_matrix`](Self::filter_matrix); `vals`
+    /// holds their stored blocks.
+    fn filter_rows(&self, pattern: &BlockPattern, vals: &mut [Block3], r0: usize, r1: usize) {
         let (row_ptr, col_idx) = (pattern.row_ptr(), pattern.col_idx());
-        let vals = a.values_mut();
-        for i in 0..row_ptr.len() - 1 {
+        let base = row_ptr[r0];
+        for i in r0..r1 {
             let pi = self.projector(i);
             for k in row_ptr[i]..row_ptr[i + 1] {
                 let j = col_idx[k] as usize;
@@ -250,6 +313,7 @@ impl Constraints {
                 if pi.is_none() && pj.is_none() {
                     continue;
                 }
+                let k = k - base;
                 let mut b = vals[k];
                 if let Some(pi) = &pi {
                     b = block::mul(pi, &b);
