@@ -444,6 +444,77 @@ mod tests {
         assert_eq!(df[6][7], da[6][7]);
     }
 
+    /// On a matrix large enough to be split into row parts, every
+    /// stored block of the filtered matrix is `P_i B P_j` plus, on the
+    /// diagonal of a constrained particle, `s (I - P_i)` (`P` formed here
+    /// from the unit directions given), and the bits are the same for 1 to
+    /// 4 threads.
+    #[test]
+    fn the_threaded_filter_is_the_blockwise_formula_for_every_thread_count() {
+        let a =
+            SymBlockMatrix::from_csr(&hookean_testkit::random::random_spd(3 * 3600, 8, 1.2, 11))
+                .unwrap();
+        let n = a.n_blocks();
+        assert!(n >= 3 * crate::par::MIN_PARALLEL_BLOCKS / 2);
+        let s2 = std::f64::consts::FRAC_1_SQRT_2;
+        let mut c = Constraints::new(n);
+        let mut dirs: Vec<Vec<[f64; 3]>> = vec![Vec::new(); n];
+        for p in (0..n).filter(|p| p % 5 == 1 || p % 7 == 3) {
+            let d: &[[f64; 3]] = match p % 3 {
+                0 => &[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+                1 => &[[0.0, s2, s2]],
+                _ => &[[s2, -s2, 0.0], [0.0, 0.0, 1.0]],
+            };
+            for e in d {
+                c.constrain(p, *e, 0.0).unwrap();
+            }
+            dirs[p] = d.to_vec();
+        }
+        let filtered = |threads: usize| {
+            let mut f = a.clone();
+            crate::par::in_pool(threads, || c.filter_matrix(&mut f));
+            f
+        };
+        let one = filtered(1);
+        for threads in [2, 3, 4] {
+            assert_eq!(
+                filtered(threads).values(),
+                one.values(),
+                "{threads} threads"
+            );
+        }
+        let proj = |p: usize| {
+            let mut m = block::IDENTITY;
+            for d in &dirs[p] {
+                m = block::add(&m, &block::scale(&block::outer(d, d), -1.0));
+            }
+            m
+        };
+        let (row_ptr, col_idx) = (a.pattern().row_ptr(), a.pattern().col_idx());
+        for i in 0..n {
+            for k in row_ptr[i]..row_ptr[i + 1] {
+                let j = col_idx[k] as usize;
+                let b = a.values()[k];
+                let mut want = block::mul(&block::mul(&proj(i), &b), &proj(j));
+                if i == j && !dirs[i].is_empty() {
+                    let s = (b[0][0] + b[1][1] + b[2][2]) / 3.0;
+                    let q = block::add(&block::IDENTITY, &block::scale(&proj(i), -1.0));
+                    want = block::add(&want, &block::scale(&q, s));
+                }
+                let scale = b.iter().flatten().fold(0.0_f64, |m, v| m.max(v.abs()));
+                for r in 0..3 {
+                    for q in 0..3 {
+                        approx::assert_abs_diff_eq!(
+                            one.values()[k][r][q],
+                            want[r][q],
+                            epsilon = 1e-14 * scale
+                        );
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn oblique_directions_are_orthonormalised_with_their_values() {
         let mut c = Constraints::new(1);
