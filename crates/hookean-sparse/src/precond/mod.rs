@@ -20,6 +20,7 @@
 mod amg;
 mod any;
 mod block_ic0;
+mod two_domain;
 mod ic0;
 mod jacobi;
 mod ssor;
