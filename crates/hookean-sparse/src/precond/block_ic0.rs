@@ -338,11 +338,12 @@ impl BlockFactor {
         let z3 = &mut z3[..n];
         let Some(split) = &self.split else {
             let mut rhs = rhs;
-            let rr = self.forward(0..n, n, z3, &mut rhs);
-            let rz = self.backward(0..n, n, z3, &[], &rhs);
+            let rr = self.forward::<false>(0..n, n, z3, &mut rhs);
+            let rz = self.backward::<false>(0..n, n, z3, &[], &rhs);
             return (rr, rz);
         };
-        // The matrix's numbering holds A | S | B, the factor's A | B | S.
+        // The matrix's numbering holds A | S | B, the factor's A | B
+        // reversed | S: B's pieces of r and z are read backwards.
         let (m, w, b) = (split.m(), split.w(), split.b());
         let sep = m + b;
         let (za, zs, zb) = three(z3, m, w);
@@ -350,27 +351,28 @@ impl BlockFactor {
         let threaded = crate::par::parts_for(n) > 1;
         let (rra, rrb) = join(
             threaded,
-            || self.forward(0..m, sep, za, &mut ra),
-            || self.forward(m..sep, sep, zb, &mut rb),
+            || self.forward::<false>(0..m, sep, za, &mut ra),
+            || self.forward::<true>(m..sep, sep, zb, &mut rb),
         );
         let rrs = self.forward_separator(sep..n, (za, zb, zs), &mut rs);
-        let rzs = self.backward(sep..n, n, zs, &[], &rs);
+        let rzs = self.backward::<false>(sep..n, n, zs, &[], &rs);
         let (rza, rzb) = join(
             threaded,
-            || self.backward(0..m, sep, za, zs, &ra),
-            || self.backward(m..sep, sep, zb, zs, &rb),
+            || self.backward::<false>(0..m, sep, za, zs, &ra),
+            || self.backward::<true>(m..sep, sep, zb, zs, &rb),
         );
         (rra + rrb + rrs, rzs + rza + rzb)
     }
 
     /// The forward sweep `(D + W^T) y = r` over the factor's rows `rows`,
-    /// leaving `t = D y` in `own` (row `i` at `own[i - rows.start]`), with
-    /// `r_i` from `rhs` (row `i - rows.start`); returns `sum r_i . r_i`. Each row scatters `W_ij^T y_i` into the
+    /// leaving `t = D y` in `own` (row `i` at `own[at(i)]`, `at(i) = i -
+    /// rows.start`, or counted from the end with `REV`), with `r_i` from
+    /// `rhs` (row `at(i)`); returns `sum r_i . r_i`. Each row scatters `W_ij^T y_i` into the
     /// later rows `j` it couples to (`own[j]` first accumulates
     /// `sum_{i<j} W_ij^T y_i`, then becomes `t_j = r_j - own[j]`), except to
     /// rows `j >= sep` (the separator, which gathers them itself).
     #[inline(always)]
-    fn forward(
+    fn forward<const REV: bool>(
         &self,
         rows: Range<usize>,
         sep: usize,
@@ -380,16 +382,16 @@ impl BlockFactor {
         let row_ptr = self.pattern.row_ptr();
         let cols = self.pattern.col_idx();
         let vals = &self.values;
-        let base = rows.start;
+        let at = local::<REV>(rows.clone());
         own.fill([0.0; 3]);
         let mut sum = 0.0;
         for i in rows {
             let (start, end) = (row_ptr[i], row_ptr[i + 1]);
-            let (ri, s2) = rhs.take(i - base);
+            let (ri, s2) = rhs.take(at(i));
             sum += s2;
-            let s = own[i - base];
+            let s = own[at(i)];
             let t = [ri[0] - s[0], ri[1] - s[1], ri[2] - s[2]];
-            own[i - base] = t;
+            own[at(i)] = t;
             let y = block::mul_vec(&vals[start], &t);
             for (&j, w) in cols[start + 1..end].iter().zip(&vals[start + 1..end]) {
                 let j = j as usize;
@@ -397,7 +399,7 @@ impl BlockFactor {
                     break;
                 }
                 let u = block::mul_transpose_vec(w, &y);
-                let zj = &mut own[j - base];
+                let zj = &mut own[at(j)];
                 zj[0] += u[0];
                 zj[1] += u[1];
                 zj[2] += u[2];
@@ -410,7 +412,7 @@ impl BlockFactor {
     /// rows), each gathering `sum_{k<j} W_kj^T y_k` through the transposed
     /// index, in increasing `k` as [`Self::forward`] scatters them, with
     /// `y_k = D_k^-1 t_k` from the domains' `t` (`za`: rows `0..`, `zb`:
-    /// the rows after, `zs`: the separator).
+    /// the rows after, backwards, `zs`: the separator).
     fn forward_separator(
         &self,
         rows: Range<usize>,
@@ -429,7 +431,7 @@ impl BlockFactor {
                 let tk = if k < m {
                     za[k]
                 } else if k < sep {
-                    zb[k - m]
+                    zb[sep - 1 - k]
                 } else {
                     zs[k - sep]
                 };
@@ -447,11 +449,11 @@ impl BlockFactor {
     }
 
     /// The backward sweep `(D + W) z = t` over the factor's rows `rows`, in
-    /// decreasing order, `t` and then `z` in `own` (row `i` at
-    /// `own[i - rows.start]`); rows `j >= sep` are read from
+    /// decreasing order, `t` and then `z` in `own` (row `i` at `own[at(i)]`,
+    /// as in [`Self::forward`]); rows `j >= sep` are read from
     /// `separator[j - sep]`. Returns `sum_i r_i . z_i`.
     #[inline(always)]
-    fn backward(
+    fn backward<const REV: bool>(
         &self,
         rows: Range<usize>,
         sep: usize,
@@ -462,17 +464,17 @@ impl BlockFactor {
         let row_ptr = self.pattern.row_ptr();
         let cols = self.pattern.col_idx();
         let vals = &self.values;
-        let base = rows.start;
+        let at = local::<REV>(rows.clone());
         let mut rz = 0.0;
         for i in rows.rev() {
             let (start, end) = (row_ptr[i], row_ptr[i + 1]);
-            let mut acc = own[i - base];
+            let mut acc = own[at(i)];
             for (&j, w) in cols[start + 1..end].iter().zip(&vals[start + 1..end]) {
                 let j = j as usize;
                 let zj = if j >= sep {
                     &separator[j - sep]
                 } else {
-                    &own[j - base]
+                    &own[at(j)]
                 };
                 let u = block::mul_vec(w, zj);
                 acc[0] -= u[0];
@@ -480,8 +482,8 @@ impl BlockFactor {
                 acc[2] -= u[2];
             }
             let zi = block::mul_vec(&vals[start], &acc);
-            own[i - base] = zi;
-            let ri = rhs.get(i - base);
+            own[at(i)] = zi;
+            let ri = rhs.get(at(i));
             rz += ri[0] * zi[0] + ri[1] * zi[1] + ri[2] * zi[2];
         }
         rz
@@ -550,6 +552,14 @@ impl Rhs for Downdate<'_> {
     fn get(&self, i: usize) -> [f64; 3] {
         self.r[i]
     }
+}
+
+/// The position of the factor's row `i` in a domain's pieces of `r` and
+/// `z`: `i - rows.start`, or `rows.end - 1 - i` with `REV`.
+#[inline(always)]
+fn local<const REV: bool>(rows: Range<usize>) -> impl Fn(usize) -> usize + Copy {
+    let (start, end) = (rows.start, rows.end);
+    move |i| if REV { end - 1 - i } else { i - start }
 }
 
 /// `x` cut into `..m`, `m..m + w` and the rest.
