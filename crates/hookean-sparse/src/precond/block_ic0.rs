@@ -57,7 +57,7 @@ pub(crate) struct BlockFactor {
     /// The factor's pattern: `source`, or `P A P^T`'s when `split` is set.
     pattern: Arc<BlockPattern>,
     split: Option<TwoDomains>,
-    /// `P A P^T`'s values, gathered at each factorisation (with `split`).
+    /// `P A P^T`'s values (with `split`), gathered by [`Self::load`].
     permuted: Vec<Block3>,
     values: Vec<Block3>,
     /// Updates of row `k`: `updates[update_ptr[k]..update_ptr[k + 1]]`.
@@ -213,19 +213,27 @@ impl BlockFactor {
     /// the unit-diagonal scaling of the scalar version), with the dropped
     /// fill compensated on the diagonal with weight `omega` (0: IC(0)).
     /// `Err(row)` at the first block pivot that is not positive definite
-    /// (the matrix's row number).
+    /// (the matrix's row number). In the two-domain order the values are
+    /// those [`Self::load`] gathered from `a`: call it once before the
+    /// attempts of a shift search.
     pub fn factor(&mut self, a: &SymBlockMatrix, shift: f64, omega: f64) -> Result<(), usize> {
-        let mut permuted = std::mem::take(&mut self.permuted);
+        let permuted = std::mem::take(&mut self.permuted);
         let src = match &self.split {
-            Some(split) => {
-                split.gather(a.values(), &mut permuted);
-                &permuted[..]
-            }
+            Some(_) => &permuted[..],
             None => a.values(),
         };
         let result = self.factor_values(src, shift, omega);
         self.permuted = permuted;
         result.map_err(|row| self.split.as_ref().map_or(row, |s| s.old_row(row)))
+    }
+
+    /// Takes `a`'s values for the next [`Self::factor`] calls: in the
+    /// two-domain order, gathers `P A P^T` (once per matrix, not per
+    /// attempt of the shift search); otherwise nothing.
+    pub fn load(&mut self, a: &SymBlockMatrix) {
+        if let Some(split) = &self.split {
+            split.gather(a.values(), &mut self.permuted);
+        }
     }
 
     /// [`Self::factor`] of the values `src` on the factor's pattern;
