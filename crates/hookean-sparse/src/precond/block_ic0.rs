@@ -540,9 +540,21 @@ impl Rhs for Downdate<'_> {
         let (qa, qs, qb) = (&self.q[..m], &self.q[m..m + w], &self.q[m + w..]);
         let (ra, rs, rb) = three(self.r, m, w);
         (
-            Downdate { alpha, q: qa, r: ra },
-            Downdate { alpha, q: qs, r: rs },
-            Downdate { alpha, q: qb, r: rb },
+            Downdate {
+                alpha,
+                q: qa,
+                r: ra,
+            },
+            Downdate {
+                alpha,
+                q: qs,
+                r: rs,
+            },
+            Downdate {
+                alpha,
+                q: qb,
+                r: rb,
+            },
         )
     }
 

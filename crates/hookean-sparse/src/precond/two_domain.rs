@@ -202,7 +202,10 @@ mod tests {
         for i in 0..m {
             for &j in &q.col_idx()[q.row_ptr()[i]..q.row_ptr()[i + 1]] {
                 let j = j as usize;
-                assert!(j < m || j >= m + s.b(), "new A row {i} couples to B row {j}");
+                assert!(
+                    j < m || j >= m + s.b(),
+                    "new A row {i} couples to B row {j}"
+                );
             }
         }
         // The permutation is a bijection and P A P^T has A's block count.
@@ -223,7 +226,11 @@ mod tests {
         let values: Vec<Block3> = (0..p.stored_blocks())
             .map(|k| {
                 let f = k as f64;
-                [[f, f + 0.1, f + 0.2], [f + 0.3, f + 0.4, f + 0.5], [f + 0.6, f + 0.7, f + 0.8]]
+                [
+                    [f, f + 0.1, f + 0.2],
+                    [f + 0.3, f + 0.4, f + 0.5],
+                    [f + 0.6, f + 0.7, f + 0.8],
+                ]
             })
             .collect();
         let mut permuted = Vec::new();
@@ -241,7 +248,11 @@ mod tests {
         for r in 0..q.n_blocks() {
             for k in q.row_ptr()[r]..q.row_ptr()[r + 1] {
                 let c = q.col_idx()[k] as usize;
-                assert_eq!(permuted[k], block_of(s.old_row(r), s.old_row(c)), "block ({r}, {c})");
+                assert_eq!(
+                    permuted[k],
+                    block_of(s.old_row(r), s.old_row(c)),
+                    "block ({r}, {c})"
+                );
             }
         }
     }
