@@ -260,6 +260,12 @@ impl BlockPattern {
             .unwrap_or(0)
     }
 
+    /// The transpose's index: column `j`'s stored upper blocks `(i, j)`,
+    /// `i < j`, rows ascending.
+    pub(crate) fn lower(&self) -> &LowerIndex {
+        &self.lower
+    }
+
     /// The slot holding block `(i, j)`, if it is in the pattern.
     pub fn find(&self, i: usize, j: usize) -> Option<Slot> {
         if i >= self.n || j >= self.n {

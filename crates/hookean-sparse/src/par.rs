@@ -9,7 +9,10 @@
 //! bits. Small problems stay serial: below [`MIN_PARALLEL_BLOCKS`] block
 //! rows the fork-join costs more than it saves.
 //!
-//! What stays serial: MIC(0)/IC(0)'s triangular solves (each row needs the
+//! MIC(0)/IC(0) on 3x3 blocks runs its triangular solves on two threads
+//! when the pattern splits into two domains and a separator (the order is
+//! a function of the pattern alone: `precond/two_domain.rs`). What stays
+//! serial: its factorisation, the scalar IC(0)'s solves (each row needs the
 //! rows before it), SSOR's sweeps, and the direct solver.
 
 use crate::transpose::{column_pointers, scatter_transpose, to_usize};

@@ -20,8 +20,10 @@
 //! cloth excite most (rigid translations lie in the null space of the
 //! stiffness), `M^-1 A` is then close to the identity.
 
+use std::ops::Range;
 use std::sync::Arc;
 
+use super::two_domain::TwoDomains;
 use crate::block::{self, Block3};
 use crate::matrix::{BlockPattern, SymBlockMatrix};
 
@@ -44,11 +46,19 @@ struct Dropped {
     b: u32,
 }
 
-/// The block factor: `values` has the layout of the matrix's value array;
-/// the diagonal slot of row `i` holds `D_i^-1`, the other slots `W_ij`.
+/// The block factor: `values` has the layout of the factor's pattern's
+/// value array (the matrix's, or that of `P A P^T` in the two-domain order,
+/// [`TwoDomains`]); the diagonal slot of row `i` holds `D_i^-1`, the other
+/// slots `W_ij`.
 #[derive(Debug, Clone)]
 pub(crate) struct BlockFactor {
+    /// The matrix's pattern.
+    source: Arc<BlockPattern>,
+    /// The factor's pattern: `source`, or `P A P^T`'s when `split` is set.
     pattern: Arc<BlockPattern>,
+    split: Option<TwoDomains>,
+    /// `P A P^T`'s values (with `split`), gathered by [`Self::load`].
+    permuted: Vec<Block3>,
     values: Vec<Block3>,
     /// Updates of row `k`: `updates[update_ptr[k]..update_ptr[k + 1]]`.
     update_ptr: Vec<usize>,
@@ -118,8 +128,11 @@ fn spd_inverse(d: &Block3) -> Option<Block3> {
 }
 
 impl BlockFactor {
-    /// The symbolic factorisation of `pattern`: the fill-keeping updates.
-    pub fn new(pattern: &Arc<BlockPattern>) -> Self {
+    /// The symbolic factorisation of `source` (in the two-domain order when
+    /// [`TwoDomains::of`] splits it): the fill-keeping updates.
+    pub fn new(source: &Arc<BlockPattern>) -> Self {
+        let split = TwoDomains::of(source);
+        let pattern = split.as_ref().map_or(source, |s| s.pattern()).clone();
         let n = pattern.n_blocks();
         let row_ptr = pattern.row_ptr();
         let cols = pattern.col_idx();
@@ -156,8 +169,11 @@ impl BlockFactor {
             dropped_ptr.push(dropped.len());
         }
         Self {
-            pattern: pattern.clone(),
+            source: source.clone(),
             values: vec![block::ZERO; pattern.stored_blocks()],
+            pattern,
+            split,
+            permuted: Vec::new(),
             update_ptr,
             updates,
             dropped_ptr,
@@ -169,7 +185,15 @@ impl BlockFactor {
 
     /// True when this factor was built for `pattern`.
     pub fn is_for(&self, pattern: &Arc<BlockPattern>) -> bool {
-        Arc::ptr_eq(&self.pattern, pattern)
+        Arc::ptr_eq(&self.source, pattern)
+    }
+
+    /// The two-domain order, if the factor uses it: the factor's row `k` is
+    /// the matrix's row `order[k]`.
+    #[cfg(test)]
+    pub fn order(&self) -> Option<Vec<usize>> {
+        let split = self.split.as_ref()?;
+        Some((0..self.n_blocks()).map(|k| split.old_row(k)).collect())
     }
 
     /// Block rows.
@@ -188,12 +212,36 @@ impl BlockFactor {
     /// each scalar diagonal entry; a non-positive entry counts as 1, as in
     /// the unit-diagonal scaling of the scalar version), with the dropped
     /// fill compensated on the diagonal with weight `omega` (0: IC(0)).
-    /// `Err(row)` at the first block pivot that is not positive definite.
+    /// `Err(row)` at the first block pivot that is not positive definite
+    /// (the matrix's row number). In the two-domain order the values are
+    /// those [`Self::load`] gathered from `a`: call it once before the
+    /// attempts of a shift search.
     pub fn factor(&mut self, a: &SymBlockMatrix, shift: f64, omega: f64) -> Result<(), usize> {
+        let permuted = std::mem::take(&mut self.permuted);
+        let src = match &self.split {
+            Some(_) => &permuted[..],
+            None => a.values(),
+        };
+        let result = self.factor_values(src, shift, omega);
+        self.permuted = permuted;
+        result.map_err(|row| self.split.as_ref().map_or(row, |s| s.old_row(row)))
+    }
+
+    /// Takes `a`'s values for the next [`Self::factor`] calls: in the
+    /// two-domain order, gathers `P A P^T` (once per matrix, not per
+    /// attempt of the shift search); otherwise nothing.
+    pub fn load(&mut self, a: &SymBlockMatrix) {
+        if let Some(split) = &self.split {
+            split.gather(a.values(), &mut self.permuted);
+        }
+    }
+
+    /// [`Self::factor`] of the values `src` on the factor's pattern;
+    /// `Err(row)` in the factor's numbering.
+    fn factor_values(&mut self, src: &[Block3], shift: f64, omega: f64) -> Result<(), usize> {
         let n = self.n_blocks();
         let row_ptr = self.pattern.row_ptr();
         let cols = self.pattern.col_idx();
-        let src = a.values();
         // Rows are copied from `a` (and shifted) just ahead of the first
         // row whose elimination touches them, inside this pass rather than
         // in a separate copy of the whole matrix.
@@ -268,8 +316,7 @@ impl BlockFactor {
     /// `z = M^-1 r`.
     pub fn apply(&self, r: &[f64], z: &mut [f64]) {
         let (r3, _) = r.as_chunks::<3>();
-        self.forward(z, |i| r3[i]);
-        self.backward(z, |_, _| {});
+        self.sweeps(&r3[..self.n_blocks()], z);
     }
 
     /// `r <- r - alpha q`, then `z = M^-1 r`; returns `(r . r, r . z)`.
@@ -280,87 +327,277 @@ impl BlockFactor {
         r: &mut [f64],
         z: &mut [f64],
     ) -> (f64, f64) {
+        let n = self.n_blocks();
         let (q3, _) = q.as_chunks::<3>();
         let (r3, _) = r.as_chunks_mut::<3>();
-        let mut rr = 0.0;
-        let mut rz = 0.0;
-        self.forward(z, |i| {
-            let ri = &mut r3[i];
-            let qi = &q3[i];
-            ri[0] -= alpha * qi[0];
-            ri[1] -= alpha * qi[1];
-            ri[2] -= alpha * qi[2];
-            rr += ri[0] * ri[0] + ri[1] * ri[1] + ri[2] * ri[2];
-            *ri
-        });
-        self.backward(z, |i, zi| {
-            let ri = &r3[i];
-            rz += ri[0] * zi[0] + ri[1] * zi[1] + ri[2] * zi[2];
-        });
-        (rr, rz)
+        let q = &q3[..n];
+        let r = &mut r3[..n];
+        self.sweeps(Downdate { alpha, q, r }, z)
     }
 
-    /// The forward sweep `(D + W^T) y = r`, with `r_i` supplied row by row
-    /// by `residual(i)`, leaving `t = D y` in `z`: `z_j` first accumulates
-    /// `sum_{k<j} W_kj^T y_k` (zeroed just ahead of the rows that scatter
-    /// into it), then becomes `t_j = r_j - z_j`.
-    #[inline(always)]
-    fn forward(&self, z: &mut [f64], mut residual: impl FnMut(usize) -> [f64; 3]) {
+    /// `z = M^-1 r` and `(r . r, r . z)` for the right side `rhs`: the
+    /// forward and backward sweeps over the whole factor, or, in the
+    /// two-domain order, over `A` and `B` side by side (two threads when the
+    /// pool has them) and `S` alone. The sums are taken per domain and the
+    /// domains' sums added in a fixed order.
+    fn sweeps(&self, rhs: impl Rhs, z: &mut [f64]) -> (f64, f64) {
         let n = self.n_blocks();
+        let (z3, _) = z.as_chunks_mut::<3>();
+        let z3 = &mut z3[..n];
+        let Some(split) = &self.split else {
+            let mut rhs = rhs;
+            let rr = self.forward::<false>(0..n, n, z3, &mut rhs);
+            let rz = self.backward::<false>(0..n, n, z3, &[], &rhs);
+            return (rr, rz);
+        };
+        // The matrix's numbering holds A | S | B, the factor's A | B
+        // reversed | S: B's pieces of r and z are read backwards.
+        let (m, w, b) = (split.m(), split.w(), split.b());
+        let sep = m + b;
+        let (za, zs, zb) = three(z3, m, w);
+        let (mut ra, mut rs, mut rb) = rhs.three(m, w);
+        let threaded = crate::par::parts_for(n) > 1;
+        let (rra, rrb) = join(
+            threaded,
+            || self.forward::<false>(0..m, sep, za, &mut ra),
+            || self.forward::<true>(m..sep, sep, zb, &mut rb),
+        );
+        let rrs = self.forward_separator(sep..n, (za, zb, zs), &mut rs);
+        let rzs = self.backward::<false>(sep..n, n, zs, &[], &rs);
+        let (rza, rzb) = join(
+            threaded,
+            || self.backward::<false>(0..m, sep, za, zs, &ra),
+            || self.backward::<true>(m..sep, sep, zb, zs, &rb),
+        );
+        (rra + rrb + rrs, rzs + rza + rzb)
+    }
+
+    /// The forward sweep `(D + W^T) y = r` over the factor's rows `rows`,
+    /// leaving `t = D y` in `own` (row `i` at `own[at(i)]`, `at(i) = i -
+    /// rows.start`, or counted from the end with `REV`), with `r_i` from
+    /// `rhs` (row `at(i)`); returns `sum r_i . r_i`. Each row scatters `W_ij^T y_i` into the
+    /// later rows `j` it couples to (`own[j]` first accumulates
+    /// `sum_{i<j} W_ij^T y_i`, then becomes `t_j = r_j - own[j]`), except to
+    /// rows `j >= sep` (the separator, which gathers them itself).
+    #[inline(always)]
+    fn forward<const REV: bool>(
+        &self,
+        rows: Range<usize>,
+        sep: usize,
+        own: &mut [[f64; 3]],
+        rhs: &mut impl Rhs,
+    ) -> f64 {
         let row_ptr = self.pattern.row_ptr();
         let cols = self.pattern.col_idx();
         let vals = &self.values;
-        let (z3, _) = z.as_chunks_mut::<3>();
-        let z3 = &mut z3[..n];
-        let mut zeroed = 0;
-        for i in 0..n {
+        let at = local::<REV>(rows.clone());
+        own.fill([0.0; 3]);
+        let mut sum = 0.0;
+        for i in rows {
             let (start, end) = (row_ptr[i], row_ptr[i + 1]);
-            let reach = if end > start + 1 {
-                (cols[end - 1] as usize).max(i) + 1
-            } else {
-                i + 1
-            };
-            if reach > zeroed {
-                z3[zeroed..reach].fill([0.0; 3]);
-                zeroed = reach;
-            }
-            let ri = residual(i);
-            let s = z3[i];
+            let (ri, s2) = rhs.take(at(i));
+            sum += s2;
+            let s = own[at(i)];
             let t = [ri[0] - s[0], ri[1] - s[1], ri[2] - s[2]];
-            z3[i] = t;
+            own[at(i)] = t;
             let y = block::mul_vec(&vals[start], &t);
             for (&j, w) in cols[start + 1..end].iter().zip(&vals[start + 1..end]) {
+                let j = j as usize;
+                if j >= sep {
+                    break;
+                }
                 let u = block::mul_transpose_vec(w, &y);
-                let zj = &mut z3[j as usize];
+                let zj = &mut own[at(j)];
                 zj[0] += u[0];
                 zj[1] += u[1];
                 zj[2] += u[2];
             }
         }
+        sum
     }
 
-    /// The backward sweep `(D + W) z = t` (`t` in `z`), reporting each
-    /// finished `z_i` to `done(i, z_i)`, in decreasing `i`.
+    /// The forward sweep over the separator's rows `rows` (the factor's last
+    /// rows), each gathering `sum_{k<j} W_kj^T y_k` through the transposed
+    /// index, in increasing `k` as [`Self::forward`] scatters them, with
+    /// `y_k = D_k^-1 t_k` from the domains' `t` (`za`: rows `0..`, `zb`:
+    /// the rows after, backwards, `zs`: the separator).
+    fn forward_separator(
+        &self,
+        rows: Range<usize>,
+        (za, zb, zs): (&[[f64; 3]], &[[f64; 3]], &mut [[f64; 3]]),
+        rhs: &mut impl Rhs,
+    ) -> f64 {
+        let row_ptr = self.pattern.row_ptr();
+        let lower = self.pattern.lower();
+        let vals = &self.values;
+        let (m, sep) = (za.len(), rows.start);
+        let mut sum = 0.0;
+        for j in rows {
+            let mut acc = [0.0; 3];
+            for p in lower.ptr[j]..lower.ptr[j + 1] {
+                let k = lower.row[p] as usize;
+                let tk = if k < m {
+                    za[k]
+                } else if k < sep {
+                    zb[sep - 1 - k]
+                } else {
+                    zs[k - sep]
+                };
+                let y = block::mul_vec(&vals[row_ptr[k]], &tk);
+                let u = block::mul_transpose_vec(&vals[lower.slot[p]], &y);
+                acc[0] += u[0];
+                acc[1] += u[1];
+                acc[2] += u[2];
+            }
+            let (rj, s2) = rhs.take(j - sep);
+            sum += s2;
+            zs[j - sep] = [rj[0] - acc[0], rj[1] - acc[1], rj[2] - acc[2]];
+        }
+        sum
+    }
+
+    /// The backward sweep `(D + W) z = t` over the factor's rows `rows`, in
+    /// decreasing order, `t` and then `z` in `own` (row `i` at `own[at(i)]`,
+    /// as in [`Self::forward`]); rows `j >= sep` are read from
+    /// `separator[j - sep]`. Returns `sum_i r_i . z_i`.
     #[inline(always)]
-    fn backward(&self, z: &mut [f64], mut done: impl FnMut(usize, [f64; 3])) {
-        let n = self.n_blocks();
+    fn backward<const REV: bool>(
+        &self,
+        rows: Range<usize>,
+        sep: usize,
+        own: &mut [[f64; 3]],
+        separator: &[[f64; 3]],
+        rhs: &impl Rhs,
+    ) -> f64 {
         let row_ptr = self.pattern.row_ptr();
         let cols = self.pattern.col_idx();
         let vals = &self.values;
-        let (z3, _) = z.as_chunks_mut::<3>();
-        let z3 = &mut z3[..n];
-        for i in (0..n).rev() {
+        let at = local::<REV>(rows.clone());
+        let mut rz = 0.0;
+        for i in rows.rev() {
             let (start, end) = (row_ptr[i], row_ptr[i + 1]);
-            let mut acc = z3[i];
+            let mut acc = own[at(i)];
             for (&j, w) in cols[start + 1..end].iter().zip(&vals[start + 1..end]) {
-                let u = block::mul_vec(w, &z3[j as usize]);
+                let j = j as usize;
+                let zj = if j >= sep {
+                    &separator[j - sep]
+                } else {
+                    &own[at(j)]
+                };
+                let u = block::mul_vec(w, zj);
                 acc[0] -= u[0];
                 acc[1] -= u[1];
                 acc[2] -= u[2];
             }
             let zi = block::mul_vec(&vals[start], &acc);
-            z3[i] = zi;
-            done(i, zi);
+            own[at(i)] = zi;
+            let ri = rhs.get(at(i));
+            rz += ri[0] * zi[0] + ri[1] * zi[1] + ri[2] * zi[2];
         }
+        rz
+    }
+}
+
+/// The right side of the sweeps, row by row: `r` itself
+/// ([`BlockFactor::apply`]) or `r - alpha q`, updated in place
+/// ([`BlockFactor::update_and_apply`]).
+trait Rhs: Send + Sync + Sized {
+    /// This right side cut into rows `..m`, `m..m + w` and the rest.
+    fn three(self, m: usize, w: usize) -> (Self, Self, Self);
+    /// `r_i` for the forward sweep, and `r_i . r_i`.
+    fn take(&mut self, i: usize) -> ([f64; 3], f64);
+    /// `r_i` (after [`Rhs::take`]).
+    fn get(&self, i: usize) -> [f64; 3];
+}
+
+impl Rhs for &[[f64; 3]] {
+    fn three(self, m: usize, w: usize) -> (Self, Self, Self) {
+        (&self[..m], &self[m..m + w], &self[m + w..])
+    }
+
+    #[inline(always)]
+    fn take(&mut self, i: usize) -> ([f64; 3], f64) {
+        // The sums of `apply` are not used.
+        (self[i], 0.0)
+    }
+
+    #[inline(always)]
+    fn get(&self, i: usize) -> [f64; 3] {
+        self[i]
+    }
+}
+
+/// `r <- r - alpha q`, row by row as the forward sweep reaches it.
+struct Downdate<'a> {
+    alpha: f64,
+    q: &'a [[f64; 3]],
+    r: &'a mut [[f64; 3]],
+}
+
+impl Rhs for Downdate<'_> {
+    fn three(self, m: usize, w: usize) -> (Self, Self, Self) {
+        let alpha = self.alpha;
+        let (qa, qs, qb) = (&self.q[..m], &self.q[m..m + w], &self.q[m + w..]);
+        let (ra, rs, rb) = three(self.r, m, w);
+        (
+            Downdate {
+                alpha,
+                q: qa,
+                r: ra,
+            },
+            Downdate {
+                alpha,
+                q: qs,
+                r: rs,
+            },
+            Downdate {
+                alpha,
+                q: qb,
+                r: rb,
+            },
+        )
+    }
+
+    #[inline(always)]
+    fn take(&mut self, i: usize) -> ([f64; 3], f64) {
+        let ri = &mut self.r[i];
+        let qi = &self.q[i];
+        ri[0] -= self.alpha * qi[0];
+        ri[1] -= self.alpha * qi[1];
+        ri[2] -= self.alpha * qi[2];
+        (*ri, ri[0] * ri[0] + ri[1] * ri[1] + ri[2] * ri[2])
+    }
+
+    #[inline(always)]
+    fn get(&self, i: usize) -> [f64; 3] {
+        self.r[i]
+    }
+}
+
+/// The position of the factor's row `i` in a domain's pieces of `r` and
+/// `z`: `i - rows.start`, or `rows.end - 1 - i` with `REV`.
+#[inline(always)]
+fn local<const REV: bool>(rows: Range<usize>) -> impl Fn(usize) -> usize + Copy {
+    let (start, end) = (rows.start, rows.end);
+    move |i| if REV { end - 1 - i } else { i - start }
+}
+
+/// `x` cut into `..m`, `m..m + w` and the rest.
+fn three<T>(x: &mut [T], m: usize, w: usize) -> (&mut [T], &mut [T], &mut [T]) {
+    let (a, rest) = x.split_at_mut(m);
+    let (s, b) = rest.split_at_mut(w);
+    (a, s, b)
+}
+
+/// `(f(), g())`, on two threads when `threaded`.
+fn join<A: Send, B: Send>(
+    threaded: bool,
+    f: impl FnOnce() -> A + Send,
+    g: impl FnOnce() -> B + Send,
+) -> (A, B) {
+    if threaded {
+        rayon::join(f, g)
+    } else {
+        (f(), g())
     }
 }
