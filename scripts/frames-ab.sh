@@ -2,8 +2,9 @@
 # "Every shipped scene writes the same frames" (docs/PERFORMANCE.md): runs
 # every scenes/*.toml with a release build of a baseline commit (its own
 # scene file, read from git) and with this checkout's build, one thread
-# each, and compares the OBJ frames: how many are byte-identical, and the
-# largest vertex-coordinate difference (m) over all frames.
+# each, and compares the OBJ frames (scripts/frames-diff.py): how many are
+# byte-identical, the largest vertex-coordinate difference and vertex
+# distance (m) over all frames, and the last frame's mean distance.
 #
 # usage: BASE_BIN=path/to/hookean-of-BASE scripts/frames-ab.sh [BASE] [OUTDIR]
 set -euo pipefail
@@ -18,7 +19,7 @@ mkdir -p "$OUT"
 rm -rf "$OUT/base-tree"
 mkdir -p "$OUT/base-tree"
 git archive "$BASE" scenes data | tar -x -C "$OUT/base-tree"
-echo "scene,frames,byte_identical,max_vertex_diff_m"
+echo "scene,frames,byte_identical,max_vertex_diff_m,max_distance_m,last_frame_mean_distance_m"
 for scene in scenes/*.toml; do
     name=$(basename "$scene" .toml)
     if [ ! -f "$OUT/base-tree/$scene" ]; then
@@ -28,21 +29,5 @@ for scene in scenes/*.toml; do
     rm -rf "$OUT/base-$name" "$OUT/head-$name"
     "$BASE_BIN" run --quiet --threads 1 --out "$OUT/base-$name" "$OUT/base-tree/$scene" > /dev/null
     "$HEAD_BIN" run --quiet --threads 1 --out "$OUT/head-$name" "$scene" > /dev/null
-    python3 - "$OUT/base-$name" "$OUT/head-$name" "$name" <<'EOF'
-import pathlib, sys
-base, head, name = pathlib.Path(sys.argv[1]), pathlib.Path(sys.argv[2]), sys.argv[3]
-frames = sorted(p.name for p in base.glob("frame-*.obj"))
-assert frames == sorted(p.name for p in head.glob("frame-*.obj")), "frame lists differ"
-same, worst = 0, 0.0
-for f in frames:
-    a, b = (base / f).read_bytes(), (head / f).read_bytes()
-    if a == b:
-        same += 1
-        continue
-    for la, lb in zip(a.decode().splitlines(), b.decode().splitlines()):
-        if la.startswith("v ") and lb.startswith("v "):
-            xa, xb = la.split()[1:4], lb.split()[1:4]
-            worst = max(worst, max(abs(float(p) - float(q)) for p, q in zip(xa, xb)))
-print(f"{name},{len(frames)},{same},{worst:.3e}")
-EOF
+    python3 scripts/frames-diff.py "$OUT/base-$name" "$OUT/head-$name" "$name"
 done

@@ -16,7 +16,7 @@ rounds=${ROUNDS:-3}
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 hookean() { # label scene
-  "$new" run "$2" --out "$out/r" --quiet --force > /dev/null
+  "$new" run "$2" --out "$out/r" --quiet --force > /dev/null 2>&1
   python3 -c "import json; s=json.load(open('$out/r/summary.json')); print('%-28s %7.3f s  CG %d' % ('$1', s['wall_s'], s['cg_iterations']))"
 }
 blender_run() { # mode params
