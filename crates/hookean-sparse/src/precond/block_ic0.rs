@@ -362,7 +362,7 @@ impl BlockFactor {
             || self.forward::<false>(0..m, sep, za, &mut ra),
             || self.forward::<true>(m..sep, sep, zb, &mut rb),
         );
-        let rrs = self.forward_separator(sep..n, (za, zb, zs), &mut rs);
+        let rrs = self.forward_separator(sep..n, za, zb, zs, &mut rs);
         let rzs = self.backward::<false>(sep..n, n, zs, &[], &rs);
         let (rza, rzb) = join(
             threaded,
@@ -424,7 +424,9 @@ impl BlockFactor {
     fn forward_separator(
         &self,
         rows: Range<usize>,
-        (za, zb, zs): (&[[f64; 3]], &[[f64; 3]], &mut [[f64; 3]]),
+        za: &[[f64; 3]],
+        zb: &[[f64; 3]],
+        zs: &mut [[f64; 3]],
         rhs: &mut impl Rhs,
     ) -> f64 {
         let row_ptr = self.pattern.row_ptr();
