@@ -272,31 +272,13 @@ impl Constraints {
         }
         let pattern = std::sync::Arc::clone(a.pattern());
         let parts = crate::par::parts_for(pattern.n_blocks());
-        self.filter_parts(&pattern, a.values_mut(), 0, parts, parts);
-    }
-
-    /// [`filter_matrix`](Self::filter_matrix) on the rows of parts `p0..p1`
-    /// of `parts` (`vals`: their stored blocks).
-    fn filter_parts(
-        &self,
-        pattern: &BlockPattern,
-        vals: &mut [Block3],
-        p0: usize,
-        p1: usize,
-        parts: usize,
-    ) {
-        let (r0, r1) = (pattern.part_start(p0, parts), pattern.part_start(p1, parts));
-        if p1 - p0 == 1 {
-            self.filter_rows(pattern, vals, r0, r1);
-            return;
-        }
-        let mid = (p0 + p1) / 2;
-        let row_ptr = pattern.row_ptr();
-        let split = row_ptr[pattern.part_start(mid, parts)] - row_ptr[r0];
-        let (va, vb) = vals.split_at_mut(split);
-        rayon::join(
-            || self.filter_parts(pattern, va, p0, mid, parts),
-            || self.filter_parts(pattern, vb, mid, p1, parts),
+        let rows = |t| pattern.part_start(t, parts);
+        crate::par::join_parts(
+            a.values_mut(),
+            parts,
+            &|t| pattern.row_ptr()[rows(t)],
+            &|t, vals| self.filter_rows(&pattern, vals, rows(t), rows(t + 1)),
+            &|(), ()| (),
         );
     }
 

@@ -531,34 +531,16 @@ impl SymBlockMatrix {
             let n = self.pattern.n;
             let (x3, _) = x.as_chunks::<3>();
             let (y3, _) = y.as_chunks_mut::<3>();
-            return self.spmv_parts(&x3[..n], &mut y3[..n], 0, parts, parts);
+            let start = |t| self.pattern.part_start(t, parts);
+            return crate::par::join_parts(
+                &mut y3[..n],
+                parts,
+                &start,
+                &|t, y| self.spmv_rows(&x3[..n], y, start(t)),
+                &|a, b| a + b,
+            );
         }
         self.spmv_dot_serial(x, y)
-    }
-
-    /// Parts `p0..p1` of the row split, `y` holding exactly their rows:
-    /// halves run under [`rayon::join`] and their dot products are added in
-    /// a fixed tree order, so the result does not depend on scheduling.
-    fn spmv_parts(
-        &self,
-        x3: &[[f64; 3]],
-        y3: &mut [[f64; 3]],
-        p0: usize,
-        p1: usize,
-        parts: usize,
-    ) -> f64 {
-        if p1 - p0 == 1 {
-            let s = self.pattern.part_start(p0, parts);
-            return self.spmv_rows(x3, y3, s);
-        }
-        let mid = (p0 + p1) / 2;
-        let split = self.pattern.part_start(mid, parts) - self.pattern.part_start(p0, parts);
-        let (ya, yb) = y3.split_at_mut(split);
-        let (a, b) = rayon::join(
-            || self.spmv_parts(x3, ya, p0, mid, parts),
-            || self.spmv_parts(x3, yb, mid, p1, parts),
-        );
-        a + b
     }
 
     /// Rows `s..s + y3.len()` of `y = A x`, writing only those rows; returns

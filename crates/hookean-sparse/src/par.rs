@@ -177,6 +177,41 @@ pub(crate) fn part_start<T: Copy + TryInto<usize>>(row_ptr: &[T], t: usize, part
     row_ptr[..n].partition_point(|&p| to_usize(p) < target)
 }
 
+/// `leaf(t, part)` for the parts `t` of `0..parts` of `data`, part `t`
+/// being `data[start(t)..start(t + 1)]` (`start(0) = 0`), halves under
+/// [`rayon::join`], the results combined by `add` in a fixed tree order: the
+/// threaded row-part kernels (the symmetric products, the contact filter)
+/// do not depend on scheduling.
+pub(crate) fn join_parts<T: Send, R: Send>(
+    data: &mut [T],
+    parts: usize,
+    start: &(impl Fn(usize) -> usize + Sync),
+    leaf: &(impl Fn(usize, &mut [T]) -> R + Sync),
+    add: &(impl Fn(R, R) -> R + Sync),
+) -> R {
+    join_range(data, 0, parts, start, leaf, add)
+}
+
+fn join_range<T: Send, R: Send>(
+    data: &mut [T],
+    p0: usize,
+    p1: usize,
+    start: &(impl Fn(usize) -> usize + Sync),
+    leaf: &(impl Fn(usize, &mut [T]) -> R + Sync),
+    add: &(impl Fn(R, R) -> R + Sync),
+) -> R {
+    if p1 - p0 == 1 {
+        return leaf(p0, data);
+    }
+    let mid = (p0 + p1) / 2;
+    let (a, b) = data.split_at_mut(start(mid) - start(p0));
+    let (x, y) = rayon::join(
+        || join_range(a, p0, mid, start, leaf, add),
+        || join_range(b, mid, p1, start, leaf, add),
+    );
+    add(x, y)
+}
+
 /// Runs `f` in a fresh rayon pool of `threads` threads (the tests' way to
 /// compare thread counts).
 #[cfg(test)]

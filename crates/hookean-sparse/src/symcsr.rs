@@ -217,23 +217,6 @@ impl SymCsrMatrix {
         }
     }
 
-    /// Parts `p0..p1` of the row split, `y` holding exactly their rows:
-    /// halves run under [`rayon::join`] and their dot products are added in
-    /// a fixed tree order, so the result does not depend on scheduling.
-    fn product_parts(&self, x: &[f64], y: &mut [f64], p0: usize, p1: usize, parts: usize) -> f64 {
-        let start = |t| crate::par::part_start(&self.row_ptr, t, parts);
-        if p1 - p0 == 1 {
-            return self.product_rows(x, y, start(p0));
-        }
-        let mid = (p0 + p1) / 2;
-        let (ya, yb) = y.split_at_mut(start(mid) - start(p0));
-        let (a, b) = rayon::join(
-            || self.product_parts(x, ya, p0, mid, parts),
-            || self.product_parts(x, yb, mid, p1, parts),
-        );
-        a + b
-    }
-
     /// Rows `s..s + y.len()` of `y = A x`, writing only those rows; returns
     /// their share of `x . A x`, `sum_i x_i (a_ii x_i + 2 sum_{j>i} a_ij
     /// x_j)`, from the stored entries.
@@ -294,7 +277,16 @@ impl LinearOperator for SymCsrMatrix {
         let (x, y) = (&x[..n], &mut y[..n]);
         match self.parts() {
             1 => self.product_rows(x, y, 0),
-            parts => self.product_parts(x, y, 0, parts, parts),
+            parts => {
+                let start = |t| crate::par::part_start(&self.row_ptr, t, parts);
+                crate::par::join_parts(
+                    y,
+                    parts,
+                    &start,
+                    &|t, y| self.product_rows(x, y, start(t)),
+                    &|a, b| a + b,
+                )
+            }
         }
     }
 

@@ -208,35 +208,17 @@ impl BlockFactor {
         9 * (self.pattern.stored_blocks() - n) + 6 * n
     }
 
-    /// The numeric factorisation of `a + shift diag(a)` (the `shift` scales
-    /// each scalar diagonal entry; a non-positive entry counts as 1, as in
-    /// the unit-diagonal scaling of the scalar version), with the dropped
-    /// fill compensated on the diagonal with weight `omega` (0: IC(0)).
-    /// `Err(row)` at the first block pivot that is not positive definite
-    /// (the matrix's row number). In the two-domain order the values are
-    /// those [`Self::load`] gathered from `a`: call it once before the
-    /// attempts of a shift search.
-    pub fn factor(&mut self, a: &SymBlockMatrix, shift: f64, omega: f64) -> Result<(), usize> {
-        let permuted = std::mem::take(&mut self.permuted);
-        let src = match &self.split {
-            Some(_) => &permuted[..],
-            None => a.values(),
-        };
-        let result = self.factor_values(src, shift, omega);
-        self.permuted = permuted;
-        result.map_err(|row| self.split.as_ref().map_or(row, |s| s.old_row(row)))
-    }
-
-    /// Takes `a`'s values for the next [`Self::factor`] calls: in the
-    /// two-domain order, gathers `P A P^T` (once per matrix, not per
-    /// attempt of the shift search); otherwise nothing.
-    pub fn load(&mut self, a: &SymBlockMatrix) {
+    /// `a`'s values for the attempts of a shift search
+    /// ([`Loaded::factor`]): in the two-domain order `P A P^T`, gathered here
+    /// once per matrix rather than at every attempt.
+    pub fn load<'a>(&'a mut self, a: &'a SymBlockMatrix) -> Loaded<'a> {
         if let Some(split) = &self.split {
             split.gather(a.values(), &mut self.permuted);
         }
+        Loaded { factor: self, a }
     }
 
-    /// [`Self::factor`] of the values `src` on the factor's pattern;
+    /// [`Loaded::factor`] of the values `src` on the factor's pattern;
     /// `Err(row)` in the factor's numbering.
     fn factor_values(&mut self, src: &[Block3], shift: f64, omega: f64) -> Result<(), usize> {
         let n = self.n_blocks();
@@ -497,6 +479,33 @@ impl BlockFactor {
             rz += ri[0] * zi[0] + ri[1] * zi[1] + ri[2] * zi[2];
         }
         rz
+    }
+}
+
+/// A factor with a matrix's values taken ([`BlockFactor::load`]), ready
+/// for the numeric factorisation at any shift.
+pub(crate) struct Loaded<'a> {
+    factor: &'a mut BlockFactor,
+    a: &'a SymBlockMatrix,
+}
+
+impl Loaded<'_> {
+    /// The numeric factorisation of `a + shift diag(a)` (the `shift` scales
+    /// each scalar diagonal entry; a non-positive entry counts as 1, as in
+    /// the unit-diagonal scaling of the scalar version), with the dropped
+    /// fill compensated on the diagonal with weight `omega` (0: IC(0)).
+    /// `Err(row)` at the first block pivot that is not positive definite
+    /// (the matrix's row number).
+    pub fn factor(&mut self, shift: f64, omega: f64) -> Result<(), usize> {
+        let f = &mut *self.factor;
+        let permuted = std::mem::take(&mut f.permuted);
+        let src = match &f.split {
+            Some(_) => &permuted[..],
+            None => self.a.values(),
+        };
+        let result = f.factor_values(src, shift, omega);
+        f.permuted = permuted;
+        result.map_err(|row| f.split.as_ref().map_or(row, |s| s.old_row(row)))
     }
 }
 

@@ -365,13 +365,13 @@ impl PreconditionerSetup<SymBlockMatrix> for IncompleteCholesky {
         // diagonal block), so the matrix is only scanned after a failure.
         let values = a.values().as_flattened().as_flattened();
         let omega = self.omega;
-        factor.load(a);
+        let mut loaded = factor.load(a);
         let (mut checked, mut non_finite) = (false, None);
         let result = self.shift_loop(min_diag, |_, shift| {
             if non_finite.is_some() {
                 return Err(0);
             }
-            let r = factor.factor(a, shift, omega);
+            let r = loaded.factor(shift, omega);
             if r.is_err() && !checked {
                 checked = true;
                 non_finite = check_finite(values).err();
