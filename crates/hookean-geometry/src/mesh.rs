@@ -210,26 +210,38 @@ impl TriMesh {
     }
 
     /// The closest surface point to `p`, its signed distance and the
-    /// contact normal (branch and bound over the tree; no allocation).
+    /// contact normal (branch and bound over the tree; no allocation). A
+    /// point with a NaN or infinite coordinate, or so far away that its
+    /// squared distance overflows (beyond about 1e154 m), has no closest
+    /// point: every field is NaN (triangle 0), and the distance tests of
+    /// callers fail.
     pub fn closest(&self, p: &V3) -> Closest {
         // The nearest triangle's point, kept as the search finds it: the
         // search takes a triangle exactly when its squared distance is
         // below the best so far (from infinity), so the same rule here
         // keeps the winner's point.
         let mut best: (f64, Option<TrianglePoint>) = (f64::INFINITY, None);
-        let (triangle, _) = self
-            .bvh
-            .nearest(p, |t| {
-                let [a, b, c] = self.corners(t);
-                let q = closest_point_triangle(p, &a, &b, &c);
-                let d2 = (p - q.point).norm_squared();
-                if d2 < best.0 {
-                    best = (d2, Some(q));
-                }
-                d2
-            })
-            .expect("a validated mesh has triangles");
-        let q = best.1.expect("the search measured the triangle it found");
+        let nearest = self.bvh.nearest(p, |t| {
+            let [a, b, c] = self.corners(t);
+            let q = closest_point_triangle(p, &a, &b, &c);
+            let d2 = (p - q.point).norm_squared();
+            if d2 < best.0 {
+                best = (d2, Some(q));
+            }
+            d2
+        });
+        // A validated mesh has triangles, so only a `p` whose every squared
+        // distance is NaN or infinite finds none.
+        let (Some((triangle, _)), Some(q)) = (nearest, best.1) else {
+            let nan = V3::repeat(f64::NAN);
+            return Closest {
+                point: nan,
+                distance: f64::NAN,
+                normal: nan,
+                triangle: 0,
+                feature: Feature::Face,
+            };
+        };
         let pseudo = match q.feature {
             Feature::Face => self.face_normals[triangle],
             Feature::Edge(k) => self.edge_normals[triangle][k as usize],
@@ -342,6 +354,27 @@ mod tests {
     /// Signed distance to the box against its closed form, including the
     /// points closest to edges and corners, where the sign needs the
     /// pseudo-normals.
+    #[test]
+    fn a_point_with_a_nan_or_infinite_coordinate_has_no_closest_point() {
+        let mesh = unit_box();
+        for p in [
+            V3::new(f64::NAN, 0.5, 0.5),
+            V3::new(0.5, f64::INFINITY, 0.5),
+            V3::new(f64::NEG_INFINITY, 0.0, 0.0),
+        ] {
+            let c = mesh.closest(&p);
+            assert!(
+                c.distance.is_nan() && c.point.x.is_nan() && c.normal.z.is_nan(),
+                "{p:?}"
+            );
+        }
+        // A finite point far away still finds its closest point; one whose
+        // squared distance overflows does not.
+        let c = mesh.closest(&V3::new(0.5, 0.5, 1e6));
+        assert_eq!(c.point, V3::new(0.5, 0.5, 1.0));
+        assert!(mesh.closest(&V3::new(0.5, 0.5, 1e300)).distance.is_nan());
+    }
+
     #[test]
     fn signed_distance_to_a_box_matches_its_closed_form() {
         let mesh = unit_box();
