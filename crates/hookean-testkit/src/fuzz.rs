@@ -321,7 +321,7 @@ const SETS: &[&str] = &[
 /// The command line `seed` makes (the same seed, the same line): a
 /// subcommand, a positional input from `inputs` (files of the case's
 /// folder, some missing, some not what the command reads), one to six
-/// flags with values from [`VALUES`], [`ODD_NUMBERS`] or `--set`
+/// flags with values from `VALUES`, `ODD_NUMBERS` or `--set`
 /// overrides, sometimes `--threads` and `RAYON_NUM_THREADS`. Outputs go
 /// to `out/...` paths of the case's folder (`dir`).
 pub fn invocation(seed: u64, dir: &str, inputs: &[&str]) -> Invocation {
