@@ -9,13 +9,16 @@ use hookean::sinks::{ObjFrames, Progress, StepsCsv};
 fn main() -> Result<(), hookean::HookeanError> {
     let args: Vec<String> = std::env::args().collect();
     let scene_path = args.get(1).map_or("scenes/drape.toml", String::as_str);
-    let out = std::path::PathBuf::from(args.get(2).map_or("out/example-drape", String::as_str));
+    let base = std::path::PathBuf::from(args.get(2).map_or("out/example-drape", String::as_str));
+    // A fresh folder per run (run-1, run-2, ...; `find` on 1.. always finds one).
+    let fresh = |k: usize| base.join(format!("run-{k}"));
+    let out = (1..).map(fresh).find(|p| !p.exists()).unwrap_or_default();
     // A smaller, shorter drape than the file's; any scene key can be overridden.
     let scene = Scene::from_file(scene_path, &["cloth.n=24", "duration=1.0"])?;
     let mut sim = scene.build()?;
 
     std::fs::create_dir_all(&out)?;
-    let mut csv = StepsCsv::create(out.join("steps.csv"))?; // refuses to overwrite
+    let mut csv = StepsCsv::create(out.join("steps.csv"))?;
     let mut frames = ObjFrames::new(&out, 10.0)?; // 10 frames per simulated second
     let mut progress = Progress::stderr(scene.duration);
     let summary =

@@ -6,9 +6,9 @@
 # NAME_nullspace.mtx) and of AMGCL's smoothed aggregation with damped Jacobi
 # and ILU(0), on poisson3d (block size 1) and elasticity2d (block size 2) of
 # the peers' set. Prints one line per run: matrix, label, set-up, solve,
-# total (s), iterations. Run under /work/bin/quiet.
+# total (s), iterations. Run under scripts/quiet.
 #   SET=<dir of the peers' matrices> AMGCL=<amgcl_solve> \
-#     docs/perf/amg-setup/ab.sh ROUNDS label=binary ...
+#     scripts/perf/amg-setup-ab.sh ROUNDS label=binary ...
 set -euo pipefail
 R=$1; shift
 SET=${SET:-target/peers/set}

@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # Regenerates every picture of docs/GALLERY.md (and the two view.html
 # screenshots of docs/) with the commands the gallery lists.
-#   HOOKEAN=target/release/hookean docs/gallery/regenerate.sh
+#   HOOKEAN=target/release/hookean scripts/gallery.sh
 # Needs headless Chromium (Debian's `chromium`) for the screenshots.
 set -euo pipefail
-cd "$(dirname "$0")/../.."
+cd "$(dirname "$0")/.."
 hookean=${HOOKEAN:-target/release/hookean}
 out=$(mktemp -d)
 g=docs/gallery

@@ -3,9 +3,9 @@
 # size"): runs `hookean run SCENE --set cloth.n=N --set duration=D --set
 # output.frame_rate=0` with each binary in turn, REPS interleaved rounds, and
 # prints wall time and peak RSS (/usr/bin/time), the Newton and CG counts,
-# rejected steps and the phases of summary.json. Run under /work/bin/quiet.
+# rejected steps and the phases of summary.json. Run under scripts/quiet.
 #   SCENE=<a drape.toml every binary reads, e.g. f2acdf6's> \
-#     docs/perf/scale/ab.sh N D REPS label=binary[:extra --set args] ...
+#     scripts/perf/scale-ab.sh N D REPS label=binary[:extra --set args] ...
 set -euo pipefail
 N=$1; D=$2; R=$3; shift 3
 scene=${SCENE:-scenes/drape.toml}

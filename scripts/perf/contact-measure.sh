@@ -4,14 +4,14 @@
 # pinned-table.toml: that cloth pinned at two corners, deforming as it drapes),
 # and the drape and cloth-sphere against the base commit's build, interleaved,
 # ROUNDS rounds; prints every run's stepping wall time (summary.json's
-# wall_s), Newton iterations and rejected steps. Run under /work/bin/quiet.
+# wall_s), Newton iterations and rejected steps. Run under scripts/quiet.
 # With OLD (a release build of an earlier commit), every contact scene and
 # its baselines also run with OLD, each right before NEW's run (an A/B in
 # one run; labels old-*).
-#   NEW=target/release/hookean BASE=/path/to/f2acdf6/target/release/hookean ROUNDS=3 docs/perf/contact/measure.sh
-#   NEW=target/release/hookean OLD=/path/to/12596ff/hookean ROUNDS=3 docs/perf/contact/measure.sh
+#   NEW=target/release/hookean BASE=/path/to/f2acdf6/target/release/hookean ROUNDS=3 scripts/perf/contact-measure.sh
+#   NEW=target/release/hookean OLD=/path/to/12596ff/hookean ROUNDS=3 scripts/perf/contact-measure.sh
 set -euo pipefail
-cd "$(dirname "$0")/../../.."
+cd "$(dirname "$0")/../.."
 new=${NEW:-target/release/hookean}
 base=${BASE:-}
 old=${OLD:-}

@@ -3,10 +3,10 @@
 # on the cloth systems (N = 64, 128, 256; k = 1e2, 1e4, 1e6; five preconditioners)
 # for release builds of several commits; prints per size and preconditioner the
 # summed best totals, their ratio to the first binary, and any iteration count
-# that differs from the first binary's. Run it under /work/bin/quiet or on an idle
+# that differs from the first binary's. Run it under scripts/quiet or on an idle
 # machine (docs/PERFORMANCE.md, "Issue 29's lines"):
 #
-#   docs/perf/cloth-precond/ab.sh ROUNDS base=/path/to/hookean new=/path/to/hookean ...
+#   scripts/perf/cloth-precond-ab.sh ROUNDS base=/path/to/hookean new=/path/to/hookean ...
 set -euo pipefail
 rounds=$1; shift
 out=$(mktemp -d); trap 'rm -rf "$out"' EXIT

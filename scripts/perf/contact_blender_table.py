@@ -5,7 +5,7 @@
 # springs of 1e3 N/m, no air drag.
 # With PARAMS = blender, the cloth keeps Blender's default material instead
 # (0.3 kg per vertex, tension 15, air drag 1: a heavy, soft cloth).
-# Usage: blender -b --factory-startup -P blender_table.py -- TABLE_OBJ collide|free THREADS hookean|blender
+# Usage: blender -b --factory-startup -P scripts/perf/contact_blender_table.py -- TABLE_OBJ collide|free THREADS hookean|blender
 import bpy, sys, time
 argv = sys.argv[sys.argv.index("--") + 1:]
 table_obj, mode, threads, params = argv[0], argv[1], int(argv[2]), argv[3]

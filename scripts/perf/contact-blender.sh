@@ -3,14 +3,14 @@
 # (an implicit mass-spring solver with its own collision response) on
 # cloth-table's setup against the same cloth with no collider, interleaved
 # with hookean's cloth-table and free-table, ROUNDS rounds. Run under
-# /work/bin/quiet. Needs `blender` (Debian: apt-get install blender; 3.4.1
+# scripts/quiet. Needs `blender` (Debian: apt-get install blender; 3.4.1
 # was measured) on the PATH.
-#   NEW=target/release/hookean ROUNDS=3 /work/bin/quiet docs/perf/contact/blender.sh
+#   NEW=target/release/hookean ROUNDS=3 scripts/quiet scripts/perf/contact-blender.sh
 # Prints one line per run: the cloth's stepping wall time (Blender: the
 # frame loop, 51 frames x 8 substeps = 400 steps of 5 ms; hookean:
 # summary.json's wall_s) and, for Blender, the final height range.
 set -euo pipefail
-cd "$(dirname "$0")/../../.."
+cd "$(dirname "$0")/../.."
 new=${NEW:-target/release/hookean}
 rounds=${ROUNDS:-3}
 out=$(mktemp -d)
@@ -20,7 +20,7 @@ hookean() { # label scene
   python3 -c "import json; s=json.load(open('$out/r/summary.json')); print('%-28s %7.3f s  CG %d' % ('$1', s['wall_s'], s['cg_iterations']))"
 }
 blender_run() { # mode params
-  blender -b --factory-startup -P docs/perf/contact/blender_table.py -- \
+  blender -b --factory-startup -P scripts/perf/contact_blender_table.py -- \
     "$PWD/data/table.obj" "$1" 2 "$2" 2>&1 | grep '^BLENDER' | \
     awk '{printf "%-28s %7.3f s  final z %s..%s\n", "blender-" $2 "-" $3, $7, $9, $11}'
 }
