@@ -161,11 +161,24 @@ pub(crate) const BOUNDS: &[Case] = &[
     )
     .env(&[("RAYON_NUM_THREADS", "-3")]),
     case(
-        "run: a scene file without line breaks (/dev/zero)",
+        "run: a scene file without line breaks, larger than a scene may be",
         &[],
         &["run", "{}/s.toml", "--out", "{}/out"],
         2,
         "larger than 16777216 bytes",
+    )
+    .before(&[&[
+        "!",
+        "sh",
+        "-c",
+        "head -c 16777217 /dev/zero | tr '\\000' x > {}/s.toml",
+    ]]),
+    case(
+        "run: the scene is /dev/zero (a device is not read)",
+        &[],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "s.toml: it is a character device, not a regular file",
     )
     .links(&[("s.toml", "/dev/zero")]),
     case(
@@ -176,11 +189,11 @@ pub(crate) const BOUNDS: &[Case] = &[
         "s.toml:3:",
     ),
     case(
-        "solve: /dev/zero (it aborted at 4 GiB)",
+        "solve: /dev/zero (it aborted at 4 GiB; a device is not read)",
         &[],
         &["solve", "/dev/zero"],
         2,
-        "/dev/zero:1: line 1 is longer than",
+        "/dev/zero: it is a character device, not a regular file",
     ),
     case(
         "solve: a comment line of 2 MiB",
@@ -298,11 +311,11 @@ pub(crate) const BOUNDS: &[Case] = &[
         "more than a run writes",
     ),
     case(
-        "view: a summary.json without end (/dev/zero)",
+        "view: a summary.json without end (/dev/zero; a device is not read)",
         &[],
         &["view", "{}/d"],
         2,
-        "larger than",
+        "summary.json: it is a character device",
     )
     .before(&[&["!", "mkdir", "{}/d"]])
     .links(&[("d/summary.json", "/dev/zero")]),

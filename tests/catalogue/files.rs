@@ -389,3 +389,251 @@ pub(crate) const FILES: &[Case] = &[
         "not hookean's output",
     ),
 ];
+
+/// A cloth over a mesh collider `m.obj`.
+const OVER_MESH: &str = "duration = 0.05\n[cloth]\nn = 4\n[output]\nframe_rate = 0.0\nwidth = 8\nheight = 8\n[[collider]]\nkind = \"mesh\"\npath = \"m.obj\"\n";
+/// A `[mesh]` model of `m.obj`.
+const MESH_MODEL: &str = "duration = 0.05\n[mesh]\npath = \"m.obj\"\n[output]\nframe_rate = 0.0\nwidth = 8\nheight = 8\n";
+/// A FIFO at `m.obj`.
+const FIFO_OBJ: &[&str] = &["!", "mkfifo", "{}/m.obj"];
+
+/// The blow-up of [`BLOW_UP`] into a new folder (no --force): a failed
+/// run that leaves its partial output.
+const FAILED_RUN: &[&str] = &[
+    "fails",
+    "run",
+    "{}/s.toml",
+    "--out",
+    "{}/out",
+    "--set",
+    "integrator.method=fb-euler",
+    "--set",
+    "integrator.h=0.004",
+];
+
+/// The arguments of [`FAILED_RUN`].
+const FAILING_RUN: &[&str] = &[
+    "run",
+    "{}/s.toml",
+    "--out",
+    "{}/out",
+    "--set",
+    "integrator.method=fb-euler",
+    "--set",
+    "integrator.h=0.004",
+];
+
+/// Issue 37: every reader opens only regular files (a FIFO would block it
+/// for ever, a device or a folder is not a file), saying what it got; a
+/// failed command's partial output does not block its corrected rerun; a
+/// byte-order mark is not part of the first line.
+pub(crate) const READERS: &[Case] = &[
+    case(
+        "run: the scene is a FIFO (it blocked for ever)",
+        &[],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "s.toml: it is a FIFO (named pipe), not a regular file",
+    )
+    .before(&[&["!", "mkfifo", "{}/s.toml"]])
+    .absent(&["out"]),
+    case(
+        "run: the scene is a folder",
+        &[("s.toml/x", "")],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "s.toml: it is a folder, not a regular file",
+    ),
+    case(
+        "run: the scene is a device",
+        &[],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "s.toml: it is a character device, not a regular file",
+    )
+    .links(&[("s.toml", "/dev/null")]),
+    case(
+        "run: a mesh collider's file is a FIFO",
+        &[("s.toml", OVER_MESH)],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "m.obj: it is a FIFO (named pipe)",
+    )
+    .before(&[FIFO_OBJ]),
+    case(
+        "run: a mesh collider's file is a folder",
+        &[("s.toml", OVER_MESH), ("m.obj/x", "")],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "m.obj: it is a folder",
+    ),
+    case(
+        "run: a [mesh] model's file is a FIFO",
+        &[("s.toml", MESH_MODEL)],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "m.obj: it is a FIFO (named pipe)",
+    )
+    .before(&[FIFO_OBJ]),
+    case(
+        "run: a [mesh] model's file is a device",
+        &[("s.toml", MESH_MODEL)],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "m.obj: it is a character device",
+    )
+    .links(&[("m.obj", "/dev/null")]),
+    case(
+        "run: an OBJ file with a byte-order mark keeps its first vertex",
+        &[
+            ("s.toml", MESH_MODEL),
+            ("m.obj", "\u{feff}v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
+        ],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        0,
+        "",
+    )
+    .creates(&["out/summary.json"]),
+    case(
+        "run: a scene with a byte-order mark",
+        &[("s.toml", "\u{feff}duration = 0.05\n[cloth]\nn = 4\n[output]\nframe_rate = 0.0\nwidth = 8\nheight = 8\n")],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        0,
+        "",
+    )
+    .creates(&["out/summary.json"]),
+    case(
+        "solve: the matrix is a FIFO",
+        &[],
+        &["solve", "{}/a.mtx"],
+        2,
+        "a.mtx: it is a FIFO (named pipe)",
+    )
+    .before(&[&["!", "mkfifo", "{}/a.mtx"]]),
+    case(
+        "solve: the matrix is a folder",
+        &[("a.mtx/x", "")],
+        &["solve", "{}/a.mtx"],
+        2,
+        "a.mtx: it is a folder",
+    ),
+    case(
+        "solve: --rhs is a FIFO",
+        &[("a.mtx", crate::SPD)],
+        &["solve", "{}/a.mtx", "--rhs", "{}/b.mtx"],
+        2,
+        "b.mtx: it is a FIFO (named pipe)",
+    )
+    .before(&[&["!", "mkfifo", "{}/b.mtx"]]),
+    case(
+        "solve: --nullspace is a FIFO",
+        &[("a.mtx", crate::SPD)],
+        &["solve", "{}/a.mtx", "--precond", "amg", "--nullspace", "{}/n.mtx"],
+        2,
+        "n.mtx: it is a FIFO (named pipe)",
+    )
+    .before(&[&["!", "mkfifo", "{}/n.mtx"]]),
+    case(
+        "solve: a Matrix Market file with a byte-order mark",
+        &[("a.mtx", "\u{feff}%%MatrixMarket matrix coordinate real symmetric\n3 3 5\n1 1 4\n2 1 1\n2 2 3\n3 2 -1\n3 3 2\n")],
+        &["solve", "{}/a.mtx", "--precond", "jacobi"],
+        0,
+        "\"converged\":true",
+    ),
+    case(
+        "bench: a FIFO among the inputs is a row saying what it is",
+        &[("a.mtx", crate::SPD)],
+        &["bench", "{}/a.mtx", "{}/f.mtx", "--out", "{}/b", "--quiet"],
+        0,
+        "it is a FIFO (named pipe)",
+    )
+    .before(&[&["!", "mkfifo", "{}/f.mtx"]])
+    .creates(&["b/bench.csv"]),
+    case(
+        "view: summary.json is a FIFO",
+        &[],
+        &["view", "{}/d"],
+        2,
+        "summary.json: it is a FIFO (named pipe)",
+    )
+    .before(&[&["!", "mkdir", "{}/d"], &["!", "mkfifo", "{}/d/summary.json"]]),
+    case(
+        "view: a frame is a FIFO",
+        &[("f.toml", CLOTH_FRAMES)],
+        &["view", "{}/out"],
+        2,
+        "frame-0001.obj: it is a FIFO (named pipe)",
+    )
+    .before(&[
+        EARLIER_FRAMES,
+        &["!", "rm", "{}/out/view.html", "{}/out/frame-0001.obj"],
+        &["!", "mkfifo", "{}/out/frame-0001.obj"],
+    ]),
+    case(
+        "view: steps.csv is a FIFO",
+        &[("f.toml", CLOTH_FRAMES)],
+        &["view", "{}/out"],
+        2,
+        "steps.csv: it is a FIFO (named pipe)",
+    )
+    .before(&[
+        EARLIER_FRAMES,
+        &["!", "rm", "{}/out/view.html", "{}/out/steps.csv"],
+        &["!", "mkfifo", "{}/out/steps.csv"],
+    ]),
+    case(
+        "run: the corrected rerun into the folder a failed run left needs no --force",
+        &[("s.toml", CLOTH)],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        0,
+        "",
+    )
+    .before(&[FAILED_RUN])
+    .replaces(&["out"])
+    .creates(&["out/summary.json"]),
+    case(
+        "run: a rerun that fails again keeps its own partial output",
+        &[("s.toml", CLOTH)],
+        FAILING_RUN,
+        1,
+        "the partial output is in",
+    )
+    .before(&[FAILED_RUN])
+    .replaces(&["out"]),
+    case(
+        "export-system: a failed run's partial output is not another command's to replace",
+        &[("s.toml", CLOTH)],
+        &["export-system", "{}/s.toml", "--at", "0", "--out", "{}/out"],
+        2,
+        "exists; pass --force",
+    )
+    .before(&[FAILED_RUN]),
+    case(
+        "run: a failed run's partial output with a file of the user's added needs --force",
+        &[("s.toml", CLOTH)],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "exists; pass --force",
+    )
+    .before(&[FAILED_RUN, &["!", "sh", "-c", "echo mine > {}/out/notes.txt"]]),
+    case(
+        "workprecision: a --plot that cannot be written leaves no table either",
+        &[],
+        &[
+            "workprecision",
+            "--problem",
+            "tutorial1",
+            "--methods",
+            "explicit-euler",
+            "--levels",
+            "2",
+            "--out",
+            "{}/wp.csv",
+            "--plot",
+            "{}/none/wp.svg",
+        ],
+        1,
+        "nothing was written",
+    )
+    .absent(&["wp.csv", "none"]),
+];

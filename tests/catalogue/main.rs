@@ -43,8 +43,10 @@ pub(crate) struct Case {
     links: &'static [(&'static str, &'static str)],
     /// Commands run after the files and before the links (each must exit
     /// 0): `hookean` arguments (an earlier run whose output the case may
-    /// replace), or `!` and a plain command (`rm`, `sh -c ...`). What they
-    /// leave counts as the user's input unless `replaces` names it.
+    /// replace), `fails` and `hookean` arguments (an earlier command that
+    /// must fail with exit 1: a failed run's partial output), or `!` and a
+    /// plain command (`rm`, `mkfifo`, `sh -c ...`). What they leave counts
+    /// as the user's input unless `replaces` names it.
     before: &'static [&'static [&'static str]],
     /// Arguments; `{}` in an argument is replaced by the case's folder and
     /// `@name` by a shipped file of the repository.
@@ -137,6 +139,8 @@ enum Entry {
     File(Vec<u8>),
     Link(PathBuf),
     Dir,
+    /// A FIFO or a device (never read: a FIFO would block).
+    Special,
 }
 
 /// Every entry under `dir` (links recorded, not followed).
@@ -152,8 +156,10 @@ pub(crate) fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Entry> {
             } else if meta.is_dir() {
                 out.insert(p.clone(), Entry::Dir);
                 stack.push(p);
-            } else {
+            } else if meta.is_file() {
                 out.insert(p.clone(), Entry::File(std::fs::read(&p).unwrap()));
+            } else {
+                out.insert(p.clone(), Entry::Special);
             }
         }
     }
@@ -230,18 +236,20 @@ fn check(index: usize, c: &Case) -> Result<(), String> {
     }
     for before in c.before {
         // `!` runs a plain command (rm, sh -c ...), anything else `hookean`.
-        let out = match before.split_first() {
+        let (out, code) = match before.split_first() {
             Some((&"!", cmd)) => {
                 let cmd = expand(cmd, &dir);
-                Command::new(&cmd[0])
+                let out = Command::new(&cmd[0])
                     .args(&cmd[1..])
                     .current_dir(&dir)
                     .output()
-                    .unwrap()
+                    .unwrap();
+                (out, 0)
             }
-            _ => hookean(&dir, &expand(before, &dir)).output().unwrap(),
+            Some((&"fails", args)) => (hookean(&dir, &expand(args, &dir)).output().unwrap(), 1),
+            _ => (hookean(&dir, &expand(before, &dir)).output().unwrap(), 0),
         };
-        if !out.status.success() {
+        if out.status.code() != Some(code) {
             return Err(format!(
                 "the command before the case failed: {}",
                 String::from_utf8_lossy(&out.stderr)
@@ -372,6 +380,8 @@ fn every_case_of_the_catalogue_exits_as_promised_and_keeps_the_user_files() {
         bounds::BOUNDS,
         // Issue 26: contact input.
         contact::CONTACT,
+        // Issue 37: readers of non-regular files, corrected reruns.
+        files::READERS,
     ]
     .iter()
     .flat_map(|cases| cases.iter())

@@ -213,3 +213,145 @@ fn stderr_on_a_full_disk_changes_no_exit_code() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Issue 37: a run killed with SIGKILL cannot clean up; the next command
+/// writing beside its staging folder removes it (its process is gone and
+/// its lock free) and says so, naming the target, never the hidden folder;
+/// a frozen live run's staging folder is left alone and the run finishes.
+#[test]
+fn the_staging_folder_of_a_killed_run_is_reclaimed_and_a_live_ones_kept() {
+    let dir = case_dir("race-kill");
+    std::fs::write(dir.join("s.toml"), SLOW).unwrap();
+    std::fs::write(dir.join("q.toml"), QUICK).unwrap();
+    // A live run, frozen while the others run beside it.
+    let mut live = start(&dir, &["run", "{}/s.toml", "--out", "{}/live", "--quiet"]);
+    catch_while_running(&dir, &mut live);
+    let mut killed = start(&dir, &["run", "{}/s.toml", "--out", "{}/out", "--quiet"]);
+    catch_while_running_beside(&dir, &mut killed, 2);
+    signal(&killed, "KILL");
+    let status = killed.wait().unwrap();
+    assert_eq!(status.signal(), Some(9));
+    assert_eq!(leftovers(&dir).len(), 2, "{:?}", leftovers(&dir));
+    let next = run(&dir, &["run", "{}/q.toml", "--out", "{}/next"]);
+    assert!(next.status.success(), "{}", stderr(&next));
+    let said = stderr(&next);
+    assert!(
+        said.contains(&format!(
+            "killed earlier command left beside {}",
+            dir.join("out").display()
+        )),
+        "{said}"
+    );
+    assert!(!crate::names_hidden_entry(&said), "{said}");
+    // The live run's folder is all that is left, and the live run finishes.
+    let left = leftovers(&dir);
+    assert_eq!(left.len(), 1, "{left:?}");
+    assert!(
+        left[0].to_string_lossy().contains(".live.hookean-partial-"),
+        "{left:?}"
+    );
+    signal(&live, "CONT");
+    let live = live.wait_with_output().unwrap();
+    assert!(live.status.success(), "{}", stderr(&live));
+    assert!(dir.join("live/summary.json").exists());
+    assert!(leftovers(&dir).is_empty(), "{:?}", leftovers(&dir));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Waits until `count` staging folders exist under `dir`, then freezes `child`.
+fn catch_while_running_beside(dir: &Path, child: &mut Child, count: usize) {
+    let t0 = Instant::now();
+    while leftovers(dir).len() < count {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the run ended before it could be caught"
+        );
+        assert!(t0.elapsed() < Duration::from_secs(60), "no staging folder");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    signal(child, "STOP");
+}
+
+/// Issue 37: with the output's files limited in size (`ulimit -f`, the
+/// signal SIGXFSZ ignored: every write past the limit fails as on a full
+/// disk) every command that writes fails with exit 1, never calls a folder
+/// that did not exist "unchanged", and leaves no hidden entry behind; help
+/// and version on a full standard output (`>/dev/full`) fail too (they
+/// exited 0).
+#[test]
+fn a_full_disk_fails_every_command_that_writes_and_says_what_is_left() {
+    let dir = case_dir("disk-full");
+    std::fs::write(
+        dir.join("s.toml"),
+        "duration = 0.1\n[cloth]\nn = 12\n[output]\nframe_rate = 20.0\nwidth = 64\nheight = 64\n",
+    )
+    .unwrap();
+    let cases: [&[&str]; 6] = [
+        &["run", "{}/s.toml", "--out", "{}/out", "--quiet"],
+        &["export-system", "{}/s.toml", "--at", "0", "--out", "{}/sys"],
+        &[
+            "workprecision",
+            "--problem",
+            "tutorial1",
+            "--methods",
+            "rk4",
+            "--out",
+            "{}/wp.csv",
+            "--plot",
+            "{}/wp.svg",
+        ],
+        &["stability", "--methods", "rk4", "--plot", "{}/r.svg"],
+        &["bench", "--cloth", "8", "--out", "{}/b", "--quiet"],
+        &[
+            "filter-analysis",
+            "{}/s.toml",
+            "--plot",
+            "{}/fa",
+            "--n",
+            "8",
+            "--t-end",
+            "0.02",
+        ],
+    ];
+    for args in cases {
+        let args = expand(args, &dir);
+        // 1 KiB per file (dash counts 512-byte blocks).
+        let out = Command::new("sh")
+            .arg("-c")
+            .arg("trap '' XFSZ; ulimit -f 2 && exec \"$0\" \"$@\" >/dev/null")
+            .arg(env!("CARGO_BIN_EXE_hookean-suite-cli"))
+            .args(&args)
+            .current_dir(&dir)
+            .output()
+            .unwrap();
+        let said = stderr(&out);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {said}");
+        assert!(said.contains("File too large"), "{args:?}: {said}");
+        assert!(!said.contains("unchanged"), "{args:?}: {said}");
+        assert!(!crate::names_hidden_entry(&said), "{args:?}: {said}");
+        assert!(
+            leftovers(&dir).is_empty(),
+            "{args:?}: {:?}",
+            leftovers(&dir)
+        );
+    }
+    // Neither file of a work-precision sweep whose plot could not be written.
+    assert!(!dir.join("wp.csv").exists() && !dir.join("wp.svg").exists());
+    for args in [
+        &["--help"][..],
+        &["--version"],
+        &["run", "--help"],
+        &["scene-keys"],
+    ] {
+        let out = Command::new("sh")
+            .arg("-c")
+            .arg("exec \"$0\" \"$@\" >/dev/full")
+            .arg(env!("CARGO_BIN_EXE_hookean-suite-cli"))
+            .args(args)
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {}", stderr(&out));
+        assert!(stderr(&out).contains("standard output"), "{args:?}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

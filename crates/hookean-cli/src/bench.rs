@@ -156,7 +156,7 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
         .clone()
         .unwrap_or_else(|| Path::new("out").join("bench"));
     let input_paths: Vec<&Path> = args.inputs.iter().map(PathBuf::as_path).collect();
-    let staging = crate::output::Staging::new(&out, "--out", args.force, &input_paths)?;
+    let staging = crate::output::Staging::new("bench", &out, "--out", args.force, &input_paths)?;
     match bench(
         args,
         &inputs,
@@ -190,11 +190,14 @@ fn discover(paths: &[PathBuf], cloth: &[usize]) -> Result<Vec<Input>, CliError> 
             let mut found: Vec<PathBuf> = entries
                 .filter_map(Result::ok)
                 .map(|e| e.path())
-                .filter(|f| f.extension().is_some_and(|x| x == "mtx") && f.is_file())
+                // A FIFO or device among them is read by the shared reader
+                // (hookean_sparse::text::open_regular), which refuses it
+                // without waiting: a row saying what it is.
+                .filter(|f| f.extension().is_some_and(|x| x == "mtx") && !f.is_dir())
                 .collect();
             found.sort();
             files.extend(found);
-        } else if p.is_file() {
+        } else if std::fs::metadata(p).is_ok() {
             files.push(p.clone());
         } else {
             return Err(CliError::Input(format!(

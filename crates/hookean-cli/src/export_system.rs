@@ -61,7 +61,13 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
         )));
     }
     // Refused before the simulation: an --out that exists (or holds the scene).
-    let staging = crate::output::Staging::new(&args.out, "--out", args.force, &[&args.scene])?;
+    let staging = crate::output::Staging::new(
+        "export-system",
+        &args.out,
+        "--out",
+        args.force,
+        &[&args.scene],
+    )?;
     let (scene, _) = crate::scene::read_scene(&args.scene, &args.set)?;
     let (particles, _) = scene.particle_count();
     let check_work = |h: f64| {

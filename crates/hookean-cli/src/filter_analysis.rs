@@ -164,7 +164,13 @@ pub fn run(args: &FilterAnalysisArgs) -> Result<(), CliError> {
     )?;
     // The figures are written into a staging folder moved to --plot at the
     // end, as `run` does (crate::output).
-    let staging = crate::output::Staging::new(&args.plot, "--plot", args.force, &[&args.scene])?;
+    let staging = crate::output::Staging::new(
+        "filter-analysis",
+        &args.plot,
+        "--plot",
+        args.force,
+        &[&args.scene],
+    )?;
     match analyse(args, &drape, h, plain.dt_max, staging.dir()) {
         Ok(()) => staging.commit(),
         Err(e) => Err(staging.abandon(e)),

@@ -211,10 +211,21 @@ fn argument_error(e: &clap::Error) -> ExitCode {
     match e.kind() {
         ErrorKind::DisplayHelp
         | ErrorKind::DisplayVersion
-        | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
-            let _ = e.print();
-            ExitCode::from(e.exit_code().clamp(0, 255) as u8)
-        }
+        | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => match e.print() {
+            // Help and version go to stdout: one that cannot be written (a
+            // full disk) is a failure, as for every other command's output;
+            // a closed pipe ends quietly. A failure to write to stderr
+            // changes no exit code.
+            Err(err) if !e.use_stderr() => {
+                if err.kind() == std::io::ErrorKind::BrokenPipe {
+                    ExitCode::from(141)
+                } else {
+                    errln!("hookean: error: standard output: {err}");
+                    ExitCode::from(1)
+                }
+            }
+            _ => ExitCode::from(e.exit_code().clamp(0, 255) as u8),
+        },
         _ => {
             // The first paragraph of clap's message, on one line.
             let text = e.to_string();

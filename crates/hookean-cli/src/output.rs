@@ -25,6 +25,14 @@
 //!   folders of the process before it dies of the signal; a replacement in
 //!   progress finishes its swap first, so the target is never missing.
 //!   Messages name `--out`, never a staging folder.
+//! - **A killed run's staging folder is reclaimed.** A staging folder is
+//!   locked (`flock`) by its process while it lives; SIGKILL (or a crash)
+//!   leaves it behind, and the next command that writes beside it removes
+//!   it once its lock is free and its process is gone, and says so.
+//! - **A failed command's partial output does not block its rerun.** A
+//!   failed command moves what it wrote to a free target, marked as the
+//!   partial output of that command; the same command may replace it
+//!   without `--force` (and says so), any other command only with `--force`.
 
 use std::collections::BTreeSet;
 use std::fs::File;
@@ -34,6 +42,9 @@ use std::sync::Mutex;
 
 use crate::CliError;
 
+mod reclaim;
+use reclaim::{lock_staging, reclaim_dead_staging};
+
 /// The file by which hookean recognises its own output folders: its first
 /// line is [`MARKER_HEADER`], then one entry per line, the path relative to
 /// the folder, with a trailing `/` for folders.
@@ -42,8 +53,15 @@ pub const MARKER: &str = ".hookean-output";
 /// The first line of [`MARKER`].
 const MARKER_HEADER: &str = "hookean output folder, v1: the entries hookean wrote here";
 
-/// Folders of this process the signal handler removes: staging folders,
-/// and an earlier output being removed after its replacement. A replacement
+/// The first line of the [`MARKER`] of a failed command's partial output
+/// is this, the command's name (`run`), then [`PARTIAL_SUFFIX`].
+const PARTIAL_PREFIX: &str = "hookean partial output of a failed `hookean ";
+/// See [`PARTIAL_PREFIX`].
+const PARTIAL_SUFFIX: &str = "`, v1: the entries hookean wrote here";
+
+/// Entries of this process the signal handler removes: staging folders,
+/// temporary files of [`prepare_file`], and an earlier output being
+/// removed after its replacement. A replacement
 /// holds this lock while it swaps folders, so a signal never leaves the
 /// target missing.
 static LIVE: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
@@ -95,7 +113,12 @@ fn clean_up_live() {
     for dir in l.drain(..) {
         // The main thread may still be writing into it: retry a few times.
         for _ in 0..20 {
-            if std::fs::remove_dir_all(&dir).is_ok() || !dir.exists() {
+            let removed = match std::fs::symlink_metadata(&dir) {
+                Ok(m) if m.is_dir() => std::fs::remove_dir_all(&dir).is_ok(),
+                Ok(_) => std::fs::remove_file(&dir).is_ok(),
+                Err(_) => true,
+            };
+            if removed {
                 break;
             }
         }
@@ -159,6 +182,80 @@ fn parent_of(path: &Path) -> PathBuf {
     }
 }
 
+/// A file written beside its destination and not yet in place:
+/// [`Prepared::commit`] renames it over the destination; dropping it
+/// uncommitted removes it. Several outputs of one command are prepared
+/// first and committed together, so that a failure of any leaves every
+/// destination as it was.
+#[derive(Debug)]
+pub struct Prepared {
+    tmp: PathBuf,
+    path: PathBuf,
+}
+
+impl Prepared {
+    /// Renames the file over its destination.
+    ///
+    /// # Errors
+    /// The `io::Error` of the rename; the file is removed then.
+    pub fn commit(self) -> std::io::Result<()> {
+        std::fs::rename(&self.tmp, &self.path)
+        // Drop removes the temporary file if the rename failed.
+    }
+}
+
+impl Drop for Prepared {
+    fn drop(&mut self) {
+        if std::fs::symlink_metadata(&self.tmp).is_ok() {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+        live().retain(|d| d != &self.tmp);
+    }
+}
+
+/// Writes `path`'s future content by `write` into a fresh temporary file
+/// beside it ([`Prepared`]); nothing at `path` changes yet.
+///
+/// # Errors
+/// The `io::Error` of creating or writing (a full disk); the temporary
+/// file is removed then.
+pub fn prepare_file(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
+) -> std::io::Result<Prepared> {
+    install_signal_cleanup();
+    let mut k = 0;
+    let (tmp, file) = loop {
+        let tmp = fresh_sibling(path, "tmp", k);
+        // Registered before it exists, so a signal never misses it.
+        live().push(tmp.clone());
+        match new_file(&tmp) {
+            Ok(f) => break (tmp, f),
+            Err(e) => {
+                live().retain(|d| d != &tmp);
+                if e.kind() == std::io::ErrorKind::AlreadyExists && k < 1000 {
+                    k += 1;
+                } else {
+                    return Err(e);
+                }
+            }
+        }
+    };
+    let prepared = Prepared {
+        tmp,
+        path: path.to_path_buf(),
+    };
+    let mut w = BufWriter::new(file);
+    write(&mut w).and_then(|()| w.flush())?;
+    let file = w
+        .into_inner()
+        .map_err(std::io::IntoInnerError::into_error)?;
+    // Written through to the disk: a full disk is reported here, not lost
+    // when the file is closed.
+    file.sync_all()?;
+    Ok(prepared)
+}
+
 /// Writes `path` by `write` into a fresh temporary file beside it and
 /// renames it over `path`: whatever was at `path` (a file, a link) is
 /// replaced as a whole, nothing is written through a link, and a failure
@@ -171,23 +268,7 @@ pub fn replace_file(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
 ) -> std::io::Result<()> {
-    let mut k = 0;
-    let (tmp, file) = loop {
-        let tmp = fresh_sibling(path, "tmp", k);
-        match new_file(&tmp) {
-            Ok(f) => break (tmp, f),
-            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && k < 1000 => k += 1,
-            Err(e) => return Err(e),
-        }
-    };
-    let mut w = BufWriter::new(file);
-    let result = write(&mut w)
-        .and_then(|()| w.flush())
-        .and_then(|()| std::fs::rename(&tmp, path));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+    prepare_file(path, write)?.commit()
 }
 
 /// Writes `text` to `path` by [`replace_file`].
@@ -223,6 +304,9 @@ pub fn check_new_file(path: &Path, force: bool, flag: &str) -> Result<(), CliErr
 struct Manifest {
     files: BTreeSet<PathBuf>,
     dirs: BTreeSet<PathBuf>,
+    /// The command (`run`) whose failure left this partial output; `None`
+    /// for a finished output.
+    failed: Option<String>,
 }
 
 impl Manifest {
@@ -251,7 +335,10 @@ impl Manifest {
     }
 
     fn text(&self) -> String {
-        let mut s = format!("{MARKER_HEADER}\n");
+        let mut s = match &self.failed {
+            None => format!("{MARKER_HEADER}\n"),
+            Some(command) => format!("{PARTIAL_PREFIX}{command}{PARTIAL_SUFFIX}\n"),
+        };
         for d in &self.dirs {
             s += &format!("{}/\n", d.display());
         }
@@ -269,12 +356,24 @@ impl Manifest {
         if !meta.is_file() || meta.len() > 64 << 20 {
             return None;
         }
-        let text = std::fs::read_to_string(path).ok()?;
+        let text = hookean_sparse::text::read_file(path, 64 << 20).ok()?;
         let mut lines = text.lines();
-        if lines.next()? != MARKER_HEADER {
-            return None;
-        }
-        let mut m = Manifest::default();
+        let header = lines.next()?;
+        let failed = if header == MARKER_HEADER {
+            None
+        } else {
+            let command = header
+                .strip_prefix(PARTIAL_PREFIX)?
+                .strip_suffix(PARTIAL_SUFFIX)?;
+            if !command.chars().all(|c| c.is_ascii_lowercase() || c == '-') {
+                return None;
+            }
+            Some(command.to_string())
+        };
+        let mut m = Manifest {
+            failed,
+            ..Manifest::default()
+        };
         for line in lines.filter(|l| !l.is_empty()) {
             let (rel, is_dir) = match line.strip_suffix('/') {
                 Some(d) => (PathBuf::from(d), true),
@@ -386,6 +485,22 @@ pub struct Staging {
     made_parents: Vec<PathBuf>,
     /// How the flag that names the target is spelled in messages (`--out`).
     flag: &'static str,
+    /// The command writing (`run`), as a partial output's marker names it.
+    command: &'static str,
+    /// Whether something was at the target when the command started.
+    existed: bool,
+    /// The target held this command's partial output when it started: it
+    /// is replaced without `--force`.
+    replaces_partial: bool,
+    /// The staging folder's lock, held while this process lives
+    /// ([`reclaim_dead_staging`]).
+    _lock: Option<File>,
+}
+
+/// The command whose failure left the partial output in `dir`, if `dir`
+/// is a folder whose marker says so.
+fn partial_of(dir: &Path) -> Option<String> {
+    Manifest::read(dir).and_then(|m| m.failed)
 }
 
 /// Why a target cannot be replaced, for messages.
@@ -398,16 +513,19 @@ fn refuse_replace(flag: &str, target: &Path, why: &str) -> CliError {
 }
 
 impl Staging {
-    /// Starts an output folder for `target` (named by `flag` on the command
-    /// line). An existing `target` is an error unless `force`, and then it
-    /// must be a folder that [`foreign_entry`] accepts. No file of `inputs`
-    /// may lie inside `target`.
+    /// Starts an output folder of `command` (`run`) for `target` (named by
+    /// `flag` on the command line). An existing `target` is an error unless
+    /// `force`, and then it must be a folder that [`foreign_entry`]
+    /// accepts; without `force` it may only be the partial output a failed
+    /// `command` left there. No file of `inputs` may lie inside `target`.
+    /// Staging folders of killed runs beside `target` are removed first.
     ///
     /// # Errors
     /// [`CliError::Input`] for a target that exists without `--force`, is a
     /// file or a link, holds what hookean did not write or holds an input;
     /// [`CliError::Failed`] if the staging folder cannot be made.
     pub fn new(
+        command: &'static str,
         target: &Path,
         flag: &'static str,
         force: bool,
@@ -429,7 +547,20 @@ impl Staging {
                 )));
             }
         }
-        match std::fs::symlink_metadata(target) {
+        let existing = std::fs::symlink_metadata(target);
+        let existed = existing.is_ok();
+        let mut replaces_partial = false;
+        match existing {
+            // The partial output of this command's failed run: its
+            // corrected rerun replaces it.
+            Ok(m)
+                if !force
+                    && m.is_dir()
+                    && partial_of(target).as_deref() == Some(command)
+                    && foreign_entry(target).is_none() =>
+            {
+                replaces_partial = true;
+            }
             Ok(_) if !force => {
                 return Err(CliError::Input(format!(
                     "{flag} {} exists; pass --force to replace it",
@@ -463,13 +594,14 @@ impl Staging {
         std::fs::create_dir_all(&parent)
             .map_err(|e| CliError::Input(format!("{flag} {}: {e}", target.display())))?;
         install_signal_cleanup();
+        reclaim_dead_staging(&parent);
         let mut k = 0;
-        let dir = loop {
+        let (dir, lock) = loop {
             let dir = fresh_sibling(&path, "partial", k);
             // Registered before it exists, so a signal never misses it.
             live().push(dir.clone());
             match std::fs::create_dir(&dir) {
-                Ok(()) => break dir,
+                Ok(()) => break (dir.clone(), lock_staging(&dir)),
                 Err(e) => {
                     live().retain(|d| d != &dir);
                     if e.kind() == std::io::ErrorKind::AlreadyExists && k < 1000 {
@@ -490,6 +622,10 @@ impl Staging {
             force,
             made_parents,
             flag,
+            command,
+            existed,
+            replaces_partial,
+            _lock: lock,
         })
     }
 
@@ -524,26 +660,40 @@ impl Staging {
             Err(_) => {}
         }
         // Something is at the target now: an earlier output (replaced only
-        // with --force), or something that appeared while this ran.
-        if !self.force {
+        // with --force, or a partial output of this command), or something
+        // that appeared while this ran.
+        if !self.force && !self.replaces_partial {
             return Err(self.discard(
                 "it appeared while this command ran (another run, or a folder made meanwhile); \
                  it was left as it is",
             ));
         }
+        if let Err(why) = self.replace_target(!self.force) {
+            return Err(self.discard(&why));
+        }
+        self.forget();
+        if !self.force {
+            crate::errln!(
+                "hookean: replaced the partial output that a failed `hookean {}` left in {}",
+                self.command,
+                self.target.display()
+            );
+        }
+        Ok(())
+    }
+
+    /// Swaps the staging folder in for the earlier output at the target
+    /// (only a partial output of this command if `partial_only`) and
+    /// removes the earlier output; or says why the target was left as it is.
+    fn replace_target(&self, partial_only: bool) -> Result<(), String> {
         // The swap holds the signal handler's lock: a signal waits until the
         // earlier output is either back at the target or replaced.
-        let swapped = {
+        let aside = {
             let mut signals_wait = live();
-            self.swap_in(&mut signals_wait)
-        };
-        let aside = match swapped {
-            Ok(aside) => aside,
-            Err(why) => return Err(self.discard(&why)),
+            self.swap_in(&mut signals_wait, partial_only)?
         };
         let removed = remove_listed(&aside);
         live().retain(|d| d != &aside);
-        self.forget();
         if !removed {
             crate::errln!(
                 "hookean: warning: the earlier output moved aside to {} kept entries hookean did \
@@ -555,9 +705,10 @@ impl Staging {
     }
 
     /// Moves the target aside, checks that it is still an earlier hookean
-    /// output and moves the staging folder in its place; returns the folder
-    /// moved aside, or why the target was put back (or left) as it was.
-    fn swap_in(&self, live: &mut Vec<PathBuf>) -> Result<PathBuf, String> {
+    /// output (a partial output of this command if `partial_only`) and
+    /// moves the staging folder in its place; returns the folder moved
+    /// aside, or why the target was put back (or left) as it was.
+    fn swap_in(&self, live: &mut Vec<PathBuf>, partial_only: bool) -> Result<PathBuf, String> {
         let mut k = 0;
         let aside = loop {
             let aside = fresh_sibling(&self.path, "old", k);
@@ -582,6 +733,14 @@ impl Staging {
             // Only if a third folder appeared at the target in between.
             Err(_) => format!("{why}; the earlier output is in {}", aside.display()),
         };
+        let foreign = foreign.or_else(|| {
+            (partial_only && partial_of(&aside).as_deref() != Some(self.command)).then(|| {
+                format!(
+                    "it is no longer the partial output of a failed `hookean {}`",
+                    self.command
+                )
+            })
+        });
         if let Some(why) = foreign {
             return Err(put_back(format!(
                 "it changed while this command ran ({why}); it was left as it is"
@@ -597,26 +756,41 @@ impl Staging {
         }
     }
 
-    /// Ends a failed command: a partial output goes to a free target (so
-    /// its frames can be viewed), marked as hookean's; an existing target is
-    /// left as it was and the partial output dropped. Returns `error` with
-    /// what happened appended.
+    /// Ends a failed command: a partial output goes to a free target, or
+    /// over an earlier partial output of the same command (so its frames
+    /// can be viewed), marked as this command's partial output; any other
+    /// existing target is left as it was and the partial output dropped.
+    /// Returns `error` with what happened appended.
     pub fn abandon(self, error: CliError) -> CliError {
         let empty = std::fs::read_dir(&self.dir).map_or(true, |mut d| d.next().is_none());
         let note = if empty {
             String::new()
-        } else if Manifest::of_tree(&self.dir)
-            .map_err(|_| ())
-            .and_then(|m| m.write(&self.dir).map_err(|_| ()))
-            .is_ok()
-            && rename_noreplace(&self.dir, &self.path).is_ok()
-        {
-            format!("; the partial output is in {}", self.target.display())
         } else {
-            format!(
-                "; {} is unchanged (this run's partial output was discarded: run into a new folder to keep it)",
-                self.target.display()
-            )
+            match self.keep_partial() {
+                Ok(()) => format!("; the partial output is in {}", self.target.display()),
+                Err(why) => {
+                    let now = std::fs::symlink_metadata(&self.path).is_ok();
+                    let target = self.target.display();
+                    match (self.existed, now) {
+                        (true, true) => format!(
+                            "; {target} is unchanged (this run's partial output was discarded: \
+                             run into a new folder to keep it)"
+                        ),
+                        (false, true) => format!(
+                            "; {target} appeared while this command ran and was left as it is \
+                             (this run's partial output was discarded)"
+                        ),
+                        (true, false) => format!(
+                            "; {target} was removed while this command ran; this run's partial \
+                             output was discarded ({why})"
+                        ),
+                        (false, false) => format!(
+                            "; nothing was written to {target}: this run's partial output could \
+                             not be kept ({why})"
+                        ),
+                    }
+                }
+            }
         };
         // Messages name the target, never the staging folder.
         let (staging, target) = (
@@ -628,6 +802,28 @@ impl Staging {
             CliError::Input(m) => CliError::Input(m.replace(&staging, &target) + &note),
             CliError::Failed(m) => CliError::Failed(m.replace(&staging, &target) + &note),
             other => other,
+        }
+    }
+
+    /// Marks the staging folder as this command's partial output and moves
+    /// it to the target: a free one, or over an earlier partial output of
+    /// this command.
+    fn keep_partial(&self) -> Result<(), String> {
+        Manifest::of_tree(&self.dir)
+            .map_err(|p| format!("unexpected entry {}", p.display()))
+            .and_then(|mut m| {
+                m.failed = Some(self.command.to_string());
+                m.write(&self.dir).map_err(|e| e.to_string())
+            })?;
+        match rename_noreplace(&self.dir, &self.path) {
+            Ok(()) => Ok(()),
+            Err(e)
+                if e.kind() == std::io::ErrorKind::AlreadyExists
+                    && partial_of(&self.path).as_deref() == Some(self.command) =>
+            {
+                self.replace_target(true)
+            }
+            Err(e) => Err(e.to_string()),
         }
     }
 
@@ -789,6 +985,83 @@ mod tests {
         assert!(d.join("a").exists());
         rename_noreplace(&d.join("a"), &d.join("c")).unwrap();
         assert!(d.join("c").exists() && !d.join("a").exists());
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    fn message(e: CliError) -> String {
+        match e {
+            CliError::Input(m) | CliError::Failed(m) => m,
+            other => format!("{other:?}"),
+        }
+    }
+
+    /// A command that fails after writing `file` into `target`.
+    fn fail(command: &'static str, target: &Path, force: bool, file: &str) -> String {
+        let s = Staging::new(command, target, "--out", force, &[]).unwrap();
+        std::fs::write(s.dir().join(file), "partial").unwrap();
+        message(s.abandon(CliError::Failed("it failed".into())))
+    }
+
+    #[test]
+    fn a_failed_commands_partial_output_is_replaced_by_its_own_rerun_only() {
+        let d = scratch("partial");
+        let out = d.join("out");
+        let m = fail("run", &out, false, "steps.csv");
+        assert!(
+            m.ends_with(&format!("; the partial output is in {}", out.display())),
+            "{m}"
+        );
+        assert_eq!(partial_of(&out).as_deref(), Some("run"));
+        // Another command needs --force; the same command does not.
+        let e = message(Staging::new("filter-analysis", &out, "--out", false, &[]).unwrap_err());
+        assert!(e.contains("exists; pass --force"), "{e}");
+        // A rerun that fails again replaces the partial output with its own.
+        let m = fail("run", &out, false, "frame-0000.obj");
+        assert!(m.contains("the partial output is in"), "{m}");
+        assert!(out.join("frame-0000.obj").exists() && !out.join("steps.csv").exists());
+        // The corrected rerun replaces it and leaves a finished output.
+        let s = Staging::new("run", &out, "--out", false, &[]).unwrap();
+        std::fs::write(s.dir().join("summary.json"), "{}").unwrap();
+        s.commit().unwrap();
+        assert!(out.join("summary.json").exists() && !out.join("frame-0000.obj").exists());
+        assert_eq!(Manifest::read(&out).unwrap().failed, None);
+        // A finished output is replaced only with --force; a run that fails
+        // then leaves it as it was, and says so.
+        let e = message(Staging::new("run", &out, "--out", false, &[]).unwrap_err());
+        assert!(e.contains("exists; pass --force"), "{e}");
+        let m = fail("run", &out, true, "steps.csv");
+        assert!(m.contains("is unchanged"), "{m}");
+        assert!(out.join("summary.json").exists() && !out.join("steps.csv").exists());
+        // A partial output holding a file of the user's is the user's folder.
+        let other = d.join("other");
+        fail("filter-analysis", &other, false, "fig4.png");
+        std::fs::write(other.join("notes.txt"), "mine").unwrap();
+        let e = message(Staging::new("filter-analysis", &other, "--plot", false, &[]).unwrap_err());
+        assert!(e.contains("exists; pass --force"), "{e}");
+        assert_eq!(
+            std::fs::read_to_string(other.join("notes.txt")).unwrap(),
+            "mine"
+        );
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn a_partial_output_that_cannot_be_kept_is_not_called_unchanged() {
+        let d = scratch("unkept");
+        let out = d.join("out");
+        let s = Staging::new("run", &out, "--out", false, &[]).unwrap();
+        std::fs::write(s.dir().join("steps.csv"), "t\n").unwrap();
+        // A link inside the staging folder: the marker cannot list it, so
+        // the partial output cannot be kept (as when the disk is full).
+        std::os::unix::fs::symlink("/", s.dir().join("odd")).unwrap();
+        let m = message(s.abandon(CliError::Failed("it failed".into())));
+        assert!(!m.contains("unchanged"), "{m}");
+        assert!(
+            m.contains(&format!("nothing was written to {}", out.display())),
+            "{m}"
+        );
+        assert!(!out.exists());
+        assert_eq!(std::fs::read_dir(&d).unwrap().count(), 0);
         std::fs::remove_dir_all(&d).unwrap();
     }
 }

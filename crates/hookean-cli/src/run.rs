@@ -17,7 +17,9 @@ use crate::CliError;
 use crate::render::{RenderScene, render};
 use crate::scene::{PictureScene, ProgramKeys};
 use crate::thin::Thinned;
-use crate::view::{FrameEnergies, ViewCollider, ViewFrame, ViewRun};
+use crate::view::{
+    FrameEnergies, MeshFile, MeshFileKind, SummaryCollider, ViewCollider, ViewFrame, ViewRun,
+};
 
 #[derive(Debug, Args)]
 pub struct RunArgs {
@@ -76,8 +78,8 @@ pub struct RunRecord {
     pub frames: usize,
     /// Simulated time of each `frame-NNNN.obj`.
     pub frame_times: Vec<f64>,
-    /// The colliders, for viewers (`hookean view`).
-    pub colliders: Vec<ViewCollider>,
+    /// The colliders, for viewers (`hookean view`): meshes by their file.
+    pub colliders: Vec<SummaryCollider>,
 }
 
 /// The steps' wall time by phase (s), summed over the run's Newton solves.
@@ -163,6 +165,47 @@ fn colliders(sim: &Simulation) -> Vec<ViewCollider> {
         .colliders()
         .iter()
         .map(ViewCollider::from)
+        .collect()
+}
+
+/// The model's colliders as `summary.json` records them: planes and
+/// spheres as drawn, each mesh by the file `scene` names for it (the
+/// model's colliders are the scene's `[[collider]]` tables, in order).
+fn summary_colliders(scene: &Scene, sim: &Simulation) -> Vec<SummaryCollider> {
+    use hookean::massspring::Collider;
+    use hookean::scene::ColliderScene;
+    let model = sim.model().colliders();
+    let by_table = model.len() == scene.colliders.len();
+    model
+        .iter()
+        .enumerate()
+        .map(|(k, c)| match (c, by_table.then(|| &scene.colliders[k])) {
+            (
+                Collider::Mesh { mesh, .. },
+                Some(ColliderScene::Mesh {
+                    path,
+                    scale,
+                    offset,
+                    ..
+                }),
+            ) => {
+                let file = scene.resolve(path);
+                let m = mesh.motion();
+                SummaryCollider::File(MeshFile {
+                    kind: MeshFileKind::MeshFile,
+                    path: path.clone(),
+                    file: std::path::absolute(&file).unwrap_or(file),
+                    scale: *scale,
+                    offset: *offset,
+                    vertices: mesh.mesh().vertices().len(),
+                    triangles: mesh.mesh().triangles().len(),
+                    velocity: m.velocity,
+                    angular_velocity: m.angular_velocity,
+                    pivot: m.pivot,
+                })
+            }
+            (c, _) => SummaryCollider::Drawn(ViewCollider::from(c)),
+        })
         .collect()
 }
 
@@ -305,7 +348,7 @@ fn run_scene(args: &RunArgs, scene: &Scene, program: &ProgramKeys) -> Result<(),
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out").join(&name));
-    let staging = crate::output::Staging::new(&out, "--out", args.force, &[&args.scene])?;
+    let staging = crate::output::Staging::new("run", &out, "--out", args.force, &[&args.scene])?;
     let report = if let Some(t) = &program.tutorial {
         crate::tutorial_run::run(
             scene,
@@ -480,7 +523,7 @@ fn run_model(
         frame_times: frames
             .as_ref()
             .map_or_else(Vec::new, |f| f.obj.times().to_vec()),
-        colliders: colliders(&sim),
+        colliders: summary_colliders(scene, &sim),
     };
     let json = crate::to_json(&record, true)?;
     let summary_path = out.join("summary.json");

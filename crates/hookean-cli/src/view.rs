@@ -72,26 +72,101 @@ impl From<&Collider> for ViewCollider {
                 center: *center,
                 radius: *radius,
             },
-            Collider::Mesh { mesh, .. } => {
-                let m = mesh.motion();
-                ViewCollider::Mesh {
-                    vertices: mesh
-                        .mesh()
-                        .vertices()
-                        .iter()
-                        .map(|v| [v.x, v.y, v.z])
-                        .collect(),
-                    triangles: mesh.mesh().triangles().to_vec(),
-                    velocity: m.velocity,
-                    angular_velocity: m.angular_velocity,
-                    pivot: m.pivot,
-                }
-            }
+            Collider::Mesh { mesh, .. } => ViewCollider::mesh(mesh.mesh(), *mesh.motion()),
         }
     }
 }
 
+/// A collider as `summary.json` records it: a plane or a sphere as the
+/// page draws it, a triangle mesh by the OBJ file the scene named (with its
+/// placement and motion), which `hookean view` reads again. A mesh is never
+/// embedded, so `summary.json` stays small whatever the mesh's size.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum SummaryCollider {
+    /// A mesh collider, by its file.
+    File(MeshFile),
+    /// A plane or a sphere (or, in summaries written before the mesh files,
+    /// a mesh with its vertices and triangles).
+    Drawn(ViewCollider),
+}
+
+/// The tag of [`MeshFile`] in `summary.json` (`"kind": "mesh-file"`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum MeshFileKind {
+    /// The only value.
+    #[serde(rename = "mesh-file")]
+    MeshFile,
+}
+
+/// A mesh collider in `summary.json`: its OBJ file, how it was placed and
+/// how it moves.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MeshFile {
+    /// Always [`MeshFileKind::MeshFile`].
+    pub kind: MeshFileKind,
+    /// The `path` key of the scene's `[[collider]]`, as written there.
+    pub path: PathBuf,
+    /// The file the run read (absolute).
+    pub file: PathBuf,
+    /// The scene's `scale`.
+    pub scale: f64,
+    /// The scene's `offset` (m).
+    pub offset: [f64; 3],
+    /// Vertices of the mesh the run used.
+    pub vertices: usize,
+    /// Triangles of the mesh the run used.
+    pub triangles: usize,
+    /// Linear velocity (m/s).
+    pub velocity: [f64; 3],
+    /// Angular velocity (rad/s).
+    pub angular_velocity: [f64; 3],
+    /// The pivot at time 0.
+    pub pivot: [f64; 3],
+}
+
+impl MeshFile {
+    /// The collider as the page draws it: the file read again, scaled and
+    /// moved as the run did; an error if it cannot be read or is no longer
+    /// the mesh of the run.
+    pub fn load(&self) -> Result<ViewCollider, String> {
+        let (_, mesh) = hookean::massspring::read_surface(&self.file, self.scale, self.offset)
+            .map_err(|e| e.to_string())?;
+        let (v, t) = (mesh.vertices().len(), mesh.triangles().len());
+        if (v, t) != (self.vertices, self.triangles) {
+            return Err(format!(
+                "{}: {v} vertices and {t} triangles, the run's mesh had {} and {}: the file changed since the run",
+                self.file.display(),
+                self.vertices,
+                self.triangles
+            ));
+        }
+        Ok(ViewCollider::mesh(
+            &mesh,
+            hookean::massspring::RigidMotion {
+                velocity: self.velocity,
+                angular_velocity: self.angular_velocity,
+                pivot: self.pivot,
+            },
+        ))
+    }
+}
+
 impl ViewCollider {
+    /// A mesh collider of `mesh` (its pose at time 0) moving by `motion`.
+    pub fn mesh(
+        mesh: &hookean::massspring::TriMesh,
+        motion: hookean::massspring::RigidMotion,
+    ) -> Self {
+        ViewCollider::Mesh {
+            vertices: mesh.vertices().iter().map(|v| [v.x, v.y, v.z]).collect(),
+            triangles: mesh.triangles().to_vec(),
+            velocity: motion.velocity,
+            angular_velocity: motion.angular_velocity,
+            pivot: motion.pivot,
+        }
+    }
+
     /// The vertices of a mesh collider at time `t` (empty for other kinds).
     pub fn mesh_vertices_at(&self, t: f64) -> Vec<[f64; 3]> {
         match self {
@@ -349,11 +424,8 @@ fn input(e: impl std::fmt::Display) -> CliError {
 
 /// Energies of `steps.csv` rows by time (`t,h,newton,cg,kinetic,gravitational,spring,total`).
 fn read_step_energies(path: &Path, times: &[f64]) -> Result<Vec<Option<FrameEnergies>>, CliError> {
-    let file = std::fs::File::open(path).map_err(|e| input(format!("{}: {e}", path.display())))?;
-    let lines = hookean_sparse::text::capped_lines(
-        std::io::BufReader::new(file),
-        hookean_sparse::text::LineLimits::default(),
-    );
+    let lines = hookean_sparse::text::file_lines(path, hookean_sparse::text::LineLimits::default())
+        .map_err(|e| input(format!("{}: {e}", path.display())))?;
     // Rows and frame times both ascend: one pass matches them, keeping only
     // the rows of frames (the file may hold millions of steps).
     let mut energies = vec![None; times.len()];
@@ -449,11 +521,29 @@ impl ViewRun {
                 times.len()
             )));
         }
-        let colliders: Vec<ViewCollider> = match summary.get("colliders") {
+        let recorded: Vec<SummaryCollider> = match summary.get("colliders") {
             Some(c) => serde_json::from_value(c.clone())
                 .map_err(|e| input(format!("{}: colliders: {e}", summary_path.display())))?,
             None => Vec::new(),
         };
+        // A mesh whose file is gone or changed is left out of the page, with a warning.
+        let colliders: Vec<ViewCollider> = recorded
+            .into_iter()
+            .enumerate()
+            .filter_map(|(k, c)| match c {
+                SummaryCollider::Drawn(c) => Some(c),
+                SummaryCollider::File(m) => m
+                    .load()
+                    .inspect_err(|why| {
+                        crate::errln!(
+                            "hookean: warning: {}: collider {}: {why}; view.html shows the run without it",
+                            summary_path.display(),
+                            k + 1
+                        );
+                    })
+                    .ok(),
+            })
+            .collect();
         // Frame 0 gives the mesh and the particle count; the frames read
         // are every stride-th (and the last) within crate::thin::VIEW_BYTES.
         let frame_path = |k: usize| dir.join(format!("frame-{k:04}.obj"));
@@ -484,7 +574,7 @@ impl ViewRun {
             let positions = if k == 0 {
                 first.positions.clone()
             } else {
-                let file = std::fs::File::open(&path)
+                let file = hookean_sparse::text::open_regular(&path)
                     .map_err(|e| input(format!("{}: {e}", path.display())))?;
                 parse_obj(std::io::BufReader::new(file))
                     .map_err(|e| input(format!("{}: {e}", path.display())))?
@@ -523,9 +613,7 @@ const FRAME_BYTES: u64 = 1 << 30;
 
 /// The text of `path`, at most `max` bytes.
 fn read_text(path: &Path, max: u64) -> Result<String, CliError> {
-    std::fs::File::open(path)
-        .map_err(|e| e.to_string())
-        .and_then(|f| hookean_sparse::text::read_capped(f, max).map_err(|e| e.to_string()))
+    hookean_sparse::text::read_file(path, max)
         .map_err(|e| input(format!("{}: {e}", path.display())))
 }
 

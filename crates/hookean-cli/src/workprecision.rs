@@ -16,6 +16,7 @@
 //! discretisation error. Fixed-step methods use `n0 * 2^i` steps
 //! (`i < --levels`), variable-step BDF2 the tolerances `10^-1 .. 10^-levels`.
 
+use std::io::Write as _;
 use std::path::PathBuf;
 
 use clap::Args;
@@ -288,16 +289,47 @@ pub fn run(args: &WorkPrecisionArgs) -> Result<(), CliError> {
         all.extend(rows);
     }
     bar.finish_and_clear();
-    crate::output::replace_file(&args.out, |w| workprecision::write_csv(w, &all))
-        .map_err(|e| CliError::Failed(format!("cannot write {}: {e}", args.out.display())))?;
-    if let Some(p) = &args.plot {
-        let plot = LogLogPlot {
-            title: problem.title(),
-            x_label: "work: f evaluations".into(),
-            y_label: "error |Y(t_end) - y(t_end)|".into(),
-            series,
-        };
-        crate::output::write_text(p, &plot.render().map_err(CliError::Failed)?)?;
+    // Both files are written aside first and put in place together: a
+    // failure of either (the plot cannot be drawn, a full disk) leaves
+    // --out and --plot as they were, and the rerun needs no --force.
+    let cannot = |p: &std::path::Path, e: &dyn std::fmt::Display| {
+        CliError::Failed(format!(
+            "cannot write {}: {e}; nothing was written",
+            p.display()
+        ))
+    };
+    let svg = match &args.plot {
+        Some(p) => {
+            let plot = LogLogPlot {
+                title: problem.title(),
+                x_label: "work: f evaluations".into(),
+                y_label: "error |Y(t_end) - y(t_end)|".into(),
+                series,
+            };
+            let svg = plot.render().map_err(|e| cannot(p, &e))?;
+            Some((p, svg))
+        }
+        None => None,
+    };
+    let csv = crate::output::prepare_file(&args.out, |w| workprecision::write_csv(w, &all))
+        .map_err(|e| cannot(&args.out, &e))?;
+    let svg = match svg {
+        Some((p, svg)) => Some((
+            p,
+            crate::output::prepare_file(p, |w| w.write_all(svg.as_bytes()))
+                .map_err(|e| cannot(p, &e))?,
+        )),
+        None => None,
+    };
+    csv.commit().map_err(|e| cannot(&args.out, &e))?;
+    if let Some((p, svg)) = svg {
+        svg.commit().map_err(|e| {
+            CliError::Failed(format!(
+                "cannot write {}: {e}; the table {} was written",
+                p.display(),
+                args.out.display()
+            ))
+        })?;
     }
     Ok(())
 }

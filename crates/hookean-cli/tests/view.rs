@@ -370,14 +370,9 @@ fn view_html_draws_a_moving_mesh_collider() {
     assert_ok(&o);
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).unwrap()).unwrap();
-    assert_eq!(summary["colliders"][0]["kind"], "mesh");
-    assert_eq!(
-        summary["colliders"][0]["triangles"]
-            .as_array()
-            .unwrap()
-            .len(),
-        60
-    );
+    // summary.json names the mesh's file; the page embeds the mesh.
+    assert_eq!(summary["colliders"][0]["kind"], "mesh-file");
+    assert_eq!(summary["colliders"][0]["triangles"], 60);
     let Some(browser) = chromium() else { return };
     let page = run.join("view.html");
     let (s, dom, _) = dump_status(&browser, &run, &page, "frame=last");
@@ -397,5 +392,94 @@ fn view_html_draws_a_moving_mesh_collider() {
     let (w, h, px) = decode_rgba(&shot);
     let table = collider_pixels(w, h, &px);
     assert!(table > 2000, "{table} table-coloured pixels");
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// A flat square plate of `n` x `n` cells (2 n^2 triangles, counter-
+/// clockwise seen from +z) at z = 0 over [-1, 1]^2, as OBJ.
+fn plate_obj(n: usize) -> String {
+    let mut s = String::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, y) = (
+                -1.0 + 2.0 * i as f64 / n as f64,
+                -1.0 + 2.0 * j as f64 / n as f64,
+            );
+            s += &format!("v {x} {y} 0\n");
+        }
+    }
+    let v = |i: usize, j: usize| j * (n + 1) + i + 1;
+    for j in 0..n {
+        for i in 0..n {
+            s += &format!("f {} {} {}\n", v(i, j), v(i + 1, j), v(i + 1, j + 1));
+            s += &format!("f {} {} {}\n", v(i, j), v(i + 1, j + 1), v(i, j + 1));
+        }
+    }
+    s
+}
+
+/// Issue 37: `summary.json` refers to a mesh collider by its file instead
+/// of embedding it (a 670 000-triangle collider made it 74 MB, above what
+/// `hookean view` reads), so `view` reads what `run` wrote whatever the
+/// mesh's size, and the page it writes embeds the mesh.
+#[test]
+fn view_reads_the_summary_of_a_run_over_a_large_mesh_collider() {
+    let out = scratch("big-mesh");
+    std::fs::create_dir_all(&out).unwrap();
+    let n = 200;
+    std::fs::write(out.join("plate.obj"), plate_obj(n)).unwrap();
+    let scene = out.join("s.toml");
+    std::fs::write(
+        &scene,
+        "duration = 0.02\n[cloth]\nn = 4\norigin = [-0.2, -0.2, 0.1]\n[output]\nframe_rate = 100.0\nwidth = 16\nheight = 16\n\
+         [[collider]]\nkind = \"mesh\"\npath = \"plate.obj\"\n",
+    )
+    .unwrap();
+    let run = out.join("run");
+    let o = hookean(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        run.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_ok(&o);
+    let text = std::fs::read_to_string(run.join("summary.json")).unwrap();
+    // Embedded, the 80 000 triangles and 40 401 vertices alone would take
+    // more than 2 MB (at least 6 bytes a triangle and 12 a vertex).
+    assert!(
+        text.len() < 16 << 10,
+        "summary.json is {} bytes",
+        text.len()
+    );
+    let summary: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let c = &summary["colliders"][0];
+    assert_eq!(c["kind"], "mesh-file");
+    assert_eq!(c["path"], "plate.obj");
+    assert_eq!(c["triangles"], 2 * n * n);
+    assert_eq!(c["vertices"], (n + 1) * (n + 1));
+    assert_eq!(
+        Path::new(c["file"].as_str().unwrap()),
+        out.join("plate.obj")
+    );
+    // `view` rebuilds the page from the folder, the mesh read from its file.
+    let o = hookean(&["view", run.to_str().unwrap(), "--force"]);
+    assert_ok(&o);
+    let page = std::fs::read_to_string(run.join("view.html")).unwrap();
+    // The plate's first two triangles (0-based), as the page's data lists them.
+    let first = format!("\"triangles\":[[0,1,{}],[0,{},{}]", n + 2, n + 2, n + 1);
+    assert!(page.contains(&first), "the page lacks the mesh ({first})");
+    assert!(page.len() > 2 << 20, "view.html is {} bytes", page.len());
+    // Without its file the page is written without the mesh, and says so.
+    std::fs::rename(out.join("plate.obj"), out.join("moved.obj")).unwrap();
+    let o = hookean(&["view", run.to_str().unwrap(), "--force"]);
+    assert_ok(&o);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("collider 1:")
+            && stderr.contains("plate.obj")
+            && stderr.contains("without it"),
+        "{stderr}"
+    );
     let _ = std::fs::remove_dir_all(&out);
 }

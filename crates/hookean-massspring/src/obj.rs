@@ -115,10 +115,14 @@ pub fn parse_obj(reader: impl BufRead) -> Result<ObjMesh, MassSpringError> {
 /// Reads an OBJ file with [`parse_obj`].
 ///
 /// # Errors
-/// As [`parse_obj`]; [`MassSpringError::Io`] if the file cannot be opened.
+/// As [`parse_obj`]; [`MassSpringError::Io`] if the file cannot be opened
+/// or is not a regular file (a folder, a FIFO, a device:
+/// [`hookean_sparse::text::open_regular`]).
 pub fn read_obj_file(path: impl AsRef<Path>) -> Result<ObjMesh, MassSpringError> {
     let p = path.as_ref();
-    let file = std::fs::File::open(p).map_err(|e| io_err(&p.display().to_string(), e))?;
+    // Only a regular file: a FIFO or a device is refused, never waited on.
+    let file =
+        hookean_sparse::text::open_regular(p).map_err(|e| io_err(&p.display().to_string(), e))?;
     parse_obj(std::io::BufReader::new(file))
 }
 

@@ -435,7 +435,7 @@ pub fn read_matrix_market_file_with(
     opts: &ReadOptions,
 ) -> Result<MatrixMarket, SparseError> {
     let path = path.as_ref();
-    let file = std::fs::File::open(path).map_err(|e| SparseError::Io {
+    let file = crate::text::open_regular(path).map_err(|e| SparseError::Io {
         path: path.display().to_string(),
         message: e.to_string(),
     })?;

@@ -165,8 +165,11 @@ impl ObjFrames {
         }
         let path = self.path(self.times.len());
         let file = create_new(&path)?;
-        sim.write_obj_to(BufWriter::new(file))
-            .map_err(|e| e.at_path(&path))?;
+        let mut w = BufWriter::new(file);
+        sim.write_obj_to(&mut w).map_err(|e| e.at_path(&path))?;
+        // Flushed here: a write that fails on a full disk is an error, not
+        // lost when the writer is dropped.
+        w.flush().map_err(|e| HookeanError::io(&path, e))?;
         // Slots are `interval` apart from the first frame; a step past
         // several slots writes one frame and the next steps catch up.
         self.next = if self.times.is_empty() { t } else { self.next } + self.interval;

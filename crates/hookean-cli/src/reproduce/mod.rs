@@ -232,7 +232,7 @@ pub fn run(args: &ReproduceArgs) -> Result<(), CliError> {
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out").join("reproduce"));
-    let staging = crate::output::Staging::new(&out, "--out", args.force, &[])?;
+    let staging = crate::output::Staging::new("reproduce", &out, "--out", args.force, &[])?;
     let result = reproduce(args, &selected, staging.dir());
     match result {
         Ok((record, table)) => {

@@ -168,8 +168,9 @@ impl Scene {
         }
     }
 
-    /// A path of the scene: relative paths start at the scene file's folder.
-    pub(super) fn resolve(&self, path: &Path) -> std::path::PathBuf {
+    /// A path of the scene (a mesh file) as it is read: a relative path
+    /// starts at the scene file's folder.
+    pub fn resolve(&self, path: &Path) -> std::path::PathBuf {
         match &self.base {
             Some(base) if path.is_relative() => base.join(path),
             _ => path.to_path_buf(),

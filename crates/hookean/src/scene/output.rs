@@ -24,7 +24,8 @@ impl Default for OutputScene {
 /// a file that cannot be read (building the scene then names the error).
 pub(super) fn obj_vertex_count(path: &Path) -> u64 {
     use std::io::Read;
-    let Ok(mut file) = std::fs::File::open(path) else {
+    // Only a regular file (never waits on a FIFO).
+    let Ok(mut file) = hookean_sparse::text::open_regular(path) else {
         return 0;
     };
     let mut buf = [0u8; 1 << 16];

@@ -236,19 +236,17 @@ impl Scene {
         overrides: &[&str],
     ) -> Result<(Self, P), HookeanError> {
         let path = path.as_ref();
-        // A scene is a few kilobytes: 16 MiB is far beyond any, and /dev/zero stops there.
-        let text = std::fs::File::open(path)
-            .map_err(|e| HookeanError::io(path, e))
-            .and_then(|f| {
-                hookean_sparse::text::read_capped(f, Self::MAX_FILE_BYTES).map_err(|e| match e {
-                    hookean_sparse::text::TextError::Io(e) => HookeanError::io(path, e),
-                    e => HookeanError::Scene {
-                        file: path.display().to_string(),
-                        line: e.line().unwrap_or(1),
-                        column: 1,
-                        message: e.to_string(),
-                    },
-                })
+        // A scene is a few kilobytes: 16 MiB is far beyond any. Only a
+        // regular file is read (a FIFO or a device is refused, not waited on).
+        let text =
+            hookean_sparse::text::read_file(path, Self::MAX_FILE_BYTES).map_err(|e| match e {
+                hookean_sparse::text::TextError::Io(e) => HookeanError::io(path, e),
+                e => HookeanError::Scene {
+                    file: path.display().to_string(),
+                    line: e.line().unwrap_or(1),
+                    column: 1,
+                    message: e.to_string(),
+                },
             })?;
         let (mut scene, program) =
             Self::parse_with::<P>(&path.display().to_string(), &text, overrides)?;
