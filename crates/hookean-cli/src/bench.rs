@@ -19,13 +19,13 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use hookean_sparse::{PrecondKind, check_csr_symmetric};
+use hookean_sparse::check_csr_symmetric;
 
 use crate::CliError;
 use crate::amg_args::{AmgArgs, read_columns};
 use crate::lineplot::{LogLogPlot, Series};
 use crate::solve::{
-    BlockSizeSource, Matrix, RunOptions, SolveRecord, Solver, SolverArgs, System, empty_record,
+    BlockSizeSource, Matrix, Plan, RunOptions, SolveRecord, SolverArgs, System, empty_record,
     load_system, nullspace_block_size, run_solver,
 };
 
@@ -132,8 +132,7 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
         amg: args.amg.clone(),
         max_memory: args.max_memory,
     };
-    let (solvers, params) = solver_args.resolve()?;
-    let cap = crate::memory::cap_bytes(args.max_memory)?;
+    let plan = solver_args.resolve()?;
     if let Some(b) = args.block_size.filter(|b| !(1..=3).contains(b)) {
         return Err(CliError::Input(format!(
             "--block-size must be 1, 2 or 3, got {b}"
@@ -157,15 +156,7 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
         .unwrap_or_else(|| Path::new("out").join("bench"));
     let input_paths: Vec<&Path> = args.inputs.iter().map(PathBuf::as_path).collect();
     let staging = crate::output::Staging::new("bench", &out, "--out", args.force, &input_paths)?;
-    match bench(
-        args,
-        &inputs,
-        &solvers,
-        &params,
-        &solver_args,
-        cap,
-        staging.dir(),
-    ) {
+    match bench(args, &inputs, &plan, staging.dir()) {
         Ok(table) => {
             staging.commit()?;
             crate::outln!("{}", table.trim_end())?;
@@ -277,18 +268,12 @@ fn unique(names: &mut BTreeMap<String, usize>, name: String) -> String {
 }
 
 /// Runs every solver on every system in `dir`; returns the markdown table.
-fn bench(
-    args: &BenchArgs,
-    inputs: &[Input],
-    solvers: &[Solver],
-    params: &hookean_sparse::CgParams,
-    solver_args: &SolverArgs,
-    cap: u64,
-    dir: &Path,
-) -> Result<String, CliError> {
-    let one_round = SolverArgs {
+fn bench(args: &BenchArgs, inputs: &[Input], plan: &Plan, dir: &Path) -> Result<String, CliError> {
+    let (solvers, cap) = (&plan.solvers, plan.cap);
+    // `--repeat` rounds over all solvers, each solver once per round.
+    let one_round = Plan {
         repeat: 1,
-        ..solver_args.clone()
+        ..plan.clone()
     };
     let mut rows: Vec<Row> = Vec::new();
     for (k, input) in inputs.iter().enumerate() {
@@ -318,18 +303,14 @@ fn bench(
                 }
                 let run = RunOptions {
                     trace: true,
-                    near_nullspace: match (solver, &nullspace) {
-                        (Solver::Pcg(PrecondKind::Amg), Ok(v)) => v.clone(),
+                    near_nullspace: match &nullspace {
+                        Ok(v) if solver.is_amg() => v.clone(),
                         _ => Vec::new(),
                     },
                 };
-                let mut record = match (solver, &nullspace) {
-                    (Solver::Pcg(PrecondKind::Amg), Err(reason)) => {
-                        let precond = match solver {
-                            Solver::Pcg(kind) => kind.to_string(),
-                            Solver::Direct => "direct".into(),
-                        };
-                        let mut r = empty_record("hookean-pcg", precond, "");
+                let mut record = match &nullspace {
+                    Err(reason) if solver.is_amg() => {
+                        let mut r = empty_record("hookean-pcg", solver.name(), "");
                         r.error = Some(reason.clone());
                         r
                     }
@@ -338,7 +319,6 @@ fn bench(
                         &system.matrix,
                         &system.a,
                         &system.b,
-                        params,
                         &one_round,
                         &run,
                     ),

@@ -111,7 +111,8 @@ const BYTES_PER_PARTICLE: u64 = 4096;
 const DIRECT_BYTES_PER_PARTICLE: u64 = 4800;
 
 pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
-    let (solvers, params) = args.solver.resolve()?;
+    let plan = args.solver.resolve()?;
+    let solvers = &plan.solvers;
     if let Some(&n) = args.n.iter().find(|&&n| !(2..=1024).contains(&n)) {
         return Err(CliError::Input(format!(
             "--n: cloth size {n} must lie in 2..=1024"
@@ -125,7 +126,7 @@ pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
     // The system of each N (the model, the matrix, its CSR copy and the
     // vectors), and with `direct` the copies and symbolic analysis of the
     // factorisation, within --max-memory and what the process can get.
-    let cap = crate::memory::cap_bytes(args.solver.max_memory)?;
+    let cap = plan.cap;
     let per_particle = BYTES_PER_PARTICLE
         + if solvers.iter().any(|s| matches!(s, Solver::Direct)) {
             DIRECT_BYTES_PER_PARTICLE
@@ -167,16 +168,8 @@ pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
             let rows = b.len();
             let nnz = csr.nnz();
             let matrix = Matrix::Block(a);
-            for solver in &solvers {
-                let record = run_solver(
-                    solver,
-                    &matrix,
-                    &csr,
-                    &b,
-                    &params,
-                    &args.solver,
-                    &RunOptions::default(),
-                );
+            for solver in solvers {
+                let record = run_solver(solver, &matrix, &csr, &b, &plan, &RunOptions::default());
                 let record = SolveRecord {
                     matrix: format!("cloth{n}-k{k:e}"),
                     rows,

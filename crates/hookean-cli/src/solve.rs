@@ -7,9 +7,9 @@ use std::time::Instant;
 
 use clap::Args;
 use hookean_sparse::{
-    AmgOptions, AmgStats, AnyPreconditioner, CgParams, CgProgress, CgWorkspace, DirectCholesky,
-    LinearOperator, PrecondKind, PreconditionerSetup, ReadOptions, SymBlockMatrix, SymCsrMatrix,
-    detect_block_size, pcg, read_matrix_market_file_with, vecops::norm2,
+    AmgStats, AnyPreconditioner, CgParams, CgProgress, CgWorkspace, DirectCholesky, LinearOperator,
+    PrecondKind, PreconditionerOptions, PreconditionerSetup, ReadOptions, SymBlockMatrix,
+    SymCsrMatrix, detect_block_size, pcg, read_matrix_market_file_with, vecops::norm2,
 };
 use serde::Serialize;
 
@@ -90,9 +90,29 @@ pub struct SolverArgs {
     pub max_memory: f64,
 }
 
+/// The flags of [`SolverArgs`] resolved once: every solver to run with its
+/// settings, PCG's parameters, the repetitions and the memory cap.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// The solvers, in the order given.
+    pub solvers: Vec<Solver>,
+    /// PCG's tolerance and iteration limit.
+    pub params: CgParams,
+    /// Runs of each solver (`--repeat`); the best times are reported.
+    pub repeat: usize,
+    /// `--max-memory` in bytes, lowered to the process's limit.
+    pub cap: u64,
+    /// MIC(0) came with `all`: it is skipped on CSR storage (where it does
+    /// not exist) instead of failing.
+    pub mic0_from_all: bool,
+}
+
 impl SolverArgs {
-    /// Checks the options; returns the solvers to run and PCG's parameters.
-    pub fn resolve(&self) -> Result<(Vec<Solver>, CgParams), CliError> {
+    /// Checks the flags once and resolves them into the [`Plan`]: each PCG
+    /// solver carries its preconditioner with the multigrid's options (the
+    /// block size and near-nullspace are the system's, set by
+    /// [`run_solver`]).
+    pub fn resolve(&self) -> Result<Plan, CliError> {
         let (repeat, omega, rtol) = (self.repeat, self.omega, self.rtol);
         if !(1..=MAX_REPEAT).contains(&repeat) {
             return Err(CliError::Input(format!(
@@ -119,9 +139,26 @@ impl SolverArgs {
             max_iter: self.max_iter,
             ..Default::default()
         };
-        self.amg.options(1, Vec::new())?;
-        crate::memory::cap_bytes(self.max_memory)?;
-        Ok((parse_solvers(&self.precond, omega)?, params))
+        let amg = self.amg.options(1, Vec::new())?;
+        let cap = crate::memory::cap_bytes(self.max_memory)?;
+        let mut mic0_from_all = false;
+        let mut solvers = Vec::new();
+        for name in self.precond.split(',').map(str::trim) {
+            mic0_from_all |= name == "all";
+            parse_solver(name, omega, &mut solvers)?;
+        }
+        for solver in &mut solvers {
+            if let Solver::Pcg(options) = solver {
+                options.amg.clone_from(&amg);
+            }
+        }
+        Ok(Plan {
+            solvers,
+            params,
+            repeat,
+            cap,
+            mic0_from_all,
+        })
     }
 }
 
@@ -193,27 +230,37 @@ impl From<&AmgStats> for AmgRecord {
 
 /// One solver of the comparison: PCG with a preconditioner, or the direct
 /// sparse Cholesky baseline.
+#[derive(Debug, Clone)]
 pub enum Solver {
-    /// PCG with this preconditioner.
-    Pcg(PrecondKind),
+    /// PCG with this preconditioner and its settings.
+    Pcg(PreconditionerOptions),
     /// faer's sparse Cholesky.
     Direct,
 }
 
-/// A comma-separated list of `all` (every preconditioner, then `direct`),
-/// `direct`, or preconditioner names (SSOR with relaxation `omega`).
-fn parse_solvers(names: &str, omega: f64) -> Result<Vec<Solver>, CliError> {
-    let mut out = Vec::new();
-    for name in names.split(',') {
-        parse_solver(name.trim(), omega, &mut out)?;
+impl Solver {
+    /// The name in the JSON's `precond` field.
+    pub fn name(&self) -> String {
+        match self {
+            Solver::Pcg(options) => options.to_string(),
+            Solver::Direct => "direct".into(),
+        }
     }
-    Ok(out)
+
+    /// Whether this is PCG with the multigrid.
+    pub fn is_amg(&self) -> bool {
+        matches!(self, Solver::Pcg(o) if o.kind == PrecondKind::Amg)
+    }
 }
 
+/// Appends the solvers of one name of `--precond`: `all` (every
+/// preconditioner, then `direct`), `direct`, or a preconditioner (SSOR with
+/// relaxation `omega`).
 fn parse_solver(name: &str, omega: f64, out: &mut Vec<Solver>) -> Result<(), CliError> {
+    let pcg = |kind: PrecondKind| Solver::Pcg(kind.into());
     if name == "all" {
-        out.extend(PrecondKind::all(omega).into_iter().map(Solver::Pcg));
-        out.push(Solver::Pcg(PrecondKind::Mic0 {
+        out.extend(PrecondKind::all(omega).into_iter().map(pcg));
+        out.push(pcg(PrecondKind::Mic0 {
             omega: PrecondKind::MIC_OMEGA,
         }));
         out.push(Solver::Direct);
@@ -221,7 +268,7 @@ fn parse_solver(name: &str, omega: f64, out: &mut Vec<Solver>) -> Result<(), Cli
         out.push(Solver::Direct);
     } else {
         let kind: PrecondKind = name.parse()?;
-        out.push(Solver::Pcg(match kind {
+        out.push(pcg(match kind {
             PrecondKind::Ssor { .. } => PrecondKind::Ssor { omega },
             other => other,
         }));
@@ -266,29 +313,28 @@ pub fn run_solver(
     matrix: &Matrix,
     original: &sprs::CsMat<f64>,
     b: &[f64],
-    params: &CgParams,
-    args: &SolverArgs,
+    plan: &Plan,
     run: &RunOptions,
 ) -> SolveRecord {
-    let repeat = args.repeat;
-    // The flags were checked by `SolverArgs::resolve`.
-    let amg = |block_size| {
-        args.amg
-            .options(block_size, run.near_nullspace.clone())
-            .unwrap_or_default()
-    };
+    let repeat = plan.repeat;
     match solver {
-        Solver::Pcg(kind) => {
-            let (amg, format) = match matrix {
-                Matrix::Block(_) => (amg(3), "sym-block-3x3"),
-                Matrix::Csr { block_size, .. } => (amg(*block_size), "csr"),
+        Solver::Pcg(options) => {
+            let (block_size, format) = match matrix {
+                Matrix::Block(_) => (3, "sym-block-3x3"),
+                Matrix::Csr { block_size, .. } => (*block_size, "csr"),
             };
+            // The multigrid's options completed with the system's unknowns
+            // per node and near-nullspace.
+            let mut precond = options.clone();
+            if precond.kind == PrecondKind::Amg {
+                precond.amg.block_size = block_size;
+                precond.amg.near_nullspace.clone_from(&run.near_nullspace);
+            }
             let pcg = PcgRun {
                 original,
                 b,
-                kind: *kind,
-                amg: &amg,
-                params,
+                precond: &precond,
+                params: &plan.params,
                 repeat,
                 format,
                 trace: run.trace,
@@ -305,7 +351,7 @@ pub fn run_solver(
                 Matrix::Csr { a, .. } => match hookean_sparse::check_csr_symmetric(a) {
                     Ok(()) => pcg.run(a, a),
                     Err(e) => {
-                        let mut record = empty_record("hookean-pcg", kind.to_string(), format);
+                        let mut record = empty_record("hookean-pcg", solver.name(), format);
                         record.error = Some(format!("{e} (PCG needs a symmetric matrix)"));
                         record
                     }
@@ -315,9 +361,8 @@ pub fn run_solver(
         Solver::Direct => {
             // The factor gets what the cap leaves beside the matrix's copies
             // (CSR, block storage, the direct solver's own: about 40 bytes a nonzero).
-            let cap = crate::memory::cap_bytes(args.max_memory).unwrap_or(0);
-            let budget = cap.saturating_sub(40 * original.nnz() as u64);
-            run_direct(original, b, params.rtol, repeat, budget, run.trace)
+            let budget = plan.cap.saturating_sub(40 * original.nnz() as u64);
+            run_direct(original, b, plan.params.rtol, repeat, budget, run.trace)
         }
     }
 }
@@ -475,8 +520,8 @@ pub fn load_system(
 }
 
 pub fn run(args: &SolveArgs) -> Result<(), CliError> {
-    let (solvers, params) = args.solver.resolve()?;
-    let cap = crate::memory::cap_bytes(args.solver.max_memory)?;
+    let plan = args.solver.resolve()?;
+    let cap = plan.cap;
     let input = |flag: &str, path: &std::path::Path, e: String| {
         CliError::Input(format!("--{flag} {}: {e}", path.display()))
     };
@@ -528,24 +573,20 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         ));
     }
     // MIC(0) exists for block storage only: "all" skips it on CSR.
-    let solvers: Vec<Solver> = solvers
-        .into_iter()
-        .filter(|s| {
-            !(args.solver.precond == "all"
-                && matches!(matrix, Matrix::Csr { .. })
-                && matches!(s, Solver::Pcg(PrecondKind::Mic0 { .. })))
-        })
-        .collect();
+    let solvers = plan.solvers.iter().filter(|s| {
+        !(plan.mic0_from_all
+            && matches!(matrix, Matrix::Csr { .. })
+            && matches!(s, Solver::Pcg(o) if matches!(o.kind, PrecondKind::Mic0 { .. })))
+    });
     let name = args.matrix.display().to_string();
     let mut failed = false;
-    for solver in &solvers {
+    for solver in solvers {
         let record = run_solver(
             solver,
             &matrix,
             &a,
             &b,
-            &params,
-            &args.solver,
+            &plan,
             &RunOptions {
                 near_nullspace: near_nullspace.clone(),
                 ..Default::default()
@@ -676,8 +717,7 @@ fn growth_since(before: Option<u64>) -> Option<u64> {
 struct PcgRun<'a> {
     original: &'a sprs::CsMat<f64>,
     b: &'a [f64],
-    kind: PrecondKind,
-    amg: &'a AmgOptions,
+    precond: &'a PreconditionerOptions,
     params: &'a CgParams,
     repeat: usize,
     format: &'static str,
@@ -692,8 +732,8 @@ impl PcgRun<'_> {
         M: LinearOperator,
         AnyPreconditioner: PreconditionerSetup<S>,
     {
-        let (b, kind, params) = (self.b, self.kind, self.params);
-        let mut record = empty_record("hookean-pcg", kind.to_string(), self.format);
+        let (b, params) = (self.b, self.params);
+        let mut record = empty_record("hookean-pcg", self.precond.to_string(), self.format);
         let n = b.len();
         let mut ws = CgWorkspace::new(n);
         let mut x = vec![0.0; n];
@@ -711,7 +751,7 @@ impl PcgRun<'_> {
         for _ in 0..self.repeat {
             let heap = live_heap_bytes();
             let t0 = Instant::now();
-            let new = AnyPreconditioner::with_amg_options(kind, self.amg);
+            let new = AnyPreconditioner::from_options(self.precond);
             let setup = new.and_then(|mut p| p.setup(source).map(|()| p));
             let setup_s = t0.elapsed().as_secs_f64();
             let p = match setup {

@@ -281,7 +281,7 @@ fn bw98_options() -> SolverOptions {
         },
         linear: PcgOptions {
             max_iter: Some(10_000),
-            preconditioner: PrecondKind::BlockJacobi,
+            preconditioner: PrecondKind::BlockJacobi.into(),
             ..PcgOptions::default()
         },
         ..SolverOptions::with_h(0.01)

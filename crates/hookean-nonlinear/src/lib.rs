@@ -114,7 +114,7 @@
 //! ```
 //! use hookean_nonlinear::{NewtonOptions, PcgOptions, PrecondKind};
 //! let newton = NewtonOptions { rtol: 1e-8, max_iter: 20, ..Default::default() };
-//! let pcg = PcgOptions { preconditioner: PrecondKind::Jacobi, ..Default::default() };
+//! let pcg = PcgOptions { preconditioner: PrecondKind::Jacobi.into(), ..Default::default() };
 //! assert_eq!((newton.rtol, newton.max_iter), (1e-8, 20));
 //! assert_eq!(pcg.max_iter, PcgOptions::default().max_iter);
 //! ```
@@ -123,8 +123,7 @@
 //! use hookean_nonlinear::{PcgOptions, PrecondKind, NegativeCurvature};
 //! // Every field named, none left to the default: refused outside the crate.
 //! let pcg = PcgOptions {
-//!     preconditioner: PrecondKind::Jacobi,
-//!     amg: Default::default(),
+//!     preconditioner: PrecondKind::Jacobi.into(),
 //!     max_iter: None,
 //!     negative_curvature: NegativeCurvature::Error,
 //! };
@@ -150,7 +149,7 @@ mod system;
 pub use convergence::{Convergence, weighted_rms};
 pub use error::{DivergenceReason, NonlinearError};
 pub use forcing::ForcingTerm;
-pub use hookean_sparse::{NegativeCurvature, PrecondKind};
+pub use hookean_sparse::{NegativeCurvature, PrecondKind, PreconditionerOptions};
 pub use linear::{
     DenseLu, GmresCounters, GmresSolver, JacobianProduct, LinearSolveStats, LinearSolver,
     PcgOptions, PcgSolver, SparseLu,

@@ -902,7 +902,7 @@ fn gmres_solves_a_nonsymmetric_newton_problem_stored_or_matrix_free() {
         (true, PrecondKind::Jacobi),
     ] {
         let (mut sys, j) = Convection::new(n);
-        let mut gmres = GmresSolver::new(params.clone(), precond).unwrap();
+        let mut gmres = GmresSolver::new(params.clone(), &precond.into()).unwrap();
         if matrix_free {
             gmres = gmres.matrix_free();
         }
@@ -929,7 +929,7 @@ fn gmres_solves_a_nonsymmetric_newton_problem_stored_or_matrix_free() {
     }
     // A matrix-free solver on a system without products is a typed error.
     let (mut sys, j) = Bratu::new(20, 1.0);
-    let gmres = GmresSolver::new(params, PrecondKind::None)
+    let gmres = GmresSolver::new(params, &PrecondKind::None.into())
         .unwrap()
         .matrix_free();
     let mut newton = Newton::new(tight(), j, gmres).unwrap();

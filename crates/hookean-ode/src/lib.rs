@@ -152,7 +152,7 @@ pub use faer;
 pub use hookean_nonlinear::{ForcingTerm, NewtonMethod, NewtonOptions, PcgOptions};
 pub use hookean_problem::{FirstOrderProblem, SecondOrderProblem};
 /// The preconditioners of [`PcgOptions`] and [`BdfLinearSolver::Gmres`].
-pub use hookean_sparse::PrecondKind;
+pub use hookean_sparse::{PrecondKind, PreconditionerOptions};
 pub use integrator::{FirstOrderIntegrator, SecondOrderIntegrator};
 pub use method::Method;
 pub use options::{Predictor, SolverOptions, StepControl, StepSizePolicy, Tolerance};

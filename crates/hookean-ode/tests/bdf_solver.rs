@@ -492,8 +492,8 @@ fn matrix_free_gmres_solves_the_stiff_problems_without_a_jacobian() {
     let rtol = 1e-6;
     let gmres = BdfLinearSolver::gmres(PrecondKind::None);
     for (err, st) in [
-        solve_with(&Robertson { t_end: 40.0 }, rtol, gmres),
-        solve_with(&VanDerPol, rtol, gmres),
+        solve_with(&Robertson { t_end: 40.0 }, rtol, gmres.clone()),
+        solve_with(&VanDerPol, rtol, gmres.clone()),
         solve_with(&Hires, rtol, gmres),
     ] {
         // As accurate as with the LU (the same bar), with no Jacobian at
@@ -550,7 +550,7 @@ fn a_gmres_preconditioner_needs_a_sparse_pattern() {
     opts.bdf.linear_solver = BdfLinearSolver::Gmres {
         krylov_dim: 0,
         restarts: 0,
-        preconditioner: PrecondKind::None,
+        preconditioner: PrecondKind::None.into(),
     };
     assert!(BdfSolver::new(Decay, 0.0, &[1.0], opts).is_err());
 }

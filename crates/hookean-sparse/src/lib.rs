@@ -144,7 +144,7 @@ pub use power::{PowerHook, PowerInfo, PowerParams, power_method};
 pub use precond::{
     AMG_MAX_COARSE_SIZE, AMG_MAX_LEVELS, AMG_MAX_SWEEPS, Amg, AmgLevelStats, AmgOptions,
     AmgPrecision, AmgReuse, AmgSmoother, AmgStats, AnyPreconditioner, BlockJacobi, Identity,
-    IncompleteCholesky, Jacobi, PrecondKind, Preconditioner, PreconditionerSetup, Ssor,
-    rigid_body_modes,
+    IncompleteCholesky, Jacobi, PrecondKind, Preconditioner, PreconditionerOptions,
+    PreconditionerSetup, Ssor, rigid_body_modes,
 };
 pub use symcsr::SymCsrMatrix;

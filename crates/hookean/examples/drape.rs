@@ -34,8 +34,8 @@ fn main() -> Result<(), HookeanError> {
     if let Some(r) = args.next().and_then(|s| s.parse().ok()) {
         options.solver.newton.rtol = r;
     }
-    if let Some(p) = args.next().and_then(|s| s.parse().ok()) {
-        options.solver.linear.preconditioner = p;
+    if let Some(p) = args.next().and_then(|s| s.parse::<PrecondKind>().ok()) {
+        options.solver.linear.preconditioner = p.into();
     }
     if let Some(f) = args.next().and_then(|s| s.parse().ok()) {
         options.solver.newton.method =

@@ -56,7 +56,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let options = |method: NewtonMethod| {
         let mut o = SimulationOptions::default();
         o.solver.newton.method = method;
-        o.solver.linear.preconditioner = precond;
+        o.solver.linear.preconditioner = precond.into();
         o
     };
     let variants = [

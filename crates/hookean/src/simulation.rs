@@ -85,7 +85,8 @@ impl SimulationOptions {
                 max_iter: Some(500),
                 preconditioner: PrecondKind::Mic0 {
                     omega: PrecondKind::MIC_OMEGA,
-                },
+                }
+                .into(),
                 ..PcgOptions::default()
             },
             predictor: Predictor::Previous,

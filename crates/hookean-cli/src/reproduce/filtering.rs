@@ -328,7 +328,8 @@ pub(super) fn figure8(ctx: &Ctx) -> Result<Outcome, CliError> {
     let mut best = SimulationOptions::drape_solver();
     best.linear.preconditioner = PrecondKind::Mic0 {
         omega: PrecondKind::MIC_OMEGA,
-    };
+    }
+    .into();
     let methods = Figure8Method::ALL;
     let mut rows: Vec<Figure8Row> = Vec::new();
     for &n in &sizes {

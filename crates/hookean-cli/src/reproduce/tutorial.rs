@@ -321,7 +321,7 @@ pub(super) fn inexact_newton(ctx: &Ctx) -> Result<Outcome, CliError> {
                 ..SolverOptions::default_newton()
             },
             linear: hookean::ode::PcgOptions {
-                preconditioner: PrecondKind::BlockJacobi,
+                preconditioner: PrecondKind::BlockJacobi.into(),
                 ..Default::default()
             },
             ..SolverOptions::default()

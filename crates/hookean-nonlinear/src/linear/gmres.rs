@@ -5,7 +5,7 @@ use std::cell::{Cell, RefCell};
 
 use hookean_sparse::{
     AnyPreconditioner, GmresParams, GmresWorkspace, LinearOperator, PrecondKind, Preconditioner,
-    PreconditionerSetup, gmres,
+    PreconditionerOptions, PreconditionerSetup, gmres,
 };
 
 use super::{JacobianProduct, LinearSolveStats, LinearSolver};
@@ -67,14 +67,17 @@ pub struct GmresSolver {
 
 impl GmresSolver {
     /// GMRES with `params` (its `rtol` is replaced by Newton's at each
-    /// solve) and a preconditioner of kind `preconditioner`, multiplying by
+    /// solve) and the preconditioner `preconditioner` names, multiplying by
     /// the stored Jacobian.
     ///
     /// # Errors
     /// [`NonlinearError::InvalidParameter`] for `krylov_dim = 0` or a
     /// negative `atol`; [`NonlinearError::Linear`] for a bad preconditioner
     /// parameter.
-    pub fn new(params: GmresParams, preconditioner: PrecondKind) -> Result<Self, NonlinearError> {
+    pub fn new(
+        params: GmresParams,
+        preconditioner: &PreconditionerOptions,
+    ) -> Result<Self, NonlinearError> {
         if params.krylov_dim == 0 {
             return Err(invalid("krylov_dim", "must be at least 1"));
         }
@@ -87,8 +90,8 @@ impl GmresSolver {
         Ok(Self {
             workspace: GmresWorkspace::new(0, params.krylov_dim),
             params,
-            precond: AnyPreconditioner::new(preconditioner)?,
-            preconditioned: preconditioner != PrecondKind::None,
+            precond: AnyPreconditioner::from_options(preconditioner)?,
+            preconditioned: preconditioner.kind != PrecondKind::None,
             matrix_free: false,
             weights: Vec::new(),
             b: Vec::new(),
@@ -107,21 +110,11 @@ impl GmresSolver {
         self
     }
 
-    /// Whether a preconditioner is set up on the stored matrix.
-    pub fn is_preconditioned(&self) -> bool {
-        self.preconditioned
-    }
-
     /// Scales the next solves by `S = diag(1 / w)` (positive weights, one per
     /// unknown); an empty slice removes the scaling.
     pub fn set_weights(&mut self, w: &[f64]) {
         self.weights.clear();
         self.weights.extend_from_slice(w);
-    }
-
-    /// Sets the absolute tolerance [`GmresParams::atol`] of the next solves.
-    pub fn set_atol(&mut self, atol: f64) {
-        self.params.atol = atol;
     }
 
     /// The counters since the solver was built.

@@ -2,27 +2,24 @@
 //! definite Jacobians, with the options it owns ([`PcgOptions`]).
 
 use hookean_sparse::{
-    AmgOptions, AnyPreconditioner, CgParams, CgWorkspace, Constraints, InitialGuess,
-    LinearOperator, NegativeCurvature, PrecondKind, PreconditionerSetup, filtered_pcg, pcg,
+    AnyPreconditioner, CgParams, CgWorkspace, Constraints, InitialGuess, LinearOperator,
+    NegativeCurvature, PreconditionerOptions, PreconditionerSetup, filtered_pcg, pcg,
 };
 
 use super::{LinearSolveStats, LinearSolver};
 use crate::error::{NonlinearError, check_len, invalid};
 
 /// The settings of a [`PcgSolver`] over [`AnyPreconditioner`]: which
-/// preconditioner, the multigrid's options, the iteration limit and what a
+/// preconditioner with its settings, the iteration limit and what a
 /// direction of non-positive curvature does. Every field has a documented
 /// default; a solver with a fixed preconditioner type takes the last two
 /// through [`PcgSolver::with_max_iter`] and
 /// [`PcgSolver::with_negative_curvature`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct PcgOptions {
-    /// The preconditioner. Default block-Jacobi.
-    pub preconditioner: PrecondKind,
-    /// The multigrid's options when `preconditioner` is [`PrecondKind::Amg`]
-    /// (including what every `setup` of a new Jacobian does: refill, keep,
-    /// rebuild). Default [`AmgOptions::default`].
-    pub amg: AmgOptions,
+    /// The preconditioner with its settings (the multigrid's options
+    /// included). Default block-Jacobi ([`PreconditionerOptions::default`]).
+    pub preconditioner: PreconditionerOptions,
     /// Iteration limit of each solve; `None` means `2 n`. Default `None`.
     pub max_iter: Option<usize>,
     /// What PCG does on a direction of non-positive curvature: fail the
@@ -42,8 +39,7 @@ pub struct PcgOptions {
 impl Default for PcgOptions {
     fn default() -> Self {
         Self {
-            preconditioner: PrecondKind::BlockJacobi,
-            amg: AmgOptions::default(),
+            preconditioner: PreconditionerOptions::default(),
             max_iter: None,
             negative_curvature: NegativeCurvature::Error,
             __non_exhaustive: (),
@@ -175,7 +171,7 @@ impl PcgSolver<AnyPreconditioner> {
     /// # Errors
     /// [`NonlinearError::Linear`] for an invalid preconditioner parameter.
     pub fn from_options(options: &PcgOptions) -> Result<Self, NonlinearError> {
-        let precond = AnyPreconditioner::with_amg_options(options.preconditioner, &options.amg)?;
+        let precond = AnyPreconditioner::from_options(&options.preconditioner)?;
         Ok(Self::new(precond)
             .with_max_iter(options.max_iter)
             .with_negative_curvature(options.negative_curvature))

@@ -3,7 +3,7 @@
 //! Jacobian and of the Newton matrix, the tolerance mapping, the linear
 //! solver); the tolerances and step bounds are [`SolverOptions`](crate::SolverOptions)'.
 
-use hookean_sparse::PrecondKind;
+use hookean_sparse::PreconditionerOptions;
 
 use crate::error::OdeError;
 
@@ -36,7 +36,7 @@ pub enum Formula {
 /// The linear solver of the Newton systems `(I - c J) x = r` of a
 /// first-order problem. (Second-order problems always solve the reduced
 /// stage equations by PCG, with [`SolverOptions::linear`](crate::SolverOptions::linear).)
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub enum BdfLinearSolver {
     /// LU factors kept across steps: faer's dense LU, or faer's sparse LU
     /// on the problem's pattern when it gives one
@@ -52,7 +52,7 @@ pub enum BdfLinearSolver {
     /// preconditioned by a hookean-sparse preconditioner set up on the
     /// sparse `I - c J` when it is kept (the problem must give its sparse
     /// pattern and values unless `preconditioner` is
-    /// [`PrecondKind::None`]); run on the system scaled by the error
+    /// [`PrecondKind::None`](hookean_sparse::PrecondKind::None)); run on the system scaled by the error
     /// weights and stopped at 0.05 of the Newton tolerance (CVODE's
     /// `eplifac`). The products use the current iterate and `c`, so Newton
     /// is an inexact Newton rather than the simplified one.
@@ -61,18 +61,20 @@ pub enum BdfLinearSolver {
         krylov_dim: usize,
         /// Restarts after the first cycle (CVODE's `maxrs`, 0 there).
         restarts: usize,
-        /// The preconditioner, set up on `I - c J`.
-        preconditioner: PrecondKind,
+        /// The preconditioner with its settings, set up on `I - c J`.
+        preconditioner: PreconditionerOptions,
     },
 }
 
 impl BdfLinearSolver {
-    /// GMRES with Krylov dimension 10, two restarts and `preconditioner`.
-    pub fn gmres(preconditioner: PrecondKind) -> Self {
+    /// GMRES with Krylov dimension 10, two restarts and `preconditioner`
+    /// (a [`PrecondKind`](hookean_sparse::PrecondKind) or
+    /// [`PreconditionerOptions`]).
+    pub fn gmres(preconditioner: impl Into<PreconditionerOptions>) -> Self {
         BdfLinearSolver::Gmres {
             krylov_dim: 10,
             restarts: 2,
-            preconditioner,
+            preconditioner: preconditioner.into(),
         }
     }
 }

@@ -106,7 +106,7 @@ impl<P: FirstOrderProblem> Corrector for FirstSys<P> {
         let config = &opts.bdf;
         let pattern = problem.sparse_jacobian_pattern();
         let options = newton_options(newton_tol, config.max_newton_iterations, 0.0);
-        let matrices = match (config.linear_solver, pattern) {
+        let matrices = match (&config.linear_solver, pattern) {
             (
                 BdfLinearSolver::Gmres {
                     krylov_dim,
@@ -115,7 +115,7 @@ impl<P: FirstOrderProblem> Corrector for FirstSys<P> {
                 },
                 pattern,
             ) => {
-                let (jac, diag) = match (preconditioner, pattern) {
+                let (jac, diag) = match (preconditioner.kind, pattern) {
                     (PrecondKind::None, _) => (sprs::CsMat::zero((n, n)), Vec::new()),
                     (_, None) => {
                         return Err(OdeError::InvalidParameter {
@@ -130,8 +130,8 @@ impl<P: FirstOrderProblem> Corrector for FirstSys<P> {
                     }
                 };
                 let params = GmresParams {
-                    krylov_dim,
-                    restarts,
+                    krylov_dim: *krylov_dim,
+                    restarts: *restarts,
                     rtol: 0.0,
                     atol: KRYLOV_TOL_FACTOR * newton_tol * (n as f64).sqrt(),
                     ..Default::default()

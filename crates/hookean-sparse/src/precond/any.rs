@@ -30,8 +30,8 @@ pub enum PrecondKind {
         /// Relaxation in [0, 1].
         omega: f64,
     },
-    /// [`Amg`] with default [`AmgOptions`](super::AmgOptions): `amg`
-    /// (other options through [`AnyPreconditioner::Amg`] or [`Amg`] itself).
+    /// [`Amg`]: `amg`, with the options of
+    /// [`PreconditionerOptions::amg`].
     Amg,
 }
 
@@ -127,6 +127,62 @@ impl FromStr for PrecondKind {
     }
 }
 
+/// Which preconditioner, with its settings: the one value by which PCG,
+/// GMRES, a scene's `[solver]` table and the command line choose a
+/// preconditioner ([`AnyPreconditioner::from_options`]).
+///
+/// ```
+/// use hookean_sparse::{AmgOptions, AmgSmoother, PrecondKind, PreconditionerOptions};
+/// // A kind without multigrid settings:
+/// let ic0 = PreconditionerOptions::from(PrecondKind::Ic0);
+/// assert_eq!(ic0.amg, AmgOptions::default());
+/// // The multigrid with two block-IC(0) sweeps:
+/// let amg = PreconditionerOptions {
+///     kind: PrecondKind::Amg,
+///     amg: AmgOptions { smoother: AmgSmoother::BlockIc0, sweeps: 2, ..Default::default() },
+///     ..Default::default()
+/// };
+/// assert_eq!(amg.kind.name(), "amg");
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct PreconditionerOptions {
+    /// Which preconditioner (with SSOR's and MIC(0)'s relaxation). Default
+    /// block-Jacobi.
+    pub kind: PrecondKind,
+    /// The multigrid's options, used when `kind` is [`PrecondKind::Amg`]
+    /// (including what each `setup` on new values does: refill, keep,
+    /// rebuild). Default [`AmgOptions::default`].
+    pub amg: AmgOptions,
+    /// Not an option: it makes adding options a non-breaking change.
+    /// Construct with `..Default::default()` or `From<PrecondKind>`.
+    #[doc(hidden)]
+    pub __non_exhaustive: (),
+}
+
+impl Default for PreconditionerOptions {
+    fn default() -> Self {
+        PrecondKind::BlockJacobi.into()
+    }
+}
+
+impl From<PrecondKind> for PreconditionerOptions {
+    /// `kind` with the default multigrid options.
+    fn from(kind: PrecondKind) -> Self {
+        Self {
+            kind,
+            amg: AmgOptions::default(),
+            __non_exhaustive: (),
+        }
+    }
+}
+
+impl fmt::Display for PreconditionerOptions {
+    /// The kind's name (`amg`, `mic0`, ...).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.kind.fmt(f)
+    }
+}
+
 /// Any preconditioner of this crate, chosen at run time.
 ///
 /// Dispatch is one `match` per application, outside the inner loops.
@@ -147,13 +203,14 @@ pub enum AnyPreconditioner {
 }
 
 impl AnyPreconditioner {
-    /// An empty preconditioner of the given kind.
+    /// An empty preconditioner as `options` name it (set it up with
+    /// [`PreconditionerSetup::setup`]).
     ///
     /// # Errors
-    /// [`SparseError::InvalidParameter`] for an SSOR `omega` outside (0, 2)
-    /// or a MIC(0) `omega` outside [0, 1].
-    pub fn new(kind: PrecondKind) -> Result<Self, SparseError> {
-        Ok(match kind {
+    /// [`SparseError::InvalidParameter`] for an SSOR `omega` outside (0, 2),
+    /// a MIC(0) `omega` outside [0, 1], and as [`Amg::with_options`].
+    pub fn from_options(options: &PreconditionerOptions) -> Result<Self, SparseError> {
+        Ok(match options.kind {
             PrecondKind::None => AnyPreconditioner::None(Identity),
             PrecondKind::Jacobi => AnyPreconditioner::Jacobi(Jacobi::new()),
             PrecondKind::BlockJacobi => AnyPreconditioner::BlockJacobi(BlockJacobi::new()),
@@ -162,20 +219,17 @@ impl AnyPreconditioner {
             PrecondKind::Mic0 { omega } => {
                 AnyPreconditioner::Ic0(IncompleteCholesky::modified(omega)?)
             }
-            PrecondKind::Amg => AnyPreconditioner::Amg(Amg::new()),
+            PrecondKind::Amg => AnyPreconditioner::Amg(Amg::with_options(options.amg.clone())?),
         })
     }
 
-    /// As [`new`](Self::new), with `amg` the options of [`PrecondKind::Amg`]
-    /// (ignored by the other kinds).
+    /// [`from_options`](Self::from_options) of `kind` with the default
+    /// multigrid options.
     ///
     /// # Errors
-    /// As [`new`](Self::new), and as [`Amg::with_options`].
-    pub fn with_amg_options(kind: PrecondKind, amg: &AmgOptions) -> Result<Self, SparseError> {
-        match kind {
-            PrecondKind::Amg => Ok(AnyPreconditioner::Amg(Amg::with_options(amg.clone())?)),
-            other => Self::new(other),
-        }
+    /// As [`from_options`](Self::from_options).
+    pub fn new(kind: PrecondKind) -> Result<Self, SparseError> {
+        Self::from_options(&kind.into())
     }
 
     /// Its kind.

@@ -29,7 +29,7 @@ pub use amg::{
     AMG_MAX_COARSE_SIZE, AMG_MAX_LEVELS, AMG_MAX_SWEEPS, Amg, AmgLevelStats, AmgOptions,
     AmgPrecision, AmgReuse, AmgSmoother, AmgStats, rigid_body_modes,
 };
-pub use any::{AnyPreconditioner, PrecondKind};
+pub use any::{AnyPreconditioner, PrecondKind, PreconditionerOptions};
 pub use ic0::IncompleteCholesky;
 pub use jacobi::{BlockJacobi, Identity, Jacobi};
 pub use ssor::Ssor;

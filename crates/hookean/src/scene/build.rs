@@ -18,17 +18,24 @@ impl Scene {
         }
     }
 
-    /// The scene's preconditioner: `auto` resolved by the model's size,
-    /// SSOR's and MIC(0)'s relaxations from `omega` and `mic_omega`.
-    pub fn preconditioner(&self) -> PrecondKind {
+    /// The scene's preconditioner with its settings: `auto` resolved by the
+    /// model's size, SSOR's and MIC(0)'s relaxations from `omega` and
+    /// `mic_omega`, the multigrid's options from `[solver.amg]` (the
+    /// library's defaults without the table).
+    pub fn preconditioner(&self) -> PreconditionerOptions {
         let s = &self.solver;
         // An unknown (overflowing) count keeps MIC(0), as before; the memory cap refuses it.
         let particles = self.particle_count().0.unwrap_or(0);
         let auto = PrecondKind::auto_for_blocks(usize::try_from(particles).unwrap_or(usize::MAX));
-        match s.preconditioner.unwrap_or(auto) {
+        let kind = match s.preconditioner.unwrap_or(auto) {
             PrecondKind::Mic0 { .. } => PrecondKind::Mic0 { omega: s.mic_omega },
             PrecondKind::Ssor { .. } => PrecondKind::Ssor { omega: s.omega },
             other => other,
+        };
+        PreconditionerOptions {
+            kind,
+            amg: s.amg.as_ref().map(AmgScene::options).unwrap_or_default(),
+            ..Default::default()
         }
     }
 
@@ -73,7 +80,6 @@ impl Scene {
                     .any(|c| matches!(c, ColliderScene::Mesh { .. }))
         });
         solver.linear.preconditioner = self.preconditioner();
-        solver.linear.amg = s.amg.as_ref().map(AmgScene::options).unwrap_or_default();
         // The exact stiffness Jacobian may be indefinite where springs are
         // compressed: PCG then truncates (Newton-CG) instead of failing.
         solver.linear.negative_curvature = if self.model.clamp_stiffness {

@@ -38,6 +38,7 @@ use hookean_massspring::{
 use hookean_ode::{ForcingTerm, Method, NewtonMethod, SolverOptions, StepControl};
 use hookean_sparse::{
     AmgOptions, AmgPrecision, AmgReuse, AmgSmoother, NegativeCurvature, PrecondKind,
+    PreconditionerOptions,
 };
 use serde::Deserialize;
 use serde::de::{Deserializer, Error as _};
@@ -185,6 +186,7 @@ mod tests {
             Scene::from_toml_str("s.toml", text)
                 .unwrap()
                 .preconditioner()
+                .kind
         };
         let side = (AUTO_AMG_PARTICLES as f64).sqrt().ceil() as usize;
         let below = format!("[cloth]\nn = {}\n", side - 1);
@@ -289,16 +291,17 @@ mod tests {
         )
         .unwrap();
         let linear = s.simulation_options().solver.linear;
-        assert_eq!(linear.preconditioner, PrecondKind::Amg);
-        assert_eq!(linear.amg.smoother, AmgSmoother::BlockIc0);
-        assert_eq!(linear.amg.sweeps, 2);
-        assert_eq!(linear.amg.reuse, AmgReuse::Keep { updates: 3 });
-        assert_eq!(linear.amg.coarse_size, AmgOptions::default().coarse_size);
+        let precond = linear.preconditioner;
+        assert_eq!(precond.kind, PrecondKind::Amg);
+        assert_eq!(precond.amg.smoother, AmgSmoother::BlockIc0);
+        assert_eq!(precond.amg.sweeps, 2);
+        assert_eq!(precond.amg.reuse, AmgReuse::Keep { updates: 3 });
+        assert_eq!(precond.amg.coarse_size, AmgOptions::default().coarse_size);
         // Without the table: the library's defaults.
         let s = Scene::from_toml_str("s.toml", "[cloth]\n[solver]\npreconditioner = \"amg\"\n")
             .unwrap();
         assert_eq!(
-            s.simulation_options().solver.linear.amg,
+            s.simulation_options().solver.linear.preconditioner.amg,
             AmgOptions::default()
         );
         let text = "[cloth]\n[solver]\npreconditioner = \"amg\"\n[solver.amg]\n";
