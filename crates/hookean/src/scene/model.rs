@@ -207,7 +207,7 @@ pub struct ContactScene {
     /// Cloth self-collision on the model's triangles. Default false.
     #[serde(default)]
     pub self_collision: bool,
-    /// Self-collision thickness (m): closer non-adjacent features repel. Range (0, the smallest altitude of the model's triangles at the start) (a cloth grid: 0.707 of its spacing, size / (n - 1)), checked when self_collision is on. Default 0.004.
+    /// Self-collision thickness (m): closer non-adjacent features repel. Range (0, inf), and with self_collision on below the smallest altitude of the model's triangles at the start (a cloth grid: 0.707 of its spacing, size / (n - 1)). Default 0.004.
     #[serde(default = "d_self_thickness", deserialize_with = "positive")]
     pub self_thickness: f64,
     /// Repulsion stiffness of one self-contact pair (N/m). Range [0, inf). Default 50.
