@@ -29,9 +29,10 @@ any_rs = (root / "crates/hookean-sparse/src/precond/any.rs").read_text()
 auto_amg = re.search(r"AUTO_AMG_BLOCKS: usize = ([0-9_]+);", any_rs).group(1).replace("_", " ")
 colliders = [
     "[[collider]] tables: kind = \"plane\" (point, normal, margin), \"sphere\" (center, radius, margin)",
-    "or \"mesh\" (path, scale = 1, offset = [0, 0, 0], thickness = 0.005 m, velocity = [0, 0, 0] m/s,",
-    "angular_velocity = [0, 0, 0] rad/s, pivot = centre of its box); every kind also static_friction",
-    "(default 0) and kinetic_friction (default: static_friction). docs/CONTACT.md explains them."]
+    "or \"mesh\" (path, scale = 1, offset = [0, 0, 0], thickness = 0.005 m in [0, the diagonal of",
+    "the mesh's box], velocity = [0, 0, 0] m/s, angular_velocity = [0, 0, 0] rad/s, pivot = centre of",
+    "its box); every kind also static_friction (default 0) and kinetic_friction (default:",
+    "static_friction). No particle may start inside a collider. docs/CONTACT.md explains them."]
 
 
 def entries(src, name, table, seen, program_words):

@@ -109,4 +109,52 @@ pub(crate) const CONTACT: &[Case] = &[
         "s.toml:6:",
     )
     .absent(&["out"]),
+    case(
+        "run: a cloth that starts inside a mesh collider (issue 37)",
+        &[("s.toml", "duration = 0.05\n[cloth]\nn = 4\npins = \"none\"\nsize = 0.5\norigin = [0.2, 0.2, 0.5]\n[[collider]]\nkind = \"plane\"\npoint = [0, 0, -1]\nnormal = [0, 0, 1]\n[[collider]]\nkind = \"mesh\"\npath = \"box.obj\"\n"), ("box.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nv 1 0 1\nv 0 1 1\nv 1 1 1\nf 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n")],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "[collider 2]: 16 of the model's 16 particles start inside it",
+    )
+    .absent(&["out"]),
+    case(
+        "run: a cloth that starts below a floor plane (issue 37)",
+        &[("s.toml", "duration = 0.05\n[cloth]\nn = 4\npins = \"none\"\norigin = [0, 0, -0.1]\n[[collider]]\nkind = \"plane\"\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\n")],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "[collider 1]: 16 of the model's 16 particles start inside it",
+    )
+    .absent(&["out"]),
+    case(
+        "run: a closed mesh collider wound inside-out (issue 37)",
+        &[("s.toml", "duration = 0.05\n[cloth]\nn = 4\norigin = [0, 0, 1.5]\n[[collider]]\nkind = \"mesh\"\npath = \"box.obj\"\n"), ("box.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nv 1 0 1\nv 0 1 1\nv 1 1 1\nf 2 4 3 1\nf 7 8 6 5\nf 5 6 2 1\nf 4 8 7 3\nf 3 7 5 1\nf 6 8 4 2\n")],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "box.obj:9: the closed surface this face belongs to is inside-out",
+    )
+    .absent(&["out"]),
+    case(
+        "run: a mesh coordinate whose products overflow (issue 37)",
+        &[("s.toml", "duration = 0.05\n[cloth]\nn = 4\n[[collider]]\nkind = \"mesh\"\npath = \"big.obj\"\n"), ("big.obj", "v 0 0 -1\nv 1e155 0 -1\nv 0 1e155 -1\nf 1 2 3\n")],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "big.obj: vertex 2 has the coordinate 1e155",
+    )
+    .absent(&["out"]),
+    case(
+        "run: a mesh thickness beyond the mesh's size (issue 37)",
+        &[("s.toml", "duration = 0.05\n[cloth]\nn = 4\norigin = [0, 0, 1]\n[[collider]]\nkind = \"mesh\"\npath = \"tri.obj\"\nthickness = 1e300\n"), ("tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "[collider 1]: invalid parameter thickness: 1e300 m is outside [0, 1.414214] m",
+    )
+    .absent(&["out"]),
+    case(
+        "run: a self-collision thickness above the cloth's limit (issue 37)",
+        &[("s.toml", "duration = 0.05\n[cloth]\nn = 8\n[contact]\nself_collision = true\nself_thickness = 0.11\n")],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "[contact]: invalid parameter self_thickness: 0.11 m is outside (0, 0.101015) m",
+    )
+    .absent(&["out"]),
 ];

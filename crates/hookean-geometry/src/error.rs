@@ -21,6 +21,17 @@ pub enum GeometryError {
         /// The vertex.
         vertex: usize,
     },
+    /// A vertex coordinate beyond [`TriMesh::MAX_COORDINATE`](crate::TriMesh::MAX_COORDINATE)
+    /// in magnitude (the normals' products would overflow).
+    #[error("vertex {vertex} has the coordinate {value:e}, beyond the largest magnitude {max:e}")]
+    TooLarge {
+        /// The vertex.
+        vertex: usize,
+        /// The coordinate.
+        value: f64,
+        /// The bound.
+        max: f64,
+    },
     /// A triangle names a vertex that does not exist.
     #[error("triangle {triangle} names vertex {index}, but the mesh has {n_vertices} vertices")]
     IndexOutOfRange {
@@ -63,5 +74,16 @@ pub enum GeometryError {
         a: usize,
         /// Second vertex.
         b: usize,
+    },
+    /// A closed part of the mesh is wound inside-out: its signed volume is
+    /// not positive (its triangles are clockwise seen from outside).
+    #[error(
+        "the closed part of the mesh that holds triangle {triangle} is inside-out (signed volume {volume:.3e}: its faces must be counter-clockwise seen from outside)"
+    )]
+    InsideOut {
+        /// The part's first triangle.
+        triangle: usize,
+        /// Its signed volume.
+        volume: f64,
     },
 }

@@ -2,7 +2,9 @@
 //! signed distance through angle-weighted pseudo-normals (Baerentzen and
 //! Aanaes 2005: the sign of `(p - q) . n` with the pseudo-normal `n` of the
 //! closest feature is the inside/outside of a closed, consistently oriented
-//! mesh), and the first crossing of a segment with the surface.
+//! mesh; an open mesh has a behind only where the closest point is interior
+//! to it, so a point beside its boundary is outside), and the first crossing
+//! of a segment with the surface.
 
 use nalgebra::Vector3;
 
@@ -19,7 +21,10 @@ pub struct Closest {
     /// The closest surface point.
     pub point: V3,
     /// Signed distance: positive outside (on the side the normals point
-    /// to), negative inside or behind.
+    /// to), negative inside a closed mesh or behind an open one. A point
+    /// whose closest point lies on an open mesh's boundary (an edge with
+    /// one triangle, or a vertex of such an edge) is beside the mesh, not
+    /// behind it: its distance is positive whatever the side.
     pub distance: f64,
     /// The unit outward normal of the contact: from the surface point
     /// towards the query point when it is outside, away from it inside; the
@@ -31,11 +36,15 @@ pub struct Closest {
     pub feature: Feature,
 }
 
-/// A triangle mesh checked to be a contact surface: finite vertices, no
-/// degenerate triangle, every edge on at most two triangles (manifold), and
-/// neighbouring triangles oriented alike (counter-clockwise seen from
-/// outside). It may be open (a sheet, a terrain: "inside" is then "behind")
-/// or closed (a solid).
+/// A triangle mesh checked to be a contact surface: finite vertices of at
+/// most [`TriMesh::MAX_COORDINATE`] in magnitude, no degenerate triangle,
+/// every edge on at most two triangles (manifold), neighbouring triangles
+/// oriented alike (counter-clockwise seen from outside), and every closed
+/// part (a connected set of triangles whose edges all have two) of positive
+/// signed volume (its normals point out, not in). It may be open (a sheet,
+/// a terrain: "inside" is then "behind", the points whose closest surface
+/// point is interior to the sheet and on the side its normals turn away
+/// from) or closed (a solid).
 ///
 /// ```
 /// use hookean_geometry::TriMesh;
@@ -60,18 +69,30 @@ pub struct TriMesh {
     vertex_normals: Vec<V3>,
     /// Per triangle, the pseudo-normal of its edge `k` (vertex `k` to `k + 1`).
     edge_normals: Vec<[V3; 3]>,
+    /// Per triangle, bit `k` set when its edge `k` is on no other triangle
+    /// (the boundary of an open mesh).
+    boundary_edges: Vec<u8>,
+    /// Per vertex, true when it is on a boundary edge.
+    boundary_vertices: Vec<bool>,
     bvh: Bvh,
     closed: bool,
 }
 
 impl TriMesh {
+    /// The largest magnitude of a vertex coordinate (m): the normals and
+    /// distances take products of up to four coordinates (a face normal is
+    /// the norm of a cross product), which stay finite, with room for the
+    /// particles' positions, below this.
+    pub const MAX_COORDINATE: f64 = 1e60;
+
     /// Checks and indexes a mesh.
     ///
     /// # Errors
     /// [`GeometryError::Empty`], [`GeometryError::NonFinite`],
-    /// [`GeometryError::IndexOutOfRange`], [`GeometryError::Degenerate`],
-    /// [`GeometryError::NonManifoldEdge`], [`GeometryError::Orientation`],
-    /// naming the first offending vertex or triangle.
+    /// [`GeometryError::TooLarge`], [`GeometryError::IndexOutOfRange`],
+    /// [`GeometryError::Degenerate`], [`GeometryError::NonManifoldEdge`],
+    /// [`GeometryError::Orientation`], [`GeometryError::InsideOut`], naming
+    /// the first offending vertex or triangle.
     pub fn new(vertices: Vec<[f64; 3]>, triangles: Vec<[usize; 3]>) -> Result<Self, GeometryError> {
         if vertices.is_empty() {
             return Err(GeometryError::Empty { what: "vertices" });
@@ -84,6 +105,17 @@ impl TriMesh {
             .position(|v| v.iter().any(|c| !c.is_finite()))
         {
             return Err(GeometryError::NonFinite { vertex });
+        }
+        if let Some((vertex, &value)) = vertices.iter().enumerate().find_map(|(i, v)| {
+            v.iter()
+                .find(|c| c.abs() > Self::MAX_COORDINATE)
+                .map(|c| (i, c))
+        }) {
+            return Err(GeometryError::TooLarge {
+                vertex,
+                value,
+                max: Self::MAX_COORDINATE,
+            });
         }
         let vertices: Vec<V3> = vertices.into_iter().map(V3::from).collect();
         let n = vertices.len();
@@ -115,6 +147,11 @@ impl TriMesh {
         }
         edges.sort_unstable();
         let mut edge_normals = vec![[V3::zeros(); 3]; triangles.len()];
+        let mut boundary_edges = vec![0u8; triangles.len()];
+        let mut boundary_vertices = vec![false; n];
+        // The parts: vertices joined by the edges (union-find, the smaller
+        // root kept, so the result does not depend on the scan's order).
+        let mut part: Vec<usize> = (0..n).collect();
         let mut closed = true;
         let mut s = 0;
         while s < edges.len() {
@@ -123,8 +160,15 @@ impl TriMesh {
                 e += 1;
             }
             let (a, b) = (edges[s].0, edges[s].1);
+            let (ra, rb) = (find(&mut part, a), find(&mut part, b));
+            part[ra.max(rb)] = ra.min(rb);
             match e - s {
-                1 => closed = false,
+                1 => {
+                    closed = false;
+                    boundary_edges[edges[s].2] |= 1 << edges[s].3;
+                    boundary_vertices[a] = true;
+                    boundary_vertices[b] = true;
+                }
                 2 => {
                     if edges[s].4 == edges[s + 1].4 {
                         return Err(GeometryError::Orientation {
@@ -150,6 +194,7 @@ impl TriMesh {
             }
             s = e;
         }
+        check_outward(&vertices, &triangles, &mut part, &boundary_vertices)?;
         // Angle-weighted vertex pseudo-normals.
         let mut vertex_normals = vec![V3::zeros(); n];
         for (ti, t) in triangles.iter().enumerate() {
@@ -175,6 +220,8 @@ impl TriMesh {
             face_normals,
             vertex_normals,
             edge_normals,
+            boundary_edges,
+            boundary_vertices,
             bvh,
             closed,
         })
@@ -242,15 +289,24 @@ impl TriMesh {
                 feature: Feature::Face,
             };
         };
-        let pseudo = match q.feature {
-            Feature::Face => self.face_normals[triangle],
-            Feature::Edge(k) => self.edge_normals[triangle][k as usize],
-            Feature::Vertex(k) => self.vertex_normals[self.triangles[triangle][k as usize]],
+        let (pseudo, boundary) = match q.feature {
+            Feature::Face => (self.face_normals[triangle], false),
+            Feature::Edge(k) => (
+                self.edge_normals[triangle][k as usize],
+                self.boundary_edges[triangle] & (1 << k) != 0,
+            ),
+            Feature::Vertex(k) => {
+                let v = self.triangles[triangle][k as usize];
+                (self.vertex_normals[v], self.boundary_vertices[v])
+            }
         };
         let d = p - q.point;
         let len = d.norm();
         let side = d.dot(&pseudo);
-        let inside = side < 0.0;
+        // Beside an open mesh's boundary is outside: the half-space of a
+        // boundary feature's pseudo-normal reaches past the sheet's edge,
+        // where nothing separates the two sides.
+        let inside = side < 0.0 && !boundary;
         let normal = if len > 1e-12 * (1.0 + p.amax()) {
             if inside { -d / len } else { d / len }
         } else {
@@ -283,6 +339,61 @@ impl TriMesh {
             }
         });
         best
+    }
+}
+
+/// The root of `i`'s part, halving the path on the way.
+fn find(part: &mut [usize], mut i: usize) -> usize {
+    while part[i] != i {
+        part[i] = part[part[i]];
+        i = part[i];
+    }
+    i
+}
+
+/// Every closed part of the mesh (a part with no boundary vertex) has a
+/// positive signed volume `V = sum (a - o) . ((b - o) x (c - o)) / 6` over
+/// its triangles (the divergence theorem; `o` the part's first vertex, for
+/// round-off): its counter-clockwise triangles face out. An inside-out part
+/// is named by its first triangle.
+fn check_outward(
+    vertices: &[V3],
+    triangles: &[[usize; 3]],
+    part: &mut [usize],
+    boundary_vertices: &[bool],
+) -> Result<(), GeometryError> {
+    let n = vertices.len();
+    let mut open = vec![false; n];
+    for (v, &b) in boundary_vertices.iter().enumerate() {
+        if b {
+            let r = find(part, v);
+            open[r] = true;
+        }
+    }
+    let mut volume = vec![0.0; n];
+    let mut first = vec![usize::MAX; n];
+    for (ti, t) in triangles.iter().enumerate() {
+        let r = find(part, t[0]);
+        if open[r] {
+            continue;
+        }
+        if first[r] == usize::MAX {
+            first[r] = ti;
+        }
+        let o = vertices[r];
+        let [a, b, c] = t.map(|i| vertices[i] - o);
+        volume[r] += a.dot(&b.cross(&c)) / 6.0;
+    }
+    // In triangle order: the first inside-out part of the file.
+    let mut bad: Option<(usize, f64)> = None;
+    for (&f, &vol) in first.iter().zip(&volume) {
+        if f != usize::MAX && !(vol > 0.0) && bad.is_none_or(|(t, _)| f < t) {
+            bad = Some((f, vol));
+        }
+    }
+    match bad {
+        Some((triangle, volume)) => Err(GeometryError::InsideOut { triangle, volume }),
+        None => Ok(()),
     }
 }
 
@@ -427,6 +538,106 @@ mod tests {
             .first_hit(&V3::new(0.5, -1.0, -1.0), &V3::new(0.5, 1.0, 1.0))
             .unwrap();
         assert!((s - 0.5).abs() < 1e-12);
+    }
+
+    /// A point below an open mesh is behind it only where its closest
+    /// point is interior; beside a boundary edge or vertex it is outside,
+    /// at its Euclidean distance (the closed form of a point and a segment
+    /// or a point).
+    #[test]
+    fn beside_an_open_mesh_is_outside_and_under_its_interior_is_behind() {
+        // One triangle in z = 0 (normal +z), and a bowtie: two triangles
+        // that share only the vertex (0.5, 0.5, 0).
+        let tri = TriMesh::new(
+            vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            vec![[0, 1, 2]],
+        )
+        .unwrap();
+        assert!(!tri.is_closed());
+        // Under the interior: behind, at the depth.
+        let c = tri.closest(&V3::new(0.2, 0.2, -0.3));
+        assert!((c.distance + 0.3).abs() < 1e-15, "{c:?}");
+        // Below and past the hypotenuse x + y = 1: the distance to the
+        // segment, positive.
+        let p = V3::new(0.8, 0.8, -0.1);
+        let want = ((0.6f64 / 2f64.sqrt()).powi(2) + 0.01).sqrt();
+        let c = tri.closest(&p);
+        assert!(matches!(c.feature, Feature::Edge(1)));
+        assert!(
+            (c.distance - want).abs() < 1e-14,
+            "{} vs {want}",
+            c.distance
+        );
+        assert!(((p - c.point) / want - c.normal).norm() < 1e-12);
+        // Below and past a corner: the distance to the vertex, positive.
+        let c = tri.closest(&V3::new(-0.3, -0.4, -0.1));
+        assert!((c.distance - 0.26f64.sqrt()).abs() < 1e-15, "{c:?}");
+        let bowtie = TriMesh::new(
+            vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.5, 0.5, 0.0],
+                [1.0, 1.0, 0.0],
+                [0.0, 1.0, 0.0],
+            ],
+            vec![[0, 1, 2], [2, 3, 4]],
+        )
+        .unwrap();
+        // Just below the shared vertex, and beside the waist: outside.
+        let c = bowtie.closest(&V3::new(0.5, 0.5, -0.01));
+        assert!((c.distance - 0.01).abs() < 1e-15, "{c:?}");
+        let c = bowtie.closest(&V3::new(0.2, 0.5, -0.05));
+        assert!(c.distance > 0.0, "{c:?}");
+        // Under a wing's interior: behind.
+        assert!((bowtie.closest(&V3::new(0.5, 0.2, -0.05)).distance + 0.05).abs() < 1e-15);
+        // A closed mesh keeps its inside at edges and corners.
+        let b = unit_box();
+        assert!((b.closest(&V3::new(0.01, 0.02, 0.5)).distance + 0.01).abs() < 1e-15);
+    }
+
+    #[test]
+    fn an_inside_out_closed_part_and_overflowing_coordinates_are_refused() {
+        let (v, t): (Vec<[f64; 3]>, Vec<[usize; 3]>) = {
+            let b = unit_box();
+            (
+                b.vertices().iter().map(|p| [p.x, p.y, p.z]).collect(),
+                b.triangles().to_vec(),
+            )
+        };
+        let flipped: Vec<[usize; 3]> = t.iter().map(|f| [f[0], f[2], f[1]]).collect();
+        // Signed volume -1 (the unit box, its faces reversed).
+        match TriMesh::new(v.clone(), flipped.clone()).unwrap_err() {
+            GeometryError::InsideOut { triangle, volume } => {
+                assert_eq!(triangle, 0);
+                assert!((volume + 1.0).abs() < 1e-14, "{volume}");
+            }
+            e => panic!("{e}"),
+        }
+        // Two boxes, the second (triangles 12..24) inside-out: it is named.
+        let mut v2 = v.clone();
+        v2.extend(v.iter().map(|p| [p[0] + 3.0, p[1], p[2]]));
+        let mut t2 = t.clone();
+        t2.extend(flipped.iter().map(|f| f.map(|i| i + 8)));
+        assert!(matches!(
+            TriMesh::new(v2, t2).unwrap_err(),
+            GeometryError::InsideOut { triangle: 12, .. }
+        ));
+        // An open sheet has no volume to check, either way round.
+        assert!(TriMesh::new(v.clone(), flipped[..10].to_vec()).is_ok());
+        // Coordinates: up to the bound accepted, beyond it refused.
+        let big = |c: f64| vec![[0.0, 0.0, 0.0], [c, 0.0, 0.0], [0.0, c, 0.0]];
+        assert!(TriMesh::new(big(TriMesh::MAX_COORDINATE), vec![[0, 1, 2]]).is_ok());
+        assert_eq!(
+            TriMesh::new(big(1e155), vec![[0, 1, 2]]).unwrap_err(),
+            GeometryError::TooLarge {
+                vertex: 1,
+                value: 1e155,
+                max: TriMesh::MAX_COORDINATE
+            }
+        );
+        // At the bound the normals are finite and the box's distances hold.
+        let m = TriMesh::new(big(TriMesh::MAX_COORDINATE), vec![[0, 1, 2]]).unwrap();
+        assert!((m.face_normal(0).z - 1.0).abs() < 1e-15);
     }
 
     #[test]

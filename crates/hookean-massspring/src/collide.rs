@@ -152,19 +152,25 @@ pub(crate) struct Touch {
 }
 
 impl MeshCollider {
-    /// The mesh `mesh` (its rest pose, at time 0) with `thickness` (m).
+    /// The mesh `mesh` (its rest pose, at time 0) with `thickness` (m), in
+    /// `[0, D]`, `D` the diagonal of the mesh's bounding box: a thicker
+    /// layer is no longer the mesh's shape (every particle near it is in
+    /// contact with a blob about the mesh), and its squares must stay
+    /// finite.
     ///
     /// # Errors
     /// [`MassSpringError::InvalidParameter`] naming `thickness` for a
-    /// negative or non-finite thickness.
+    /// thickness outside `[0, D]` (or not a number).
     pub fn new(mesh: TriMesh, thickness: f64) -> Result<Self, MassSpringError> {
-        if !(thickness >= 0.0 && thickness.is_finite()) {
+        let size = mesh.aabb().extent().norm();
+        if !(thickness >= 0.0 && thickness <= size) {
             return Err(MassSpringError::InvalidParameter {
                 name: "thickness",
-                message: format!("{thickness:?} must be non-negative and finite"),
+                message: format!(
+                    "{thickness:?} m is outside [0, {size:.6}] m (0 to the diagonal of the mesh's bounding box)"
+                ),
             });
         }
-        let size = mesh.aabb().extent().norm();
         Ok(Self {
             mesh,
             thickness,
@@ -224,8 +230,9 @@ impl MeshCollider {
     /// thickness, and the outward normal there. The path is straight in
     /// the body's frame (exact for translations; for rotations the body's
     /// motion within the step is taken as linear). A particle that ends
-    /// inside without crossing (it started inside) is pushed out along the
-    /// closest feature's normal.
+    /// inside a closed mesh without crossing (it started inside) is pushed
+    /// out along the closest feature's normal; one that ends behind an open
+    /// mesh without crossing it came round its boundary and is left there.
     pub(crate) fn correct_path(
         &self,
         t: f64,
@@ -256,7 +263,12 @@ impl MeshCollider {
                 }
                 (hit + n * self.thickness, n)
             }
-            _ if end.distance < 0.0 => (end.point + end.normal * self.thickness, end.normal),
+            // An end behind without a crossing: inside a closed mesh it
+            // started inside; behind an open one it came round the
+            // boundary, where nothing stops it, and stays.
+            _ if end.distance < 0.0 && self.mesh.is_closed() => {
+                (end.point + end.normal * self.thickness, end.normal)
+            }
             _ => return None,
         };
         if self.motion.is_static() {
@@ -426,7 +438,8 @@ impl Collider {
 /// the distance particles are pushed out to (0 for planes and spheres, the
 /// thickness for meshes) and the band within which they count as touching;
 /// `None` for a particle certainly outside a mesh's band (its bounding box
-/// grown by the band does not hold it).
+/// grown by the band does not hold it, or it is deeper behind an open mesh
+/// than the band).
 pub(crate) fn touch(c: &Collider, t: f64, x: &Vector3<f64>) -> Option<(Touch, f64, f64)> {
     match c {
         Collider::Mesh { mesh, .. } => {
@@ -439,7 +452,14 @@ pub(crate) fn touch(c: &Collider, t: f64, x: &Vector3<f64>) -> Option<(Touch, f6
             if mesh.mesh.aabb().distance_squared(&rest) > band * band {
                 return None;
             }
-            Some((mesh.touch(t, x), mesh.thickness, band))
+            let touch = mesh.touch(t, x);
+            if !mesh.mesh.is_closed() && touch.phi < -band {
+                // Deeper behind an open sheet than its band: it came round
+                // the boundary (a crossing is caught by the continuous
+                // pass), and is not in contact.
+                return None;
+            }
+            Some((touch, mesh.thickness, band))
         }
         _ => {
             let (phi, normal) = c.signed_distance(x);

@@ -456,6 +456,32 @@ impl MassSpringModel {
             .sum()
     }
 
+    /// Per collider (in the order they were added), how many particles of
+    /// `x` start inside it at time 0: deeper than round-off (`1e-9` of the
+    /// particle's distance from the origin, plus `1e-9` m) inside a plane
+    /// or sphere, inside a closed mesh, or behind an open one within its
+    /// band (where the first step's put-back would move them through the
+    /// surface). Particles pinned in all three directions are not counted:
+    /// no collider moves them. A scene refuses such a start
+    /// (docs/CONTACT.md): the put-back would turn the depth into spring
+    /// energy the scene never had.
+    pub fn particles_inside(&self, x: &[f64]) -> Vec<usize> {
+        let mut inside = vec![0; self.colliders.len()];
+        for p in 0..x.len() / 3 {
+            if self.fixes.get(p).is_some_and(|d| d.count == 3) {
+                continue;
+            }
+            let xp = point(x, p);
+            let round_off = 1e-9 * (1.0 + xp.amax());
+            for (c, count) in self.colliders.iter().zip(inside.iter_mut()) {
+                if touch(c, 0.0, &xp).is_some_and(|(t, _, _)| t.phi < -round_off) {
+                    *count += 1;
+                }
+            }
+        }
+        inside
+    }
+
     /// What the contact handling did in the last step.
     pub fn contact_stats(&self) -> ContactStats {
         self.contact.stats

@@ -556,6 +556,48 @@ impl MassSpringModel {
         Ok(())
     }
 
+    /// The largest self-collision thickness `h_th` the model's triangles at
+    /// positions `x` admit: the smallest altitude of a triangle (a cloth
+    /// grid's spacing `s` gives `s / sqrt 2`, the distance of a vertex from
+    /// the diagonal of its square). Non-adjacent features of a flat mesh
+    /// are about this far apart, so a thicker `h_th` makes the cloth at
+    /// rest repel itself (docs/CONTACT.md). Infinite without triangles.
+    pub fn self_thickness_limit(&self, x: &[f64]) -> f64 {
+        self.faces
+            .iter()
+            .filter(|t| t.iter().all(|&i| 3 * i + 3 <= x.len()))
+            .map(|t| {
+                let [a, b, c] = t.map(|i| point(x, i));
+                let area2 = (b - a).cross(&(c - a)).norm();
+                let longest = (b - a).norm().max((c - b).norm()).max((a - c).norm());
+                area2 / longest
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Refuses a self-collision thickness the model's triangles at `x` do
+    /// not admit ([`self_thickness_limit`](Self::self_thickness_limit)).
+    ///
+    /// # Errors
+    /// [`MassSpringError::InvalidParameter`] naming `self_thickness`, with
+    /// the range.
+    pub fn check_self_thickness(&self, x: &[f64]) -> Result<(), MassSpringError> {
+        let Some(o) = self.self_collision() else {
+            return Ok(());
+        };
+        let limit = self.self_thickness_limit(x);
+        if o.thickness < limit {
+            return Ok(());
+        }
+        Err(MassSpringError::InvalidParameter {
+            name: "self_thickness",
+            message: format!(
+                "{:?} m is outside (0, {limit:.6}) m: it must be below the smallest altitude of the model's triangles at the start (a cloth grid: 0.707 of its spacing), or the flat cloth repels itself",
+                o.thickness
+            ),
+        })
+    }
+
     /// The self-collision options, if it is on.
     pub fn self_collision(&self) -> Option<SelfCollision> {
         self.contact.self_contact.as_ref().map(|s| s.options())

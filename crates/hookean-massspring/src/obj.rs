@@ -135,8 +135,9 @@ pub fn read_obj_file(path: impl AsRef<Path>) -> Result<ObjMesh, MassSpringError>
 /// # Errors
 /// [`MassSpringError::MeshFile`] naming the file and, where one is to
 /// blame, the line: a missing or unreadable file, a malformed record, no
-/// triangles, a non-finite coordinate (also after scaling), a degenerate,
-/// non-manifold or inconsistently oriented triangle;
+/// triangles, a non-finite coordinate (also after scaling) or one beyond
+/// [`TriMesh::MAX_COORDINATE`], a degenerate, non-manifold or inconsistently
+/// oriented triangle, a closed surface wound inside-out;
 /// [`MassSpringError::InvalidParameter`] for a non-positive `scale` or a
 /// non-finite `offset`.
 pub fn read_surface(
@@ -179,7 +180,8 @@ pub fn read_surface(
             GeometryError::IndexOutOfRange { triangle, .. }
             | GeometryError::Degenerate { triangle }
             | GeometryError::NonManifoldEdge { triangle, .. }
-            | GeometryError::Orientation { triangle, .. } => Some(triangle),
+            | GeometryError::Orientation { triangle, .. }
+            | GeometryError::InsideOut { triangle, .. } => Some(triangle),
             _ => None,
         };
         let message = match e {
@@ -197,6 +199,13 @@ pub fn read_surface(
                 "this face runs through the edge {}-{} in the same direction as a neighbour (inconsistent orientation)",
                 a + 1,
                 b + 1
+            ),
+            GeometryError::TooLarge { vertex, value, max } => format!(
+                "vertex {} has the coordinate {value:e} (after scaling by {scale:?}), beyond the largest magnitude {max:e} m",
+                vertex + 1
+            ),
+            GeometryError::InsideOut { volume, .. } => format!(
+                "the closed surface this face belongs to is inside-out (signed volume {volume:.3e} m^3): its faces must be counter-clockwise seen from outside; reverse the order of every face's vertices"
             ),
             GeometryError::Degenerate { .. } => {
                 "degenerate face (a repeated vertex or zero area)".to_string()

@@ -426,6 +426,21 @@ impl Scene {
                     ..Default::default()
                 }))
                 .map_err(in_table("contact"))?;
+            model
+                .check_self_thickness(&state.x)
+                .map_err(in_table("contact"))?;
+        }
+        // A start inside a collider: its put-back would turn the depth into
+        // spring energy the scene never had (docs/CONTACT.md).
+        let inside = model.particles_inside(&state.x);
+        if let Some((c, &count)) = inside.iter().enumerate().find(|(_, n)| **n > 0) {
+            return Err(HookeanError::Build {
+                table: format!("collider {}", c + 1),
+                message: format!(
+                    "{count} of the model's {} particles start inside it (deeper than round-off); every particle must start outside each collider or on its surface: move the model or the collider",
+                    model.n_particles()
+                ),
+            });
         }
         let mut options = self.simulation_options();
         if self.integrator.h == StepScene::Auto {

@@ -207,7 +207,7 @@ pub struct ContactScene {
     /// Cloth self-collision on the model's triangles. Default false.
     #[serde(default)]
     pub self_collision: bool,
-    /// Self-collision thickness (m): closer non-adjacent features repel; keep it below 0.7 of the cloth's grid spacing. Range (0, inf). Default 0.004.
+    /// Self-collision thickness (m): closer non-adjacent features repel. Range (0, inf), and with self_collision on below the smallest altitude of the model's triangles at the start (a cloth grid: 0.707 of its spacing, size / (n - 1)). Default 0.004.
     #[serde(default = "d_self_thickness", deserialize_with = "positive")]
     pub self_thickness: f64,
     /// Repulsion stiffness of one self-contact pair (N/m). Range [0, inf). Default 50.
@@ -357,7 +357,7 @@ pub enum ColliderScene {
         /// Added to every scaled vertex (m). Default `[0, 0, 0]`.
         #[serde(default)]
         offset: [f64; 3],
-        /// Particles are kept this far from the surface (m). Range [0, inf). Default 0.005.
+        /// Particles are kept this far from the surface (m). Range [0, the diagonal of the mesh's bounding box]. Default 0.005.
         #[serde(default = "d_mesh_thickness")]
         thickness: f64,
         /// Static friction coefficient. Range [0, inf). Default 0.
