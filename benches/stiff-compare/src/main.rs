@@ -43,7 +43,7 @@ use hookean_ode::{FirstOrderIntegrator, Integrator, Method};
 /// rhs_evals, newton_iters).
 type Run = Option<(Vec<f64>, [usize; 5])>;
 
-fn ours<P: TestProblem + Clone>(p: &P, rtol: f64) -> Run {
+fn ours<P: TestProblem + Clone + 'static>(p: &P, rtol: f64) -> Run {
     let opts = options(p, rtol);
     let mut s = FirstOrderIntegrator::new(p.clone(), Method::VariableBdf, 0.0, &p.y0(), opts).ok()?;
     let st = s.integrate(p.t_end()).ok()?.stats;
