@@ -1,7 +1,8 @@
 //! Robertson's stiff kinetics with the variable-order BDF: the solution at
 //! requested times and the solver's statistics. `cargo run --example robertson`
 
-use hookean::ode::{BdfSolver, FirstOrderProblem, Integrator, OdeError, SolverOptions, Tolerance};
+use hookean::ode::{FirstOrderIntegrator, FirstOrderProblem, Integrator, Method, OdeError};
+use hookean::ode::{SolverOptions, Tolerance};
 
 /// y1' = -0.04 y1 + 1e4 y2 y3, y2' = 0.04 y1 - 1e4 y2 y3 - 3e7 y2^2, y3' = 3e7 y2^2.
 struct Robertson;
@@ -24,7 +25,8 @@ impl FirstOrderProblem for Robertson {
 fn main() -> Result<(), OdeError> {
     // y2 is about 1e-5: it needs its own absolute tolerance (as in CVODE's example).
     let options = SolverOptions::with_tolerances(1e-4, Tolerance::Vector(vec![1e-8, 1e-14, 1e-6]));
-    let mut solver = BdfSolver::new(Robertson, 0.0, &[1.0, 0.0, 0.0], options)?;
+    let y0 = [1.0, 0.0, 0.0];
+    let mut solver = FirstOrderIntegrator::new(Robertson, Method::VariableBdf, 0.0, &y0, options)?;
     let times = [0.4, 4.0, 40.0, 400.0, 4e3, 4e4, 4e5];
     let solution = solver.solve_at(&times)?;
     for (t, y) in solution.t.iter().zip(solution.values.chunks(3)) {

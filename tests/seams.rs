@@ -2,6 +2,7 @@
 //! hold the crates together (docs/ARCHITECTURE.md, "one owner for each
 //! idea"), checked through every layer that relies on them.
 
+use hookean::ode::Integrator;
 use std::ops::ControlFlow;
 
 use hookean::filter::{FilterCoupling, FilterOptions, ModelIntegrator};
@@ -41,7 +42,7 @@ fn every_driver_lands_exactly_on_an_end_time_that_is_not_a_multiple_of_h() {
     .unwrap();
     let mut times = Vec::new();
     let info = ode
-        .integrate_with(t_end, |r, _, _| {
+        .integrate_with(t_end, |r, _| {
             times.push((r.t, r.h));
             ControlFlow::Continue(())
         })
@@ -82,14 +83,10 @@ fn every_driver_lands_exactly_on_an_end_time_that_is_not_a_multiple_of_h() {
         ..SimulationOptions::default()
     };
     let mut sim = Simulation::new(model, state, options).unwrap();
-    let summary = sim
-        .run_until(t_end, |_, _| ControlFlow::Continue(()))
-        .unwrap();
+    let summary = sim.run_until(t_end).unwrap();
     assert_eq!((summary.stats.num_steps, summary.t), (3, t_end));
     // Nothing left to do: a second call takes no step.
-    let again = sim
-        .run_until(t_end, |_, _| ControlFlow::Continue(()))
-        .unwrap();
+    let again = sim.run_until(t_end).unwrap();
     assert_eq!(again.stats.num_steps, 3);
 }
 

@@ -37,15 +37,15 @@ use diffsol::{
 use hookean_ode::testset::{
     E5, Hires, Orego, Robertson, SpringChain, TestProblem, VanDerPol, mixed_error, options,
 };
-use hookean_ode::{BdfSolver, Integrator};
+use hookean_ode::{FirstOrderIntegrator, Integrator, Method};
 
 /// One run's result: the final state and (steps, jac_evals, lu_setups,
 /// rhs_evals, newton_iters).
 type Run = Option<(Vec<f64>, [usize; 5])>;
 
-fn ours<P: TestProblem + Clone>(p: &P, rtol: f64) -> Run {
+fn ours<P: TestProblem + Clone + 'static>(p: &P, rtol: f64) -> Run {
     let opts = options(p, rtol);
-    let mut s = BdfSolver::new(p.clone(), 0.0, &p.y0(), opts).ok()?;
+    let mut s = FirstOrderIntegrator::new(p.clone(), Method::VariableBdf, 0.0, &p.y0(), opts).ok()?;
     let st = s.integrate(p.t_end()).ok()?.stats;
     Some((
         s.y().to_vec(),

@@ -94,7 +94,7 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
     if args.at > 0.0 {
         // A bar on a terminal: simulating to a late --at can take a while.
         let mut progress = Progress::new(args.at, false);
-        let result = sim.run_until(args.at, |sim, r| {
+        let result = sim.run_until_with(args.at, |sim, r| {
             progress.update(sim, r);
             std::ops::ControlFlow::Continue(())
         });

@@ -2,6 +2,7 @@
 //! and 2 integrated as first-order systems, with the exact solution beside
 //! the numerical one in `steps.csv`, `summary.json` and `final.png`.
 
+use hookean_ode::Integrator;
 use std::io::Write as _;
 use std::path::Path;
 use std::time::Instant;
@@ -71,7 +72,7 @@ pub fn run(
 }
 
 #[allow(clippy::too_many_arguments)]
-fn integrate<P: FirstOrderProblem>(
+fn integrate<P: FirstOrderProblem + 'static>(
     (scene, tutorial, picture): (&Scene, &TutorialScene, &PictureScene),
     problem: P,
     y0: &[f64],

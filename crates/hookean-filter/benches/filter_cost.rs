@@ -14,7 +14,7 @@ use hookean_filter::{
     predict_dt_max,
 };
 use hookean_massspring::{ClothParams, MassSpringModel, State, cloth};
-use hookean_ode::{Method, SecondOrderIntegrator, SolverOptions};
+use hookean_ode::{Integrator, Method, SecondOrderIntegrator, SolverOptions};
 
 /// The N = 64 drape and an FB Euler step half its predicted dt_max.
 fn drape64() -> (MassSpringModel, State, f64) {

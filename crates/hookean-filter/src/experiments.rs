@@ -111,15 +111,15 @@ fn run_observed(
         match sim.step_to(t_end) {
             Ok(Some(_)) => {}
             Ok(None) => break,
-            Err(FilterError::Ode(OdeError::NonFinite { .. })) => {
+            Err(OdeError::NonFinite { .. }) => {
                 blown(&mut out, t);
                 return Ok(out);
             }
-            Err(FilterError::Ode(OdeError::LinearSolver { .. })) => {
+            Err(OdeError::LinearSolver { .. }) => {
                 blown(&mut out, t);
                 return Ok(out);
             }
-            Err(e) => return Err(e),
+            Err(e) => return Err(e.into()),
         }
         out.steps += 1;
         out.t_reached = sim.t();

@@ -197,7 +197,7 @@ pub fn figure8_runs(
         )?;
         seconds += start.elapsed().as_secs_f64();
         bounded = bounded && out.bounded;
-        k0_run = k0_run.max(predict_dt_max(sim.model(), sim.x(), None, fb, &power)?.k0);
+        k0_run = k0_run.max(predict_dt_max(sim.problem(), sim.x(), None, fb, &power)?.k0);
         if !bounded || second >= t_end {
             break;
         }

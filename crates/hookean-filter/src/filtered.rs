@@ -2,9 +2,9 @@
 //! followed by the velocity filter (section 4 of the filtering paper), the
 //! integrator itself a black box.
 
-use std::ops::ControlFlow;
-
-use hookean_ode::{Method, SecondOrderIntegrator, SecondOrderProblem, Stats, StepReport};
+use hookean_ode::{
+    Integrator, Method, OdeError, SecondOrderIntegrator, SecondOrderProblem, Stats, StepReport,
+};
 
 use crate::error::FilterError;
 use crate::velocity::VelocityFilter;
@@ -89,11 +89,15 @@ pub struct FilterStats {
     pub applications: usize,
 }
 
-/// An explicit integrator of `hookean-ode` turned into its filtered version:
-/// every [`step`](Self::step) runs the integrator's step, filters the
+/// An explicit integrator of `hookean-ode` turned into its filtered version,
+/// a decorator that keeps the same stepping contract ([`Integrator`]):
+/// every step ([`step_bounded`](Integrator::step_bounded), and so `step`,
+/// `step_to` and the drivers) runs the integrator's step, filters the
 /// velocities with a [`VelocityFilter`] and writes the state back in place
 /// ([`SecondOrderIntegrator::modify_state`]). Works with forward Euler, FB
 /// Euler, Verlet, RK4 and any explicit tableau; allocates nothing per step.
+/// A failure of the filter inside a step is
+/// [`OdeError::AfterStep`] (a non-finite position: the run has blown up).
 ///
 /// Changing the state restarts the integrator's cached values: Verlet
 /// then evaluates the force twice per step instead of once.
@@ -152,35 +156,6 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
         })
     }
 
-    /// One step of the wrapped integrator, then the filter (section 4.1).
-    ///
-    /// # Errors
-    /// The integrator's errors as [`FilterError::Ode`] (a blown-up state is
-    /// [`hookean_ode::OdeError::NonFinite`]).
-    pub fn step(&mut self) -> Result<StepReport, FilterError> {
-        self.remember_velocity();
-        let report = self.inner.step();
-        self.filter_step(report?)
-    }
-
-    /// One filtered step that does not pass `t_end`, or `None` once `t_end`
-    /// is reached: the integrator's landing rule
-    /// ([`SecondOrderIntegrator::step_to`]).
-    ///
-    /// # Errors
-    /// As [`step`](Self::step).
-    pub fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, FilterError> {
-        self.remember_velocity();
-        match self.inner.step_to(t_end) {
-            Ok(Some(report)) => Ok(Some(self.filter_step(report)?)),
-            Ok(None) => Ok(None),
-            Err(e) => {
-                self.prev_valid = false;
-                Err(e.into())
-            }
-        }
-    }
-
     /// Keeps `v_n` for the increment coupling (unless the last filtered
     /// step left it in `prev` already).
     fn remember_velocity(&mut self) {
@@ -194,6 +169,14 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
     /// (section 4.1): one pass to form the filter's input, the filter, one
     /// pass to write velocities and positions back.
     fn filter_step(&mut self, report: StepReport) -> Result<StepReport, FilterError> {
+        self.filter_state(report.h)?;
+        self.prev_valid = self.coupling == FilterCoupling::Increment;
+        self.stats.applications += 1;
+        Ok(report)
+    }
+
+    /// The filter's pass over the state after a step of size `h`.
+    fn filter_state(&mut self, step_h: f64) -> Result<(), FilterError> {
         // Particles the step held in all directions (the model's pins) keep
         // their velocity.
         self.filter
@@ -203,8 +186,8 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
         let coupling = self.coupling;
         let h = match coupling {
             FilterCoupling::VelocityOnly => 0.0,
-            FilterCoupling::CorrectPositions => report.h,
-            FilterCoupling::Increment => self.theta * report.h,
+            FilterCoupling::CorrectPositions => step_h,
+            FilterCoupling::Increment => self.theta * step_h,
         };
         let (filter, dv, prev) = (&self.filter, &mut self.dv, &mut self.prev);
         // The filter is a convex combination (normalised non-negative
@@ -225,43 +208,7 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
                 }
             }
             Ok(())
-        })?;
-        self.prev_valid = coupling == FilterCoupling::Increment;
-        self.stats.applications += 1;
-        Ok(report)
-    }
-
-    /// Steps until `t_end` ([`step_to`](Self::step_to): the last step ends
-    /// on it), calling `callback(report, x, v)` after every filtered step;
-    /// `ControlFlow::Break(())` stops the run. Returns the steps taken.
-    ///
-    /// # Errors
-    /// As [`step`](Self::step).
-    pub fn integrate_with<F>(&mut self, t_end: f64, mut callback: F) -> Result<usize, FilterError>
-    where
-        F: FnMut(&StepReport, &[f64], &[f64]) -> ControlFlow<()>,
-    {
-        let mut steps = 0;
-        while let Some(r) = self.step_to(t_end)? {
-            steps += 1;
-            if callback(&r, self.inner.x(), self.inner.v()).is_break() {
-                break;
-            }
-        }
-        Ok(steps)
-    }
-
-    /// Steps until `t_end`; see [`integrate_with`](Self::integrate_with).
-    ///
-    /// # Errors
-    /// As [`step`](Self::step).
-    pub fn integrate(&mut self, t_end: f64) -> Result<usize, FilterError> {
-        self.integrate_with(t_end, |_, _, _| ControlFlow::Continue(()))
-    }
-
-    /// The current time.
-    pub fn t(&self) -> f64 {
-        self.inner.t()
+        })
     }
 
     /// The current (filtered) positions.
@@ -272,11 +219,6 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
     /// The current (filtered) velocities.
     pub fn v(&self) -> &[f64] {
         self.inner.v()
-    }
-
-    /// The integrator's counters.
-    pub fn stats(&self) -> Stats {
-        self.inner.stats()
     }
 
     /// The filter's counters.
@@ -311,14 +253,73 @@ impl<P: SecondOrderProblem> FilteredIntegrator<P> {
         self.coupling
     }
 
-    /// The problem.
-    pub fn problem(&self) -> &P {
-        self.inner.problem()
-    }
-
     /// Unwraps the integrator.
     pub fn into_inner(self) -> SecondOrderIntegrator<P> {
         self.inner
+    }
+}
+
+impl<P: SecondOrderProblem + 'static> Integrator for FilteredIntegrator<P> {
+    type Problem = P;
+
+    fn t(&self) -> f64 {
+        self.inner.t()
+    }
+
+    fn t_prev(&self) -> f64 {
+        self.inner.t_prev()
+    }
+
+    fn state(&self) -> &[f64] {
+        self.inner.state()
+    }
+
+    fn stats(&self) -> Stats {
+        self.inner.stats()
+    }
+
+    fn h_next(&self) -> f64 {
+        self.inner.h_next()
+    }
+
+    fn problem(&self) -> &P {
+        self.inner.problem()
+    }
+
+    fn problem_mut(&mut self) -> &mut P {
+        self.prev_valid = false;
+        self.inner.problem_mut()
+    }
+
+    /// The integrator's bounded step, then the filter (section 4.1).
+    fn step_bounded(&mut self, t_bound: f64) -> Result<StepReport, OdeError> {
+        self.remember_velocity();
+        let report = self.inner.step_bounded(t_bound)?;
+        self.filter_step(report).map_err(|e| match e {
+            FilterError::Ode(e) => e,
+            e => OdeError::AfterStep {
+                t: self.inner.t(),
+                source: Box::new(e),
+            },
+        })
+    }
+
+    fn land_on(&mut self, t_end: f64) {
+        self.inner.land_on(t_end);
+    }
+
+    /// The straight line between the ends of the last (filtered) step.
+    fn interpolate(&self, t: f64, out: &mut [f64]) -> Result<(), OdeError> {
+        self.inner.interpolate(t, out)
+    }
+
+    fn restart(&mut self, t: f64, y: &[f64]) -> Result<(), OdeError> {
+        self.prev_valid = false;
+        self.inner.restart(t, y)
+    }
+
+    fn count_event_evaluations(&mut self, n: usize) {
+        self.inner.count_event_evaluations(n);
     }
 }
 

@@ -18,7 +18,8 @@
 //!   frequency analysis of section 5 (figures 4 and 5).
 //! - [`FilteredIntegrator`]: any explicit integrator of `hookean-ode`
 //!   (forward Euler, FB Euler, Verlet, RK4) followed by the filter, the
-//!   integrator a black box; [`FilterCoupling`] says how the filtered
+//!   integrator a black box, itself an `hookean_ode::Integrator` (a
+//!   decorator of the one stepping contract); [`FilterCoupling`] says how the filtered
 //!   velocities go back (default: the velocity change of the step is
 //!   filtered, for which `dt_max = 2 / sqrt(k0)` with the filtered `k0` is
 //!   exact in the linear analysis of FB Euler). Measured (docs/perf/filter.md):
@@ -63,7 +64,7 @@
 //! use hookean_filter::{ExplicitScheme, FilterCoupling, FilterOptions,
 //!                      FilteredIntegrator, VelocityFilter, predict_dt_max};
 //! use hookean_massspring::{ClothParams, cloth};
-//! use hookean_ode::{Method, SecondOrderIntegrator, SolverOptions};
+//! use hookean_ode::{Integrator, Method, SecondOrderIntegrator, SolverOptions};
 //!
 //! let (model, state) = cloth(&ClothParams::drape(8))?;
 //! let plain = predict_dt_max(&model, &state.x, None, ExplicitScheme::ForwardBackwardEuler,

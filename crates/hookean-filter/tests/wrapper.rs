@@ -4,6 +4,7 @@ use hookean_filter::{
     FilterCoupling, FilterError, FilterOptions, FilteredIntegrator, VelocityFilter,
 };
 use hookean_massspring::{ModelOptions, RopeParams, SecondOrderProblem, rope};
+use hookean_ode::Integrator;
 use hookean_ode::{Method, SecondOrderIntegrator, SolverOptions};
 
 fn rope5() -> (

@@ -5,6 +5,7 @@
 //! Prints the Newton and PCG iterations per step of the warm-up to stderr.
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use hookean_ode::Integrator;
 use hookean_ode::{Method, NewtonOptions, SecondOrderIntegrator, SolverOptions};
 use hookean_testkit::springs::SpringChain;
 

@@ -19,7 +19,7 @@ use std::time::Instant;
 use hookean_ode::testset::{
     E5, Hires, Orego, Robertson, SpringChain, TestProblem, VanDerPol, mixed_error, options,
 };
-use hookean_ode::{BdfSolver, Integrator, OdeError, SolverOptions, Stats};
+use hookean_ode::{FirstOrderIntegrator, Integrator, Method, OdeError, SolverOptions, Stats};
 
 /// The `--exponent` argument, if given.
 static EXPONENT: OnceLock<f64> = OnceLock::new();
@@ -52,11 +52,14 @@ fn trajectory_times(t_end: f64) -> Vec<f64> {
 /// control (`tolerance_exponent = 1`). Its value at `t_end` agrees with the
 /// published reference to 3e-10 in the mixed error (E5: 2.6e-8, the
 /// published reference's own accuracy; printed on stderr).
-fn reference_trajectory<P: TestProblem + Clone>(p: &P, times: &[f64]) -> Option<Vec<Vec<f64>>> {
+fn reference_trajectory<P: TestProblem + Clone + 'static>(
+    p: &P,
+    times: &[f64],
+) -> Option<Vec<Vec<f64>>> {
     let mut opts = options(p, 1e-12);
     opts.bdf.tolerance_exponent = Some(1.0);
     opts.bdf.max_steps = 10_000_000;
-    let sol = BdfSolver::new(p.clone(), 0.0, &p.y0(), opts)
+    let sol = FirstOrderIntegrator::new(p.clone(), Method::VariableBdf, 0.0, &p.y0(), opts)
         .and_then(|mut s| s.solve_at(times))
         .ok()?;
     Some((0..times.len()).map(|i| sol.y(i).to_vec()).collect())
@@ -64,29 +67,39 @@ fn reference_trajectory<P: TestProblem + Clone>(p: &P, times: &[f64]) -> Option<
 
 /// The largest mixed error over [`trajectory_times`] of a run at `rtol`
 /// against the reference trajectory (`inf` when the run fails).
-fn trajectory_error<P: TestProblem + Clone>(p: &P, rtol: f64, reference: &[Vec<f64>]) -> f64 {
+fn trajectory_error<P: TestProblem + Clone + 'static>(
+    p: &P,
+    rtol: f64,
+    reference: &[Vec<f64>],
+) -> f64 {
     let times = trajectory_times(p.t_end());
     let floor = p.floor();
-    BdfSolver::new(p.clone(), 0.0, &p.y0(), sweep_options(p, rtol))
-        .and_then(|mut s| s.solve_at(&times))
-        .map(|sol| {
-            (0..times.len())
-                .map(|i| mixed_error(sol.y(i), &reference[i], &floor))
-                .fold(0.0, f64::max)
-        })
-        .unwrap_or(f64::INFINITY)
+    FirstOrderIntegrator::new(
+        p.clone(),
+        Method::VariableBdf,
+        0.0,
+        &p.y0(),
+        sweep_options(p, rtol),
+    )
+    .and_then(|mut s| s.solve_at(&times))
+    .map(|sol| {
+        (0..times.len())
+            .map(|i| mixed_error(sol.y(i), &reference[i], &floor))
+            .fold(0.0, f64::max)
+    })
+    .unwrap_or(f64::INFINITY)
 }
 
-fn run<P: TestProblem + Clone>(p: &P, rtol: f64) -> Result<(Vec<f64>, Stats), OdeError> {
+fn run<P: TestProblem + Clone + 'static>(p: &P, rtol: f64) -> Result<(Vec<f64>, Stats), OdeError> {
     let opts = sweep_options(p, rtol);
-    let mut s = BdfSolver::new(p.clone(), 0.0, &p.y0(), opts)?;
+    let mut s = FirstOrderIntegrator::new(p.clone(), Method::VariableBdf, 0.0, &p.y0(), opts)?;
     let info = s.integrate(p.t_end())?;
     Ok((s.y().to_vec(), info.stats))
 }
 
 /// [`reference_trajectory`] once per problem, its `t_end` value checked
 /// against the published reference (on stderr).
-fn checked_reference<P: TestProblem + Clone>(p: &P) -> Option<Vec<Vec<f64>>> {
+fn checked_reference<P: TestProblem + Clone + 'static>(p: &P) -> Option<Vec<Vec<f64>>> {
     let reference_run = reference_trajectory(p, &trajectory_times(p.t_end()));
     if let Some(at_end) = reference_run.as_ref().and_then(|r| r.last()) {
         eprintln!(
@@ -98,7 +111,7 @@ fn checked_reference<P: TestProblem + Clone>(p: &P) -> Option<Vec<Vec<f64>>> {
     reference_run
 }
 
-fn report<P: TestProblem + Clone>(
+fn report<P: TestProblem + Clone + 'static>(
     p: &P,
     rtol: f64,
     repeats: usize,

@@ -4,10 +4,14 @@
 use crate::bdf::{BdfCoefficients, variable_bdf2, variable_bdf2_error_constant};
 use crate::control::{IterationController, NewtonOutcome, PiController, StepDecision};
 use crate::error::OdeError;
+use crate::integrator::Engine;
 use crate::method::Method;
 use crate::options::{Predictor, SolverOptions, StepControl};
 use crate::stats::{Stats, StepReport};
-use crate::stepping::{check_finite, check_growth, check_time, growth_bound, landing_slack};
+use crate::stepping::{
+    Integrator, check_dense_output, check_finite, check_growth, check_time, growth_bound,
+    landing_slack,
+};
 
 /// The step-size controller of the variable-step method.
 enum Controller {
@@ -23,18 +27,18 @@ use crate::tableau::ButcherTableau;
 const EXTRAPOLATION_SUBSTEPS: [f64; 3] = [2.0, 4.0, 6.0];
 
 pub(crate) struct Core<S> {
-    pub sys: S,
+    sys: S,
     method: Method,
     opts: SolverOptions,
-    pub t: f64,
-    pub s: Vec<f64>,
+    t: f64,
+    s: Vec<f64>,
     /// The start of the last step: its state is `y0`, the dense output
     /// interpolates between it and `s` (`t_prev = t` after a new state).
     t_prev: f64,
     /// `atol_i` of the variable-step method's error test.
     atol: Vec<f64>,
     h: f64,
-    pub stats: Stats,
+    stats: Stats,
     m: usize,
     tableau: Option<ButcherTableau>,
     kd: Vec<Vec<f64>>,
@@ -166,12 +170,8 @@ impl<S: System> Core<S> {
         })
     }
 
-    pub fn options(&self) -> &SolverOptions {
-        &self.opts
-    }
-
     /// The step size the next `step()` will try.
-    pub fn h_next(&self) -> f64 {
+    fn nominal_h(&self) -> f64 {
         if self.method.is_variable_step() {
             self.h
         } else {
@@ -181,7 +181,7 @@ impl<S: System> Core<S> {
 
     /// Forgets multistep history and cached forces (the state changed
     /// outside the method, or the problem did).
-    pub fn reset_history(&mut self) {
+    fn reset_history(&mut self) {
         // Only the multistep methods read the history (a copy of the whole
         // state is measurable next to an explicit step).
         if matches!(self.method, Method::Bdf(_) | Method::Bdf2Variable) {
@@ -194,12 +194,14 @@ impl<S: System> Core<S> {
     }
 
     /// Invalidates values that depend on the problem (cached forces).
-    pub fn problem_changed(&mut self) {
+    fn problem_changed(&mut self) {
         self.f_valid = false;
         self.acc_valid = false;
     }
 
-    pub fn set_state(&mut self, t: f64, s: &[f64]) -> Result<(), OdeError> {
+    /// A new state from the user ([`Integrator::restart`]): a new scale of
+    /// the growth bound, fresh history.
+    fn new_state(&mut self, t: f64, s: &[f64]) -> Result<(), OdeError> {
         if s.len() != self.m {
             return Err(OdeError::DimensionMismatch {
                 what: "state",
@@ -217,10 +219,10 @@ impl<S: System> Core<S> {
         Ok(())
     }
 
-    /// [`set_state`](Self::set_state) from the two halves `[x; v]` of a
+    /// [`Integrator::restart`] from the two halves `[x; v]` of a
     /// second-order state, without allocating (used after every step by
     /// post-processing wrappers such as velocity filters).
-    pub fn set_state_parts(&mut self, t: f64, x: &[f64], v: &[f64]) -> Result<(), OdeError> {
+    fn set_parts(&mut self, t: f64, x: &[f64], v: &[f64]) -> Result<(), OdeError> {
         let n = self.m / 2;
         if x.len() != n || v.len() != n || 2 * n != self.m {
             return Err(OdeError::DimensionMismatch {
@@ -241,14 +243,13 @@ impl<S: System> Core<S> {
     /// The halves `[x; v]` of a second-order state, edited in place by `f`
     /// between steps (post-processing such as a velocity filter): the time
     /// stays, cached forces and multistep history are dropped as by
-    /// [`set_state_parts`](Self::set_state_parts). Nothing is copied or
+    /// [`set_parts`](Self::set_parts). Nothing is copied or
     /// checked here; the next step checks the state is finite.
-    pub fn modify_state_parts<R>(&mut self, f: impl FnOnce(&mut [f64], &mut [f64]) -> R) -> R {
+    fn modify_parts(&mut self, f: &mut dyn FnMut(&mut [f64], &mut [f64])) {
         let n = self.m / 2;
         let (x, v) = self.s.split_at_mut(n);
-        let r = f(x, v);
+        f(x, v);
         self.reset_history();
-        r
     }
 
     /// After a new state was written: time `t`, a fresh fixed-step count and
@@ -270,7 +271,7 @@ impl<S: System> Core<S> {
     }
 
     /// One step; `limit` caps the step size (the driver's last step).
-    pub fn step(&mut self, limit: Option<f64>) -> Result<StepReport, OdeError> {
+    fn advance(&mut self, limit: Option<f64>) -> Result<StepReport, OdeError> {
         let before = self.stats;
         check_finite(&self.s, "state", self.t)?;
         self.begin_step();
@@ -302,19 +303,15 @@ impl<S: System> Core<S> {
             self.t,
             h,
             err,
-            self.h_next(),
+            self.nominal_h(),
         ))
     }
 
     /// The dense output of the last step: the straight line between its
     /// start `(t_prev, y0)` and its end `(t, s)`, first-order accurate for
     /// every method (exact at both ends).
-    ///
-    /// # Errors
-    /// [`OdeError::InvalidParameter`] for `t` outside the last step,
-    /// [`OdeError::DimensionMismatch`] for a wrong `out`.
-    pub fn interpolate(&self, t: f64, out: &mut [f64]) -> Result<(), OdeError> {
-        crate::stepping::check_dense_output(t, self.t_prev, self.t, out.len(), self.m)?;
+    fn dense_output(&self, t: f64, out: &mut [f64]) -> Result<(), OdeError> {
+        check_dense_output(t, self.t_prev, self.t, out.len(), self.m)?;
         if t == self.t || self.t_prev == self.t {
             out.copy_from_slice(&self.s);
             return Ok(());
@@ -324,11 +321,6 @@ impl<S: System> Core<S> {
             *o = a + theta * (b - a);
         }
         Ok(())
-    }
-
-    /// The start of the last step.
-    pub fn t_prev(&self) -> f64 {
-        self.t_prev
     }
 
     fn failure_error(&self, fail: StageFailure, h: f64, retries: usize) -> OdeError {
@@ -823,39 +815,93 @@ impl<S: System> Core<S> {
             StepDecision::Retry { h: h_new } => Ok(h_new.max(h_min)),
         }
     }
+}
 
-    /// The one rule for landing on an end time, used by every driver: one
-    /// step that does not pass `t_end`, or `None` when `t_end` is reached.
-    ///
-    /// - Within the slack ([`landing_slack`]) below
-    ///   `t_end`, the time is set to `t_end` and no step is taken.
-    /// - A nominal step that lands within the slack of `t_end` is taken as
-    ///   it is (no sliver of a step is left, and no step is shortened by
-    ///   round-off alone); a nominal step that would pass `t_end` by more is
-    ///   shortened to end on it.
-    /// - A step that ends within the slack of `t_end` ends exactly on it.
-    pub fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, OdeError> {
-        if !t_end.is_finite() || t_end < self.t {
-            return Err(OdeError::InvalidParameter {
-                name: "t_end",
-                value: t_end,
-                reason: "must be finite and not before the current time",
-            });
+impl<S: System> Integrator for Core<S> {
+    type Problem = S::Problem;
+
+    fn t(&self) -> f64 {
+        self.t
+    }
+
+    fn t_prev(&self) -> f64 {
+        self.t_prev
+    }
+
+    fn state(&self) -> &[f64] {
+        &self.s
+    }
+
+    fn stats(&self) -> Stats {
+        self.stats
+    }
+
+    fn h_next(&self) -> f64 {
+        self.nominal_h()
+    }
+
+    fn problem(&self) -> &S::Problem {
+        self.sys.problem()
+    }
+
+    fn problem_mut(&mut self) -> &mut S::Problem {
+        self.problem_changed();
+        self.sys.problem_mut()
+    }
+
+    /// The landing rule's step: a nominal step that lands within the slack
+    /// ([`landing_slack`]) of `t_bound` is taken as it is (no step is
+    /// shortened by round-off alone); one that would pass `t_bound` by more
+    /// is shortened to end on it; a step that ends within the slack of
+    /// `t_bound` ends exactly on it.
+    fn step_bounded(&mut self, t_bound: f64) -> Result<StepReport, OdeError> {
+        if t_bound == f64::INFINITY {
+            return self.advance(None);
         }
-        let remaining = t_end - self.t;
-        let slack = landing_slack(self.t, t_end, self.h_next());
-        if remaining <= slack {
-            self.t = t_end;
-            return Ok(None);
-        }
-        let limit = (remaining < self.h_next() - slack).then_some(remaining);
-        let mut report = self.step(limit)?;
-        if (self.t - t_end).abs() <= slack {
-            self.t = t_end;
-            self.t_base = t_end;
+        let remaining = t_bound - self.t;
+        let slack = landing_slack(self.t, t_bound, self.nominal_h());
+        let limit = (remaining < self.nominal_h() - slack).then_some(remaining);
+        let mut report = self.advance(limit)?;
+        if (self.t - t_bound).abs() <= slack {
+            self.t = t_bound;
+            self.t_base = t_bound;
             self.n_fixed = 0;
-            report.t = t_end;
+            report.t = t_bound;
         }
-        Ok(Some(report))
+        Ok(report)
+    }
+
+    fn land_on(&mut self, t_end: f64) {
+        self.t = t_end;
+    }
+
+    fn interpolate(&self, t: f64, out: &mut [f64]) -> Result<(), OdeError> {
+        self.dense_output(t, out)
+    }
+
+    fn restart(&mut self, t: f64, y: &[f64]) -> Result<(), OdeError> {
+        self.new_state(t, y)
+    }
+
+    fn count_event_evaluations(&mut self, n: usize) {
+        self.stats.num_g_evals += n;
+    }
+}
+
+impl<S: System> Engine<S::Problem> for Core<S> {
+    fn constraints(&self) -> Option<&hookean_sparse::Constraints> {
+        self.sys.constraints()
+    }
+
+    fn options(&self) -> &SolverOptions {
+        &self.opts
+    }
+
+    fn set_state_parts(&mut self, t: f64, x: &[f64], v: &[f64]) -> Result<(), OdeError> {
+        self.set_parts(t, x, v)
+    }
+
+    fn modify_state_parts(&mut self, f: &mut dyn FnMut(&mut [f64], &mut [f64])) {
+        self.modify_parts(f);
     }
 }

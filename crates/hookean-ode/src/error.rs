@@ -3,10 +3,10 @@
 use hookean_nonlinear::NonlinearError;
 use hookean_sparse::SparseError;
 
-use crate::stats::Stats;
-
 /// Everything that can go wrong in `hookean-ode`. Errors raised during a
-/// run carry the time `t` reached when they happened.
+/// run carry the time `t` reached when they happened, in the same shape
+/// for every method; the counters up to the failure are the integrator's
+/// [`stats`](crate::Integrator::stats).
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum OdeError {
@@ -146,21 +146,16 @@ pub enum OdeError {
         /// Failed attempts on this step.
         failures: usize,
     },
-    /// A run of the variable-order BDF ([`BdfSolver`](crate::BdfSolver),
-    /// [`Method::VariableBdf`](crate::Method::VariableBdf)) failed: the time reached, the
-    /// statistics so far and the cause.
-    #[error(
-        "BDF run failed at t = {t} after {} steps ({} Jacobians, {} linear solver set-ups): {source}",
-        stats.num_steps, stats.num_jac_evals, stats.num_lin_solv_setups
-    )]
-    Run {
-        /// The time reached (the last accepted step).
+    /// The correction a wrapper makes after each step of the integrator it
+    /// wraps failed (for example the velocity filter of `hookean-filter`
+    /// on a blown-up state).
+    #[error("the correction after the step to t = {t} failed: {source}")]
+    AfterStep {
+        /// The time reached.
         t: f64,
-        /// The solver's statistics up to the failure.
-        stats: Box<Stats>,
-        /// What went wrong.
+        /// The wrapper's error.
         #[source]
-        source: Box<OdeError>,
+        source: Box<dyn std::error::Error + Send + Sync>,
     },
     /// An error of `hookean-sparse` outside a Newton solve (set-up, constraints).
     #[error(transparent)]

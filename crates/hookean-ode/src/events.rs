@@ -3,7 +3,6 @@
 //! ([`Integrator::solve_at_with_events`](crate::Integrator::solve_at_with_events)).
 
 use crate::error::OdeError;
-use crate::stepping::Integrator;
 
 /// The direction of zero crossings an event reacts to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -91,21 +90,24 @@ impl<'a> Events<'a> {
     }
 
     /// Finds the roots of the event functions in the last step
-    /// `[t_prev, t]` of `ode`, appends them (in time order, up to and
+    /// `[t_prev, t]` (`step`), which ended in `y_end`, on its dense output
+    /// `interpolate(t, out)`; appends them (in time order, up to and
     /// including the first terminal one) to `hits`; returns whether a
     /// terminal event was hit and how many evaluations of `g` it took.
-    pub(crate) fn locate<I: Integrator>(
+    pub(crate) fn locate(
         &mut self,
-        ode: &I,
+        step: (f64, f64),
+        y_end: &[f64],
+        interpolate: impl Fn(f64, &mut [f64]) -> Result<(), OdeError>,
         hits: &mut Vec<EventHit>,
     ) -> Result<(bool, usize), OdeError> {
         let m = self.directions.len();
-        (self.g)(ode.t(), ode.state(), &mut self.g_new);
+        let (ta, tb) = step;
+        (self.g)(tb, y_end, &mut self.g_new);
         let mut evaluations = 1;
-        let (ta, tb) = (ode.t_prev(), ode.t());
         let tol = 4.0 * f64::EPSILON * ta.abs().max(tb.abs()).max(tb - ta);
         let mut found: Vec<(f64, usize)> = Vec::new();
-        let mut y = vec![0.0; ode.state().len()];
+        let mut y = vec![0.0; y_end.len()];
         for i in 0..m {
             let (ga, gb) = (self.g_old[i], self.g_new[i]);
             if !self.crosses(i, ga, gb) {
@@ -123,7 +125,7 @@ impl<'a> Events<'a> {
                 if !(tm > a && tm < b) {
                     tm = 0.5 * (a + b);
                 }
-                ode.interpolate(tm, &mut y)?;
+                interpolate(tm, &mut y)?;
                 (self.g)(tm, &y, &mut self.g_mid);
                 evaluations += 1;
                 let fm = self.g_mid[i];
@@ -157,7 +159,7 @@ impl<'a> Events<'a> {
         found.sort_by(|x, y| x.0.total_cmp(&y.0));
         let mut terminal = false;
         for (t_root, i) in found {
-            ode.interpolate(t_root, &mut y)?;
+            interpolate(t_root, &mut y)?;
             hits.push(EventHit {
                 index: i,
                 t: t_root,

@@ -1,11 +1,14 @@
 //! The public integrators: [`FirstOrderIntegrator`] for `y' = f(t, y)` and
 //! [`SecondOrderIntegrator`] for `M x'' = f(t, x, v)`, for every
-//! [`Method`]. Both keep the stepping contract ([`Integrator`]: `step`,
-//! `step_to`, dense output, `solve_at`, events) and offer the driver
-//! ([`integrate`](FirstOrderIntegrator::integrate),
-//! [`integrate_with`](FirstOrderIntegrator::integrate_with)).
+//! [`Method`]: one [`OdeIntegrator`] holding the engine the method runs on
+//! (the core of the one-step, fixed-step multistep and variable-step BDF2
+//! methods, or the variable-order BDF). The engine keeps the stepping
+//! contract ([`Integrator`]); the integrator passes its required methods on
+//! to the engine (the one forwarding frame) and adds only what is its own:
+//! construction from a [`Method`], the options, and the second-order
+//! state's halves.
 
-use std::ops::ControlFlow;
+use std::marker::PhantomData;
 
 use hookean_sparse::Constraints;
 
@@ -15,149 +18,59 @@ use crate::error::OdeError;
 use crate::method::Method;
 use crate::options::SolverOptions;
 use crate::stage::{FirstSys, SecondSys};
-use crate::stats::{IntegrateInfo, Stats, StepReport};
+use crate::stats::{Stats, StepReport};
 use crate::stepping::Integrator;
 use hookean_problem::{FirstOrderProblem, SecondOrderProblem};
 
-/// What runs a method: the core of the one-step, fixed-step multistep and
-/// variable-step BDF2 methods, or the variable-order BDF.
-enum Engine<S: crate::bdf::Corrector> {
-    Core(Box<Core<S>>),
-    Bdf(Box<Bdf<S>>),
+/// What an engine on the problem `P` offers besides the stepping contract:
+/// the step's constraints (second-order problems), its options, and
+/// in-place writes of a second-order state `[x; v]`.
+pub(crate) trait Engine<P>: Integrator<Problem = P> {
+    /// The constraints set by the last `begin_step` of a second-order
+    /// problem; `None` for a first-order one.
+    fn constraints(&self) -> Option<&Constraints>;
+    /// The options.
+    fn options(&self) -> &SolverOptions;
+    /// A new state from its halves `[x; v]`, copied in place (no
+    /// allocation); multistep history restarts, the growth bound is kept.
+    fn set_state_parts(&mut self, t: f64, x: &[f64], v: &[f64]) -> Result<(), OdeError>;
+    /// The halves `[x; v]` edited in place by `f` between steps; history
+    /// restarts, the next step checks the state is finite.
+    fn modify_state_parts(&mut self, f: &mut dyn FnMut(&mut [f64], &mut [f64]));
 }
 
-impl<S: crate::bdf::Corrector> Engine<S> {
-    fn new(
-        sys: S,
-        method: Method,
-        t0: f64,
-        s0: Vec<f64>,
-        options: SolverOptions,
-    ) -> Result<Self, OdeError> {
-        Ok(match method {
-            Method::VariableBdf => Engine::Bdf(Box::new(Bdf::new(sys, t0, &s0, options)?)),
-            _ => Engine::Core(Box::new(Core::new(sys, method, t0, s0, options)?)),
-        })
-    }
-
-    fn sys(&self) -> &S {
-        match self {
-            Engine::Core(c) => &c.sys,
-            Engine::Bdf(b) => &b.sys,
-        }
-    }
-
-    /// The system, mutably: cached values that depend on the problem are dropped.
-    fn sys_mut(&mut self) -> &mut S {
-        match self {
-            Engine::Core(c) => {
-                c.problem_changed();
-                &mut c.sys
-            }
-            Engine::Bdf(b) => {
-                b.problem_changed();
-                &mut b.sys
-            }
-        }
-    }
-
-    fn t(&self) -> f64 {
-        match self {
-            Engine::Core(c) => c.t,
-            Engine::Bdf(b) => b.t(),
-        }
-    }
-
-    fn t_prev(&self) -> f64 {
-        match self {
-            Engine::Core(c) => c.t_prev(),
-            Engine::Bdf(b) => b.t_prev(),
-        }
-    }
-
-    fn state(&self) -> &[f64] {
-        match self {
-            Engine::Core(c) => &c.s,
-            Engine::Bdf(b) => b.state(),
-        }
-    }
-
-    fn stats(&self) -> Stats {
-        match self {
-            Engine::Core(c) => c.stats,
-            Engine::Bdf(b) => *b.stats(),
-        }
-    }
-
-    fn options(&self) -> &SolverOptions {
-        match self {
-            Engine::Core(c) => c.options(),
-            Engine::Bdf(b) => b.options(),
-        }
-    }
-
-    fn h_next(&self) -> f64 {
-        match self {
-            Engine::Core(c) => c.h_next(),
-            Engine::Bdf(b) => b.h_next(),
-        }
-    }
-
-    fn step(&mut self) -> Result<StepReport, OdeError> {
-        match self {
-            Engine::Core(c) => c.step(None),
-            Engine::Bdf(b) => b.step(),
-        }
-    }
-
-    fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, OdeError> {
-        match self {
-            Engine::Core(c) => c.step_to(t_end),
-            Engine::Bdf(b) => b.step_to(t_end),
-        }
-    }
-
-    fn interpolate(&self, t: f64, out: &mut [f64]) -> Result<(), OdeError> {
-        match self {
-            Engine::Core(c) => c.interpolate(t, out),
-            Engine::Bdf(b) => b.interpolate(t, out),
-        }
-    }
-
-    fn set_state(&mut self, t: f64, s: &[f64]) -> Result<(), OdeError> {
-        match self {
-            Engine::Core(c) => c.set_state(t, s),
-            Engine::Bdf(b) => b.set_state(t, s),
-        }
-    }
-
-    fn count_event_evaluations(&mut self, n: usize) {
-        match self {
-            Engine::Core(c) => c.stats.num_g_evals += n,
-            Engine::Bdf(b) => b.count_event_evaluations(n),
-        }
-    }
-
-    fn integrate<F>(&mut self, t_end: f64, mut callback: F) -> Result<IntegrateInfo, OdeError>
-    where
-        F: FnMut(&StepReport, &[f64]) -> ControlFlow<()>,
-    {
-        while let Some(report) = self.step_to(t_end)? {
-            if callback(&report, self.state()).is_break() {
-                return Ok(IntegrateInfo {
-                    t: self.t(),
-                    stopped_by_callback: true,
-                    stats: self.stats(),
-                });
-            }
-        }
-        Ok(IntegrateInfo {
-            t: self.t(),
-            stopped_by_callback: false,
-            stats: self.stats(),
-        })
-    }
+/// The engine of `method` on the stage system `sys` from `(t0, s0)`.
+fn engine<S: crate::bdf::Corrector + 'static>(
+    sys: S,
+    method: Method,
+    t0: f64,
+    s0: Vec<f64>,
+    options: SolverOptions,
+) -> Result<Box<dyn Engine<S::Problem>>, OdeError> {
+    Ok(match method {
+        Method::VariableBdf => Box::new(Bdf::new(sys, t0, &s0, options)?),
+        _ => Box::new(Core::new(sys, method, t0, s0, options)?),
+    })
 }
+
+/// An integrator of the problem `P` of the kind `K` ([`FirstOrder`] or
+/// [`SecondOrder`]) with the engine its [`Method`] runs on:
+/// [`FirstOrderIntegrator`] or [`SecondOrderIntegrator`]. Stepping, dense
+/// output, `step_to`, `integrate`, `solve_at` and events are the stepping
+/// contract's ([`Integrator`]; import the trait).
+pub struct OdeIntegrator<P, K> {
+    engine: Box<dyn Engine<P>>,
+    method: Method,
+    kind: PhantomData<K>,
+}
+
+/// The kind of an [`OdeIntegrator`] of first-order problems `y' = f(t, y)`.
+#[derive(Debug)]
+pub enum FirstOrder {}
+
+/// The kind of an [`OdeIntegrator`] of second-order problems `M x'' = f(t, x, v)`.
+#[derive(Debug)]
+pub enum SecondOrder {}
 
 /// Integrates a first-order problem `y' = f(t, y)` (eq. 7) with any
 /// [`Method`] except the second-order-only ones (FB Euler, Verlet).
@@ -165,13 +78,10 @@ impl<S: crate::bdf::Corrector> Engine<S> {
 /// (`df/dy` from [`FirstOrderProblem::jacobian`] or forward differences), or
 /// sparse LU when the problem has a
 /// [`sparse_jacobian_pattern`](FirstOrderProblem::sparse_jacobian_pattern).
-/// [`Method::VariableBdf`] runs the variable-order BDF ([`BdfSolver`](crate::BdfSolver)).
-pub struct FirstOrderIntegrator<P: FirstOrderProblem> {
-    engine: Engine<FirstSys<P>>,
-    method: Method,
-}
+/// [`Method::VariableBdf`] runs the variable-order BDF ([`crate::bdf`]'s engine).
+pub type FirstOrderIntegrator<P> = OdeIntegrator<P, FirstOrder>;
 
-impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
+impl<P: FirstOrderProblem + 'static> OdeIntegrator<P, FirstOrder> {
     /// A new integrator at `(t0, y0)`.
     ///
     /// # Errors
@@ -187,104 +97,17 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
     ) -> Result<Self, OdeError> {
         let sys = FirstSys::new(problem, &options)?;
         Ok(Self {
-            engine: Engine::new(sys, method.clone(), t0, y0.to_vec(), options)?,
+            engine: engine(sys, method.clone(), t0, y0.to_vec(), options)?,
             method,
+            kind: PhantomData,
         })
     }
+}
 
-    /// Advances one (accepted) step and reports what happened. Between
-    /// steps the caller may change the problem ([`problem_mut`](Self::problem_mut))
-    /// or the state ([`set_state`](Self::set_state)).
-    ///
-    /// # Errors
-    /// [`OdeError::NonFinite`] for NaN in the state, [`OdeError::StepSizeUnderflow`],
-    /// [`OdeError::NewtonFailed`] / [`OdeError::SingularMatrix`] after the
-    /// allowed retries; each carries the time reached.
-    pub fn step(&mut self) -> Result<StepReport, OdeError> {
-        self.engine.step()
-    }
-
-    /// One step that does not pass `t_end`, or `None` once `t_end` is
-    /// reached: the landing rule of every driver (a nominal step that ends
-    /// within `max(1e-9 h, 8 eps |t_end|)` of `t_end` is taken and ends
-    /// exactly on it; a longer one is shortened to end on it).
-    ///
-    /// # Errors
-    /// As [`step`](Self::step); [`OdeError::InvalidParameter`] for a
-    /// non-finite `t_end` or one before the current time.
-    pub fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, OdeError> {
-        self.engine.step_to(t_end)
-    }
-
-    /// Integrates to `t_end` (the last step is shortened to land on it).
-    ///
-    /// # Errors
-    /// As [`step`](Self::step), and [`OdeError::InvalidParameter`] for a
-    /// `t_end` before the current time.
-    pub fn integrate(&mut self, t_end: f64) -> Result<IntegrateInfo, OdeError> {
-        self.engine
-            .integrate(t_end, |_, _| ControlFlow::Continue(()))
-    }
-
-    /// Integrates to `t_end`, calling `callback(report, y)` after every
-    /// step; `ControlFlow::Break(())` stops the run.
-    ///
-    /// # Errors
-    /// As [`integrate`](Self::integrate).
-    pub fn integrate_with<F>(&mut self, t_end: f64, callback: F) -> Result<IntegrateInfo, OdeError>
-    where
-        F: FnMut(&StepReport, &[f64]) -> ControlFlow<()>,
-    {
-        self.engine.integrate(t_end, callback)
-    }
-
-    /// The current time.
-    pub fn t(&self) -> f64 {
-        self.engine.t()
-    }
-
+impl<P> OdeIntegrator<P, FirstOrder> {
     /// The current state `y`.
     pub fn y(&self) -> &[f64] {
         self.engine.state()
-    }
-
-    /// Replaces time and state; multistep history restarts.
-    ///
-    /// # Errors
-    /// [`OdeError::DimensionMismatch`], [`OdeError::NonFinite`], [`OdeError::InvalidParameter`].
-    pub fn set_state(&mut self, t: f64, y: &[f64]) -> Result<(), OdeError> {
-        self.engine.set_state(t, y)
-    }
-
-    /// The counters of the run so far.
-    pub fn stats(&self) -> Stats {
-        self.engine.stats()
-    }
-
-    /// The method.
-    pub fn method(&self) -> &Method {
-        &self.method
-    }
-
-    /// The options.
-    pub fn options(&self) -> &SolverOptions {
-        self.engine.options()
-    }
-
-    /// The step size the next step will try.
-    pub fn h_next(&self) -> f64 {
-        self.engine.h_next()
-    }
-
-    /// The problem.
-    pub fn problem(&self) -> &P {
-        &self.engine.sys().problem
-    }
-
-    /// The problem, mutably (cached right-hand-side values are dropped, the
-    /// variable-order BDF evaluates its Jacobian again).
-    pub fn problem_mut(&mut self) -> &mut P {
-        &mut self.engine.sys_mut().problem
     }
 }
 
@@ -302,7 +125,7 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
 /// velocities on the velocities they compute.
 ///
 /// ```
-/// use hookean_ode::{Method, SecondOrderIntegrator, SolverOptions};
+/// use hookean_ode::{Integrator, Method, SecondOrderIntegrator, SolverOptions};
 /// use hookean_ode::tutorial::LinearOscillator;
 ///
 /// // The tutorial's example 3: a particle on a damped spring under gravity.
@@ -310,7 +133,7 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
 /// let mut ode = SecondOrderIntegrator::new(
 ///     ex3.particle(), Method::Bdf(2), 0.0, &ex3.x0(), &ex3.v0_vec(), SolverOptions::with_h(1e-3),
 /// )?;
-/// ode.integrate(ex3.t_end)?;
+/// ode.integrate(ex3.t_end)?; // the stepping contract, `Integrator`
 /// let [z, v] = ex3.exact(ex3.t_end);
 /// assert!((ode.x()[2] - z).abs() < 1e-5 && (ode.v()[2] - v).abs() < 1e-4);
 /// assert!(ode.stats().num_lin_iters > 0); // PCG on the reduced form
@@ -325,12 +148,9 @@ impl<P: FirstOrderProblem> FirstOrderIntegrator<P> {
 /// assert!(bdf.stats().num_steps < 1000);
 /// # Ok::<(), hookean_ode::OdeError>(())
 /// ```
-pub struct SecondOrderIntegrator<P: SecondOrderProblem> {
-    engine: Engine<SecondSys<P>>,
-    method: Method,
-}
+pub type SecondOrderIntegrator<P> = OdeIntegrator<P, SecondOrder>;
 
-impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
+impl<P: SecondOrderProblem + 'static> OdeIntegrator<P, SecondOrder> {
     /// A new integrator at `(t0, x0, v0)`.
     ///
     /// # Errors
@@ -395,63 +215,14 @@ impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
         let mut s0 = x0.to_vec();
         s0.extend_from_slice(v0);
         Ok(Self {
-            engine: Engine::new(sys, method.clone(), t0, s0, options)?,
+            engine: engine(sys, method.clone(), t0, s0, options)?,
             method,
+            kind: PhantomData,
         })
     }
+}
 
-    /// Advances one (accepted) step; see [`FirstOrderIntegrator::step`].
-    ///
-    /// # Errors
-    /// As [`FirstOrderIntegrator::step`], plus [`OdeError::LinearSolver`]
-    /// when PCG fails after the allowed retries.
-    pub fn step(&mut self) -> Result<StepReport, OdeError> {
-        self.engine.step()
-    }
-
-    /// One step that does not pass `t_end`, or `None` once `t_end` is
-    /// reached; see [`FirstOrderIntegrator::step_to`].
-    ///
-    /// # Errors
-    /// As [`FirstOrderIntegrator::step_to`].
-    pub fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, OdeError> {
-        self.engine.step_to(t_end)
-    }
-
-    /// Integrates to `t_end`.
-    ///
-    /// # Errors
-    /// As [`step`](Self::step).
-    pub fn integrate(&mut self, t_end: f64) -> Result<IntegrateInfo, OdeError> {
-        self.engine
-            .integrate(t_end, |_, _| ControlFlow::Continue(()))
-    }
-
-    /// Integrates to `t_end`, calling `callback(report, x, v)` after every
-    /// step; `ControlFlow::Break(())` stops the run.
-    ///
-    /// # Errors
-    /// As [`step`](Self::step).
-    pub fn integrate_with<F>(
-        &mut self,
-        t_end: f64,
-        mut callback: F,
-    ) -> Result<IntegrateInfo, OdeError>
-    where
-        F: FnMut(&StepReport, &[f64], &[f64]) -> ControlFlow<()>,
-    {
-        let n = self.engine.state().len() / 2;
-        self.engine.integrate(t_end, |r, s| {
-            let (x, v) = s.split_at(n);
-            callback(r, x, v)
-        })
-    }
-
-    /// The current time.
-    pub fn t(&self) -> f64 {
-        self.engine.t()
-    }
-
+impl<P> OdeIntegrator<P, SecondOrder> {
     /// The current positions.
     pub fn x(&self) -> &[f64] {
         let s = self.engine.state();
@@ -464,22 +235,15 @@ impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
         &s[s.len() / 2..]
     }
 
-    /// The state `[x; v]` (the first-order form (6)).
-    pub fn state(&self) -> &[f64] {
-        self.engine.state()
-    }
-
-    /// Replaces time, positions and velocities; multistep history restarts.
+    /// Replaces time, positions and velocities, copying the halves in
+    /// place (no allocation, so that wrappers may hand a post-processed
+    /// state back after every step); multistep history restarts, the
+    /// growth bound stays ([`Integrator::restart`] takes a new one).
     ///
     /// # Errors
     /// [`OdeError::DimensionMismatch`], [`OdeError::NonFinite`], [`OdeError::InvalidParameter`].
     pub fn set_state(&mut self, t: f64, x: &[f64], v: &[f64]) -> Result<(), OdeError> {
-        // Copies the halves in place: no allocation, so that wrappers may
-        // hand a post-processed state back after every step.
-        match &mut self.engine {
-            Engine::Core(c) => c.set_state_parts(t, x, v),
-            Engine::Bdf(b) => b.set_state_parts(t, x, v),
-        }
+        self.engine.set_state_parts(t, x, v)
     }
 
     /// Edits the positions and velocities in place between steps:
@@ -490,22 +254,25 @@ impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
     /// caught by the next step ([`OdeError::NonFinite`]). Returns what `f`
     /// returns.
     pub fn modify_state<R>(&mut self, f: impl FnOnce(&mut [f64], &mut [f64]) -> R) -> R {
-        match &mut self.engine {
-            Engine::Core(c) => c.modify_state_parts(f),
-            Engine::Bdf(b) => b.modify_state_parts(f),
-        }
+        let mut f = Some(f);
+        let mut result = None;
+        self.engine.modify_state_parts(&mut |x, v| {
+            if let Some(f) = f.take() {
+                result = Some(f(x, v));
+            }
+        });
+        result.expect("the engine edits the state once")
     }
 
     /// The constraints set by the last [`SecondOrderProblem::begin_step`].
     pub fn constraints(&self) -> &Constraints {
-        &self.engine.sys().constraints
+        self.engine
+            .constraints()
+            .expect("a second-order engine keeps the step's constraints")
     }
+}
 
-    /// The counters of the run so far.
-    pub fn stats(&self) -> Stats {
-        self.engine.stats()
-    }
-
+impl<P, K> OdeIntegrator<P, K> {
     /// The method.
     pub fn method(&self) -> &Method {
         &self.method
@@ -515,61 +282,46 @@ impl<P: SecondOrderProblem> SecondOrderIntegrator<P> {
     pub fn options(&self) -> &SolverOptions {
         self.engine.options()
     }
+}
 
-    /// The step size the next step will try.
-    pub fn h_next(&self) -> f64 {
+/// The stepping contract, passed on to the engine.
+impl<P, K> Integrator for OdeIntegrator<P, K> {
+    type Problem = P;
+
+    fn t(&self) -> f64 {
+        self.engine.t()
+    }
+    fn t_prev(&self) -> f64 {
+        self.engine.t_prev()
+    }
+    fn state(&self) -> &[f64] {
+        self.engine.state()
+    }
+    fn stats(&self) -> Stats {
+        self.engine.stats()
+    }
+    fn h_next(&self) -> f64 {
         self.engine.h_next()
     }
-
-    /// The problem.
-    pub fn problem(&self) -> &P {
-        &self.engine.sys().problem
+    fn problem(&self) -> &P {
+        self.engine.problem()
     }
-
-    /// The problem, mutably (cached forces are dropped, the variable-order
-    /// BDF evaluates its Jacobians again).
-    pub fn problem_mut(&mut self) -> &mut P {
-        &mut self.engine.sys_mut().problem
+    fn problem_mut(&mut self) -> &mut P {
+        self.engine.problem_mut()
+    }
+    fn step_bounded(&mut self, t_bound: f64) -> Result<StepReport, OdeError> {
+        self.engine.step_bounded(t_bound)
+    }
+    fn land_on(&mut self, t_end: f64) {
+        self.engine.land_on(t_end);
+    }
+    fn interpolate(&self, t: f64, out: &mut [f64]) -> Result<(), OdeError> {
+        self.engine.interpolate(t, out)
+    }
+    fn restart(&mut self, t: f64, y: &[f64]) -> Result<(), OdeError> {
+        self.engine.restart(t, y)
+    }
+    fn count_event_evaluations(&mut self, n: usize) {
+        self.engine.count_event_evaluations(n);
     }
 }
-
-/// The stepping contract of both integrators, by delegation.
-macro_rules! integrator_impl {
-    ($ty:ident, $bound:ident) => {
-        impl<P: $bound> Integrator for $ty<P> {
-            fn t(&self) -> f64 {
-                self.engine.t()
-            }
-            fn t_prev(&self) -> f64 {
-                self.engine.t_prev()
-            }
-            fn state(&self) -> &[f64] {
-                self.engine.state()
-            }
-            fn stats(&self) -> Stats {
-                self.engine.stats()
-            }
-            fn h_next(&self) -> f64 {
-                self.engine.h_next()
-            }
-            fn step(&mut self) -> Result<StepReport, OdeError> {
-                self.engine.step()
-            }
-            fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, OdeError> {
-                self.engine.step_to(t_end)
-            }
-            fn interpolate(&self, t: f64, out: &mut [f64]) -> Result<(), OdeError> {
-                self.engine.interpolate(t, out)
-            }
-            fn restart(&mut self, t: f64, y: &[f64]) -> Result<(), OdeError> {
-                self.engine.set_state(t, y)
-            }
-            fn count_event_evaluations(&mut self, n: usize) {
-                self.engine.count_event_evaluations(n);
-            }
-        }
-    };
-}
-
-integrator_impl!(FirstOrderIntegrator, FirstOrderProblem);
-integrator_impl!(SecondOrderIntegrator, SecondOrderProblem);

@@ -20,14 +20,15 @@
 //!   options, the linear solver's ([`PcgOptions`]) and the variable-order
 //!   BDF's settings ([`BdfConfig`]). [`Stats`]: the one set of counters,
 //!   named after CVODE's.
-//! - [`Integrator`]: the stepping contract every method keeps: `step()`
-//!   returns a [`StepReport`], `step_to` lands on an end time (one rule),
-//!   `interpolate` gives dense output on the last step, and `integrate`,
-//!   `solve_at` and events ([`Events`]) are built on them once.
+//! - [`Integrator`]: the stepping contract every engine implements once:
+//!   one bounded step (returning a [`StepReport`]) and `interpolate`, dense
+//!   output on the last step; `step`, `step_to` (landing on an end time,
+//!   one rule), `integrate`, `solve_at` and events ([`Events`]) are its
+//!   default methods, written once (diffsol's `OdeSolverMethod` shape).
 //!   [`FirstOrderIntegrator`] and [`SecondOrderIntegrator`] run every
-//!   method; [`BdfSolver`] is the variable-order BDF/NDF for stiff
-//!   first-order problems in the quasi-constant-step form of SciPy and
-//!   ode15s with CVODE's Jacobian and Newton-matrix re-use ([`bdf`]).
+//!   method; [`Method::VariableBdf`] is the variable-order BDF/NDF for stiff
+//!   problems in the quasi-constant-step form of SciPy and ode15s with
+//!   CVODE's Jacobian and Newton-matrix re-use ([`bdf`]).
 //! - [`stability`]: stability functions `R(z)`, BDF boundary loci,
 //!   [`is_a_stable`](stability::is_a_stable), region sampling (figure 4).
 //! - [`testset`]: the standard stiff test problems with published
@@ -50,7 +51,7 @@
 //! controller of the tutorial's section 3.4, [`StepControl`]).
 //!
 //! ```
-//! use hookean_ode::{FirstOrderIntegrator, FirstOrderProblem, Method, SolverOptions};
+//! use hookean_ode::{FirstOrderIntegrator, FirstOrderProblem, Integrator, Method, SolverOptions};
 //!
 //! /// Dahlquist's equation y' = lambda y (the tutorial's eq. 20).
 //! struct Dahlquist(f64);
@@ -72,10 +73,10 @@
 //!
 //! ```
 //! use hookean_ode::testset::{TestProblem, VanDerPol, mixed_error};
-//! use hookean_ode::{BdfSolver, Integrator, SolverOptions};
+//! use hookean_ode::{FirstOrderIntegrator, Integrator, Method, SolverOptions};
 //!
 //! let opts = SolverOptions::with_tolerances(1e-6, 1e-6);
-//! let mut solver = BdfSolver::new(VanDerPol, 0.0, &[2.0, 0.0], opts)?;
+//! let mut solver = FirstOrderIntegrator::new(VanDerPol, Method::VariableBdf, 0.0, &[2.0, 0.0], opts)?;
 //! let sol = solver.solve_at(&[0.5, 1.0, 1.5, 2.0])?;
 //! // The IVP test set's reference value at t = 2 (Mazzia-Magherini).
 //! assert!(mixed_error(sol.y(3), &VanDerPol.reference(), &VanDerPol.floor()) < 1e-4);
@@ -120,6 +121,7 @@
 struct ReadmeExample;
 
 pub mod bdf;
+mod bdf_config;
 pub mod control;
 mod core;
 pub mod error;
@@ -139,7 +141,7 @@ pub mod tutorial;
 pub mod workprecision;
 
 pub use bdf::{
-    BdfCoefficients, BdfConfig, BdfLinearSolver, BdfSolver, Formula, MAX_ORDER, TOLERANCE_EXPONENT,
+    BdfCoefficients, BdfConfig, BdfLinearSolver, Formula, MAX_ORDER, TOLERANCE_EXPONENT,
 };
 pub use control::{
     IterationController, IterationControllerOptions, NewtonOutcome, PiController,
@@ -153,9 +155,11 @@ pub use hookean_nonlinear::{ForcingTerm, NewtonMethod, NewtonOptions, PcgOptions
 pub use hookean_problem::{FirstOrderProblem, SecondOrderProblem};
 /// The preconditioners of [`PcgOptions`] and [`BdfLinearSolver::Gmres`].
 pub use hookean_sparse::{PrecondKind, PreconditionerOptions};
-pub use integrator::{FirstOrderIntegrator, SecondOrderIntegrator};
+pub use integrator::{
+    FirstOrder, FirstOrderIntegrator, OdeIntegrator, SecondOrder, SecondOrderIntegrator,
+};
 pub use method::Method;
-pub use options::{Predictor, SolverOptions, StepControl, StepSizePolicy, Tolerance};
+pub use options::{DEFAULT_STEP, Predictor, SolverOptions, StepControl, StepSizePolicy, Tolerance};
 pub use phases::PhaseTimes;
 /// The sparse matrix crate of [`FirstOrderProblem::sparse_jacobian_pattern`]
 /// and [`FirstOrderProblem::jacobian_sparse`], re-exported so that users

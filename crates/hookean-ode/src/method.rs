@@ -38,7 +38,7 @@ pub enum Method {
     Bdf2Variable,
     /// `"bdf"`: the variable-order (1-5), variable-step BDF/NDF with error
     /// control, the recommended solver for stiff problems
-    /// ([`BdfSolver`](crate::BdfSolver); the NDF of ode15s by default,
+    /// ([`bdf`](crate::bdf); the NDF of ode15s by default,
     /// [`BdfConfig::formula`](crate::BdfConfig::formula)). Second-order
     /// problems run on the reduced stage equations with PCG. Tolerances
     /// `rtol`, `atol` of [`SolverOptions`](crate::SolverOptions). Not in

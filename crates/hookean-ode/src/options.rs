@@ -6,7 +6,7 @@
 
 use hookean_nonlinear::{NewtonOptions, PcgOptions};
 
-use crate::bdf::BdfConfig;
+use crate::bdf_config::BdfConfig;
 use crate::control::{IterationControllerOptions, PiControllerOptions};
 use crate::error::OdeError;
 
@@ -15,6 +15,11 @@ use crate::error::OdeError;
 /// far below a blown-up run (a fixed-step BDF4 outside its stability region
 /// reached `4e70`).
 pub const DEFAULT_MAX_GROWTH: f64 = 1e30;
+
+/// The default step size `h` (s): the reference drape's (docs/ARCHITECTURE.md),
+/// the one value of [`SolverOptions::default`], of the facade's drape
+/// settings and of a scene without `integrator.h`.
+pub const DEFAULT_STEP: f64 = 1e-2;
 
 /// The absolute tolerance: one value for every component or one per component.
 #[derive(Debug, Clone, PartialEq)]
@@ -163,8 +168,8 @@ impl Default for StepSizePolicy {
 pub struct SolverOptions {
     /// The step size of the fixed-step methods and the initial step size
     /// of variable-step BDF2 (the variable-order BDF estimates its own
-    /// unless [`BdfConfig::initial_step`] is set). Default `1e-2` (the
-    /// reference drape, docs/ARCHITECTURE.md).
+    /// unless [`BdfConfig::initial_step`] is set). Default
+    /// [`DEFAULT_STEP`]` = 1e-2` (the reference drape).
     pub h: f64,
     /// Relative tolerance of the variable-step methods. Default `1e-6`.
     pub rtol: f64,
@@ -234,7 +239,7 @@ pub struct SolverOptions {
 impl Default for SolverOptions {
     fn default() -> Self {
         Self {
-            h: 1e-2,
+            h: DEFAULT_STEP,
             rtol: 1e-6,
             atol: Tolerance::Scalar(1e-8),
             step: StepSizePolicy::default(),

@@ -1,6 +1,7 @@
-//! The stepping contract every method keeps ([`Integrator`]): one step,
-//! one step that lands on an end time (the one landing rule), dense output
-//! on the last step, and the drivers built on them once for all methods:
+//! The stepping contract every engine keeps ([`Integrator`]): one bounded
+//! step and dense output on the last step, required of each engine, and
+//! the drivers built on them once for all: one step that lands on an end
+//! time (the one landing rule, [`step_to`](Integrator::step_to)),
 //! [`integrate`](Integrator::integrate), [`solve_at`](Integrator::solve_at)
 //! and event location ([`solve_at_with_events`](Integrator::solve_at_with_events)).
 
@@ -10,15 +11,23 @@ use crate::error::OdeError;
 use crate::events::{EventHit, Events};
 use crate::stats::{IntegrateInfo, Stats, StepReport};
 
-/// One method on one problem, stepped through time: the fixed-step and
-/// variable-step methods of [`Method`](crate::Method) behind
-/// [`FirstOrderIntegrator`](crate::FirstOrderIntegrator) and
-/// [`SecondOrderIntegrator`](crate::SecondOrderIntegrator), and the
-/// variable-order BDF ([`BdfSolver`](crate::BdfSolver)). Diffsol's
-/// `OdeSolverMethod` plays the same part.
+/// One method on one problem, stepped through time: the stepping contract
+/// of every engine (the one-step, fixed-step multistep and variable-step
+/// methods of [`Method`](crate::Method), and the variable-order BDF), of the integrators
+/// that choose an engine by [`Method`](crate::Method)
+/// ([`FirstOrderIntegrator`](crate::FirstOrderIntegrator),
+/// [`SecondOrderIntegrator`](crate::SecondOrderIntegrator)) and of wrappers
+/// such as the velocity filter. As in diffsol's `OdeSolverMethod`, each
+/// engine implements the few required methods, above all one bounded step
+/// ([`step_bounded`](Self::step_bounded)); the drivers are the default
+/// methods written once here: [`step`](Self::step),
+/// [`step_to`](Self::step_to) (the one landing rule),
+/// [`integrate`](Self::integrate), [`integrate_with`](Self::integrate_with),
+/// [`solve_at`](Self::solve_at) (dense-output sampling) and
+/// [`solve_at_with_events`](Self::solve_at_with_events).
 ///
 /// ```
-/// use hookean_ode::{BdfSolver, FirstOrderIntegrator, FirstOrderProblem, Integrator, Method, SolverOptions};
+/// use hookean_ode::{FirstOrderIntegrator, FirstOrderProblem, Integrator, Method, OdeError, SolverOptions};
 ///
 /// /// y' = -y, y(0) = 1.
 /// struct Decay;
@@ -28,19 +37,22 @@ use crate::stats::{IntegrateInfo, Stats, StepReport};
 /// }
 ///
 /// // The same driver for a fixed-step method and the stiff solver.
-/// fn y_at_one(mut ode: impl Integrator) -> Result<f64, hookean_ode::OdeError> {
+/// fn y_at_one(mut ode: impl Integrator) -> Result<f64, OdeError> {
 ///     let sol = ode.solve_at(&[0.5, 1.0])?;
 ///     Ok(sol.y(1)[0])
 /// }
 /// let opts = SolverOptions { rtol: 1e-8, ..SolverOptions::with_h(1e-3) };
 /// let rk4 = FirstOrderIntegrator::new(Decay, Method::Rk4, 0.0, &[1.0], opts.clone())?;
-/// let bdf = BdfSolver::new(Decay, 0.0, &[1.0], opts)?;
+/// let bdf = FirstOrderIntegrator::new(Decay, Method::VariableBdf, 0.0, &[1.0], opts)?;
 /// let exact = (-1.0f64).exp();
 /// assert!((y_at_one(rk4)? - exact).abs() < 1e-12);
 /// assert!((y_at_one(bdf)? - exact).abs() < 1e-6);
-/// # Ok::<(), hookean_ode::OdeError>(())
+/// # Ok::<(), OdeError>(())
 /// ```
 pub trait Integrator {
+    /// The problem the engine integrates.
+    type Problem;
+
     /// The current time (the end of the last accepted step).
     fn t(&self) -> f64;
 
@@ -59,22 +71,31 @@ pub trait Integrator {
     /// BDF's first step).
     fn h_next(&self) -> f64;
 
-    /// One accepted step.
-    ///
-    /// # Errors
-    /// The method's failures, each carrying the time reached.
-    fn step(&mut self) -> Result<StepReport, OdeError>;
+    /// The problem.
+    fn problem(&self) -> &Self::Problem;
 
-    /// One step that does not pass `t_end`, or `None` once `t_end` is
-    /// reached: the one landing rule of every driver. A step that would
-    /// pass `t_end` is shortened to end on it; within
-    /// [`landing_slack`] below `t_end` the time is set to `t_end` without a
-    /// step (no sliver of a step is left).
+    /// The problem, mutably, between steps (values cached from it are
+    /// dropped: forces, and the variable-order BDF's Jacobian).
+    fn problem_mut(&mut self) -> &mut Self::Problem;
+
+    /// One accepted step that does not pass `t_bound` (`t_bound > t`;
+    /// `f64::INFINITY` for none): a step that would pass it is shortened to
+    /// end on it, and a step that ends within [`landing_slack`] of it ends
+    /// exactly on it. The one step each engine writes.
     ///
     /// # Errors
-    /// As [`step`](Self::step); [`OdeError::InvalidParameter`] for a
-    /// non-finite `t_end` or one before the current time.
-    fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, OdeError>;
+    /// The method's failures, each carrying the time reached:
+    /// [`OdeError::NonFinite`], [`OdeError::StepSizeUnderflow`],
+    /// [`OdeError::NewtonFailed`], [`OdeError::SingularMatrix`],
+    /// [`OdeError::LinearSolver`] after the allowed retries,
+    /// [`OdeError::StateGrowth`], and the variable-order BDF's
+    /// [`OdeError::TooManySteps`] and [`OdeError::ErrorTestFailed`].
+    fn step_bounded(&mut self, t_bound: f64) -> Result<StepReport, OdeError>;
+
+    /// Sets the time to `t_end`, within [`landing_slack`] above the
+    /// current time, without a step ([`step_to`](Self::step_to)'s landing).
+    #[doc(hidden)]
+    fn land_on(&mut self, t_end: f64);
 
     /// The dense output at `t` in the last step `[t_prev, t]`, written into
     /// `out`: the variable-order BDF's interpolating polynomial (of the
@@ -86,8 +107,10 @@ pub trait Integrator {
     /// [`OdeError::DimensionMismatch`] for a wrong `out`.
     fn interpolate(&self, t: f64, out: &mut [f64]) -> Result<(), OdeError>;
 
-    /// Restarts at `(t, y)` (a new state: multistep history and dense output
-    /// start again), e.g. at a terminal event.
+    /// Restarts at the new state `(t, y)`: multistep history and dense
+    /// output start again, and the blow-up bound
+    /// ([`SolverOptions::max_growth`](crate::SolverOptions::max_growth)) is
+    /// taken from `y` (e.g. at a terminal event, or a state set by the user).
     ///
     /// # Errors
     /// [`OdeError::DimensionMismatch`], [`OdeError::NonFinite`],
@@ -98,6 +121,39 @@ pub trait Integrator {
     /// bookkeeping of [`Stats::num_g_evals`]).
     #[doc(hidden)]
     fn count_event_evaluations(&mut self, n: usize);
+
+    /// One accepted step ([`step_bounded`](Self::step_bounded) without a bound).
+    ///
+    /// # Errors
+    /// As [`step_bounded`](Self::step_bounded).
+    fn step(&mut self) -> Result<StepReport, OdeError> {
+        self.step_bounded(f64::INFINITY)
+    }
+
+    /// One step that does not pass `t_end`, or `None` once `t_end` is
+    /// reached: the one landing rule of every driver. Within
+    /// [`landing_slack`] below `t_end` the time is set to `t_end` without a
+    /// step (no sliver of a step is left); otherwise one
+    /// [`step_bounded`](Self::step_bounded) to `t_end`.
+    ///
+    /// # Errors
+    /// As [`step_bounded`](Self::step_bounded); [`OdeError::InvalidParameter`] for a
+    /// non-finite `t_end` or one before the current time.
+    fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, OdeError> {
+        let t = self.t();
+        if !t_end.is_finite() || t_end < t {
+            return Err(OdeError::InvalidParameter {
+                name: "t_end",
+                value: t_end,
+                reason: "must be finite and not before the current time",
+            });
+        }
+        if t_end - t <= landing_slack(t, t_end, self.h_next()) {
+            self.land_on(t_end);
+            return Ok(None);
+        }
+        self.step_bounded(t_end).map(Some)
+    }
 
     /// [`step_to`](Self::step_to) until `t_end`.
     ///
@@ -236,7 +292,12 @@ fn solve_at<I: Integrator>(
         let mut stop_at = ode.t();
         let mut terminal = false;
         if let Some(ev) = events.as_deref_mut() {
-            let (hit_terminal, evaluations) = ev.locate(&*ode, &mut sol.events)?;
+            let (hit_terminal, evaluations) = ev.locate(
+                (ode.t_prev(), ode.t()),
+                ode.state(),
+                |t, out| ode.interpolate(t, out),
+                &mut sol.events,
+            )?;
             ode.count_event_evaluations(evaluations);
             terminal = hit_terminal;
             if terminal {

@@ -11,6 +11,7 @@ use crate::integrator::{FirstOrderIntegrator, SecondOrderIntegrator};
 use crate::method::Method;
 use crate::options::SolverOptions;
 use crate::stats::Stats;
+use crate::stepping::Integrator;
 use hookean_problem::{FirstOrderProblem, SecondOrderProblem};
 
 /// What a work-precision run varies.
@@ -272,7 +273,7 @@ pub fn first_order<P, F>(
     base: &SolverOptions,
 ) -> Result<Vec<WorkPrecisionRow>, OdeError>
 where
-    P: FirstOrderProblem,
+    P: FirstOrderProblem + 'static,
     F: FnMut() -> P,
 {
     check_sweep(sweep, method)?;
@@ -309,7 +310,7 @@ pub fn second_order<P, F>(
     base: &SolverOptions,
 ) -> Result<Vec<WorkPrecisionRow>, OdeError>
 where
-    P: SecondOrderProblem,
+    P: SecondOrderProblem + 'static,
     F: FnMut() -> P,
 {
     check_sweep(sweep, method)?;

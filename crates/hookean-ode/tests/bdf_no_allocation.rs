@@ -9,17 +9,17 @@
 //! allocates its factors.)
 
 use hookean_ode::testset::{Hires, SpringChain, TestProblem, options};
-use hookean_ode::{BdfSolver, Integrator};
+use hookean_ode::{FirstOrderIntegrator, Integrator, Method};
 use hookean_testkit::alloc::{Counting, allocations};
 
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-fn check<P: TestProblem>(p: P) {
+fn check<P: TestProblem + 'static>(p: P) {
     let t_end = p.t_end();
     let opts = options(&p, 1e-6);
     let y0 = p.y0();
-    let mut s = BdfSolver::new(p, 0.0, &y0, opts).unwrap();
+    let mut s = FirstOrderIntegrator::new(p, Method::VariableBdf, 0.0, &y0, opts).unwrap();
     s.step_to(t_end).unwrap();
     let (mut refactored, mut checked) = (0, 0);
     while s.t() < t_end {

@@ -5,6 +5,7 @@
 //! (algorithm 3) solves implicit Euler's stages with the same isotropic
 //! matrix, kept until the step size or the material changes.
 
+use hookean_ode::Integrator;
 use std::sync::Arc;
 
 use hookean_ode::{

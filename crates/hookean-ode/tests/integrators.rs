@@ -1,6 +1,7 @@
 //! The step-wise API, the driver, the reduced velocity form, constraints,
 //! energy behaviour, variable-step BDF2 and the typed failures.
 
+use hookean_ode::Integrator;
 use std::ops::ControlFlow;
 
 use hookean_ode::tutorial::{Dahlquist, LinearOscillator};
@@ -185,8 +186,9 @@ fn verlet_energy_is_bounded_explicit_euler_grows() {
         SolverOptions::with_h(h),
     )
     .unwrap();
-    ode.integrate_with(1000.0 * period, |_, x, v| {
-        band = band.max((o.energy(x[2], v[2]) / e0 - 1.0).abs());
+    ode.integrate_with(1000.0 * period, |_, s| {
+        // The state is [x; v] (3 + 3 components).
+        band = band.max((o.energy(s[2], s[5]) / e0 - 1.0).abs());
         ControlFlow::Continue(())
     })
     .unwrap();
@@ -474,10 +476,10 @@ fn step_wise_api_and_callback() {
     assert_eq!(ode.stats().num_steps, 4);
     // set_state restarts; a state of the wrong size is a typed error.
     assert!(matches!(
-        ode.set_state(0.0, &[1.0, 2.0]),
+        ode.restart(0.0, &[1.0, 2.0]),
         Err(OdeError::DimensionMismatch { .. })
     ));
-    ode.set_state(0.0, &[1.0]).unwrap();
+    ode.restart(0.0, &[1.0]).unwrap();
     ode.integrate(0.3).unwrap();
     assert!((ode.y()[0] - (-0.3f64).exp()).abs() < 1e-3);
 }

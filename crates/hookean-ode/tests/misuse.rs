@@ -7,8 +7,7 @@
 
 use hookean_ode::tutorial::Dahlquist;
 use hookean_ode::{
-    BdfSolver, FirstOrderIntegrator, FirstOrderProblem, Integrator, Method, OdeError,
-    SolverOptions, Tolerance,
+    FirstOrderIntegrator, FirstOrderProblem, Integrator, Method, OdeError, SolverOptions, Tolerance,
 };
 
 /// `y' = -y` that returns NaN once `t` passes `nan_after`.
@@ -99,7 +98,13 @@ fn absurd_options_are_refused_when_the_integrator_is_built() {
             Err(e) => assert!(!e.to_string().is_empty(), "{what}"),
             Ok(_) => panic!("{what}: accepted by the implicit Euler integrator"),
         }
-        let bdf = BdfSolver::new(Dahlquist { lambda: -1.0 }, 0.0, &[1.0], opts);
+        let bdf = FirstOrderIntegrator::new(
+            Dahlquist { lambda: -1.0 },
+            Method::VariableBdf,
+            0.0,
+            &[1.0],
+            opts,
+        );
         assert!(
             bdf.is_err() || what.starts_with('h'),
             "{what}: accepted by the BDF"
@@ -109,7 +114,14 @@ fn absurd_options_are_refused_when_the_integrator_is_built() {
         let mut opts = SolverOptions::with_tolerances(1e-6, 1e-8);
         opts.bdf.max_order = order;
         assert!(
-            BdfSolver::new(Dahlquist { lambda: -1.0 }, 0.0, &[1.0], opts).is_err(),
+            FirstOrderIntegrator::new(
+                Dahlquist { lambda: -1.0 },
+                Method::VariableBdf,
+                0.0,
+                &[1.0],
+                opts
+            )
+            .is_err(),
             "max_order {order}"
         );
     }
@@ -139,17 +151,33 @@ fn states_and_end_times_that_cannot_be_are_typed_errors() {
         )
         .is_err()
     );
-    assert!(BdfSolver::new(Dahlquist { lambda: -1.0 }, f64::NAN, &[1.0], opts()).is_err());
+    assert!(
+        FirstOrderIntegrator::new(
+            Dahlquist { lambda: -1.0 },
+            Method::VariableBdf,
+            f64::NAN,
+            &[1.0],
+            opts()
+        )
+        .is_err()
+    );
     // End times that are NaN or behind.
     let mut int = euler(opts()).unwrap();
     assert!(int.step_to(f64::NAN).is_err());
     int.step_to(0.05).unwrap();
     assert!(int.step_to(0.0).is_err());
-    let mut bdf = BdfSolver::new(Dahlquist { lambda: -1.0 }, 0.0, &[1.0], opts()).unwrap();
+    let mut bdf = FirstOrderIntegrator::new(
+        Dahlquist { lambda: -1.0 },
+        Method::VariableBdf,
+        0.0,
+        &[1.0],
+        opts(),
+    )
+    .unwrap();
     assert!(bdf.step_to(f64::INFINITY).is_err());
     // An empty problem is refused, not integrated.
     assert!(FirstOrderIntegrator::new(Empty, Method::ImplicitEuler, 0.0, &[], opts()).is_err());
-    assert!(BdfSolver::new(Empty, 0.0, &[], opts()).is_err());
+    assert!(FirstOrderIntegrator::new(Empty, Method::VariableBdf, 0.0, &[], opts()).is_err());
 }
 
 #[test]
@@ -189,8 +217,9 @@ fn a_right_hand_side_that_turns_nan_stops_the_run_with_an_error() {
             int.t()
         );
     }
-    let mut bdf = BdfSolver::new(
+    let mut bdf = FirstOrderIntegrator::new(
         TurnsNan { nan_after: 0.1 },
+        Method::VariableBdf,
         0.0,
         &[1.0],
         SolverOptions::with_tolerances(1e-6, 1e-8),
@@ -219,7 +248,14 @@ fn a_billion_steps_allowed_reserve_nothing() {
     let mut opts = SolverOptions::with_tolerances(1e-6, 1e-8);
     opts.bdf.max_steps = 1_000_000_000;
     opts.bdf.max_newton_iterations = 1_000_000_000;
-    let mut bdf = BdfSolver::new(Dahlquist { lambda: -1.0 }, 0.0, &[1.0], opts).unwrap();
+    let mut bdf = FirstOrderIntegrator::new(
+        Dahlquist { lambda: -1.0 },
+        Method::VariableBdf,
+        0.0,
+        &[1.0],
+        opts,
+    )
+    .unwrap();
     while bdf.step_to(1.0).unwrap().is_some() {}
     assert!((bdf.y()[0] - (-1.0f64).exp()).abs() < 1e-4);
 }

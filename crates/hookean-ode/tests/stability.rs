@@ -1,6 +1,7 @@
 //! Stability functions, A-stability, BDF coefficients and boundary loci,
 //! and the stability limits of the tutorial's section 2.2 on example 1.
 
+use hookean_ode::Integrator;
 use hookean_ode::stability::{
     ComplexGrid, amplification, is_a_stable, oscillator_spectral_radius, sample_region,
     stability_function,

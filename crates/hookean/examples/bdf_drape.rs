@@ -21,7 +21,6 @@
 //! the errors are the largest and the RMS particle distance from the
 //! reference at `t`.
 
-use std::ops::ControlFlow;
 use std::path::Path;
 use std::time::Instant;
 
@@ -58,7 +57,7 @@ fn run(
     let start = Instant::now();
     let mut out = Vec::new();
     for &t in ts {
-        sim.run_until(t, |_, _| ControlFlow::Continue(()))?;
+        sim.run_until(t)?;
         out.push(sim.x().to_vec());
     }
     let wall = start.elapsed().as_secs_f64();

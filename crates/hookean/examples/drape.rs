@@ -13,8 +13,6 @@
 //! keeps the symmetric part of the damping term in `df/dx`. The tables of
 //! docs/PERFORMANCE.md that chose the scene's settings come from this program.
 
-use std::ops::ControlFlow;
-
 use hookean::prelude::*;
 
 fn main() -> Result<(), HookeanError> {
@@ -56,7 +54,7 @@ fn main() -> Result<(), HookeanError> {
         hookean::ode::Predictor::Extrapolate
     };
     let mut sim = Simulation::new(model, state, options)?;
-    let summary = sim.run_until(seconds, |_, _| ControlFlow::Continue(()))?;
+    let summary = sim.run_until(seconds)?;
     let s = summary.stats;
     println!(
         "{n}x{n} drape, {seconds} s: {} steps, {} Newton, {} CG iterations, wall {:.2} s, {:.2} simulated s per wall s",

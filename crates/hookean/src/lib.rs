@@ -22,7 +22,7 @@
 //!
 //! let (model, state) = cloth(&ClothParams { nu: 24, nv: 24, ..Default::default() })?;
 //! let mut sim = Simulation::new(model, state, SimulationOptions::default())?; // implicit Euler, h = 0.01
-//! let summary = sim.run_until(0.5, |_, _| std::ops::ControlFlow::Continue(()))?;
+//! let summary = sim.run_until(0.5)?;
 //! let lowest = sim.x().chunks(3).map(|p| p[2]).fold(f64::INFINITY, f64::min);
 //! assert!(lowest < -0.1, "the free corners fall");
 //! println!("{} steps, {} CG iterations", summary.stats.num_steps, summary.stats.num_lin_iters);

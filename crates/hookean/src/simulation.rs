@@ -68,7 +68,7 @@ impl SimulationOptions {
     /// too (the tolerance is relative to a residual that is sometimes large).
     pub fn drape_solver() -> SolverOptions {
         SolverOptions {
-            h: 0.01,
+            // h: the default step, hookean_ode::DEFAULT_STEP = 0.01.
             newton: NewtonOptions {
                 method: NewtonMethod::Inexact(ForcingTerm::Constant(0.01)),
                 max_iter: 8,
@@ -173,7 +173,7 @@ pub trait Sink {
 /// // The reference drape at 16 x 16 particles, one tenth of a second.
 /// let (model, state) = cloth(&ClothParams { nu: 16, nv: 16, ..Default::default() })?;
 /// let mut sim = Simulation::new(model, state, SimulationOptions::default())?;
-/// let summary = sim.run_until(0.1, |_, _| std::ops::ControlFlow::Continue(()))?;
+/// let summary = sim.run_until(0.1)?;
 /// assert_eq!(summary.stats.num_steps, 10);
 /// assert!(sim.x().iter().all(|v| v.is_finite()));
 /// # Ok::<(), hookean::HookeanError>(())
@@ -310,7 +310,7 @@ impl Simulation {
     fn take_baseline(&mut self) -> Result<(), HookeanError> {
         if self.guard.bound.is_none() && self.guard.factor.is_finite() {
             let (model, x, v) = (
-                self.integrator.model(),
+                self.integrator.problem(),
                 self.integrator.x(),
                 self.integrator.v(),
             );
@@ -351,12 +351,20 @@ impl Simulation {
 
     /// Steps until `t_end` with the integrators' landing rule (the last step
     /// is shortened to end exactly on `t_end`, see
-    /// [`SecondOrderIntegrator::step_to`](hookean_ode::SecondOrderIntegrator::step_to)),
-    /// calling `on_step` after each; `ControlFlow::Break` stops early.
+    /// [`Integrator::step_to`](hookean_ode::Integrator::step_to)).
     ///
     /// # Errors
     /// As [`step`](Self::step).
-    pub fn run_until(
+    pub fn run_until(&mut self, t_end: f64) -> Result<RunSummary, HookeanError> {
+        self.run_until_with(t_end, |_, _| ControlFlow::Continue(()))
+    }
+
+    /// As [`run_until`](Self::run_until), calling `on_step` after each
+    /// step; `ControlFlow::Break` stops early.
+    ///
+    /// # Errors
+    /// As [`step`](Self::step).
+    pub fn run_until_with(
         &mut self,
         t_end: f64,
         mut on_step: impl FnMut(&Simulation, &StepReport) -> ControlFlow<()>,
@@ -384,7 +392,7 @@ impl Simulation {
         })
     }
 
-    /// As [`run_until`](Self::run_until), feeding every step to the sinks.
+    /// As [`run_until_with`](Self::run_until_with), feeding every step to the sinks.
     ///
     /// # Errors
     /// As [`step`](Self::step), and the sinks' output errors.
@@ -397,7 +405,7 @@ impl Simulation {
             s.start(self)?;
         }
         let mut failure = None;
-        let summary = self.run_until(t_end, |sim, report| {
+        let summary = self.run_until_with(t_end, |sim, report| {
             for s in sinks.iter_mut() {
                 if let Err(e) = s.step(sim, report) {
                     failure = Some(e);
@@ -458,7 +466,7 @@ impl Simulation {
 
     /// The model.
     pub fn model(&self) -> &MassSpringModel {
-        self.integrator.model()
+        self.integrator.problem()
     }
 
     /// Mutable access to the model between steps (forces, pins, colliders).
@@ -469,7 +477,7 @@ impl Simulation {
     /// step (a changed model may hold more energy).
     pub fn model_mut(&mut self) -> &mut MassSpringModel {
         self.guard.bound = None;
-        self.integrator.model_mut()
+        self.integrator.problem_mut()
     }
 
     /// Counters of everything done so far.
@@ -479,12 +487,12 @@ impl Simulation {
 
     /// The step size the next step will try.
     pub fn h_next(&self) -> f64 {
-        self.integrator.inner().h_next()
+        self.integrator.h_next()
     }
 
     /// The method.
     pub fn method(&self) -> &Method {
-        self.integrator.inner().method()
+        self.integrator.method()
     }
 
     /// Wall-clock time spent stepping so far.

@@ -3,7 +3,6 @@
 //! reference (classical RK4 at a step far below the springs' periods),
 //! falls at least threefold per tenfold tightening of `rtol` (issue 27).
 
-use std::ops::ControlFlow;
 use std::path::Path;
 
 use hookean::scene::Scene;
@@ -16,7 +15,7 @@ fn positions(overrides: &[String]) -> Vec<f64> {
     let all: Vec<&str> = all.iter().map(String::as_str).collect();
     let scene = Scene::from_file(&path, &all).unwrap();
     let mut sim = scene.build().unwrap();
-    sim.run_until(T, |_, _| ControlFlow::Continue(())).unwrap();
+    sim.run_until(T).unwrap();
     assert_eq!(sim.t(), T);
     sim.x().to_vec()
 }

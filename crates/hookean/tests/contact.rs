@@ -61,8 +61,7 @@ fn a_particle_on_a_slope_below_the_friction_angle_stays_at_rest() {
     // alone would stop it too; the static cone must hold it from the start).
     let theta = 20f64.to_radians();
     let mut sim = particle_on_slope(theta, 0.5, 0.4);
-    sim.run_until(1.0, |_, _| ControlFlow::Continue(()))
-        .unwrap();
+    sim.run_until(1.0).unwrap();
     assert!(sim.x().iter().all(|x| x.abs() < 1e-12), "{:?}", sim.x());
     assert!(sim.v().iter().all(|v| v.abs() < 1e-12), "{:?}", sim.v());
     assert_eq!(sim.model().contact_stats().sticking, 1);
@@ -76,7 +75,7 @@ fn a_particle_on_a_slope_above_the_friction_angle_slides_at_the_coulomb_accelera
     let exact = G * (theta.sin() - mu_k * theta.cos());
     let mut sim = particle_on_slope(theta, 0.5, mu_k);
     let mut half = None;
-    sim.run_until(1.0, |s, _| {
+    sim.run_until_with(1.0, |s, _| {
         if (s.t() - 0.5).abs() < 1e-9 {
             half = Some(downhill(theta, s.v()));
         }
@@ -118,8 +117,7 @@ fn drop_particle(collider: Collider, x0: [f64; 3], t_end: f64) -> Simulation {
         ..tight()
     };
     let mut sim = Simulation::new(model, state, options).unwrap();
-    sim.run_until(t_end, |_, _| ControlFlow::Continue(()))
-        .unwrap();
+    sim.run_until(t_end).unwrap();
     sim
 }
 
@@ -214,7 +212,7 @@ fn run_checked(
     pool.install(|| {
         let mut sim = scene.build().unwrap();
         check(&sim);
-        sim.run_until(scene.duration, |s, _| {
+        sim.run_until_with(scene.duration, |s, _| {
             check(s);
             ControlFlow::Continue(())
         })

@@ -25,9 +25,7 @@ fn pinned_corners_stay_put_and_the_cloth_falls() {
         .flat_map(|&p| state.x[3 * p..3 * p + 3].to_vec())
         .collect();
     let mut sim = Simulation::new(model, state, SimulationOptions::default()).unwrap();
-    let summary = sim
-        .run_until(0.3, |_, _| ControlFlow::Continue(()))
-        .unwrap();
+    let summary = sim.run_until(0.3).unwrap();
     assert_eq!(summary.stats.num_steps, 30);
     let x1: Vec<f64> = pinned
         .iter()
@@ -54,8 +52,7 @@ fn filtered_fb_euler_runs_and_a_filter_on_an_implicit_method_is_refused() {
         ..Default::default()
     };
     let mut sim = Simulation::new(model, state, options).unwrap();
-    sim.run_until(0.01, |_, _| ControlFlow::Continue(()))
-        .unwrap();
+    sim.run_until(0.01).unwrap();
     assert!(sim.v().iter().all(|v| v.is_finite() && v.abs() < 10.0));
     assert_eq!(sim.stats().num_nonlin_solv_iters, 0);
 
@@ -83,14 +80,12 @@ fn a_particle_pinned_through_model_mut_stays_put_in_a_filtered_run() {
         ..Default::default()
     };
     let mut sim = Simulation::new(model, state, options).unwrap();
-    sim.run_until(0.005, |_, _| ControlFlow::Continue(()))
-        .unwrap();
+    sim.run_until(0.005).unwrap();
     let p = 14; // an inner particle, moving by now
     assert!(sim.v()[3 * p + 2].abs() > 1e-4);
     let at: [f64; 3] = sim.x()[3 * p..3 * p + 3].try_into().unwrap();
     sim.model_mut().pin(p, at).unwrap();
-    sim.run_until(0.01, |_, _| ControlFlow::Continue(()))
-        .unwrap();
+    sim.run_until(0.01).unwrap();
     assert_eq!(
         &sim.x()[3 * p..3 * p + 3],
         &at,
@@ -135,7 +130,7 @@ fn a_callback_can_stop_the_run() {
     let (model, state) = small_cloth(5);
     let mut sim = Simulation::new(model, state, SimulationOptions::default()).unwrap();
     let summary = sim
-        .run_until(1.0, |s, _| {
+        .run_until_with(1.0, |s, _| {
             if s.t() >= 0.03 - 1e-12 {
                 ControlFlow::Break(())
             } else {
@@ -167,7 +162,7 @@ fn an_unstable_explicit_run_stops_with_a_blow_up_error_and_a_stable_one_does_not
             ..Default::default()
         };
         let mut sim = Simulation::new(model, state, options).unwrap();
-        let result = sim.run_until(t_end, |_, _| ControlFlow::Continue(()));
+        let result = sim.run_until(t_end);
         (result, sim)
     };
     let (result, sim) = run(3.0 * dt_max, 0.5);
@@ -229,8 +224,7 @@ fn the_motion_does_not_depend_on_the_mass_unit() {
         };
         let (model, state) = cloth(&params).unwrap();
         let mut sim = Simulation::new(model, state, SimulationOptions::default()).unwrap();
-        sim.run_until(0.2, |_, _| ControlFlow::Continue(()))
-            .unwrap();
+        sim.run_until(0.2).unwrap();
         (sim.x().to_vec(), sim.stats())
     };
     let (x1, s1) = run(1.0);

@@ -7,17 +7,13 @@
 //! dispatch to AVX2 where the CPU has it, so another instruction set may
 //! change a count by the last bits' influence on PCG.
 
-use std::ops::ControlFlow;
-
 use hookean::prelude::*;
 
 #[test]
 fn implicit_drape_statistics() {
     let (model, state) = cloth(&ClothParams::drape(16)).unwrap();
     let mut sim = Simulation::new(model, state, SimulationOptions::default()).unwrap();
-    let summary = sim
-        .run_until(0.5, |_, _| ControlFlow::Continue(()))
-        .unwrap();
+    let summary = sim.run_until(0.5).unwrap();
     insta::assert_snapshot!(format!(
         "t = {}\n{:#?}",
         summary.t,
@@ -44,9 +40,7 @@ fn cloth_on_a_sphere_statistics() {
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cloth-sphere.toml");
     let scene = hookean::scene::Scene::from_file(&path, &["cloth.n=12", "duration=0.4"]).unwrap();
     let mut sim = scene.build().unwrap();
-    let summary = sim
-        .run_until(0.4, |_, _| ControlFlow::Continue(()))
-        .unwrap();
+    let summary = sim.run_until(0.4).unwrap();
     let stats = &summary.stats;
     assert_eq!(stats.num_rejected_steps(), 0);
     assert!(

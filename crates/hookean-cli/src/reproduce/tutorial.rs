@@ -1,6 +1,7 @@
 //! The claims of Hauth's tutorial (1 to 9) and its figures 3, 4, 5 and 7.
 
 use super::*;
+use hookean::ode::Integrator;
 
 /// A work-precision sweep of a second-order tutorial problem.
 pub(super) fn oscillator_rows(

@@ -1,27 +1,21 @@
 //! [`Bdf`]: the variable-order BDF on any problem kind with a
-//! [`Corrector`]: its state, construction, the stepping contract
-//! (`step`, `step_to`, dense output, restart) and the failure report; the
-//! step itself is `step.rs`.
+//! [`Corrector`]: its state, construction and the stepping contract
+//! ([`Integrator`]: the bounded step, dense output, restart); the step
+//! itself is `step.rs`.
 
-use super::config::MAX_ORDER;
 use super::corrector::Corrector;
 use super::history::{Coefficients, History};
+use crate::bdf_config::MAX_ORDER;
 use crate::error::OdeError;
+use crate::integrator::Engine;
 use crate::options::SolverOptions;
 use crate::stats::{Stats, StepReport};
-use crate::stepping::{check_dense_output, check_time, growth_bound, landing_slack};
-
-/// The Newton tolerance as a fraction of the local error tolerance (the
-/// error test is `||err|| <= 1` in the same norm). CVODE's test is
-/// `0.1 / tq[4]`-scaled, about the same; SciPy uses `min(0.03, sqrt(rtol))`,
-/// which at tight tolerances costs Newton failures and Jacobians for no
-/// measurable gain in accuracy (docs/PERFORMANCE.md).
-const NEWTON_TOL: f64 = 0.03;
+use crate::stepping::{Integrator, check_dense_output, check_time, growth_bound};
 
 /// The variable-order, variable-step BDF/NDF on a problem kind `S` (see
 /// the module docs).
 pub(crate) struct Bdf<S: Corrector> {
-    pub sys: S,
+    pub(super) sys: S,
     pub(super) corrector: S::Data,
     pub(super) opts: SolverOptions,
     pub(super) n: usize,
@@ -97,7 +91,7 @@ impl<S: Corrector> Bdf<S> {
         for a in &mut atol {
             *a *= atol_scale;
         }
-        let newton_tol = (10.0 * f64::EPSILON / rtol).max(NEWTON_TOL);
+        let newton_tol = (10.0 * f64::EPSILON / rtol).max(opts.bdf.newton_tol);
         let corrector = sys.corrector(&opts, newton_tol, &atol, rtol)?;
         Ok(Self {
             sys,
@@ -132,59 +126,26 @@ impl<S: Corrector> Bdf<S> {
         })
     }
 
-    /// The current time (the end of the last accepted step).
-    pub fn t(&self) -> f64 {
-        self.t
-    }
-
-    /// The start of the last step.
-    pub fn t_prev(&self) -> f64 {
-        self.t_prev
-    }
-
-    /// The current state.
-    pub fn state(&self) -> &[f64] {
-        self.hist.d(0)
-    }
-
-    /// The options.
-    pub fn options(&self) -> &SolverOptions {
-        &self.opts
-    }
-
-    /// The statistics so far.
-    pub fn stats(&self) -> &Stats {
-        &self.stats
-    }
-
     /// The order the next step will use.
+    #[cfg(test)]
     pub fn order(&self) -> usize {
         self.hist.order
     }
 
-    /// The step size the next step will try (NaN before the first step).
-    pub fn h_next(&self) -> f64 {
-        self.hist.h
-    }
-
-    /// Adds event-function evaluations to the counters.
-    pub fn count_event_evaluations(&mut self, n: usize) {
-        self.stats.num_g_evals += n;
-    }
-
     /// The problem changed between steps: the kept Jacobian and Newton
     /// matrix are evaluated again at the next step.
-    pub fn problem_changed(&mut self) {
+    fn problem_changed(&mut self) {
         self.jac_evaluated = false;
         self.lu_c = f64::NAN;
     }
 
     /// Restarts the method at `(t, y)` (order 1, a new initial step; the
-    /// Jacobian and the Newton matrix are kept), e.g. after a discontinuity.
+    /// Jacobian and the Newton matrix are kept; the growth bound too): a
+    /// state the model moved at the start or the end of a step.
     ///
     /// # Errors
     /// [`OdeError::DimensionMismatch`], [`OdeError::NonFinite`].
-    pub fn restart(&mut self, t: f64, y: &[f64]) -> Result<(), OdeError> {
+    fn restart_keeping_bound(&mut self, t: f64, y: &[f64]) -> Result<(), OdeError> {
         if y.len() != self.n {
             return Err(OdeError::DimensionMismatch {
                 what: "state",
@@ -205,21 +166,13 @@ impl<S: Corrector> Bdf<S> {
         Ok(())
     }
 
-    /// A new state from the user: a restart that also sets a new scale of
-    /// the growth bound.
-    pub fn set_state(&mut self, t: f64, y: &[f64]) -> Result<(), OdeError> {
-        self.restart(t, y)?;
-        self.bound = growth_bound(self.opts.max_growth, y);
-        Ok(())
-    }
-
     /// A new state from its halves `[x; v]` (second-order problems), copied
     /// in place; a restart that keeps the growth bound.
     ///
     /// # Errors
     /// [`OdeError::DimensionMismatch`], [`OdeError::NonFinite`],
     /// [`OdeError::InvalidParameter`].
-    pub fn set_state_parts(&mut self, t: f64, x: &[f64], v: &[f64]) -> Result<(), OdeError> {
+    fn set_parts(&mut self, t: f64, x: &[f64], v: &[f64]) -> Result<(), OdeError> {
         let n = self.n / 2;
         if x.len() != n || v.len() != n {
             return Err(OdeError::DimensionMismatch {
@@ -242,12 +195,11 @@ impl<S: Corrector> Bdf<S> {
 
     /// Edits the halves `[x; v]` of the state in place between steps; the
     /// history restarts there (the next step checks the state is finite).
-    pub fn modify_state_parts<R>(&mut self, f: impl FnOnce(&mut [f64], &mut [f64]) -> R) -> R {
+    fn modify_parts(&mut self, f: &mut dyn FnMut(&mut [f64], &mut [f64])) {
         let n = self.n / 2;
         let (x, v) = self.hist.d_mut(0).split_at_mut(n);
-        let r = f(x, v);
+        f(x, v);
         self.restart_here();
-        r
     }
 
     /// Restarts the method at the current `(t, D_0)`.
@@ -262,10 +214,7 @@ impl<S: Corrector> Bdf<S> {
     /// `p(t) = D_0 + sum_{j=1..k} D_j prod_{m=0..j-1} (t - t_n + m h) / ((m + 1) h)`,
     /// at `t` in the last step `[t_prev, t_n]`, written into `out`.
     ///
-    /// # Errors
-    /// [`OdeError::InvalidParameter`] for `t` outside the last step,
-    /// [`OdeError::DimensionMismatch`] for a wrong `out`.
-    pub fn interpolate(&self, t: f64, out: &mut [f64]) -> Result<(), OdeError> {
+    fn dense_output(&self, t: f64, out: &mut [f64]) -> Result<(), OdeError> {
         check_dense_output(t, self.t_prev, self.t, out.len(), self.n)?;
         if !self.started {
             out.copy_from_slice(self.hist.d(0));
@@ -275,64 +224,21 @@ impl<S: Corrector> Bdf<S> {
         Ok(())
     }
 
-    /// Wraps a failure of the run with the time and the statistics.
-    pub(super) fn fail(&self, source: OdeError) -> OdeError {
-        OdeError::Run {
-            t: self.t,
-            stats: Box::new(self.stats),
-            source: Box::new(source),
-        }
-    }
-
-    /// One accepted step.
-    ///
-    /// # Errors
-    /// [`OdeError::Run`] with the time, the statistics and the cause:
-    /// [`OdeError::TooManySteps`], [`OdeError::StepSizeUnderflow`],
-    /// [`OdeError::NewtonFailed`], [`OdeError::LinearSolver`],
-    /// [`OdeError::ErrorTestFailed`], [`OdeError::NonFinite`],
-    /// [`OdeError::StateGrowth`], or an error of the problem's Jacobian or
-    /// of the linear solver.
-    pub fn step(&mut self) -> Result<StepReport, OdeError> {
-        self.step_bounded(f64::INFINITY)
-    }
-
-    /// One step that does not pass `t_end`, or `None` once `t_end` is
-    /// reached: within [`landing_slack`] below `t_end` the time is set to
-    /// it; a step that would pass it is shortened (the history
-    /// re-interpolated) to end on it exactly.
-    ///
-    /// # Errors
-    /// As [`step`](Self::step); [`OdeError::InvalidParameter`] for a
-    /// non-finite `t_end` or one before the current time.
-    pub fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, OdeError> {
-        if !t_end.is_finite() || t_end < self.t {
-            return Err(OdeError::InvalidParameter {
-                name: "t_end",
-                value: t_end,
-                reason: "must be finite and not before the current time",
-            });
-        }
-        if t_end - self.t <= landing_slack(self.t, t_end, self.hist.h) {
-            self.t = t_end;
-            return Ok(None);
-        }
-        self.step_bounded(t_end).map(Some)
-    }
-
-    /// One accepted step that does not pass `t_bound` (`t_bound > t`).
-    fn step_bounded(&mut self, t_bound: f64) -> Result<StepReport, OdeError> {
+    /// One accepted step that does not pass `t_bound` (`t_bound > t`): a
+    /// step that would pass it is shortened (the history re-interpolated)
+    /// to end on it exactly.
+    fn bounded_step(&mut self, t_bound: f64) -> Result<StepReport, OdeError> {
         if self.stats.num_steps >= self.opts.bdf.max_steps {
-            return Err(self.fail(OdeError::TooManySteps {
+            return Err(OdeError::TooManySteps {
                 t: self.t,
                 max_steps: self.opts.bdf.max_steps,
-            }));
+            });
         }
         let before = self.stats;
         let t = self.t;
-        self.begin_step().map_err(|e| self.fail(e))?;
-        let err = self.step_inner(t_bound).map_err(|e| self.fail(e))?;
-        self.end_step(t).map_err(|e| self.fail(e))?;
+        self.begin_step()?;
+        let err = self.step_inner(t_bound)?;
+        self.end_step(t)?;
         Ok(StepReport::between(
             &before,
             &self.stats,
@@ -353,7 +259,7 @@ impl<S: Corrector> Bdf<S> {
         self.sys.begin_step(self.t, &mut self.scratch);
         if self.scratch != self.hist.d(0) {
             let y = std::mem::take(&mut self.scratch);
-            let result = self.restart(self.t, &y);
+            let result = self.restart_keeping_bound(self.t, &y);
             self.scratch = y;
             result?;
         }
@@ -375,7 +281,7 @@ impl<S: Corrector> Bdf<S> {
             .end_step(t_start, h, &self.scratch, &mut self.end_state)
         {
             let y = std::mem::take(&mut self.end_state);
-            let result = self.restart(self.t, &y);
+            let result = self.restart_keeping_bound(self.t, &y);
             self.end_state = y;
             result?;
         }
@@ -385,6 +291,82 @@ impl<S: Corrector> Bdf<S> {
     /// The highest order the history may use.
     pub(super) fn max_order(&self) -> usize {
         self.opts.bdf.max_order.min(MAX_ORDER)
+    }
+}
+
+impl<S: Corrector> Integrator for Bdf<S> {
+    type Problem = S::Problem;
+
+    fn t(&self) -> f64 {
+        self.t
+    }
+
+    fn t_prev(&self) -> f64 {
+        self.t_prev
+    }
+
+    fn state(&self) -> &[f64] {
+        self.hist.d(0)
+    }
+
+    fn stats(&self) -> Stats {
+        self.stats
+    }
+
+    /// NaN before the first step.
+    fn h_next(&self) -> f64 {
+        self.hist.h
+    }
+
+    fn problem(&self) -> &S::Problem {
+        self.sys.problem()
+    }
+
+    fn problem_mut(&mut self) -> &mut S::Problem {
+        self.problem_changed();
+        self.sys.problem_mut()
+    }
+
+    fn step_bounded(&mut self, t_bound: f64) -> Result<StepReport, OdeError> {
+        self.bounded_step(t_bound)
+    }
+
+    fn land_on(&mut self, t_end: f64) {
+        self.t = t_end;
+    }
+
+    fn interpolate(&self, t: f64, out: &mut [f64]) -> Result<(), OdeError> {
+        self.dense_output(t, out)
+    }
+
+    /// Order 1 and a new initial step at `(t, y)`; the Jacobian and the
+    /// Newton matrix are kept.
+    fn restart(&mut self, t: f64, y: &[f64]) -> Result<(), OdeError> {
+        self.restart_keeping_bound(t, y)?;
+        self.bound = growth_bound(self.opts.max_growth, y);
+        Ok(())
+    }
+
+    fn count_event_evaluations(&mut self, n: usize) {
+        self.stats.num_g_evals += n;
+    }
+}
+
+impl<S: Corrector> Engine<S::Problem> for Bdf<S> {
+    fn constraints(&self) -> Option<&hookean_sparse::Constraints> {
+        self.sys.constraints()
+    }
+
+    fn options(&self) -> &SolverOptions {
+        &self.opts
+    }
+
+    fn set_state_parts(&mut self, t: f64, x: &[f64], v: &[f64]) -> Result<(), OdeError> {
+        self.set_parts(t, x, v)
+    }
+
+    fn modify_state_parts(&mut self, f: &mut dyn FnMut(&mut [f64], &mut [f64])) {
+        self.modify_parts(f);
     }
 }
 

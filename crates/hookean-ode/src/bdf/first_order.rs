@@ -10,8 +10,8 @@ use hookean_problem::FirstOrderProblem;
 use hookean_sparse::vecops::negate_into;
 use hookean_sparse::{GmresParams, PrecondKind};
 
-use super::config::BdfLinearSolver;
 use super::corrector::{Attempt, Corrector, CorrectorStep, Rescaled, account, newton_options};
+use crate::bdf_config::BdfLinearSolver;
 use crate::error::OdeError;
 use crate::options::SolverOptions;
 use crate::stage::{

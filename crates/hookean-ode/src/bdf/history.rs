@@ -5,7 +5,7 @@
 //! `h`, with the NDF/BDF coefficients; re-interpolation onto a new spacing,
 //! the predictor, the update after a step, and the dense output.
 
-use super::config::{Formula, MAX_ORDER};
+use crate::bdf_config::{Formula, MAX_ORDER};
 
 /// The NDF modification `kappa_k` of orders 0..=5 (Shampine-Reichelt,
 /// table 1; order 5 is the BDF).

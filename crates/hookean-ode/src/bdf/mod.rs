@@ -1,7 +1,7 @@
 //! The BDF family: the fixed-step BDF(k) and variable-step BDF2 coefficients
 //! of the tutorial (`fixed.rs`, run by the integrators' core), and the
 //! variable-order (1 to 5), variable-step BDF/NDF for stiff problems
-//! ([`BdfSolver`], [`Method::VariableBdf`](crate::Method::VariableBdf)) in the
+//! ([`Method::VariableBdf`](crate::Method::VariableBdf)) in the
 //! quasi-constant-step form of Shampine and Reichelt ("The MATLAB ODE
 //! Suite", SIAM J. Sci. Comput. 18, 1997), which is also the form of SciPy's
 //! `BDF`; its Newton iteration, Jacobian and Newton-matrix re-use and
@@ -67,13 +67,18 @@
 //! Norsett, Wanner, "Solving ODEs I", section II.4). Steps stay within the
 //! bounds of [`StepSizePolicy`](crate::StepSizePolicy).
 //!
-//! **Output.** It keeps the stepping contract of every method
-//! ([`Integrator`]): `step`, `step_to` (the one landing rule), dense output
-//! ([`interpolate`](Integrator::interpolate): the interpolating polynomial
-//! of the history, of the step's order), `solve_at` and events.
+//! **Output.** The engine implements the stepping contract of every method
+//! ([`Integrator`](crate::Integrator)): the bounded step (the history
+//! re-interpolated so that a step ends exactly on its bound) and dense
+//! output ([`interpolate`](crate::Integrator::interpolate): the
+//! interpolating polynomial of the history, of the step's order); `step_to`,
+//! `solve_at` and events are the contract's drivers. Its one door is
+//! [`Method::VariableBdf`](crate::Method::VariableBdf) of
+//! [`FirstOrderIntegrator`](crate::FirstOrderIntegrator) and
+//! [`SecondOrderIntegrator`](crate::SecondOrderIntegrator).
 //!
 //! ```
-//! use hookean_ode::{BdfSolver, FirstOrderProblem, Integrator, SolverOptions};
+//! use hookean_ode::{FirstOrderIntegrator, FirstOrderProblem, Integrator, Method, SolverOptions};
 //!
 //! /// Robertson's chemical kinetics (Hairer-Wanner II, section IV.1).
 //! struct Robertson;
@@ -87,7 +92,8 @@
 //! }
 //!
 //! let opts = SolverOptions::with_tolerances(1e-6, vec![1e-8, 1e-12, 1e-8]);
-//! let mut solver = BdfSolver::new(Robertson, 0.0, &[1.0, 0.0, 0.0], opts)?;
+//! let mut solver =
+//!     FirstOrderIntegrator::new(Robertson, Method::VariableBdf, 0.0, &[1.0, 0.0, 0.0], opts)?;
 //! let sol = solver.solve_at(&[0.4, 40.0])?;
 //! // Hairer-Wanner's reference value y_1(40) = 0.7158270687...
 //! assert!((sol.y(1)[0] - 0.7158270687).abs() < 1e-5);
@@ -95,7 +101,6 @@
 //! # Ok::<(), hookean_ode::OdeError>(())
 //! ```
 
-mod config;
 mod corrector;
 mod engine;
 pub(crate) mod first_order;
@@ -104,88 +109,7 @@ mod history;
 pub(crate) mod second_order;
 mod step;
 
-pub use config::{BdfConfig, BdfLinearSolver, Formula, MAX_ORDER, TOLERANCE_EXPONENT};
+pub use crate::bdf_config::{BdfConfig, BdfLinearSolver, Formula, MAX_ORDER, TOLERANCE_EXPONENT};
 pub(crate) use corrector::Corrector;
 pub(crate) use engine::Bdf;
 pub use fixed::{BdfCoefficients, variable_bdf2, variable_bdf2_error_constant};
-
-use hookean_problem::FirstOrderProblem;
-
-use crate::error::OdeError;
-use crate::options::SolverOptions;
-use crate::stage::FirstSys;
-use crate::stats::{Stats, StepReport};
-use crate::stepping::Integrator;
-
-/// The variable-order, variable-step BDF/NDF solver for stiff first-order
-/// problems (see the module docs); [`FirstOrderIntegrator`](crate::FirstOrderIntegrator)
-/// with [`Method::VariableBdf`](crate::Method::VariableBdf) runs the same solver, and
-/// [`SecondOrderIntegrator`](crate::SecondOrderIntegrator) runs it on
-/// second-order problems in the reduced form.
-pub struct BdfSolver<P: FirstOrderProblem> {
-    inner: Bdf<FirstSys<P>>,
-}
-
-impl<P: FirstOrderProblem> BdfSolver<P> {
-    /// A solver for `problem` from `(t0, y0)` with the tolerances and step
-    /// bounds of `opts` and the settings of `opts.bdf`.
-    ///
-    /// # Errors
-    /// [`OdeError::InvalidParameter`] / [`OdeError::DimensionMismatch`] for
-    /// bad options, sizes or a sparse pattern without its diagonal;
-    /// [`OdeError::NonFinite`] for a non-finite `t0` or `y0`.
-    pub fn new(problem: P, t0: f64, y0: &[f64], opts: SolverOptions) -> Result<Self, OdeError> {
-        let sys = FirstSys::new(problem, &opts)?;
-        Ok(Self {
-            inner: Bdf::new(sys, t0, y0, opts)?,
-        })
-    }
-
-    /// The current state.
-    pub fn y(&self) -> &[f64] {
-        self.inner.state()
-    }
-
-    /// The order the next step will use.
-    pub fn order(&self) -> usize {
-        self.inner.order()
-    }
-
-    /// The problem.
-    pub fn problem(&self) -> &P {
-        &self.inner.sys.problem
-    }
-}
-
-impl<P: FirstOrderProblem> Integrator for BdfSolver<P> {
-    fn t(&self) -> f64 {
-        self.inner.t()
-    }
-    fn t_prev(&self) -> f64 {
-        self.inner.t_prev()
-    }
-    fn state(&self) -> &[f64] {
-        self.inner.state()
-    }
-    fn stats(&self) -> Stats {
-        *self.inner.stats()
-    }
-    fn h_next(&self) -> f64 {
-        self.inner.h_next()
-    }
-    fn step(&mut self) -> Result<StepReport, OdeError> {
-        self.inner.step()
-    }
-    fn step_to(&mut self, t_end: f64) -> Result<Option<StepReport>, OdeError> {
-        self.inner.step_to(t_end)
-    }
-    fn interpolate(&self, t: f64, out: &mut [f64]) -> Result<(), OdeError> {
-        self.inner.interpolate(t, out)
-    }
-    fn restart(&mut self, t: f64, y: &[f64]) -> Result<(), OdeError> {
-        self.inner.restart(t, y)
-    }
-    fn count_event_evaluations(&mut self, n: usize) {
-        self.inner.count_event_evaluations(n);
-    }
-}

@@ -8,23 +8,6 @@ use super::engine::Bdf;
 use crate::error::OdeError;
 use hookean_nonlinear::weighted_rms as rms;
 
-/// After an accepted step, the step size is kept (and the order is not
-/// changed) while the proposed factor lies in this band.
-const KEEP_STEP: (f64, f64) = (0.9, 1.5);
-
-/// Step-size change limits after an accepted step, and after a failure.
-const MAX_FACTOR: f64 = 10.0;
-const MIN_FACTOR: f64 = 0.2;
-
-/// The Jacobian is re-evaluated before a step whose `c = h / alpha_k`
-/// exceeds this multiple of the `c` at which it was evaluated. The Newton
-/// matrix `I - c J` errs by `c (J_old - J)`: a Jacobian kept from a fast
-/// transient (a Van der Pol jump, `h ~ 1e-7`) and used at steps 1e6 times
-/// longer can make the simplified Newton iteration take tiny updates that
-/// pass the convergence test without solving the corrector, and the error
-/// estimate, built from those updates, then accepts a wrong solution.
-const JACOBIAN_C_GROWTH: f64 = 100.0;
-
 /// The step-size factor `err^(-1/q)` of an order whose error estimate is
 /// `err`; `0` for an order out of reach (`err = inf`: `pow(inf, -1/q)` is
 /// exactly `+0`, without the call).
@@ -129,7 +112,7 @@ impl<S: Corrector> Bdf<S> {
                 .bdf
                 .steps_per_jacobian
                 .is_some_and(|n| self.jac_age >= n)
-                || c > JACOBIAN_C_GROWTH * self.jac_c;
+                || c > self.opts.bdf.jacobian_c_growth * self.jac_c;
             let mut usable = true;
             if !self.jac_evaluated || jac_old {
                 usable = self.eval_jacobian(t_new)?;
@@ -281,7 +264,8 @@ impl<S: Corrector> Bdf<S> {
                         failures: err_fails,
                     });
                 }
-                let factor = (safety * error_norm.powf(-1.0 / (k as f64 + 1.0))).max(MIN_FACTOR);
+                let factor = (safety * error_norm.powf(-1.0 / (k as f64 + 1.0)))
+                    .max(self.opts.bdf.min_step_shrink);
                 if err_fails < 3 {
                     self.hist.rescale(factor);
                 } else {
@@ -353,11 +337,12 @@ impl<S: Corrector> Bdf<S> {
             }
         }
         self.hist.order = k + best - 1;
-        let factor = (safety * factors[best]).min(MAX_FACTOR);
+        let factor = (safety * factors[best]).min(self.opts.bdf.max_step_growth);
         // Hysteresis: keep the order and step unless the change is worth
         // the re-interpolation and a likely refactorisation (CVODE keeps h
         // for growth below THRESH = 1.5).
-        if best != 1 || !(KEEP_STEP.0 < factor && factor < KEEP_STEP.1) {
+        let (keep_low, keep_high) = self.opts.bdf.keep_step_band;
+        if best != 1 || !(keep_low < factor && factor < keep_high) {
             self.hist.rescale(factor);
         }
         Ok(())

@@ -357,6 +357,16 @@ impl<P: FirstOrderProblem> FirstSys<P> {
 }
 
 impl<P: FirstOrderProblem> System for FirstSys<P> {
+    type Problem = P;
+
+    fn problem(&self) -> &P {
+        &self.problem
+    }
+
+    fn problem_mut(&mut self) -> &mut P {
+        &mut self.problem
+    }
+
     fn state_len(&self) -> usize {
         self.n
     }

@@ -63,6 +63,16 @@ pub(crate) struct StageInfo {
 
 /// The integrator core's view of a problem.
 pub(crate) trait System {
+    /// The user's problem.
+    type Problem;
+    /// The user's problem.
+    fn problem(&self) -> &Self::Problem;
+    /// The user's problem, mutably.
+    fn problem_mut(&mut self) -> &mut Self::Problem;
+    /// The step's constraints (second-order problems).
+    fn constraints(&self) -> Option<&hookean_sparse::Constraints> {
+        None
+    }
     /// Length of the state vector (`y`, or `[x; v]`).
     fn state_len(&self) -> usize;
     /// True for second-order problems (state `[x; v]`).

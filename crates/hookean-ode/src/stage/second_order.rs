@@ -242,6 +242,20 @@ pub(super) fn end_stage(
 }
 
 impl<P: SecondOrderProblem> System for SecondSys<P> {
+    type Problem = P;
+
+    fn problem(&self) -> &P {
+        &self.problem
+    }
+
+    fn problem_mut(&mut self) -> &mut P {
+        &mut self.problem
+    }
+
+    fn constraints(&self) -> Option<&Constraints> {
+        Some(&self.constraints)
+    }
+
     fn state_len(&self) -> usize {
         2 * self.n
     }

@@ -49,7 +49,7 @@ impl Scene {
         };
         let mut solver: SolverOptions = SimulationOptions::drape_solver();
         // "auto" needs the model: `build` replaces this placeholder.
-        solver.h = self.integrator.h.value().unwrap_or_else(d_h);
+        solver.h = self.integrator.h.value().unwrap_or(solver.h);
         solver.rtol = self.integrator.rtol;
         solver.atol = self.integrator.atol.into();
         solver.step.h_max = self.integrator.h_max;

@@ -21,7 +21,7 @@
 //!     n = 8
 //! "#)?;
 //! let mut sim = scene.build()?;
-//! sim.run_until(scene.duration, |_, _| std::ops::ControlFlow::Continue(()))?;
+//! sim.run_until(scene.duration)?;
 //! # Ok::<(), hookean::HookeanError>(())
 //! ```
 

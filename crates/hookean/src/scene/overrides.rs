@@ -216,7 +216,7 @@ impl Scene {
     ///     &["cloth.n=16", "duration=0.1"],
     /// )?;
     /// let mut sim = scene.build()?;
-    /// sim.run_until(scene.duration, |_, _| std::ops::ControlFlow::Continue(()))?;
+    /// sim.run_until(scene.duration)?;
     /// # Ok::<(), hookean::HookeanError>(())
     /// ```
     ///

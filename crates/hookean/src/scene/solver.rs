@@ -59,7 +59,7 @@ pub enum StepScene {
 
 impl Default for StepScene {
     fn default() -> Self {
-        StepScene::Value(d_h())
+        StepScene::Value(hookean_ode::DEFAULT_STEP)
     }
 }
 
@@ -134,9 +134,6 @@ impl Default for IntegratorScene {
 
 pub(super) fn d_method() -> Method {
     Method::ImplicitEuler
-}
-pub(super) fn d_h() -> f64 {
-    0.01
 }
 pub(super) fn d_rtol() -> f64 {
     1e-3

@@ -1,7 +1,13 @@
 //! [`BdfConfig`]: the settings that belong to the variable-order BDF alone
 //! (the formula, the order limit, Newton's limits, the re-use of the
 //! Jacobian and of the Newton matrix, the tolerance mapping, the linear
-//! solver); the tolerances and step bounds are [`SolverOptions`](crate::SolverOptions)'.
+//! solver, the step-size change limits: no hidden constant); the
+//! tolerances and step bounds are [`SolverOptions`](crate::SolverOptions)'.
+//!
+//! The settings value lives beside the engine (`bdf/`), not in it, as
+//! diffsol keeps its `BdfConfig` in `ode_solver/config.rs`: the options
+//! ([`SolverOptions::bdf`](crate::SolverOptions::bdf)) hold the value
+//! without depending on the engine, and the engine reads the options.
 
 use hookean_sparse::PreconditionerOptions;
 
@@ -79,8 +85,8 @@ impl BdfLinearSolver {
     }
 }
 
-/// The settings of the variable-order BDF ([`BdfSolver`](crate::BdfSolver),
-/// [`Method::VariableBdf`](crate::Method::VariableBdf)). The defaults are meant to serve
+/// The settings of the variable-order BDF
+/// ([`Method::VariableBdf`](crate::Method::VariableBdf)). The defaults are meant to serve
 /// the whole stiff test set; only the tolerances of
 /// [`SolverOptions`](crate::SolverOptions) are problem-dependent.
 #[derive(Debug, Clone, PartialEq)]
@@ -133,6 +139,32 @@ pub struct BdfConfig {
     /// The linear solver of first-order problems' Newton systems. Default
     /// [`BdfLinearSolver::Direct`].
     pub linear_solver: BdfLinearSolver,
+    /// The largest factor by which the step grows after an accepted step.
+    /// Default 10 (Shampine-Reichelt's, and SciPy's `MAX_FACTOR`).
+    pub max_step_growth: f64,
+    /// The smallest factor by which the step shrinks after a failed error
+    /// test. Default 0.2 (SciPy's `MIN_FACTOR`).
+    pub min_step_shrink: f64,
+    /// After an accepted step, the step size and the order are kept while
+    /// the proposed factor lies strictly inside this band (CVODE's
+    /// hysteresis: the kept Newton matrix stays valid). Default `(0.9, 1.5)`.
+    pub keep_step_band: (f64, f64),
+    /// The Jacobian is re-evaluated before a step whose `c = h / alpha_k`
+    /// exceeds this multiple of the `c` at which it was evaluated. The
+    /// Newton matrix `I - c J` errs by `c (J_old - J)`: a Jacobian kept from
+    /// a fast transient (a Van der Pol jump, `h ~ 1e-7`) and used at steps
+    /// 1e6 times longer can make the simplified Newton iteration take tiny
+    /// updates that pass the convergence test without solving the
+    /// corrector, and the error estimate, built from those updates, then
+    /// accepts a wrong solution. Default 100.
+    pub jacobian_c_growth: f64,
+    /// The Newton tolerance as a fraction of the local error tolerance (the
+    /// error test is `||err|| <= 1` in the same norm), floored at
+    /// `10 eps / rtol`. CVODE's test is `0.1 / tq[4]`-scaled, about the
+    /// same; SciPy uses `min(0.03, sqrt(rtol))`, which at tight tolerances
+    /// costs Newton failures and Jacobians for no measurable gain in
+    /// accuracy (docs/PERFORMANCE.md). Default 0.03.
+    pub newton_tol: f64,
     /// The relative residual to which PCG solves each Newton correction of a
     /// second-order problem (the preconditioner and iteration limit are
     /// [`SolverOptions::linear`](crate::SolverOptions::linear)'s). The rate
@@ -162,6 +194,11 @@ impl Default for BdfConfig {
             tolerance_exponent: None,
             linear_solver: BdfLinearSolver::Direct,
             linear_rtol: 1e-3,
+            max_step_growth: 10.0,
+            min_step_shrink: 0.2,
+            keep_step_band: (0.9, 1.5),
+            jacobian_c_growth: 100.0,
+            newton_tol: 0.03,
             __non_exhaustive: (),
         }
     }
@@ -215,6 +252,41 @@ impl BdfConfig {
                 self.linear_rtol,
                 "must be in (0, 1)",
             ));
+        }
+        if !(self.max_step_growth > 1.0 && self.max_step_growth.is_finite()) {
+            return Err(invalid(
+                "max_step_growth",
+                self.max_step_growth,
+                "must be finite and greater than 1",
+            ));
+        }
+        if !(self.min_step_shrink > 0.0 && self.min_step_shrink < 1.0) {
+            return Err(invalid(
+                "min_step_shrink",
+                self.min_step_shrink,
+                "must be in (0, 1)",
+            ));
+        }
+        let (low, high) = self.keep_step_band;
+        if !(low > 0.0 && low <= 1.0) {
+            return Err(invalid("keep_step_band.0", low, "must be in (0, 1]"));
+        }
+        if !(high >= 1.0 && high <= self.max_step_growth) {
+            return Err(invalid(
+                "keep_step_band.1",
+                high,
+                "must be in [1, max_step_growth]",
+            ));
+        }
+        if !(self.jacobian_c_growth >= 1.0) {
+            return Err(invalid(
+                "jacobian_c_growth",
+                self.jacobian_c_growth,
+                "must be at least 1",
+            ));
+        }
+        if !(self.newton_tol > 0.0 && self.newton_tol < 1.0) {
+            return Err(invalid("newton_tol", self.newton_tol, "must be in (0, 1)"));
         }
         if let BdfLinearSolver::Gmres { krylov_dim, .. } = self.linear_solver
             && krylov_dim == 0
