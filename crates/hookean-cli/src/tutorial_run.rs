@@ -72,7 +72,7 @@ pub fn run(
 }
 
 #[allow(clippy::too_many_arguments)]
-fn integrate<P: FirstOrderProblem + 'static>(
+fn integrate<P: FirstOrderProblem + Send + 'static>(
     (scene, tutorial, picture): (&Scene, &TutorialScene, &PictureScene),
     problem: P,
     y0: &[f64],

@@ -35,7 +35,7 @@ use crate::velocity::{FilterOptions, VelocityFilter};
 /// # Ok::<(), hookean_filter::FilterError>(())
 /// ```
 pub struct ModelIntegrator {
-    ode: Box<dyn Integrator<Problem = MassSpringModel>>,
+    ode: Box<dyn Integrator<Problem = MassSpringModel> + Send>,
     method: Method,
 }
 
@@ -62,7 +62,7 @@ impl ModelIntegrator {
         };
         let inner =
             SecondOrderIntegrator::new(model, method.clone(), 0.0, &state.x, &state.v, options)?;
-        let ode: Box<dyn Integrator<Problem = MassSpringModel>> = match (vf, filter) {
+        let ode: Box<dyn Integrator<Problem = MassSpringModel> + Send> = match (vf, filter) {
             (Some(f), Some((_, c))) => Box::new(FilteredIntegrator::new(inner, f, c)?),
             _ => Box::new(inner),
         };
@@ -97,7 +97,7 @@ impl ModelIntegrator {
 }
 
 impl Deref for ModelIntegrator {
-    type Target = dyn Integrator<Problem = MassSpringModel>;
+    type Target = dyn Integrator<Problem = MassSpringModel> + Send;
 
     fn deref(&self) -> &Self::Target {
         &*self.ode

@@ -52,7 +52,7 @@ fn trajectory_times(t_end: f64) -> Vec<f64> {
 /// control (`tolerance_exponent = 1`). Its value at `t_end` agrees with the
 /// published reference to 3e-10 in the mixed error (E5: 2.6e-8, the
 /// published reference's own accuracy; printed on stderr).
-fn reference_trajectory<P: TestProblem + Clone + 'static>(
+fn reference_trajectory<P: TestProblem + Clone + Send + 'static>(
     p: &P,
     times: &[f64],
 ) -> Option<Vec<Vec<f64>>> {
@@ -67,7 +67,7 @@ fn reference_trajectory<P: TestProblem + Clone + 'static>(
 
 /// The largest mixed error over [`trajectory_times`] of a run at `rtol`
 /// against the reference trajectory (`inf` when the run fails).
-fn trajectory_error<P: TestProblem + Clone + 'static>(
+fn trajectory_error<P: TestProblem + Clone + Send + 'static>(
     p: &P,
     rtol: f64,
     reference: &[Vec<f64>],
@@ -90,7 +90,10 @@ fn trajectory_error<P: TestProblem + Clone + 'static>(
     .unwrap_or(f64::INFINITY)
 }
 
-fn run<P: TestProblem + Clone + 'static>(p: &P, rtol: f64) -> Result<(Vec<f64>, Stats), OdeError> {
+fn run<P: TestProblem + Clone + Send + 'static>(
+    p: &P,
+    rtol: f64,
+) -> Result<(Vec<f64>, Stats), OdeError> {
     let opts = sweep_options(p, rtol);
     let mut s = FirstOrderIntegrator::new(p.clone(), Method::VariableBdf, 0.0, &p.y0(), opts)?;
     let info = s.integrate(p.t_end())?;
@@ -99,7 +102,7 @@ fn run<P: TestProblem + Clone + 'static>(p: &P, rtol: f64) -> Result<(Vec<f64>, 
 
 /// [`reference_trajectory`] once per problem, its `t_end` value checked
 /// against the published reference (on stderr).
-fn checked_reference<P: TestProblem + Clone + 'static>(p: &P) -> Option<Vec<Vec<f64>>> {
+fn checked_reference<P: TestProblem + Clone + Send + 'static>(p: &P) -> Option<Vec<Vec<f64>>> {
     let reference_run = reference_trajectory(p, &trajectory_times(p.t_end()));
     if let Some(at_end) = reference_run.as_ref().and_then(|r| r.last()) {
         eprintln!(
@@ -111,7 +114,7 @@ fn checked_reference<P: TestProblem + Clone + 'static>(p: &P) -> Option<Vec<Vec<
     reference_run
 }
 
-fn report<P: TestProblem + Clone + 'static>(
+fn report<P: TestProblem + Clone + Send + 'static>(
     p: &P,
     rtol: f64,
     repeats: usize,

@@ -40,13 +40,17 @@ pub(crate) trait Engine<P>: Integrator<Problem = P> {
 }
 
 /// The engine of `method` on the stage system `sys` from `(t0, s0)`.
-fn engine<S: crate::bdf::Corrector + 'static>(
+fn engine<S>(
     sys: S,
     method: Method,
     t0: f64,
     s0: Vec<f64>,
     options: SolverOptions,
-) -> Result<Box<dyn Engine<S::Problem>>, OdeError> {
+) -> Result<Box<dyn Engine<S::Problem> + Send>, OdeError>
+where
+    S: crate::bdf::Corrector + Send + 'static,
+    S::Data: Send,
+{
     Ok(match method {
         Method::VariableBdf => Box::new(Bdf::new(sys, t0, &s0, options)?),
         _ => Box::new(Core::new(sys, method, t0, s0, options)?),
@@ -59,7 +63,9 @@ fn engine<S: crate::bdf::Corrector + 'static>(
 /// output, `step_to`, `integrate`, `solve_at` and events are the stepping
 /// contract's ([`Integrator`]; import the trait).
 pub struct OdeIntegrator<P, K> {
-    engine: Box<dyn Engine<P>>,
+    /// `Send`, so that an integrator (and a simulation) can move to
+    /// another thread: the problem must be `Send` too.
+    engine: Box<dyn Engine<P> + Send>,
     method: Method,
     kind: PhantomData<K>,
 }
@@ -81,7 +87,7 @@ pub enum SecondOrder {}
 /// [`Method::VariableBdf`] runs the variable-order BDF ([`crate::bdf`]'s engine).
 pub type FirstOrderIntegrator<P> = OdeIntegrator<P, FirstOrder>;
 
-impl<P: FirstOrderProblem + 'static> OdeIntegrator<P, FirstOrder> {
+impl<P: FirstOrderProblem + Send + 'static> OdeIntegrator<P, FirstOrder> {
     /// A new integrator at `(t0, y0)`.
     ///
     /// # Errors
@@ -150,7 +156,7 @@ impl<P> OdeIntegrator<P, FirstOrder> {
 /// ```
 pub type SecondOrderIntegrator<P> = OdeIntegrator<P, SecondOrder>;
 
-impl<P: SecondOrderProblem + 'static> OdeIntegrator<P, SecondOrder> {
+impl<P: SecondOrderProblem + Send + 'static> OdeIntegrator<P, SecondOrder> {
     /// A new integrator at `(t0, x0, v0)`.
     ///
     /// # Errors

@@ -273,7 +273,7 @@ pub fn first_order<P, F>(
     base: &SolverOptions,
 ) -> Result<Vec<WorkPrecisionRow>, OdeError>
 where
-    P: FirstOrderProblem + 'static,
+    P: FirstOrderProblem + Send + 'static,
     F: FnMut() -> P,
 {
     check_sweep(sweep, method)?;
@@ -310,7 +310,7 @@ pub fn second_order<P, F>(
     base: &SolverOptions,
 ) -> Result<Vec<WorkPrecisionRow>, OdeError>
 where
-    P: SecondOrderProblem + 'static,
+    P: SecondOrderProblem + Send + 'static,
     F: FnMut() -> P,
 {
     check_sweep(sweep, method)?;

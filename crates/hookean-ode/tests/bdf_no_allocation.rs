@@ -15,7 +15,7 @@ use hookean_testkit::alloc::{Counting, allocations};
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-fn check<P: TestProblem + 'static>(p: P) {
+fn check<P: TestProblem + Send + 'static>(p: P) {
     let t_end = p.t_end();
     let opts = options(&p, 1e-6);
     let y0 = p.y0();

@@ -13,7 +13,10 @@ use num_complex::Complex64;
 
 /// One set of default options; only the tolerances follow the problem
 /// (`atol = rtol * floor`).
-fn solve<P: TestProblem + Clone + 'static>(p: &P, rtol: f64) -> Result<(f64, Stats), OdeError> {
+fn solve<P: TestProblem + Clone + Send + 'static>(
+    p: &P,
+    rtol: f64,
+) -> Result<(f64, Stats), OdeError> {
     let opts = testset::options(p, rtol);
     let mut s = FirstOrderIntegrator::new(p.clone(), Method::VariableBdf, 0.0, &p.y0(), opts)?;
     let stats = s.integrate(p.t_end())?.stats;
@@ -23,7 +26,7 @@ fn solve<P: TestProblem + Clone + 'static>(p: &P, rtol: f64) -> Result<(f64, Sta
 
 /// The achieved error follows rtol: at most `10 rtol` (issue 17's bar),
 /// plus the accuracy of the problem's reference in the mixed error measure.
-fn check_problem<P: TestProblem + Clone + 'static>(p: &P, reference_accuracy: f64) {
+fn check_problem<P: TestProblem + Clone + Send + 'static>(p: &P, reference_accuracy: f64) {
     let mut errors = Vec::new();
     for rtol in [1e-4, 1e-6, 1e-8] {
         let (err, st) = solve(p, rtol).unwrap_or_else(|e| panic!("{} at {rtol:e}: {e}", p.name()));
@@ -507,7 +510,7 @@ fn a_blown_up_fixed_step_bdf4_run_is_an_error() {
 }
 
 /// Solves `p` at `rtol` with `linear_solver`; the mixed error and the statistics.
-fn solve_with<P: TestProblem + Clone + 'static>(
+fn solve_with<P: TestProblem + Clone + Send + 'static>(
     p: &P,
     rtol: f64,
     linear_solver: BdfLinearSolver,

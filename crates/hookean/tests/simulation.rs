@@ -234,3 +234,20 @@ fn the_motion_does_not_depend_on_the_mass_unit() {
     assert_eq!(s1.num_lin_iters, s2.num_lin_iters);
     assert_eq!(x1, x2);
 }
+
+/// A simulation (and so its integrator, engine and model) can move to
+/// another thread: a parameter sweep over a thread pool, or a binding that
+/// releases an interpreter lock while it steps.
+#[test]
+fn a_simulation_is_send() {
+    fn assert_send<T: Send>(_: &T) {}
+    let (model, state) = small_cloth(4);
+    let sim = Simulation::new(model, state, SimulationOptions::default()).unwrap();
+    assert_send(&sim);
+    let handle = std::thread::spawn(move || {
+        let mut sim = sim;
+        sim.run_until(0.02).map(|_| sim.t())
+    });
+    let t = handle.join().unwrap().unwrap();
+    assert!((t - 0.02).abs() < 1e-12, "t = {t}");
+}
