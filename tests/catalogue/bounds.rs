@@ -294,6 +294,21 @@ pub(crate) const BOUNDS: &[Case] = &[
         "\"converged\":false",
     ),
     case(
+        "bench-precond: an in-range --amg-jacobi-weight whose smoother diverges says so",
+        &[],
+        &[
+            "bench-precond",
+            "--n",
+            "16",
+            "--precond",
+            "amg",
+            "--amg-jacobi-weight",
+            "1.9",
+        ],
+        1,
+        "the multigrid's smoother diverges: with --amg-jacobi-weight 1.9",
+    ),
+    case(
         "bench-precond: --repeat 0",
         &[],
         &["bench-precond", "--n", "4", "--repeat", "0"],

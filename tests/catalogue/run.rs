@@ -3,6 +3,17 @@
 use crate::{CLOTH, Case, case};
 
 pub(crate) const RUN: &[Case] = &[
+    case(
+        "run: a bdf run with atol = 1e300 stores energy in its springs: exit 1 naming the term",
+        &[(
+            "s.toml",
+            "duration = 2.0\n[cloth]\nn = 8\n[integrator]\nmethod = \"bdf\"\natol = 1e300\n\
+             [output]\nframe_rate = 0.0\nwidth = 8\nheight = 8\n",
+        )],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        1,
+        "the spring energy grew from 0.0000e0 J to",
+    ),
     case("run: a missing scene file", &[], &["run", "{}/none.toml", "--out", "{}/out"], 2, "none.toml")
         .absent(&["out"]),
     case(

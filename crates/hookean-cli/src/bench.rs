@@ -514,7 +514,7 @@ fn table(rows: &[Row]) -> (String, String) {
          |---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let mut csv = String::from(
-        "system,rows,nonzeros,block_size,block_size_source,preconditioner,iterations,setup_s,solve_s,total_s,rel_residual,setup_memory_bytes,status\n",
+        "system,rows,nonzeros,block_size,block_size_source,preconditioner,iterations,setup_s,solve_s,total_s,rel_residual,recursive_rel_residual,setup_memory_bytes,status\n",
     );
     let mut fastest: BTreeMap<&str, f64> = BTreeMap::new();
     for r in rows {
@@ -555,7 +555,7 @@ fn table(rows: &[Row]) -> (String, String) {
                     "| {} | - | - | - | - | - | - | - | - | - | - | {md_status} |\n",
                     r.system
                 ));
-                csv.push_str(&format!("{},,,,,,,,,,,,{csv_status}\n", r.system));
+                csv.push_str(&format!("{},,,,,,,,,,,,,{csv_status}\n", r.system));
             }
             Some(rec) if rec.error.is_some() => {
                 md.push_str(&format!(
@@ -563,7 +563,7 @@ fn table(rows: &[Row]) -> (String, String) {
                     r.system, r.rows, r.nnz, rec.precond
                 ));
                 csv.push_str(&format!(
-                    "{},{},{},{csv_nodes},{},,,,,,,{csv_status}\n",
+                    "{},{},{},{csv_nodes},{},,,,,,,,{csv_status}\n",
                     r.system, r.rows, r.nnz, rec.precond
                 ));
             }
@@ -594,7 +594,7 @@ fn table(rows: &[Row]) -> (String, String) {
                     },
                 ));
                 csv.push_str(&format!(
-                    "{},{},{},{csv_nodes},{},{},{:e},{:e},{:e},{:e},{},{csv_status}\n",
+                    "{},{},{},{csv_nodes},{},{},{:e},{:e},{:e},{:e},{},{},{csv_status}\n",
                     r.system,
                     r.rows,
                     r.nnz,
@@ -604,6 +604,8 @@ fn table(rows: &[Row]) -> (String, String) {
                     rec.solve_s,
                     total,
                     rec.rel_residual,
+                    rec.recursive_rel_residual
+                        .map_or(String::new(), |v| format!("{v:e}")),
                     rec.setup_bytes.map_or(String::new(), |b| b.to_string()),
                 ));
             }

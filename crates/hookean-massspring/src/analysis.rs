@@ -35,12 +35,27 @@ pub struct Energies {
     pub gravitational: f64,
     /// `1/2 sum_s k_s (l_s - l0_s)^2`.
     pub spring: f64,
+    /// `-sum_p F_p . x_p`: the potential of the constant external forces
+    /// ([`MassSpringModel::set_external_force`]; zero without them), so
+    /// that their work is the drop of this term, as gravity's is.
+    pub external: f64,
 }
 
 impl Energies {
-    /// Kinetic + gravitational + spring energy.
+    /// Kinetic + gravitational + spring energy (+ the external forces'
+    /// potential): conserved by the undamped model without contact.
     pub fn total(&self) -> f64 {
-        self.kinetic + self.gravitational + self.spring
+        self.kinetic + self.gravitational + self.spring + self.external
+    }
+
+    /// The terms by name, in the order of [`total`](Self::total).
+    pub fn terms(&self) -> [(&'static str, f64); 4] {
+        [
+            ("kinetic", self.kinetic),
+            ("gravitational", self.gravitational),
+            ("spring", self.spring),
+            ("external-force", self.external),
+        ]
     }
 }
 
@@ -143,6 +158,7 @@ impl MassSpringModel {
             e.kinetic += 0.5 * m * point(v, p).norm_squared();
             e.gravitational -= m * g.dot(&point(x, p));
         }
+        e.external = -hookean_sparse::vecops::dot(&self.external, x);
         for (k, s) in self.springs.iter().enumerate() {
             let l = (point(x, s.j) - point(x, s.i)).norm();
             if l == 0.0 {

@@ -418,6 +418,12 @@ impl MassSpringModel {
         Ok(())
     }
 
+    /// The constant external forces (N), three per particle (zero where
+    /// none was set).
+    pub fn external_forces(&self) -> &[f64] {
+        &self.external
+    }
+
     /// Pins `particle` at `position`: from the next
     /// [`begin_step`](hookean_problem::SecondOrderProblem::begin_step) on, it is
     /// held there with zero velocity.

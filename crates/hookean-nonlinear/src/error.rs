@@ -121,6 +121,7 @@ impl NonlinearError {
                 | Self::LinearNotConverged { .. }
                 | Self::SingularJacobian { .. }
                 | Self::Linear(SparseError::NotPositiveDefinite { .. })
+                | Self::Linear(SparseError::PreconditionerNotPositiveDefinite { .. })
                 | Self::Linear(SparseError::NonFinite { .. })
                 | Self::Linear(SparseError::NotConverged { .. })
         )

@@ -46,7 +46,8 @@ pub struct CgParams {
 /// What CG does on meeting a direction `p` with `p . A p <= 0`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum NegativeCurvature {
-    /// Return [`SparseError::NotPositiveDefinite`].
+    /// Return [`SparseError::NotPositiveDefinite`] (or
+    /// [`SparseError::PreconditionerNotPositiveDefinite`] for `r . M^-1 r <= 0`).
     #[default]
     Error,
     /// Truncated CG (the Newton-CG of Nocedal and Wright, Algorithm 7.1):
@@ -78,15 +79,30 @@ impl Default for CgParams {
 /// What a CG run did.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct CgInfo {
-    /// Iterations performed (matrix-vector products after the initial residual).
+    /// Iterations performed (matrix-vector products after the initial
+    /// residual, the true-residual checks not counted).
     pub iterations: usize,
     /// `|r|` of the recursively updated residual at exit.
     pub residual_norm: f64,
     /// `|r| / |b|` at exit (the reference norm is `|P b|` for filtered CG; when
     /// it is zero, the initial residual's norm).
     pub relative_residual: f64,
-    /// Whether the tolerance was met.
+    /// The true residual `|P (b - A x)|` of the returned `x`, computed by a
+    /// product with `A` at exit (the recursive `r` drifts from it by
+    /// round-off, most on ill-conditioned systems at tight tolerances).
+    pub true_residual_norm: f64,
+    /// `true_residual_norm` over the reference norm of
+    /// [`relative_residual`](Self::relative_residual).
+    pub true_relative_residual: f64,
+    /// Whether the tolerance was met by the true residual:
+    /// `|P (b - A x)| <= max(rtol |P b|, atol)`.
     pub converged: bool,
+    /// How often the recursive residual met the tolerance while the true
+    /// one did not, and CG restarted from the true residual. A restart
+    /// whose true residual is not below the last one's ends the run
+    /// unconverged: the tolerance lies below the accuracy round-off allows
+    /// (about `eps |A| |x| / |b|`).
+    pub restarts: usize,
     /// Whether the callback stopped the run.
     pub stopped_by_callback: bool,
     /// Whether the run stopped on a direction of non-positive curvature
@@ -110,7 +126,7 @@ impl CgInfo {
             Err(SparseError::NotConverged {
                 method: "PCG",
                 iterations: self.iterations,
-                relative_residual: self.relative_residual,
+                relative_residual: self.true_relative_residual,
             })
         }
     }
@@ -143,7 +159,12 @@ pub struct CgWorkspace {
 }
 
 impl CgWorkspace {
-    /// A workspace for systems of dimension `n`.
+    /// A workspace for systems of dimension `n` (`32 n` bytes).
+    ///
+    /// # Panics
+    /// If the allocator cannot give `32 n` bytes (as `Vec` does: a
+    /// "capacity overflow" for `n` above `usize::MAX / 32`);
+    /// [`try_new`](Self::try_new) returns an error instead.
     pub fn new(n: usize) -> Self {
         Self {
             r: vec![0.0; n],
@@ -153,10 +174,33 @@ impl CgWorkspace {
         }
     }
 
-    fn ensure(&mut self, n: usize) {
+    /// A workspace for systems of dimension `n`, or an error where
+    /// [`new`](Self::new) panics.
+    ///
+    /// # Errors
+    /// [`SparseError::TooLarge`] if the four vectors cannot be allocated.
+    pub fn try_new(n: usize) -> Result<Self, SparseError> {
+        let what = "CG workspace";
+        // All four at once first: no vector is allocated if they cannot all be.
+        let total = n.checked_mul(4).ok_or(SparseError::TooLarge {
+            what,
+            entries: n,
+            bytes: None,
+        })?;
+        crate::error::try_grow(what, &mut Vec::<f64>::new(), total)?;
+        Ok(Self {
+            r: crate::error::try_filled(what, n, 0.0)?,
+            z: crate::error::try_filled(what, n, 0.0)?,
+            p: crate::error::try_filled(what, n, 0.0)?,
+            q: crate::error::try_filled(what, n, 0.0)?,
+        })
+    }
+
+    fn ensure(&mut self, n: usize) -> Result<(), SparseError> {
         if self.r.len() != n {
-            *self = Self::new(n);
+            *self = Self::try_new(n)?;
         }
+        Ok(())
     }
 }
 
@@ -239,8 +283,9 @@ impl Pcg {
 /// # Errors
 /// [`SparseError::DimensionMismatch`] for wrong sizes (of `b`, `x`, the
 /// preconditioner), [`SparseError::NonFinite`] for NaN or infinite input or
-/// iterates, [`SparseError::NotPositiveDefinite`] when `p^T A p <= 0` (or
-/// `r^T M^-1 r <= 0`: the preconditioner is not positive definite).
+/// iterates, [`SparseError::NotPositiveDefinite`] when `p^T A p <= 0`,
+/// [`SparseError::PreconditionerNotPositiveDefinite`] when `r^T M^-1 r <= 0`
+/// (the preconditioner is not positive definite).
 ///
 /// ```
 /// use hookean_sparse::{pcg, CgParams, CgWorkspace, Jacobi, MatrixFree, PreconditionerSetup};
@@ -377,7 +422,7 @@ where
         InitialGuess::Given => check_finite("initial guess x", x)?,
     }
     let max_iter = params.max_iter.unwrap_or(2 * n);
-    ws.ensure(n);
+    ws.ensure(n)?;
     let CgWorkspace { r, z, p, q } = ws;
 
     filter.impose(x);
@@ -424,6 +469,11 @@ where
     // applied directly whenever x must be current (exit, callback).
     let mut pending = 0.0;
     let mut k = 0;
+    // Whether `r` is the true residual of `x` (computed by a product, not
+    // updated by recursion): at the start and after a restart.
+    let mut r_is_true = true;
+    // The true residual of the last restart (none yet).
+    let mut last_restart_norm = f64::INFINITY;
     loop {
         if pending != 0.0 && (r_norm <= threshold || k >= max_iter || callback.is_some()) {
             for (xi, pi) in x.iter_mut().zip(p.iter()) {
@@ -435,8 +485,41 @@ where
         info.residual_norm = r_norm;
         info.relative_residual = rel(r_norm);
         if r_norm <= threshold {
-            info.converged = true;
-            break;
+            if r_is_true {
+                info.converged = true;
+                break;
+            }
+            // The recursive residual says done: check the true one (one
+            // product per solve that claims convergence).
+            let true_norm = true_residual(a, filter, b, x, q);
+            check_finite_scalar("true residual", true_norm)?;
+            if true_norm <= threshold {
+                info.converged = true;
+                info.true_residual_norm = true_norm;
+                info.true_relative_residual = rel(true_norm);
+                return Ok(info);
+            }
+            // It drifted. A restart that did not lower the true residual
+            // below the last restart's means CG has reached the accuracy
+            // round-off allows: stop, not converged.
+            if !(true_norm < last_restart_norm) {
+                info.true_residual_norm = true_norm;
+                info.true_relative_residual = rel(true_norm);
+                return Ok(info);
+            }
+            last_restart_norm = true_norm;
+            // Restart CG from the true residual (iterating on with the
+            // recursive one would stop again at once).
+            r.copy_from_slice(q);
+            r_norm = true_norm;
+            r_is_true = true;
+            info.restarts += 1;
+            info.residual_norm = r_norm;
+            info.relative_residual = rel(r_norm);
+            rz = precond.apply_dot(r, z);
+            filter.project(z);
+            beta = 0.0;
+            r_norm_prev = f64::NAN;
         }
         if let Some(cb) = callback.as_mut() {
             let progress = CgProgress {
@@ -478,6 +561,7 @@ where
                     for (xi, pi) in x.iter_mut().zip(p.iter()) {
                         *xi += pi;
                     }
+                    r_is_true = false;
                 }
                 info.iterations = k;
                 info.truncated = true;
@@ -511,6 +595,7 @@ where
         };
         filter.project(z);
         r_norm = rr.sqrt();
+        r_is_true = false;
         beta = rz_new / rz;
         rz = rz_new;
         k += 1;
@@ -518,7 +603,30 @@ where
             info.residual_history.push(rel(r_norm));
         }
     }
+    // An unconverged exit (the iteration limit, the callback, a truncation)
+    // reports the true residual of the `x` it returns too.
+    let true_norm = if r_is_true {
+        r_norm
+    } else {
+        true_residual(a, filter, b, x, q)
+    };
+    info.true_residual_norm = true_norm;
+    info.true_relative_residual = rel(true_norm);
     Ok(info)
+}
+
+/// `|P (b - A x)|`, the residual left in `out`.
+fn true_residual<A, F>(a: &A, filter: &F, b: &[f64], x: &[f64], out: &mut [f64]) -> f64
+where
+    A: LinearOperator + ?Sized,
+    F: Filter,
+{
+    a.apply(x, out);
+    for (o, bi) in out.iter_mut().zip(b) {
+        *o = bi - *o;
+    }
+    filter.project(out);
+    norm2(out)
 }
 
 /// How far above the tolerance the predicted next `|r|` (the last one
@@ -536,9 +644,9 @@ fn check_preconditioned(rz: f64, iteration: usize) -> Result<(), SparseError> {
         });
     }
     if rz <= 0.0 {
-        return Err(SparseError::NotPositiveDefinite {
+        return Err(SparseError::PreconditionerNotPositiveDefinite {
             iteration,
-            curvature: rz,
+            value: rz,
         });
     }
     Ok(())

@@ -84,12 +84,29 @@ impl Entry {
 
 impl Constraints {
     /// No constraints on `n_particles` particles.
+    ///
+    /// # Panics
+    /// If the allocator cannot give `8 n_particles` bytes (as `Vec` does);
+    /// [`try_new`](Self::try_new) returns an error instead.
     pub fn new(n_particles: usize) -> Self {
         Self {
             slot: vec![NONE; n_particles],
             entries: Vec::new(),
             projectors: Vec::new(),
         }
+    }
+
+    /// No constraints on `n_particles` particles, or an error where
+    /// [`new`](Self::new) panics.
+    ///
+    /// # Errors
+    /// [`SparseError::TooLarge`] if the per-particle index cannot be allocated.
+    pub fn try_new(n_particles: usize) -> Result<Self, SparseError> {
+        Ok(Self {
+            slot: crate::error::try_filled("constraints", n_particles, NONE)?,
+            entries: Vec::new(),
+            projectors: Vec::new(),
+        })
     }
 
     /// Number of particles (the unknown has `3 * n_particles` entries).

@@ -59,14 +59,29 @@ pub enum SparseError {
         /// Column of the first asymmetric entry found.
         col: usize,
     },
-    /// CG met a direction of non-positive curvature: the matrix (or the
-    /// preconditioner) is not symmetric positive definite.
-    #[error("matrix is not positive definite: p^T A p = {curvature:e} at CG iteration {iteration}")]
+    /// CG met a direction of non-positive curvature: the matrix is not
+    /// symmetric positive definite.
+    #[error(
+        "matrix is not positive definite: p^T A p = {curvature:.5e} at CG iteration {iteration}"
+    )]
     NotPositiveDefinite {
         /// Iteration (0-based) at which the curvature was found.
         iteration: usize,
-        /// The value of p^T A p (or r^T M^-1 r for a bad preconditioner).
+        /// The value of p^T A p.
         curvature: f64,
+    },
+    /// CG met a residual with `r . M^-1 r <= 0`: the preconditioner `M^-1`
+    /// is not positive definite (a multigrid whose smoother diverges, an
+    /// incomplete factorisation or block Jacobi of an indefinite matrix),
+    /// whatever the matrix is.
+    #[error(
+        "the preconditioner is not positive definite: r^T M^-1 r = {value:.5e} at CG iteration {iteration}"
+    )]
+    PreconditionerNotPositiveDefinite {
+        /// Iteration (0-based) at which it was found.
+        iteration: usize,
+        /// The value of r^T M^-1 r.
+        value: f64,
     },
     /// A NaN or an infinity was found.
     #[error("non-finite value (NaN or infinity) in {what}{}", index.map(|i| format!(" at index {i}")).unwrap_or_default())]
@@ -213,6 +228,53 @@ pub enum SparseError {
         /// faer's message.
         message: String,
     },
+    /// A constructor was asked for more memory than can be allocated (the
+    /// size overflows, or the allocator refused it); nothing was allocated.
+    #[error("{what} of {entries} entries cannot be allocated ({})", bytes_text(*.bytes))]
+    TooLarge {
+        /// What was to be allocated (`"CG workspace"`).
+        what: &'static str,
+        /// The entries asked for.
+        entries: usize,
+        /// Their size in bytes, `None` when it overflows.
+        bytes: Option<usize>,
+    },
+}
+
+/// `about 3.4e10 bytes` or `more than 2^64 bytes`, for [`SparseError::TooLarge`].
+fn bytes_text(bytes: Option<usize>) -> String {
+    match bytes {
+        Some(b) => format!("{:.3e} bytes", b as f64),
+        None => "more bytes than the address space holds".into(),
+    }
+}
+
+/// A vector of `n` copies of `value`, or [`SparseError::TooLarge`] when the
+/// allocator cannot give it (instead of an abort or a capacity-overflow panic).
+pub(crate) fn try_filled<T: Clone>(
+    what: &'static str,
+    n: usize,
+    value: T,
+) -> Result<Vec<T>, SparseError> {
+    let mut v = Vec::new();
+    try_grow(what, &mut v, n)?;
+    v.resize(n, value);
+    Ok(v)
+}
+
+/// Reserves room for `additional` more entries in `v`, or
+/// [`SparseError::TooLarge`].
+pub(crate) fn try_grow<T>(
+    what: &'static str,
+    v: &mut Vec<T>,
+    additional: usize,
+) -> Result<(), SparseError> {
+    v.try_reserve_exact(additional)
+        .map_err(|_| SparseError::TooLarge {
+            what,
+            entries: additional,
+            bytes: additional.checked_mul(std::mem::size_of::<T>()),
+        })
 }
 
 /// Checks that `v` has length `expected`.

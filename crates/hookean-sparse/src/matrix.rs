@@ -159,7 +159,10 @@ impl BlockPattern {
     ///
     /// # Errors
     /// [`SparseError::BlockIndexOutOfRange`] if a pair names a block outside
-    /// the matrix; [`SparseError::InvalidParameter`] if `n` exceeds `u32::MAX`.
+    /// the matrix; [`SparseError::InvalidParameter`] if `n` exceeds `u32::MAX`;
+    /// [`SparseError::TooLarge`] if the allocator cannot give the pattern's
+    /// row pointers and column indices (about `12 n` bytes, checked before
+    /// they are filled).
     pub fn new(
         n: usize,
         pairs: impl IntoIterator<Item = (usize, usize)>,
@@ -181,8 +184,10 @@ impl BlockPattern {
         }
         upper.sort_unstable();
         upper.dedup();
-        let mut row_ptr = Vec::with_capacity(n + 1);
-        let mut col_idx = Vec::with_capacity(n + upper.len());
+        let mut row_ptr = Vec::new();
+        crate::error::try_grow("block pattern row pointers", &mut row_ptr, n + 1)?;
+        let mut col_idx = Vec::new();
+        crate::error::try_grow("block pattern columns", &mut col_idx, n + upper.len())?;
         row_ptr.push(0);
         let mut k = 0;
         for i in 0..n {
@@ -318,9 +323,24 @@ pub struct SymBlockMatrix {
 
 impl SymBlockMatrix {
     /// A zero matrix with the given pattern.
+    ///
+    /// # Panics
+    /// If the allocator cannot give the `72` bytes per stored block (as
+    /// `Vec` does); [`try_new`](Self::try_new) returns an error instead.
     pub fn new(pattern: Arc<BlockPattern>) -> Self {
         let values = vec![block::ZERO; pattern.stored_blocks()];
         Self { pattern, values }
+    }
+
+    /// A zero matrix with the given pattern, or an error where
+    /// [`new`](Self::new) panics.
+    ///
+    /// # Errors
+    /// [`SparseError::TooLarge`] if the values cannot be allocated.
+    pub fn try_new(pattern: Arc<BlockPattern>) -> Result<Self, SparseError> {
+        let values =
+            crate::error::try_filled("block matrix values", pattern.stored_blocks(), block::ZERO)?;
+        Ok(Self { pattern, values })
     }
 
     /// The shared sparsity pattern. Preconditioners compare it with

@@ -350,3 +350,52 @@ fn symmetric_preconditioners_refuse_a_matrix_stored_as_one_triangle() {
     let mut jacobi = Jacobi::new();
     jacobi.setup(&upper).unwrap();
 }
+
+/// The machine's memory and swap in bytes (Linux; `None` elsewhere).
+fn memory_bytes() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let kib = |key: &str| -> Option<u64> {
+        let line = info.lines().find(|l| l.starts_with(key))?;
+        line.split_whitespace().nth(1)?.parse().ok()
+    };
+    Some((kib("MemTotal:")? + kib("SwapTotal:").unwrap_or(0)) * 1024)
+}
+
+#[test]
+fn constructors_refuse_sizes_that_cannot_be_allocated_with_a_typed_error() {
+    let too_large = |r: Result<(), SparseError>, what: &str| match r {
+        Err(SparseError::TooLarge { .. }) => {}
+        other => panic!("{what}: expected TooLarge, got {other:?}"),
+    };
+    // Sizes whose byte counts overflow usize: "capacity overflow" before.
+    too_large(
+        CgWorkspace::try_new(usize::MAX / 8).map(drop),
+        "CgWorkspace",
+    );
+    too_large(
+        GmresWorkspace::try_new(usize::MAX / 2, 10).map(drop),
+        "GmresWorkspace",
+    );
+    too_large(
+        GmresWorkspace::try_new(10, usize::MAX / 4).map(drop),
+        "GmresWorkspace (Krylov dimension)",
+    );
+    too_large(
+        Constraints::try_new(usize::MAX / 4).map(drop),
+        "Constraints",
+    );
+    // And solvers handed such a size through a workspace: no panic.
+    let e = CgWorkspace::try_new(usize::MAX / 8).unwrap_err();
+    assert!(e.to_string().starts_with("CG workspace of "), "{e}");
+    // The largest pattern the documented check lets through, u32::MAX
+    // block rows: 34 GB of row pointers, which the allocator refuses on a
+    // machine with less memory (on a larger one it would succeed, and
+    // this test would fill 50 GB: it then checks nothing).
+    match memory_bytes() {
+        Some(m) if m < 40 << 30 => too_large(
+            BlockPattern::new(u32::MAX as usize, std::iter::empty()).map(drop),
+            "BlockPattern",
+        ),
+        m => eprintln!("skipped BlockPattern::new(u32::MAX): {m:?} bytes of memory"),
+    }
+}

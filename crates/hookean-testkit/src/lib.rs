@@ -1,5 +1,6 @@
 //! Test support for the Hookean crates (not published): generators of the
-//! reference cloth systems, random SPD matrices, small dense helpers, a
+//! reference cloth systems, random SPD matrices, a jump-coefficient
+//! diffusion system, small dense helpers, a
 //! spring chain as a second-order problem, and a counting global allocator
 //! for "allocates nothing" tests. (The tutorial's ODE examples with exact
 //! solutions live in `hookean_ode::tutorial`.)
@@ -9,6 +10,7 @@
 pub mod alloc;
 pub mod cloth;
 pub mod dense;
+pub mod diffusion;
 pub mod fuzz;
 pub mod intersect;
 pub mod random;

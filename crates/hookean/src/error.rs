@@ -75,11 +75,12 @@ pub enum HookeanError {
         /// The cap.
         max_bytes: u64,
     },
-    /// The run blew up: the kinetic plus gravitational energy grew past
-    /// what the scene started with by far more than any valid motion can
-    /// (see [`Simulation`](crate::Simulation)'s blow-up check).
+    /// The run blew up: its total energy grew past what the scene started
+    /// with (and its moving colliders can give) by far more than any valid
+    /// motion can (see [`Simulation`](crate::Simulation)'s energy check).
     #[error(
-        "the run blew up at t = {t:.6} s (step {step}): kinetic + gravitational energy {energy:.3e} J exceeds {bound:.3e} J, the starting energy plus {factor:e} times the scene's energy scale{}",
+        "the run blew up at t = {} s (step {step}): the {term} energy grew from {term_start:.4e} J to {term_now:.4e} J; the total energy {energy:.4e} J exceeds {bound:.4e} J, the start plus {factor:e} times the scene's energy scale{}",
+        short_time(*t),
         blow_up_hint(*h, *dt_max)
     )]
     BlowUp {
@@ -87,12 +88,19 @@ pub enum HookeanError {
         t: f64,
         /// Accepted steps so far.
         step: usize,
-        /// Kinetic plus gravitational energy of that state (J).
+        /// Total energy of that state (J; NaN for a state that is not finite).
         energy: f64,
         /// The bound (J).
         bound: f64,
         /// The growth factor of the bound (`SimulationOptions::blow_up_factor`).
         factor: f64,
+        /// The term that grew the most (`"kinetic"`, `"gravitational"`,
+        /// `"spring"`, `"external-force"`; a term that is not finite first).
+        term: &'static str,
+        /// That term at the start (J).
+        term_start: f64,
+        /// That term now (J).
+        term_now: f64,
         /// The step size of the last step.
         h: f64,
         /// The explicit stability limit `2 / sqrt(k0)` at the starting
@@ -110,6 +118,17 @@ pub enum HookeanError {
         #[source]
         source: std::io::Error,
     },
+}
+
+/// A time in seconds with about 6 significant digits.
+fn short_time(t: f64) -> String {
+    let s = format!("{t:.6}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if t != 0.0 && t.abs() < 1e-3 {
+        format!("{t:.5e}")
+    } else {
+        s.to_string()
+    }
 }
 
 /// The advice of [`HookeanError::BlowUp`]: the stable step, where known.

@@ -6,7 +6,7 @@ use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
 use hookean_filter::{FilterCoupling, FilterOptions, ModelIntegrator};
-use hookean_massspring::{Energies, MassSpringModel, State};
+use hookean_massspring::{Collider, Energies, MassSpringModel, State};
 use hookean_ode::{
     ForcingTerm, Method, NewtonMethod, NewtonOptions, PcgOptions, Predictor, SolverOptions, Stats,
     StepReport,
@@ -31,10 +31,12 @@ pub struct SimulationOptions {
     /// velocity change is filtered); [`FilterCoupling::VelocityOnly`] is the
     /// paper's literal scheme.
     pub filter_coupling: FilterCoupling,
-    /// The blow-up check: a run stops with [`HookeanError::BlowUp`] once
-    /// its kinetic plus gravitational energy exceeds the starting total
-    /// energy by more than this factor times the scene's energy scale (see
-    /// [`Simulation`]). Default `1e3`; `f64::INFINITY` turns it off.
+    /// The energy check: a run stops with [`HookeanError::BlowUp`] once
+    /// its total energy (kinetic + gravitational + spring + the external
+    /// forces' potential) exceeds the starting total (plus what moving
+    /// colliders can give) by more than this factor times the scene's
+    /// energy scale (see [`Simulation`]). Default `1e3`; `f64::INFINITY`
+    /// turns it off.
     pub blow_up_factor: f64,
     /// Not an option: it makes adding options a non-breaking change.
     /// Construct with `..Default::default()`.
@@ -159,13 +161,15 @@ pub trait Sink {
 
 /// A mass-spring model in motion.
 ///
-/// Every step is checked for a blow-up: an unstable run (an explicit step
-/// above the stability limit, say) stops with [`HookeanError::BlowUp`],
-/// naming the time, the step and, for explicit methods, the stable step
-/// `dt_max`, as soon as its kinetic plus gravitational energy exceeds the
-/// starting total energy by more than [`SimulationOptions::blow_up_factor`]
-/// times the scene's energy scale (springs, damping and colliders only
-/// take energy out, so no valid motion comes near the bound).
+/// Every step is checked against the energy the run can have: it stops
+/// with [`HookeanError::BlowUp`], naming the time, the step, the energy term
+/// that grew and, for explicit methods, the stable step `dt_max`, as soon
+/// as its total energy (kinetic + gravitational + spring + the external
+/// forces' potential) exceeds the starting total plus what moving
+/// colliders can give plus [`SimulationOptions::blow_up_factor`] times the
+/// scene's energy scale (springs, damping, friction and static colliders
+/// only take energy out, so no valid motion comes near the bound; the
+/// bound is made precise in the crate's docs/RELIABILITY.md).
 ///
 /// ```
 /// use hookean::prelude::*;
@@ -184,39 +188,65 @@ pub struct Simulation {
     guard: EnergyGuard,
 }
 
-/// The blow-up check of a [`Simulation`].
+/// The energy check of a [`Simulation`].
 ///
-/// Springs, damping, air friction and colliders only take energy out and
-/// pins do no work, so along any valid motion `K + G <= E_0` (kinetic plus
-/// gravitational energy never exceeds the starting total `E_0 = K_0 + G_0 +
-/// S_0`, spring energy being non-negative). An unstable integrator breaks
-/// this by orders of magnitude within a few steps, so the check allows
-/// `K + G <= E_0 + factor * scale` with the energy scale
-/// `scale = K_0 + S_0 + M |g| D + 1e-6 M D^2 / (1 s)^2` (`M` the total mass, `D` the
-/// diagonal of the starting bounding box; the last term keeps a scene at
-/// rest without gravity from tripping on round-off). It costs one pass over
-/// the particles per step.
+/// Springs, damping, air friction, friction and static colliders only take
+/// energy out, pins do no work and gravity and the constant external forces
+/// are counted by their potentials, so along any valid motion the total
+/// `E = K + G + S + X` (kinetic, gravitational, spring and the external
+/// forces' potential, [`MassSpringModel::energies`]) never exceeds its
+/// start `E_0`; a moving mesh collider can add at most what its surface
+/// speed `U` explains: the speed it gives (`2 M U^2`, a bounce off it) and
+/// the lift against the weight `W = M |g| + sum_p |F_p|` over the distance
+/// it travels (`W U (t - t_0)`). The check allows
+/// `E <= E_0 + 2 M U^2 + W U (t - t_0) + factor * scale` with the energy
+/// scale `scale = K_0 + S_0 + W D + 1e-6 M D^2 / (1 s)^2` (`M` the total
+/// mass, `D` the diagonal of the starting bounding box; the last term
+/// keeps a scene at rest without gravity from tripping on round-off) and
+/// `U = max (|v| + |omega| (|c - x_c| + D))` over the moving colliders (`c`
+/// the pivot, `x_c` the box's centre). An unstable integrator, a solver
+/// that stopped far from the solution or a contact that stores energy
+/// breaks it by orders of magnitude. It costs one
+/// [`energies`](MassSpringModel::energies) per step: a pass over the
+/// particles and one over the springs, no allocation.
 #[derive(Debug, Clone)]
 struct EnergyGuard {
     factor: f64,
-    /// `E_0 + factor * scale`; `None` until the baseline is taken.
-    bound: Option<f64>,
+    /// The start; `None` until it is taken.
+    baseline: Option<Baseline>,
     /// Positions at the baseline, for the stable-step hint.
     x0: Vec<f64>,
 }
 
+/// What the energy check compares with.
+#[derive(Debug, Clone, Copy)]
+struct Baseline {
+    t0: f64,
+    start: Energies,
+    /// The bound at `t0`: `E_0 + 2 M U^2 + factor * scale`.
+    bound: f64,
+    /// `W U`: the power moving colliders can give (W).
+    collider_power: f64,
+}
+
 impl EnergyGuard {
-    /// Takes `E_0` and the scale from the current state.
+    /// Takes `E_0`, the scale and the colliders' allowance from the state at `t0`.
     fn baseline(
         &mut self,
         model: &MassSpringModel,
         x: &[f64],
         v: &[f64],
-    ) -> Result<f64, HookeanError> {
+        t0: f64,
+    ) -> Result<(), HookeanError> {
         let e = model.energies(x, v)?;
         let total_mass: f64 = model.particle_masses().iter().sum();
-        let g = model.options().gravity;
-        let g_norm = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+        let norm = |a: &[f64]| a.iter().map(|c| c * c).sum::<f64>().sqrt();
+        let weight = total_mass * norm(&model.options().gravity)
+            + model
+                .external_forces()
+                .chunks_exact(3)
+                .map(norm)
+                .sum::<f64>();
         let mut lo = [f64::INFINITY; 3];
         let mut hi = [f64::NEG_INFINITY; 3];
         for p in x.chunks_exact(3) {
@@ -226,27 +256,66 @@ impl EnergyGuard {
             }
         }
         let d2: f64 = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum();
-        let scale = e.kinetic + e.spring + total_mass * (g_norm * d2.sqrt() + 1e-6 * d2);
-        let bound = e.total() + self.factor * scale;
-        self.bound = Some(bound);
+        let d = d2.sqrt();
+        let centre: [f64; 3] = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
+        let u = collider_speed(model, centre, d);
+        let scale = e.kinetic + e.spring + weight * d + 1e-6 * total_mass * d2;
+        self.baseline = Some(Baseline {
+            t0,
+            start: e,
+            bound: e.total() + 2.0 * total_mass * u * u + self.factor * scale,
+            collider_power: weight * u,
+        });
         self.x0.clear();
         self.x0.extend_from_slice(x);
-        Ok(bound)
+        Ok(())
     }
+}
 
-    /// `K + G` of the state (no allocation, one pass over the particles).
-    fn mechanical(model: &MassSpringModel, x: &[f64], v: &[f64]) -> f64 {
-        let g = model.options().gravity;
-        model
-            .particle_masses()
-            .iter()
-            .zip(x.chunks_exact(3).zip(v.chunks_exact(3)))
-            .map(|(m, (xp, vp))| {
-                m * (0.5 * (vp[0] * vp[0] + vp[1] * vp[1] + vp[2] * vp[2])
-                    - (g[0] * xp[0] + g[1] * xp[1] + g[2] * xp[2]))
-            })
-            .sum()
+impl Baseline {
+    /// The bound at time `t`.
+    fn bound(&self, t: f64) -> f64 {
+        if self.collider_power > 0.0 {
+            self.bound + self.collider_power * (t - self.t0)
+        } else {
+            self.bound
+        }
     }
+}
+
+/// The largest surface speed of the moving mesh colliders near the cloth
+/// at the start: `|v| + |omega| (|c - centre| + d)` (0 without them).
+fn collider_speed(model: &MassSpringModel, centre: [f64; 3], d: f64) -> f64 {
+    let norm = |a: [f64; 3]| a.iter().map(|c| c * c).sum::<f64>().sqrt();
+    model
+        .colliders()
+        .iter()
+        .filter_map(|c| match c {
+            Collider::Mesh { mesh, .. } if !mesh.motion().is_static() => Some(*mesh.motion()),
+            _ => None,
+        })
+        .map(|m| {
+            let arm = norm(std::array::from_fn(|k| m.pivot[k] - centre[k])) + d;
+            norm(m.velocity) + norm(m.angular_velocity) * arm
+        })
+        .fold(0.0, f64::max)
+}
+
+/// The term of `now` that grew the most from `start` (a non-finite one first).
+fn grown_term(start: &Energies, now: &Energies) -> (&'static str, f64, f64) {
+    let pairs = start.terms().into_iter().zip(now.terms());
+    let mut best = ("kinetic", start.kinetic, now.kinetic);
+    let mut growth = f64::NEG_INFINITY;
+    for ((name, e0), (_, e)) in pairs {
+        if !e.is_finite() {
+            return (name, e0, e);
+        }
+        if e - e0 > growth {
+            growth = e - e0;
+            best = (name, e0, e);
+        }
+    }
+    best
 }
 
 impl Simulation {
@@ -286,7 +355,7 @@ impl Simulation {
             wall: Duration::ZERO,
             guard: EnergyGuard {
                 factor: options.blow_up_factor,
-                bound: None,
+                baseline: None,
                 x0: Vec::new(),
             },
         })
@@ -305,16 +374,17 @@ impl Simulation {
         Ok(report)
     }
 
-    /// Takes the blow-up check's baseline from the current state, unless it
+    /// Takes the energy check's baseline from the current state, unless it
     /// is taken (it is dropped by [`model_mut`](Self::model_mut)).
     fn take_baseline(&mut self) -> Result<(), HookeanError> {
-        if self.guard.bound.is_none() && self.guard.factor.is_finite() {
-            let (model, x, v) = (
+        if self.guard.baseline.is_none() && self.guard.factor.is_finite() {
+            let (model, x, v, t) = (
                 self.integrator.problem(),
                 self.integrator.x(),
                 self.integrator.v(),
+                self.integrator.t(),
             );
-            self.guard.baseline(model, x, v)?;
+            self.guard.baseline(model, x, v, t)?;
         }
         Ok(())
     }
@@ -322,10 +392,20 @@ impl Simulation {
     /// [`HookeanError::BlowUp`] if the state after `report` is past the
     /// energy bound (see [`Simulation`]).
     fn check_blow_up(&self, report: &StepReport) -> Result<(), HookeanError> {
-        let Some(bound) = self.guard.bound else {
+        let Some(baseline) = &self.guard.baseline else {
             return Ok(());
         };
-        let energy = EnergyGuard::mechanical(self.model(), self.x(), self.v());
+        let bound = baseline.bound(self.t());
+        let now = match self.model().energies(self.x(), self.v()) {
+            Ok(e) => e,
+            // A state that is not finite is past every bound.
+            Err(hookean_massspring::MassSpringError::NonFinite { .. }) => Energies {
+                kinetic: f64::NAN,
+                ..Energies::default()
+            },
+            Err(e) => return Err(e.into()),
+        };
+        let energy = now.total();
         // `!(<=)` also stops a NaN energy.
         if !(energy <= bound) {
             let dt_max = if self.method().is_implicit() {
@@ -336,12 +416,16 @@ impl Simulation {
                     .ok()
                     .map(|s| s.dt_max)
             };
+            let (term, term_start, term_now) = grown_term(&baseline.start, &now);
             return Err(HookeanError::BlowUp {
                 t: self.t(),
                 step: self.stats().num_steps,
                 energy,
                 bound,
                 factor: self.guard.factor,
+                term,
+                term_start,
+                term_now,
                 h: report.h,
                 dt_max,
             });
@@ -476,7 +560,7 @@ impl Simulation {
     /// The blow-up check takes a new baseline from the state at the next
     /// step (a changed model may hold more energy).
     pub fn model_mut(&mut self) -> &mut MassSpringModel {
-        self.guard.bound = None;
+        self.guard.baseline = None;
         self.integrator.problem_mut()
     }
 

@@ -23,11 +23,13 @@ pub struct LinearSolveStats {
     /// Iterations of an iterative solver (matrix-vector products); 0 for a direct solver.
     pub iterations: usize,
     /// `|J x - rhs|` at exit as the solver knows it (the recursively updated
-    /// CG residual; 0 for direct solvers, which do not compute it).
+    /// CG residual, the forcing terms' `|G + J s|`; GMRES's true residual; 0
+    /// for direct solvers, which do not compute it).
     pub residual_norm: f64,
-    /// `|J x - rhs| / |rhs|` at exit (0 for direct solvers).
+    /// The true `|J x - rhs| / |rhs|` at exit (0 for direct solvers).
     pub relative_residual: f64,
-    /// Whether the requested tolerance was met (always `true` for direct solvers).
+    /// Whether the requested tolerance was met by the true residual (always
+    /// `true` for direct solvers; for GMRES, see its CVODE rule).
     pub converged: bool,
     /// Whether an iterative solve stopped early on a direction of
     /// non-positive curvature and returned its iterate so far (a descent

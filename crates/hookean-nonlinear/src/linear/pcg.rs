@@ -262,7 +262,7 @@ where
         Ok(LinearSolveStats {
             iterations: info.iterations,
             residual_norm: info.residual_norm,
-            relative_residual: info.relative_residual,
+            relative_residual: info.true_relative_residual,
             converged: info.converged,
             truncated: info.truncated,
         })
