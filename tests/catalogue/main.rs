@@ -119,6 +119,7 @@ mod commands;
 mod contact;
 mod files;
 mod fuzz;
+mod messages;
 mod races;
 mod run;
 mod solve;
@@ -382,6 +383,8 @@ fn every_case_of_the_catalogue_exits_as_promised_and_keeps_the_user_files() {
         contact::CONTACT,
         // Issue 37: readers of non-regular files, corrected reruns.
         files::READERS,
+        // Issue 37: refusals in the user's words, the step cap, nullspaces.
+        messages::MESSAGES,
     ]
     .iter()
     .flat_map(|cases| cases.iter())

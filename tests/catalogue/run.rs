@@ -69,7 +69,7 @@ pub(crate) const RUN: &[Case] = &[
         &[("s.toml", CLOTH)],
         &["run", "{}/s.toml", "--out", "{}/out", "--set", "duration=-1"],
         2,
-        "must be a positive number, got -1",
+        "must lie in (0, inf), got -1",
     )
     .absent(&["out"]),
     case(
@@ -113,11 +113,11 @@ pub(crate) const RUN: &[Case] = &[
     )
     .absent(&["out"]),
     case(
-        "run: a cloth so large its springs have infinite length",
+        "run: a cloth so large its springs have infinite length (refused by the size's range)",
         &[("s.toml", CLOTH)],
         &["run", "{}/s.toml", "--out", "{}/out", "--set", "cloth.size=1e308"],
         2,
-        "s.toml: [cloth]:",
+        "--set cloth.size=1e308: must lie in [1e-100, 1e100]",
     )
     .absent(&["out"]),
     case(

@@ -105,15 +105,31 @@ impl AmgArgs {
                 return bad(flag, &format!("{lo} to {hi}"), value.to_string());
             }
         }
-        if !(0.0..1.0).contains(&self.amg_strength) {
-            return bad("amg-strength", "[0, 1)", format!("{:?}", self.amg_strength));
-        }
-        for (flag, w) in [
-            ("amg-prolongation-weight", self.amg_prolongation_weight),
-            ("amg-jacobi-weight", self.amg_jacobi_weight),
+        // The scene keys' ranges (solver.amg.strength_threshold, .jacobi_weight,
+        // .prolongation_weight; hookean::range owns them).
+        for (flag, value, range) in [
+            (
+                "amg-strength",
+                self.amg_strength,
+                hookean::range::AMG_STRENGTH,
+            ),
+            (
+                "amg-prolongation-weight",
+                self.amg_prolongation_weight,
+                hookean::range::AMG_WEIGHT,
+            ),
+            (
+                "amg-jacobi-weight",
+                self.amg_jacobi_weight,
+                hookean::range::AMG_WEIGHT,
+            ),
         ] {
-            if !(w > 0.0 && w < 2.0) {
-                return bad(flag, "(0, 2)", format!("{w:?}"));
+            if !range.contains(value) {
+                return bad(
+                    flag,
+                    &range.to_string(),
+                    hookean_sparse::AsWritten(value).to_string(),
+                );
             }
         }
         Ok(AmgOptions {

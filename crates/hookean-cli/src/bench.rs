@@ -146,7 +146,7 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     }
     if let Some(&n) = args.cloth.iter().find(|&&n| !(2..=512).contains(&n)) {
         return Err(CliError::Input(format!(
-            "--cloth: size {n} must lie in 2..=512"
+            "--cloth: size {n} must lie in 2 to 512"
         )));
     }
     let inputs = discover(&args.inputs, &args.cloth)?;

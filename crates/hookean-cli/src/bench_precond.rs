@@ -115,12 +115,13 @@ pub fn run(args: &BenchPrecondArgs) -> Result<(), CliError> {
     let solvers = &plan.solvers;
     if let Some(&n) = args.n.iter().find(|&&n| !(2..=1024).contains(&n)) {
         return Err(CliError::Input(format!(
-            "--n: cloth size {n} must lie in 2..=1024"
+            "--n: cloth size {n} must lie in 2 to 1024"
         )));
     }
     if let Some(&k) = args.k.iter().find(|k| !(**k > 0.0 && k.is_finite())) {
         return Err(CliError::Input(format!(
-            "--k: stiffness {k} must be positive and finite"
+            "--k: stiffness {} must lie in (0, inf)",
+            hookean_sparse::AsWritten(k)
         )));
     }
     // The system of each N (the model, the matrix, its CSR copy and the

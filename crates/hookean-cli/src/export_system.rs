@@ -70,15 +70,15 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
     )?;
     let (scene, _) = crate::scene::read_scene(&args.scene, &args.set)?;
     let (particles, _) = scene.particle_count();
-    let check_work = |h: f64| {
+    // Steps to --at as `run` counts them (a variable-step method: its step cap).
+    let check_work = |h: f64| -> Result<(), CliError> {
+        let (steps, cause) = crate::work::scene_steps(&scene, &args.scene, args.at, "--at", h)?;
         args.work.check(
-            args.at / h,
-            particles.map_or(f64::INFINITY, |p| p as f64),
-            &format!(
-                "--at {:?} s at integrator.h = {h:?} s of {}",
-                args.at,
-                args.scene.display()
-            ),
+            steps,
+            particles.map_or(f64::INFINITY, |p| {
+                (p as f64).max(crate::work::MIN_STEP_WORK)
+            }),
+            &cause,
         )
     };
     // "auto" is known once the model is built.
@@ -88,8 +88,7 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
     let mut sim = scene
         .build()
         .map_err(|e| input(format!("{}: {e}", args.scene.display())))?;
-    let h = sim.h_next();
-    check_work(h)?;
+    check_work(sim.h_next())?;
     let mut steps = 0;
     if args.at > 0.0 {
         // A bar on a terminal: simulating to a late --at can take a while.
@@ -102,13 +101,25 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
         // A blow-up or a solver failure of a valid scene: a failed run (exit 1).
         let summary = result.map_err(|e| {
             CliError::Failed(format!(
-                "{}: simulation to t = {} failed: {e}",
+                "{}: simulation to t = {:?} failed: {e}",
                 args.scene.display(),
                 args.at
             ))
         })?;
         steps = summary.stats.num_steps;
     }
+    // The exported step: the integrator's next one; the variable-order BDF
+    // before its first step has none yet (it picks it from rtol and atol),
+    // so its system is the one of the scene's integrator.h, within h_max.
+    let h = match sim.h_next() {
+        h if h.is_finite() && h > 0.0 => h,
+        _ => scene
+            .integrator
+            .h
+            .value()
+            .unwrap_or(scene.integrator.h_max)
+            .min(scene.integrator.h_max),
+    };
     let (a_path, b_path) = (args.out.join("A.mtx"), args.out.join("b.mtx"));
     let dir = staging.dir();
     if let Err(e) = sim.model().export_implicit_euler_system(

@@ -235,8 +235,19 @@ fn analyse(
         },
         ..Default::default()
     };
-    let rows =
-        stable_step_against_lambda(&build, &Method::FbEuler, &lambdas, &options).map_err(failed)?;
+    // No bracket: the scene's cloth (what the user set) has no explicit
+    // stability limit in the steps tried, not a bisection option of theirs.
+    let rows = stable_step_against_lambda(&build, &Method::FbEuler, &lambdas, &options).map_err(
+        |e| match e {
+            hookean_filter::FilterError::NoStabilityBracket { .. } => CliError::Failed(format!(
+                "{}: [cloth]: figure 6 measures FB Euler's stable step by bisection, but {e}: \
+                 the cloth's stiffness, damping and mass (at --n {}) set no limit there",
+                args.scene.display(),
+                args.n
+            )),
+            e => failed(e),
+        },
+    )?;
     bar.finish_and_clear();
     let unfiltered = rows
         .iter()

@@ -9,7 +9,8 @@ use hookean::scene::Scene;
 use hookean::sinks::{self, ObjFrames, ProgressInfo, StepsCsv};
 use hookean::{HookeanError, RunSummary, Simulation, Sink};
 use hookean_ode::tutorial::LinearOscillator;
-use hookean_ode::{Method, StepReport};
+use hookean_ode::{OdeError, StepReport};
+use hookean_sparse::Short;
 use indicatif::{ProgressBar, ProgressDrawTarget};
 use serde::Serialize;
 
@@ -336,6 +337,7 @@ pub fn run(args: &RunArgs, threads: Option<usize>) -> Result<(), CliError> {
 fn run_scene(args: &RunArgs, scene: &Scene, program: &ProgramKeys) -> Result<(), CliError> {
     let max_bytes = crate::memory::cap_bytes(args.max_memory)?;
     if program.tutorial.is_some() {
+        crate::tutorial_run::check_tables(scene, &args.scene)?;
         // A [tutorial] scene's step is a number (the scene refuses "auto").
         let h = scene.integrator.h.value().unwrap_or(f64::MIN_POSITIVE);
         check_work(args, scene, 1, h)?;
@@ -380,22 +382,42 @@ fn run_scene(args: &RunArgs, scene: &Scene, program: &ProgramKeys) -> Result<(),
     }
 }
 
-/// Refuses a run of `particles` particles at step `h` whose work is above `--max-work`.
+/// Refuses a run of `particles` particles at step `h` whose work is above
+/// `--max-work` (a step counts at least [`MIN_STEP_WORK`](crate::work::MIN_STEP_WORK);
+/// a variable-step method its step cap, [`scene_steps`](crate::work::scene_steps)).
 fn check_work(args: &RunArgs, scene: &Scene, particles: usize, h: f64) -> Result<(), CliError> {
-    let auto = if scene.integrator.h.value().is_none() {
-        " (\"auto\")"
-    } else {
-        ""
-    };
+    let (steps, cause) =
+        crate::work::scene_steps(scene, &args.scene, scene.duration, "duration", h)?;
     args.work.check(
-        scene.duration / h,
-        particles as f64,
-        &format!(
-            "{}: duration = {:?} s at integrator.h = {h:?} s{auto}",
-            args.scene.display(),
-            scene.duration,
-        ),
+        steps,
+        (particles as f64).max(crate::work::MIN_STEP_WORK),
+        &cause,
     )
+}
+
+/// What to change when a run stopped at its step cap (the library's
+/// `TooManySteps`, in the user's key).
+fn step_cap_hint(e: &HookeanError, scene: &Scene) -> String {
+    // The cap's error may come wrapped (the BDF's `Run`, the filter's
+    // integrator): any error in the chain.
+    let mut next: Option<&(dyn std::error::Error + 'static)> = Some(e);
+    let mut capped = false;
+    while let Some(err) = next {
+        // A boxed source (the BDF's `Run`) is its own type in the chain.
+        let ode = err
+            .downcast_ref::<OdeError>()
+            .or_else(|| err.downcast_ref::<Box<OdeError>>().map(|b| &**b));
+        capped |= matches!(ode, Some(OdeError::TooManySteps { .. }));
+        next = err.source();
+    }
+    if capped {
+        format!(
+            "; raise integrator.max_steps = {} (range 1 to 1000000000), or loosen integrator.rtol / integrator.atol",
+            scene.integrator.max_steps
+        )
+    } else {
+        String::new()
+    }
 }
 
 /// Runs a mass-spring scene, writing into `out`; returns the one-line report.
@@ -415,17 +437,16 @@ fn run_model(
         )),
         e => CliError::Input(format!("{}: {e}", args.scene.display())),
     })?;
-    // A variable-step method takes at least duration / h_max steps (the
-    // variable-order BDF picks its first step itself: h_next is NaN before
-    // it, and `max` takes h_max).
-    let h = if sim.method().is_variable_step() || *sim.method() == Method::VariableBdf {
-        scene.integrator.h_max.max(sim.h_next())
-    } else {
-        sim.h_next()
-    };
+    // A variable-step method counts its step cap (h is only its first step).
+    let h = sim.h_next();
     check_work(args, scene, sim.model().n_particles(), h)?;
     // At most one OBJ frame per step and MAX_FRAMES in all.
-    let frames = (scene.duration * scene.output.frame_rate).min(scene.duration / h) + 1.0;
+    let steps = if h.is_finite() {
+        scene.duration / h
+    } else {
+        scene.integrator.max_steps as f64
+    };
+    let frames = (scene.duration * scene.output.frame_rate).min(steps) + 1.0;
     if scene.output.frame_rate > 0.0 && !(frames <= MAX_FRAMES as f64) {
         return Err(CliError::Input(format!(
             "{}: output.frame_rate = {:?} for duration = {:?} s is about {frames:.3e} frames, more than {MAX_FRAMES}; lower output.frame_rate",
@@ -470,9 +491,10 @@ fn run_model(
                 format!("{}: {e}", args.scene.display())
             } else {
                 format!(
-                    "{}: the run stopped at t = {:.4} s: {e}",
+                    "{}: the run stopped at t = {} s: {e}{}",
                     args.scene.display(),
-                    sim.t()
+                    Short(sim.t()),
+                    step_cap_hint(&e, scene)
                 )
             };
             // The frames up to the failure show how it went wrong.

@@ -125,16 +125,14 @@ impl SolverArgs {
                 "--max-iter must lie in 0 to {MAX_ITER}, got {m}"
             )));
         }
-        if !(omega > 0.0 && omega < 2.0) {
-            return Err(CliError::Input(format!(
-                "--omega must lie in (0, 2), got {omega:?}"
-            )));
-        }
-        if !(0.0..1.0).contains(&rtol) {
-            return Err(CliError::Input(format!(
-                "--rtol must lie in [0, 1), got {rtol:?}"
-            )));
-        }
+        // The scene key solver.omega's range (hookean::range owns it).
+        hookean::range::SSOR_OMEGA
+            .check(omega)
+            .map_err(|m| CliError::Input(format!("--omega {m}")))?;
+        // 0 is allowed here: "cannot converge" is a solve's failure to report.
+        hookean::range::Range::closed_open(0.0, 1.0)
+            .check(rtol)
+            .map_err(|m| CliError::Input(format!("--rtol {m}")))?;
         let params = CgParams {
             rtol,
             max_iter: self.max_iter,
@@ -402,6 +400,17 @@ impl BlockSizeSource {
             Self::Default => "default",
         }
     }
+
+    /// Where the block size came from, in the user's words.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::Flag => "set by --block-size",
+            Self::Nullspace => "read off the first vector's zeros",
+            Self::Coordinates => "the columns of --coordinates",
+            Self::Detected => "detected from the matrix's pattern",
+            Self::Default => "the default: 3 on block storage, else 1; --block-size sets it",
+        }
+    }
 }
 
 /// A system read from Matrix Market files, scaled and in PCG's storage.
@@ -578,6 +587,38 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
                 v.len()
             ),
         ));
+    }
+    // The shapes the multigrid takes (hookean-sparse owns them), checked
+    // for any --precond: a file of the wrong shape is bad input, not a
+    // failed set-up (exit 1) or a file ignored.
+    if let Some(path) = &args.nullspace {
+        let k = near_nullspace.len();
+        let zero = near_nullspace
+            .iter()
+            .position(|v| v.iter().all(|&x| x == 0.0));
+        let problem = if k == 0 {
+            Some("no vectors (0 columns)".to_string())
+        } else if let Some(j) = zero {
+            Some(format!("column {} is zero", j + 1))
+        } else if !hookean_sparse::amg_takes_near_nullspace(block_size, k) {
+            Some(format!(
+                "{k} vectors on nodes of {block_size} unknown{} ({})",
+                if block_size == 1 { "" } else { "s" },
+                block_size_source.describe()
+            ))
+        } else {
+            None
+        };
+        if let Some(problem) = problem {
+            return Err(input(
+                "nullspace",
+                path,
+                format!(
+                    "{problem}; expected a {rows} x k array of k near-nullspace vectors: {}",
+                    hookean_sparse::AMG_NEAR_NULLSPACE_SHAPES
+                ),
+            ));
+        }
     }
     // MIC(0) exists for block storage only: "all" skips it on CSR.
     let solvers = plan.solvers.iter().filter(|s| {

@@ -110,7 +110,7 @@ pub fn run(args: &StabilityArgs) -> Result<(), CliError> {
     let im = range("--im", &args.im)?;
     if !(2..=1001).contains(&args.resolution) {
         return Err(CliError::Input(format!(
-            "--resolution must lie in 2..=1001, got {:?}",
+            "--resolution must lie in 2 to 1001, got {}",
             args.resolution
         )));
     }

@@ -96,9 +96,9 @@ fn integrate<P: FirstOrderProblem + Send + 'static>(
     while ode.t() < scene.duration - 1e-12 * scene.duration {
         let r = ode.step().map_err(|e| {
             CliError::Failed(format!(
-                "{}: the run stopped at t = {:.4}: {e}",
+                "{}: the run stopped at t = {}: {e}",
                 scene_path.display(),
-                ode.t()
+                hookean_sparse::Short(ode.t())
             ))
         })?;
         let (y, e) = (ode.y()[0], exact(ode.t()));
@@ -165,4 +165,28 @@ fn integrate<P: FirstOrderProblem + Send + 'static>(
             (y - e).abs(),
         )
     }))
+}
+
+/// Refuses the tables of a `[tutorial]` scene that its scalar example
+/// would ignore, naming the table, as the facade refuses a `[filter]` on an
+/// implicit method: the examples have no particles to filter, collide or
+/// pin.
+pub(crate) fn check_tables(scene: &Scene, path: &Path) -> Result<(), CliError> {
+    let ignored = if scene.filter.is_some() {
+        Some("[filter]")
+    } else if !scene.colliders.is_empty() {
+        Some("[collider 1]")
+    } else if scene.contact.self_collision {
+        Some("[contact]")
+    } else {
+        None
+    };
+    match ignored {
+        Some(table) => Err(CliError::Input(format!(
+            "{}: {table}: a [tutorial] scene is a scalar ODE without particles; \
+             its example would ignore this table (remove it, or use a model table)",
+            path.display()
+        ))),
+        None => Ok(()),
+    }
 }

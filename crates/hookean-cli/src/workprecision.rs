@@ -202,7 +202,7 @@ pub fn run(args: &WorkPrecisionArgs) -> Result<(), CliError> {
     let methods = methods(&args.methods, &problem, &args.problem)?;
     if !(1..=16).contains(&args.levels) {
         return Err(CliError::Input(format!(
-            "--levels must lie in 1..=16, got {:?}",
+            "--levels must lie in 1 to 16, got {}",
             args.levels
         )));
     }

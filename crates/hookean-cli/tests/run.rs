@@ -162,7 +162,7 @@ fn a_bad_scene_names_its_line_and_column() {
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("bad.toml:4:13"), "{stderr}");
-    assert!(stderr.contains("positive"), "{stderr}");
+    assert!(stderr.contains("must lie in (0, inf), got -5"), "{stderr}");
     assert_eq!(stderr.trim_end().lines().count(), 1);
     let o = hookean(&["run", "/nonexistent/scene.toml"]);
     assert_eq!(o.status.code(), Some(2));

@@ -2,7 +2,7 @@
 
 use hookean_massspring::MassSpringError;
 use hookean_ode::OdeError;
-use hookean_sparse::SparseError;
+use hookean_sparse::{Short, SparseError};
 use thiserror::Error;
 
 /// Everything that can go wrong in `hookean-filter`.
@@ -64,6 +64,27 @@ pub enum FilterError {
         value: f64,
         /// The admissible range.
         reason: &'static str,
+    },
+    /// [`measure_stable_step`](crate::measure_stable_step) found no
+    /// bracket of a stable and an unstable step within its
+    /// [`max_runs`](crate::BisectionOptions::max_runs) trial runs: every
+    /// step it tried, from the guess `from` to `to`, was stable (or every
+    /// one unstable), so the model has no stability limit in that range.
+    #[error(
+        "no stability limit found in {runs} trial runs: every step from h = {from} s to {to} s was {}",
+        if *.stable { "stable" } else { "unstable" },
+        from = Short(*.from),
+        to = Short(*.to)
+    )]
+    NoStabilityBracket {
+        /// Trial runs made.
+        runs: usize,
+        /// The first trial step (the guess).
+        from: f64,
+        /// The last trial step.
+        to: f64,
+        /// Whether every trial was stable (else every one blew up).
+        stable: bool,
     },
     /// Velocity filtering wraps explicit integrators only (implicit ones filter by themselves).
     #[error("method {method} is implicit: velocity filtering wraps explicit integrators")]

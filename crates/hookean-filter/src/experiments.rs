@@ -181,8 +181,9 @@ pub struct StableStep {
 /// (e.g. the predicted `dt_max`), which grows or shrinks it by 1.5.
 ///
 /// # Errors
-/// [`FilterError::InvalidParameter`] for a bad guess or tolerance, or when
-/// no bracket is found within `max_runs`; the errors of the runs.
+/// [`FilterError::InvalidParameter`] for a bad guess or tolerance,
+/// [`FilterError::NoStabilityBracket`] when no bracket is found within
+/// `max_runs`; the errors of the runs.
 pub fn measure_stable_step(
     build: &dyn Fn() -> Result<(MassSpringModel, State), FilterError>,
     method: &Method,
@@ -204,6 +205,13 @@ pub fn measure_stable_step(
             reason: "must be positive",
         });
     }
+    if opts.max_runs == 0 {
+        return Err(FilterError::InvalidParameter {
+            name: "max_runs",
+            value: 0.0,
+            reason: "must be at least 1",
+        });
+    }
     let mut runs = 0;
     let trial = |h: f64| -> Result<bool, FilterError> {
         let (model, state) = build()?;
@@ -218,15 +226,18 @@ pub fn measure_stable_step(
     };
     let (mut lo, mut hi) = (f64::NAN, f64::NAN);
     let mut h = guess;
+    let mut last = guess;
     while lo.is_nan() || hi.is_nan() {
         if runs >= opts.max_runs {
-            return Err(FilterError::InvalidParameter {
-                name: "max_runs",
-                value: opts.max_runs as f64,
-                reason: "no stability bracket found within this many runs",
+            return Err(FilterError::NoStabilityBracket {
+                runs,
+                from: guess,
+                to: last,
+                stable: !lo.is_nan(),
             });
         }
         runs += 1;
+        last = h;
         if trial(h)? {
             lo = h;
             if hi.is_nan() {

@@ -1,6 +1,6 @@
 //! The one error type of `hookean-nonlinear`.
 
-use hookean_sparse::SparseError;
+use hookean_sparse::{Short, SparseError};
 use thiserror::Error;
 
 use crate::stats::NewtonStats;
@@ -22,6 +22,19 @@ pub enum DivergenceReason {
     },
 }
 
+impl std::fmt::Display for DivergenceReason {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            Self::Contraction { theta } => {
+                write!(f, "contraction rate {} >= 1 twice in a row", Short(theta))
+            }
+            Self::ResidualGrowth { ratio } => {
+                write!(f, "the residual grew by a factor of {}", Short(ratio))
+            }
+        }
+    }
+}
+
 /// Everything that can go wrong in `hookean-nonlinear`.
 ///
 /// The failures of the Newton iteration itself ([`Diverged`](Self::Diverged),
@@ -33,7 +46,7 @@ pub enum DivergenceReason {
 #[non_exhaustive]
 pub enum NonlinearError {
     /// The Newton iteration diverged.
-    #[error("Newton iteration diverged after {} iterations: {reason:?}", stats.iterations)]
+    #[error("Newton iteration diverged after {} iterations: {reason}", stats.iterations)]
     Diverged {
         /// What was seen.
         reason: DivergenceReason,
@@ -41,7 +54,7 @@ pub enum NonlinearError {
         stats: Box<NewtonStats>,
     },
     /// The iteration limit was reached without convergence.
-    #[error("Newton iteration did not converge in {} iterations (|G| = {:e})", stats.iterations, stats.final_residual())]
+    #[error("Newton iteration did not converge in {} iterations (|G| = {})", stats.iterations, Short(stats.final_residual()))]
     MaxIterations {
         /// Statistics up to the failure.
         stats: Box<NewtonStats>,
@@ -54,7 +67,9 @@ pub enum NonlinearError {
     },
     /// The linear solver missed the tolerance it was asked for.
     #[error(
-        "linear solver did not reach relative residual {tolerance:e} in {iterations} iterations (reached {relative_residual:e})"
+        "linear solver did not reach relative residual {tolerance} in {iterations} iterations (reached {relative_residual})",
+        tolerance = Short(*.tolerance),
+        relative_residual = Short(*.relative_residual)
     )]
     LinearNotConverged {
         /// Linear iterations spent on the failing solve.
@@ -70,7 +85,7 @@ pub enum NonlinearError {
     #[error(transparent)]
     Linear(#[from] SparseError),
     /// An LU factorisation met a zero (or negligible) pivot.
-    #[error("the Jacobian is singular (LU pivot {pivot} is {value:e})")]
+    #[error("the Jacobian is singular (LU pivot {pivot} is {value})", value = Short(*.value))]
     SingularJacobian {
         /// Index of the offending pivot (for sparse LU, the elimination step).
         pivot: usize,

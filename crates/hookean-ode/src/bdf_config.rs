@@ -102,7 +102,10 @@ pub struct BdfConfig {
     pub max_order: usize,
     /// Initial step size; `None` (default) for Hairer-Wanner's estimate.
     pub initial_step: Option<f64>,
-    /// The run fails after this many steps. Default 100 000.
+    /// A run of a variable-step method (this BDF and variable-step BDF2,
+    /// [`Method::Bdf2Variable`](crate::Method::Bdf2Variable)) fails with
+    /// [`OdeError::TooManySteps`](crate::OdeError::TooManySteps) after this
+    /// many accepted steps. Default 100 000.
     pub max_steps: usize,
     /// Newton iterations per attempt. Default 4.
     pub max_newton_iterations: usize,

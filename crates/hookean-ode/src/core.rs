@@ -279,6 +279,14 @@ impl<S: System> Core<S> {
         let t = self.t;
         let first_of_bdf2 = self.hist_len < 2;
         let (h, err) = if self.method.is_variable_step() {
+            // The step cap of the variable-step methods (BdfConfig::max_steps,
+            // which the variable-order BDF's engine checks alike).
+            if self.stats.num_steps >= self.opts.bdf.max_steps {
+                return Err(OdeError::TooManySteps {
+                    t: self.t,
+                    max_steps: self.opts.bdf.max_steps,
+                });
+            }
             self.variable_step(limit)?
         } else {
             let h = limit.map_or(self.opts.h, |l| l.min(self.opts.h));

@@ -1,7 +1,7 @@
 //! The crate's error type.
 
 use hookean_nonlinear::NonlinearError;
-use hookean_sparse::SparseError;
+use hookean_sparse::{Short, SparseError};
 
 /// Everything that can go wrong in `hookean-ode`. Errors raised during a
 /// run carry the time `t` reached when they happened, in the same shape
@@ -31,7 +31,7 @@ pub enum OdeError {
         reason: &'static str,
     },
     /// NaN or infinity in the state, the right-hand side or the input.
-    #[error("non-finite value in {what} at t = {t}")]
+    #[error("non-finite value in {what} at t = {t}", t = Short(*.t))]
     NonFinite {
         /// Where the value was found.
         what: &'static str,
@@ -40,7 +40,7 @@ pub enum OdeError {
     },
     /// The step size became smaller than `h_min` ([`StepSizePolicy`](crate::StepSizePolicy))
     /// or too small to advance `t`.
-    #[error("step size underflow at t = {t}: h = {h:e}")]
+    #[error("step size underflow at t = {t}: h = {h}", t = Short(*.t), h = Short(*.h))]
     StepSizeUnderflow {
         /// The time reached.
         t: f64,
@@ -50,9 +50,8 @@ pub enum OdeError {
     /// Newton's method failed on the step from `t` even after `retries`
     /// retries with smaller steps.
     #[error(
-        "Newton iteration failed on the step from t = {t} (h = {h:e}) after {retries} retries: \
-         {iterations} iterations, last update norm {update_norm:e}"
-    )]
+        "Newton iteration failed on the step from t = {t} (h = {h}) after {retries} retries: \
+         {iterations} iterations, last update norm {update_norm}", t = Short(*.t), h = Short(*.h), update_norm = Short(*.update_norm))]
     NewtonFailed {
         /// The time reached.
         t: f64,
@@ -67,7 +66,7 @@ pub enum OdeError {
     },
     /// The linear solver inside Newton failed on the step from `t` even
     /// after the allowed retries.
-    #[error("linear solver failed on the step from t = {t} after {retries} retries: {source}")]
+    #[error("linear solver failed on the step from t = {t} after {retries} retries: {source}", t = Short(*.t))]
     LinearSolver {
         /// The time reached.
         t: f64,
@@ -79,7 +78,7 @@ pub enum OdeError {
         source: NonlinearError,
     },
     /// The dense Jacobian of a first-order Newton step is singular.
-    #[error("singular Newton matrix at t = {t} (pivot {pivot} is zero)")]
+    #[error("singular Newton matrix at t = {t} (pivot {pivot} is zero)", t = Short(*.t))]
     SingularMatrix {
         /// The time reached.
         t: f64,
@@ -116,7 +115,7 @@ pub enum OdeError {
         message: String,
     },
     /// The maximum number of steps was taken before the end time was reached.
-    #[error("{max_steps} steps taken without reaching the end time (at t = {t})")]
+    #[error("{max_steps} steps taken without reaching the end time (at t = {t})", t = Short(*.t))]
     TooManySteps {
         /// The time reached.
         t: f64,
@@ -125,7 +124,7 @@ pub enum OdeError {
     },
     /// The state grew past the admissible bound (the run has blown up):
     /// `max_i |y_i| > bound`.
-    #[error("the state grew past the bound at t = {t}: max |y_i| = {norm:e} > {bound:e}")]
+    #[error("the state grew past the bound at t = {t}: max |y_i| = {norm} > {bound}", t = Short(*.t), norm = Short(*.norm), bound = Short(*.bound))]
     StateGrowth {
         /// The time reached.
         t: f64,
@@ -136,8 +135,7 @@ pub enum OdeError {
     },
     /// The local error test failed too often on one step.
     #[error(
-        "the local error test failed {failures} times on the step from t = {t} (last h = {h:e})"
-    )]
+        "the local error test failed {failures} times on the step from t = {t} (last h = {h})", t = Short(*.t), h = Short(*.h))]
     ErrorTestFailed {
         /// The time reached.
         t: f64,
@@ -149,7 +147,7 @@ pub enum OdeError {
     /// The correction a wrapper makes after each step of the integrator it
     /// wraps failed (for example the velocity filter of `hookean-filter`
     /// on a blown-up state).
-    #[error("the correction after the step to t = {t} failed: {source}")]
+    #[error("the correction after the step to t = {} failed: {source}", Short(*.t))]
     AfterStep {
         /// The time reached.
         t: f64,
@@ -165,7 +163,7 @@ pub enum OdeError {
     Nonlinear(#[from] NonlinearError),
     /// An error of `hookean-nonlinear` during the step from `t` that a
     /// smaller step would not cure (for example an error of the problem).
-    #[error("Newton solver error on the step from t = {t}: {source}")]
+    #[error("Newton solver error on the step from t = {t}: {source}", t = Short(*.t))]
     NewtonSolver {
         /// The time reached.
         t: f64,

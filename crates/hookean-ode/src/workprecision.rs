@@ -210,6 +210,13 @@ fn settings(sweep: &Sweep, base: &SolverOptions, span: f64) -> Vec<(SolverOption
                     SolverOptions {
                         rtol: tol,
                         atol: tol.into(),
+                        // A sweep to tight tolerances takes millions of steps
+                        // (bdf2-variable: 0.5-3.1 million at 1e-16): its caller
+                        // bounds the work, not the step cap of a single run.
+                        bdf: crate::BdfConfig {
+                            max_steps: usize::MAX,
+                            ..base.bdf.clone()
+                        },
                         ..base.clone()
                     },
                     Some(tol),

@@ -109,6 +109,7 @@ mod operator;
 pub mod par;
 mod power;
 mod precond;
+pub mod short;
 mod symcsr;
 pub mod text;
 mod transpose;
@@ -142,9 +143,10 @@ pub use mtx::{
 pub use operator::{LinearOperator, MatrixFree};
 pub use power::{PowerHook, PowerInfo, PowerParams, power_method};
 pub use precond::{
-    AMG_MAX_COARSE_SIZE, AMG_MAX_LEVELS, AMG_MAX_SWEEPS, Amg, AmgLevelStats, AmgOptions,
-    AmgPrecision, AmgReuse, AmgSmoother, AmgStats, AnyPreconditioner, BlockJacobi, Identity,
-    IncompleteCholesky, Jacobi, PrecondKind, Preconditioner, PreconditionerOptions,
-    PreconditionerSetup, Ssor, rigid_body_modes,
+    AMG_MAX_COARSE_SIZE, AMG_MAX_LEVELS, AMG_MAX_SWEEPS, AMG_NEAR_NULLSPACE_SHAPES, Amg,
+    AmgLevelStats, AmgOptions, AmgPrecision, AmgReuse, AmgSmoother, AmgStats, AnyPreconditioner,
+    BlockJacobi, Identity, IncompleteCholesky, Jacobi, PrecondKind, Preconditioner,
+    PreconditionerOptions, PreconditionerSetup, Ssor, amg_takes_near_nullspace, rigid_body_modes,
 };
+pub use short::{AsWritten, Short};
 pub use symcsr::SymCsrMatrix;

@@ -77,6 +77,8 @@ pub use hookean_sparse as sparse;
 
 #[cfg(feature = "filter")]
 mod error;
+#[cfg(feature = "sparse")]
+pub mod range;
 #[cfg(feature = "filter")]
 pub mod scene;
 #[cfg(feature = "filter")]

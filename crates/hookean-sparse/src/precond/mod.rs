@@ -26,8 +26,9 @@ mod ssor;
 mod two_domain;
 
 pub use amg::{
-    AMG_MAX_COARSE_SIZE, AMG_MAX_LEVELS, AMG_MAX_SWEEPS, Amg, AmgLevelStats, AmgOptions,
-    AmgPrecision, AmgReuse, AmgSmoother, AmgStats, rigid_body_modes,
+    AMG_MAX_COARSE_SIZE, AMG_MAX_LEVELS, AMG_MAX_SWEEPS, AMG_NEAR_NULLSPACE_SHAPES, Amg,
+    AmgLevelStats, AmgOptions, AmgPrecision, AmgReuse, AmgSmoother, AmgStats,
+    amg_takes_near_nullspace, rigid_body_modes,
 };
 pub use any::{AnyPreconditioner, PrecondKind, PreconditionerOptions};
 pub use ic0::IncompleteCholesky;

@@ -54,6 +54,7 @@ impl Scene {
         solver.atol = self.integrator.atol.into();
         solver.step.h_max = self.integrator.h_max;
         solver.bdf.max_order = self.integrator.max_order;
+        solver.bdf.max_steps = self.integrator.max_steps;
         solver.step.control = match self.integrator.control {
             ControlScene::Error => StepControl::error_based(),
             ControlScene::Newton => StepControl::newton_iterations(),

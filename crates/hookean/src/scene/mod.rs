@@ -271,7 +271,7 @@ mod tests {
         assert_eq!((l, c), (2, 5), "{m}");
         let (l, c, m) = err("[cloth]\n  damping = -1.0\n");
         assert_eq!((l, c), (2, 13), "{m}");
-        assert!(m.contains("non-negative"), "{m}");
+        assert!(m.contains("must lie in [0, inf), got -1"), "{m}");
         let (l, _, m) = err("[cloth]\n[integrator]\nmethod = \"rk5\"\n");
         assert_eq!(l, 3, "{m}");
         let (l, _, m) = err("[rope]\n[solver]\nforcing = 1.5\n");
@@ -371,7 +371,7 @@ mod tests {
 
         let (l, c, m) = err("[cloth]\n[integrator]\nh = \"fast\"\n");
         assert_eq!((l, c), (3, 5), "{m}");
-        assert!(m.contains("positive number or \"auto\""), "{m}");
+        assert!(m.contains("must lie in (0, inf) or be \"auto\""), "{m}");
         let (l, _, m) = err("[cloth]\n[integrator]\nh = -1.0\n");
         assert_eq!(l, 3, "{m}");
         let (l, _, m) = err("[cloth]\n[integrator]\nh_safety = 1.5\n");

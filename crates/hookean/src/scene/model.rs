@@ -9,11 +9,12 @@ pub struct ClothScene {
     /// Particles per side. Range 2 to the memory cap of [`Scene::build_within`]. Default 64.
     #[serde(default = "d_cloth_n", deserialize_with = "at_least_two")]
     pub n: usize,
-    /// Side length (m). Range (0, inf). Default 1.
-    #[serde(default = "one", deserialize_with = "positive")]
+    /// Side length (m). Range [1e-100, 1e100] (the squares of the spring lengths stay normal numbers). Default 1.
+    #[serde(default = "one", deserialize_with = "length")]
     pub size: f64,
-    /// Total mass (kg). Range (0, inf). Default 1.
-    #[serde(default = "one", deserialize_with = "positive")]
+    /// Total mass (kg). Range [1e-100, 1e100] (smaller or larger masses
+    /// make Newton's residual underflow or overflow). Default 1.
+    #[serde(default = "one", deserialize_with = "mass")]
     pub mass: f64,
     /// Structural and shear stiffness (N/m). Range (0, inf). Default 1e4.
     #[serde(default = "d_k", deserialize_with = "positive")]
@@ -90,11 +91,12 @@ pub struct RopeScene {
     /// Particles. Range 2 to the memory cap of [`Scene::build_within`]. Default 20.
     #[serde(default = "d_rope_n", deserialize_with = "at_least_two")]
     pub n: usize,
-    /// Length (m). Range (0, inf). Default 1.
-    #[serde(default = "one", deserialize_with = "positive")]
+    /// Length (m). Range [1e-100, 1e100] (the squares of the spring lengths stay normal numbers). Default 1.
+    #[serde(default = "one", deserialize_with = "length")]
     pub length: f64,
-    /// Total mass (kg). Range (0, inf). Default 1.
-    #[serde(default = "one", deserialize_with = "positive")]
+    /// Total mass (kg). Range [1e-100, 1e100] (smaller or larger masses
+    /// make Newton's residual underflow or overflow). Default 1.
+    #[serde(default = "one", deserialize_with = "mass")]
     pub mass: f64,
     /// Stiffness (N/m). Range (0, inf). Default 1e4.
     #[serde(default = "d_k", deserialize_with = "positive")]
@@ -131,11 +133,15 @@ pub struct JellyScene {
     /// their product is bounded by the memory cap of [`Scene::build_within`]. Default `[6, 6, 6]`.
     #[serde(default = "d_jelly_n", deserialize_with = "usize3")]
     pub n: [usize; 3],
-    /// Lattice spacing (m). Range (0, inf). Default 0.05.
-    #[serde(default = "d_spacing", deserialize_with = "positive")]
+    /// Lattice spacing (m). Range [1e-100, 1e100] (the squares of the
+    /// spring lengths stay normal numbers; a spacing below the round-off of
+    /// `origin` gives springs of zero length, refused naming `[jelly]`).
+    /// Default 0.05.
+    #[serde(default = "d_spacing", deserialize_with = "length")]
     pub spacing: f64,
-    /// Total mass (kg). Range (0, inf). Default 1.
-    #[serde(default = "one", deserialize_with = "positive")]
+    /// Total mass (kg). Range [1e-100, 1e100] (smaller or larger masses
+    /// make Newton's residual underflow or overflow). Default 1.
+    #[serde(default = "one", deserialize_with = "mass")]
     pub mass: f64,
     /// Stiffness of every spring (N/m). Range (0, inf). Default 1e3.
     #[serde(default = "d_jelly_k", deserialize_with = "positive")]
@@ -171,14 +177,18 @@ pub(super) fn d_jelly_origin() -> [f64; 3] {
 pub struct MeshScene {
     /// The OBJ file; a relative path starts at the scene file's folder.
     pub path: std::path::PathBuf,
-    /// Factor on every coordinate of the file. Range (0, inf). Default 1.
-    #[serde(default = "one", deserialize_with = "positive")]
+    /// Factor on every coordinate of the file. Range [1e-50, 1e50] (the
+    /// squared areas of the faces, products of four coordinates, stay normal
+    /// numbers for coordinates of order 1). Default 1.
+    #[serde(default = "one", deserialize_with = "scale")]
     pub scale: f64,
     /// Added to every (scaled) vertex (m). Default `[0, 0, 0]`.
     #[serde(default, deserialize_with = "finite3")]
     pub offset: [f64; 3],
-    /// Total mass (kg), lumped uniformly over the vertices. Range (0, inf). Default 1.
-    #[serde(default = "one", deserialize_with = "positive")]
+    /// Total mass (kg), lumped uniformly over the vertices. Range [1e-100,
+    /// 1e100] (smaller or larger masses make Newton's residual underflow or
+    /// overflow). Default 1.
+    #[serde(default = "one", deserialize_with = "mass")]
     pub mass: f64,
     /// Edge spring stiffness (N/m). Range (0, inf). Default 1e4.
     #[serde(default = "d_k", deserialize_with = "positive")]

@@ -26,12 +26,15 @@ pub struct IntegratorScene {
     /// Step control of `bdf2-variable`: `"error"` (default) or `"newton"` (Newton iterations).
     #[serde(default)]
     pub control: ControlScene,
-    /// Relative error tolerance of `bdf2-variable` and `bdf`. Range (0, inf). Default 1e-3.
-    #[serde(default = "d_rtol", deserialize_with = "positive")]
+    /// Relative error tolerance of `bdf2-variable` and `bdf`. Range [1e-14,
+    /// 1): below, the error test asks for less than a step's round-off; at 1
+    /// it accepts any step. Default 1e-3.
+    #[serde(default = "d_rtol", deserialize_with = "tolerance")]
     pub rtol: f64,
     /// Absolute error tolerance of `bdf2-variable` and `bdf` (m for
-    /// positions, m/s for velocities). Range (0, inf). Default 1e-4.
-    #[serde(default = "d_atol", deserialize_with = "positive")]
+    /// positions, m/s for velocities). Range [1e-15, inf): below, the steps
+    /// shrink to the round-off of the time. Default 1e-4.
+    #[serde(default = "d_atol", deserialize_with = "absolute_tolerance")]
     pub atol: f64,
     /// Largest step (s) of `bdf2-variable` and `bdf`. Range (0, inf). Default 0.05.
     #[serde(default = "d_hmax", deserialize_with = "positive")]
@@ -44,6 +47,16 @@ pub struct IntegratorScene {
     /// order 5 takes 14 000-20 000 steps per simulated second at any `rtol`).
     #[serde(default = "d_max_order", deserialize_with = "int_in::<_, 1, 5>")]
     pub max_order: usize,
+    /// Most steps of `bdf2-variable` and `bdf`: a scene whose `duration /
+    /// h_max` is above it is refused (it cannot finish), a run that takes
+    /// this many steps without reaching `duration` fails, and `hookean
+    /// run`'s work estimate (`--max-work`) counts this many steps. Range 1
+    /// to 1000000000. Default 100000.
+    #[serde(
+        default = "d_max_steps",
+        deserialize_with = "int_in::<_, 1, 1000000000>"
+    )]
+    pub max_steps: usize,
 }
 
 /// `integrator.h`: a step size in seconds or `"auto"`.
@@ -94,23 +107,21 @@ impl<'de> Deserialize<'de> for StepScene {
         match Raw::deserialize(d)? {
             Raw::Number(h) if h > 0.0 && h.is_finite() => Ok(StepScene::Value(h)),
             Raw::Number(h) => Err(D::Error::custom(format!(
-                "must be a positive number or \"auto\", got {h:?}"
+                "must lie in {} or be \"auto\", got {}",
+                crate::range::Range::POSITIVE,
+                hookean_sparse::AsWritten(h)
             ))),
             Raw::Name(s) if s == "auto" => Ok(StepScene::Auto),
             Raw::Name(s) => Err(D::Error::custom(format!(
-                "must be a positive number or \"auto\", got \"{s}\""
+                "must lie in {} or be \"auto\", got \"{s}\"",
+                crate::range::Range::POSITIVE
             ))),
         }
     }
 }
 
 pub(super) fn safety<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    let v = f64::deserialize(d)?;
-    if v > 0.0 && v <= 1.0 {
-        Ok(v)
-    } else {
-        Err(D::Error::custom(format!("must be in (0, 1], got {v:?}")))
-    }
+    in_range(d, crate::range::STEP_SAFETY)
 }
 
 pub(super) fn d_h_safety() -> f64 {
@@ -128,6 +139,7 @@ impl Default for IntegratorScene {
             atol: d_atol(),
             h_max: d_hmax(),
             max_order: d_max_order(),
+            max_steps: d_max_steps(),
         }
     }
 }
@@ -146,6 +158,9 @@ pub(super) fn d_hmax() -> f64 {
 }
 pub(super) fn d_max_order() -> usize {
     2
+}
+pub(super) fn d_max_steps() -> usize {
+    100_000
 }
 
 /// Step-size control of variable-step methods.
@@ -378,21 +393,11 @@ pub(super) fn d_amg_keep() -> usize {
 }
 
 pub(super) fn strength<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    let v = f64::deserialize(d)?;
-    if (0.0..1.0).contains(&v) {
-        Ok(v)
-    } else {
-        Err(D::Error::custom(format!("must lie in [0, 1), got {v}")))
-    }
+    in_range(d, crate::range::AMG_STRENGTH)
 }
 
 pub(super) fn amg_weight<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    let v = f64::deserialize(d)?;
-    if v > 0.0 && v < 2.0 {
-        Ok(v)
-    } else {
-        Err(D::Error::custom(format!("must lie in (0, 2), got {v}")))
-    }
+    in_range(d, crate::range::AMG_WEIGHT)
 }
 
 impl Default for SolverScene {

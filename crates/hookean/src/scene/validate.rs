@@ -1,36 +1,51 @@
 //! The validators of scene values (ranges, finite numbers, arrays of exactly three): serde `deserialize_with` functions whose messages name the key.
 
 use super::*;
+use crate::range::{self, Range};
+
+/// A number in its documented range `range` (the key's doc says
+/// "Range (0, inf)"; `tests/ranges.rs` checks every documented range at
+/// its ends): the one check of every real-valued key.
+pub(super) fn in_range<'de, D: Deserializer<'de>>(d: D, range: Range) -> Result<f64, D::Error> {
+    range.check(f64::deserialize(d)?).map_err(D::Error::custom)
+}
 
 pub(super) fn positive<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    let v = f64::deserialize(d)?;
-    if v > 0.0 && v.is_finite() {
-        Ok(v)
-    } else {
-        Err(D::Error::custom(format!(
-            "must be a positive number, got {v:?}"
-        )))
-    }
+    in_range(d, Range::POSITIVE)
 }
 
 pub(super) fn non_negative<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    let v = f64::deserialize(d)?;
-    if v >= 0.0 && v.is_finite() {
-        Ok(v)
-    } else {
-        Err(D::Error::custom(format!(
-            "must be a non-negative number, got {v:?}"
-        )))
-    }
+    in_range(d, Range::NON_NEGATIVE)
 }
 
 pub(super) fn fraction<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    let v = f64::deserialize(d)?;
-    if v > 0.0 && v < 1.0 {
-        Ok(v)
-    } else {
-        Err(D::Error::custom(format!("must lie in (0, 1), got {v:?}")))
-    }
+    in_range(d, Range::FRACTION)
+}
+
+/// `integrator.rtol` ([`range::TOLERANCE`]).
+pub(super) fn tolerance<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    in_range(d, range::TOLERANCE)
+}
+
+/// `integrator.atol` ([`range::ABSOLUTE_TOLERANCE`]).
+pub(super) fn absolute_tolerance<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    in_range(d, range::ABSOLUTE_TOLERANCE)
+}
+
+/// The models' lengths (`cloth.size`, `rope.length`, `jelly.spacing`;
+/// [`range::LENGTH`]).
+pub(super) fn length<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    in_range(d, range::LENGTH)
+}
+
+/// `mesh.scale` ([`range::SCALE`]).
+pub(super) fn scale<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    in_range(d, range::SCALE)
+}
+
+/// The models' `mass` keys ([`range::MASS`]).
+pub(super) fn mass<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    in_range(d, range::MASS)
 }
 
 pub(super) fn at_least_two<'de, D: Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
@@ -107,23 +122,9 @@ pub(super) fn precond<'de, D: Deserializer<'de>>(d: D) -> Result<Option<PrecondK
 }
 
 pub(super) fn omega<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    let v = f64::deserialize(d)?;
-    if v > 0.0 && v < 2.0 {
-        Ok(v)
-    } else {
-        Err(D::Error::custom(format!(
-            "SSOR relaxation must lie in (0, 2), got {v:?}"
-        )))
-    }
+    in_range(d, range::SSOR_OMEGA)
 }
 
 pub(super) fn mic_omega<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-    let v = f64::deserialize(d)?;
-    if (0.0..=1.0).contains(&v) {
-        Ok(v)
-    } else {
-        Err(D::Error::custom(format!(
-            "MIC(0) relaxation must lie in [0, 1], got {v:?}"
-        )))
-    }
+    in_range(d, range::MIC_OMEGA)
 }

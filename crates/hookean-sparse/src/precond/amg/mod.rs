@@ -77,6 +77,23 @@ pub enum AmgPrecision {
 /// and [`AmgOptions::refill_power_iterations`] (each pass costs a sweep
 /// over a level; more never pays and a huge count would not end).
 pub const AMG_MAX_SWEEPS: usize = 100;
+
+/// The shapes of a near-nullspace the multigrid takes
+/// ([`AmgOptions::near_nullspace`]), in words for messages: `k` vectors on
+/// nodes of `b` unknowns, as [`amg_takes_near_nullspace`] checks them.
+pub const AMG_NEAR_NULLSPACE_SHAPES: &str = SUPPORTED;
+
+/// Whether the multigrid takes `vectors` near-nullspace vectors on nodes of
+/// `block_size` unknowns ([`AMG_NEAR_NULLSPACE_SHAPES`]).
+///
+/// ```
+/// use hookean_sparse::amg_takes_near_nullspace;
+/// assert!(amg_takes_near_nullspace(3, 6) && amg_takes_near_nullspace(1, 1));
+/// assert!(!amg_takes_near_nullspace(1, 4) && !amg_takes_near_nullspace(3, 0));
+/// ```
+pub fn amg_takes_near_nullspace(block_size: usize, vectors: usize) -> bool {
+    with_block_sizes!(block_size, vectors, B, K => { let _ = (B, K); true }, _ => false)
+}
 /// The largest [`AmgOptions::coarse_size`]: the coarsest level is a dense
 /// Cholesky factor of `coarse_size^2` numbers.
 pub const AMG_MAX_COARSE_SIZE: usize = 4096;
