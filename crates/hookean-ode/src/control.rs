@@ -62,7 +62,7 @@ pub enum NewtonOutcome {
 }
 
 impl NewtonOutcome {
-    /// Classifies the result of [`Newton::solve`](crate::Newton::solve):
+    /// Classifies the result of [`Newton::solve`](hookean_nonlinear::Newton::solve):
     /// `Some(Converged)` on success, `Some(Failed)` for errors that call for a
     /// smaller step ([`NonlinearError::is_step_failure`]), `None` for other
     /// errors (wrong sizes, bad parameters), which the integrator should

@@ -1,6 +1,6 @@
 //! The implicit-explicit (IMEX) Euler scheme of Eberhardt, Etzmuss and
 //! Hauth, "Implicit-explicit schemes for fast animation with particle
-//! systems" (2000; [EEH00] in the filtering paper's section 7.2, cited in
+//! systems" (2000; \[EEH00\] in the filtering paper's section 7.2, cited in
 //! the tutorial's section 2.6).
 //!
 //! The force is split into the linear part of the tutorial's eq. 50,

@@ -105,7 +105,7 @@ impl SecondOrderProblem for MassSpringModel {
     }
 
     /// Refills `df/dx` (clamped per [`ModelOptions::clamp_stiffness`](crate::ModelOptions::clamp_stiffness),
-    /// damping term per [`DampingInDfdx`]) and `df/dv` (exact). No allocation.
+    /// damping term per [`DampingInDfdx`](crate::DampingInDfdx)) and `df/dv` (exact). No allocation.
     ///
     /// # Panics
     /// If a slice length or matrix size does not match the model.
@@ -130,7 +130,7 @@ impl SecondOrderProblem for MassSpringModel {
     }
 
     /// `A = M + a df/dx + b df/dv` in one sweep over the springs
-    /// ([`MassSpringModel::assemble_step_matrix`]); `dfdx` and `dfdv` are
+    /// (`MassSpringModel::assemble_step_matrix`); `dfdx` and `dfdv` are
     /// left as they are.
     fn step_matrix(
         &self,

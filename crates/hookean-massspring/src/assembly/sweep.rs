@@ -841,8 +841,8 @@ impl MassSpringModel {
     /// `f(x, v)`, `df/dx` and `df/dv` in one sweep over the springs (the
     /// geometry of each spring is computed once): what an implicit step
     /// needs at the start of a Newton iteration. Same results as
-    /// [`force`](SecondOrderProblem::force) followed by
-    /// [`force_jacobians`](SecondOrderProblem::force_jacobians). No allocation.
+    /// [`force`](hookean_problem::SecondOrderProblem::force) followed by
+    /// [`force_jacobians`](hookean_problem::SecondOrderProblem::force_jacobians). No allocation.
     ///
     /// # Panics
     /// If a slice length or matrix pattern does not match the model.
