@@ -398,12 +398,15 @@ fn check_work(args: &RunArgs, scene: &Scene, particles: usize, h: f64) -> Result
 /// What to change when a run stopped at its step cap (the library's
 /// `TooManySteps`, in the user's key).
 fn step_cap_hint(e: &HookeanError, scene: &Scene) -> String {
-    // The cap's error may come wrapped (the BDF's `Run`, the filter's
-    // integrator): any error in the chain.
-    let mut next: Option<&(dyn std::error::Error + 'static)> = Some(e);
+    // The facade's `Ode` is transparent (its `source` is the ODE error's
+    // own), so the ODE error is looked at first, then every error in the
+    // chain (a wrapper's cause).
+    let mut next: Option<&(dyn std::error::Error + 'static)> = match e {
+        HookeanError::Ode(ode) => Some(ode as &(dyn std::error::Error + 'static)),
+        other => Some(other as &(dyn std::error::Error + 'static)),
+    };
     let mut capped = false;
     while let Some(err) = next {
-        // A boxed source (the BDF's `Run`) is its own type in the chain.
         let ode = err
             .downcast_ref::<OdeError>()
             .or_else(|| err.downcast_ref::<Box<OdeError>>().map(|b| &**b));
