@@ -14,4 +14,6 @@ pub mod diffusion;
 pub mod fuzz;
 pub mod intersect;
 pub mod random;
+#[cfg(unix)]
+pub mod special;
 pub mod springs;

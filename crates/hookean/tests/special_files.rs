@@ -5,41 +5,12 @@
 #![cfg(unix)]
 
 use hookean::scene::Scene;
-
-/// `f()` on another thread, failed if it has not answered within 20 s: a
-/// reader that blocks fails the test instead of hanging it.
-fn within_time<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> T {
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let _ = tx.send(f());
-    });
-    rx.recv_timeout(std::time::Duration::from_secs(20))
-        .expect("the reader blocked")
-}
-
-/// A fresh folder holding a FIFO `name`, a folder `folder` and a link
-/// `null` to /dev/null.
-fn special_files(tag: &str, name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("hookean-special-{tag}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(dir.join("folder")).unwrap();
-    let ok = std::process::Command::new("mkfifo")
-        .arg(dir.join(name))
-        .status()
-        .unwrap()
-        .success();
-    assert!(ok, "mkfifo");
-    std::os::unix::fs::symlink("/dev/null", dir.join("null")).unwrap();
-    dir
-}
+use hookean_testkit::special::{special_files, within_time};
 
 #[test]
 fn a_scene_or_its_mesh_that_is_a_fifo_a_folder_or_a_device_is_refused_without_blocking() {
     let dir = special_files("scene", "s.toml");
-    std::process::Command::new("mkfifo")
-        .arg(dir.join("m.obj"))
-        .status()
-        .unwrap();
+    hookean_testkit::special::make_fifo(&dir.join("m.obj"));
     for (name, kind) in [
         ("s.toml", "a FIFO (named pipe)"),
         ("folder", "a folder"),
