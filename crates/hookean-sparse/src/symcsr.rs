@@ -271,7 +271,7 @@ impl LinearOperator for SymCsrMatrix {
     }
 
     /// `y = A x` and `x . A x` in one pass over the matrix, threaded for a
-    /// large matrix (see [`product_rows`](Self::product_rows)).
+    /// large matrix (see `product_rows`).
     fn apply_dot(&self, x: &[f64], y: &mut [f64]) -> f64 {
         let n = self.dim();
         let (x, y) = (&x[..n], &mut y[..n]);
