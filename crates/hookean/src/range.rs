@@ -1,8 +1,8 @@
 //! The documented ranges of the numbers a user gives: one [`Range`] per
 //! kind of value, the one source of the scene keys' checks (their docs say
-//! `Range (0, 1)` in `hookean scene-keys`, and `tests/ranges.rs` checks
+//! `Range (0, 1)` in the key listing, `scene::KEYS`, and `tests/ranges.rs` checks
 //! every documented range at its ends against what is refused and what
-//! builds) and of the `hookean` program's flags that take the same
+//! builds) and of the command line's flags that take the same
 //! quantity (`--omega` as `solver.omega`, `--amg-jacobi-weight` as
 //! `solver.amg.jacobi_weight`).
 //!

@@ -49,9 +49,9 @@ pub struct IntegratorScene {
     pub max_order: usize,
     /// Most steps of `bdf2-variable` and `bdf`: a scene whose `duration /
     /// h_max` is above it is refused (it cannot finish), a run that takes
-    /// this many steps without reaching `duration` fails, and `hookean
-    /// run`'s work estimate (`--max-work`) counts this many steps. Range 1
-    /// to 1000000000. Default 100000.
+    /// this many steps without reaching `duration` fails, and a run's work
+    /// estimate counts this many steps. Range 1 to 1000000000. Default
+    /// 100000.
     #[serde(
         default = "d_max_steps",
         deserialize_with = "int_in::<_, 1, 1000000000>"
