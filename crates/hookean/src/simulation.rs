@@ -186,6 +186,10 @@ pub struct Simulation {
     integrator: ModelIntegrator,
     wall: Duration,
     guard: EnergyGuard,
+    /// The energies of the current state, when the blow-up check has
+    /// computed them ([`energies`](Simulation::energies) returns them instead
+    /// of a second pass); `None` once the state or the model may have changed.
+    current: Option<Energies>,
 }
 
 /// The energy check of a [`Simulation`].
@@ -358,6 +362,7 @@ impl Simulation {
                 baseline: None,
                 x0: Vec::new(),
             },
+            current: None,
         })
     }
 
@@ -367,6 +372,7 @@ impl Simulation {
     /// The integrator's typed errors (they carry the time reached).
     pub fn step(&mut self) -> Result<StepReport, HookeanError> {
         self.take_baseline()?;
+        self.current = None;
         let t0 = Instant::now();
         let report = self.integrator.step()?;
         self.wall += t0.elapsed();
@@ -391,13 +397,16 @@ impl Simulation {
 
     /// [`HookeanError::BlowUp`] if the state after `report` is past the
     /// energy bound (see [`Simulation`]).
-    fn check_blow_up(&self, report: &StepReport) -> Result<(), HookeanError> {
+    fn check_blow_up(&mut self, report: &StepReport) -> Result<(), HookeanError> {
         let Some(baseline) = &self.guard.baseline else {
             return Ok(());
         };
         let bound = baseline.bound(self.t());
         let now = match self.model().energies(self.x(), self.v()) {
-            Ok(e) => e,
+            Ok(e) => {
+                self.current = Some(e);
+                e
+            }
             // A state that is not finite is past every bound.
             Err(hookean_massspring::MassSpringError::NonFinite { .. }) => Energies {
                 kinetic: f64::NAN,
@@ -457,6 +466,7 @@ impl Simulation {
         let mut stopped = false;
         self.take_baseline()?;
         loop {
+            self.current = None;
             let t0 = Instant::now();
             let report = self.integrator.step_to(t_end)?;
             self.wall += t0.elapsed();
@@ -561,6 +571,7 @@ impl Simulation {
     /// step (a changed model may hold more energy).
     pub fn model_mut(&mut self) -> &mut MassSpringModel {
         self.guard.baseline = None;
+        self.current = None;
         self.integrator.problem_mut()
     }
 
@@ -584,11 +595,16 @@ impl Simulation {
         self.wall
     }
 
-    /// Kinetic, gravitational and spring energy of the current state.
+    /// Kinetic, gravitational, spring and external-force energy of the
+    /// current state (computed once per step: the blow-up check's are
+    /// returned when it has taken them).
     ///
     /// # Errors
     /// The model's errors (a NaN state).
     pub fn energies(&self) -> Result<Energies, HookeanError> {
+        if let Some(e) = self.current {
+            return Ok(e);
+        }
         Ok(self.model().energies(self.x(), self.v())?)
     }
 }

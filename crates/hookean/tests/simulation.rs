@@ -262,3 +262,31 @@ fn a_simulation_is_send() {
     let t = handle.join().unwrap().unwrap();
     assert!((t - 0.02).abs() < 1e-12, "t = {t}");
 }
+
+/// The energies a simulation reports are those of its current state: after
+/// a step they are the model's own sum over that state (the blow-up check's
+/// pass, not a second one), and a change to the model through `model_mut`
+/// is seen at once: a force F on particle p adds the potential -F . x_p.
+#[test]
+fn energies_follow_the_state_and_the_model() {
+    let (model, state) = small_cloth(6);
+    let mut sim = Simulation::new(model, state, SimulationOptions::default()).unwrap();
+    for _ in 0..3 {
+        sim.step().unwrap();
+        let fresh = sim.model().energies(sim.x(), sim.v()).unwrap();
+        assert_eq!(sim.energies().unwrap(), fresh);
+    }
+    let before = sim.energies().unwrap();
+    assert_eq!(before.external, 0.0);
+    let (p, force) = (7usize, [0.0, 0.0, 2.5]);
+    sim.model_mut().set_external_force(p, force).unwrap();
+    let after = sim.energies().unwrap();
+    let expected = -force[2] * sim.x()[3 * p + 2];
+    assert!(expected != 0.0);
+    assert!(
+        (after.external - expected).abs() <= 1e-12 * expected.abs(),
+        "{} vs {expected}",
+        after.external
+    );
+    assert_eq!(after.kinetic, before.kinetic);
+}
