@@ -3,6 +3,7 @@
 //! bisection on the actual integration (figure 6), the velocity-over-time
 //! image (figure 4) and the spectrum of the velocity field (figure 5).
 
+use crate::NonExhaustive;
 use hookean_massspring::{ClothParams, MassSpringModel, State, cloth};
 use hookean_ode::{Method, OdeError, SolverOptions};
 use hookean_sparse::PowerParams;
@@ -26,10 +27,9 @@ pub struct RunOptions {
     /// Check the energy every this many steps (it costs about one force
     /// evaluation). Default 10.
     pub check_every: usize,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for RunOptions {
@@ -38,7 +38,7 @@ impl Default for RunOptions {
             t_end: 1.0,
             energy_bound: 1.0,
             check_every: 10,
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }
@@ -146,10 +146,9 @@ pub struct BisectionOptions {
     pub rel_tol: f64,
     /// At most this many trial runs. Default 40.
     pub max_runs: usize,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for BisectionOptions {
@@ -158,7 +157,7 @@ impl Default for BisectionOptions {
             run: RunOptions::default(),
             rel_tol: 0.02,
             max_runs: 40,
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }

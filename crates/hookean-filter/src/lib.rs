@@ -112,6 +112,8 @@
 #[doc = include_str!("../README.md")]
 struct ReadmeExample;
 
+hookean_sparse::non_exhaustive_seal!();
+
 mod error;
 pub mod experiments;
 mod figure8;

@@ -1,5 +1,6 @@
 //! The velocity filter of Ahmad et al. (section 4.1, eq. 10).
 
+use crate::NonExhaustive;
 use hookean_massspring::{MassSpringModel, ParticleConstraint, Spring};
 
 use hookean_sparse::Constraints;
@@ -71,10 +72,9 @@ pub struct FilterOptions {
     /// `false`: the weights of the rest state (path lengths through the
     /// spring graph), computed once.
     pub current_distances: bool,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for FilterOptions {
@@ -84,7 +84,7 @@ impl Default for FilterOptions {
             form: Form::Symmetric,
             rings: 1,
             current_distances: false,
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }

@@ -2,6 +2,7 @@
 //! filtering paper's rope (figure 1), cloth (figures 4 and 7), 3D body
 //! (figure 9, a block lattice) and models from triangle meshes.
 
+use crate::NonExhaustive;
 use std::collections::BTreeMap;
 
 use nalgebra::Vector3;
@@ -148,10 +149,9 @@ pub struct RopeParams {
     pub pin_end: bool,
     /// Model options. Default [`ModelOptions::default`].
     pub options: ModelOptions,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for RopeParams {
@@ -166,7 +166,7 @@ impl Default for RopeParams {
             pin_start: true,
             pin_end: false,
             options: ModelOptions::default(),
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }
@@ -260,10 +260,9 @@ pub struct ClothParams {
     pub pins: ClothPins,
     /// Model options. Default [`ModelOptions::default`].
     pub options: ModelOptions,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl ClothParams {
@@ -304,7 +303,7 @@ impl Default for ClothParams {
             bend: SpringMaterial::new(1e3, 0.1),
             pins: ClothPins::TwoCorners,
             options: ModelOptions::default(),
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }
@@ -413,10 +412,9 @@ pub struct BlockParams {
     pub body: SpringMaterial,
     /// Model options. Default [`ModelOptions::default`].
     pub options: ModelOptions,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for BlockParams {
@@ -430,7 +428,7 @@ impl Default for BlockParams {
             face: SpringMaterial::new(1e3, 0.1),
             body: SpringMaterial::new(1e3, 0.1),
             options: ModelOptions::default(),
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }
@@ -574,10 +572,9 @@ pub struct MeshParams {
     pub bend: Option<SpringMaterial>,
     /// Model options. Default [`ModelOptions::default`].
     pub options: ModelOptions,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for MeshParams {
@@ -587,7 +584,7 @@ impl Default for MeshParams {
             edge: SpringMaterial::new(1e4, 0.1),
             bend: Some(SpringMaterial::new(1e3, 0.1)),
             options: ModelOptions::default(),
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }

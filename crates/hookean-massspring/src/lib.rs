@@ -90,6 +90,8 @@
 #[doc = include_str!("../README.md")]
 struct ReadmeExample;
 
+hookean_sparse::non_exhaustive_seal!();
+
 mod analysis;
 mod assembly;
 pub mod builders;

@@ -3,6 +3,7 @@
 //! (`assembly::AssemblyPlan`) and the constraints of the current step
 //! ([`ActiveSet`]) as separate parts.
 
+use crate::NonExhaustive;
 use hookean_sparse::block::{self, Block3};
 use nalgebra::Vector3;
 
@@ -88,10 +89,9 @@ pub struct ModelOptions {
     pub clamp_stiffness: bool,
     /// See [`DampingInDfdx`]. Default [`DampingInDfdx::Drop`].
     pub damping_in_dfdx: DampingInDfdx,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for ModelOptions {
@@ -102,7 +102,7 @@ impl Default for ModelOptions {
             gravity: [0.0, 0.0, -9.81],
             clamp_stiffness: true,
             damping_in_dfdx: DampingInDfdx::Drop,
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }

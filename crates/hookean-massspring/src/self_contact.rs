@@ -22,6 +22,7 @@
 //!    which cannot cross anything: the pass ends with no crossing as long as
 //!    the step's start had none.
 
+use crate::NonExhaustive;
 use hookean_geometry::ccd::{Impact, edge_edge, vertex_face};
 use hookean_geometry::proximity::{Proximity, edge_edge_proximity, vertex_face_proximity};
 use hookean_geometry::{
@@ -47,10 +48,9 @@ pub struct SelfCollision {
     pub thickness: f64,
     /// Repulsion stiffness `k` (N/m) of one proximity pair. Default 50.
     pub stiffness: f64,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for SelfCollision {
@@ -58,7 +58,7 @@ impl Default for SelfCollision {
         Self {
             thickness: 0.004,
             stiffness: 50.0,
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }

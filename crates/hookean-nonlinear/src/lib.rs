@@ -137,6 +137,8 @@
 #[doc = include_str!("../README.md")]
 struct ReadmeExample;
 
+hookean_sparse::non_exhaustive_seal!();
+
 mod convergence;
 mod error;
 mod forcing;

@@ -1,6 +1,7 @@
 //! [`NewtonOptions`]: the options of Newton's iteration, and only those
 //! (each linear solver owns its own, e.g. [`PcgOptions`](crate::PcgOptions)).
 
+use crate::NonExhaustive;
 use crate::convergence::Convergence;
 use crate::error::{NonlinearError, invalid};
 use crate::forcing::ForcingTerm;
@@ -100,10 +101,9 @@ pub struct NewtonOptions {
     /// at every solve. Default `false`: the last norms are kept in plain
     /// fields and a solve allocates nothing.
     pub record_history: bool,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for NewtonOptions {
@@ -123,7 +123,7 @@ impl Default for NewtonOptions {
             retry_fresh: true,
             max_residual_growth: 1e6,
             record_history: false,
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }

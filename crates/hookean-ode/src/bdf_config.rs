@@ -9,6 +9,7 @@
 //! ([`SolverOptions::bdf`](crate::SolverOptions::bdf)) hold the value
 //! without depending on the engine, and the engine reads the options.
 
+use crate::NonExhaustive;
 use hookean_sparse::PreconditionerOptions;
 
 use crate::error::OdeError;
@@ -175,10 +176,9 @@ pub struct BdfConfig {
     /// correction `s` with `|A s + G| <= eta |G|` contracts the Newton
     /// iteration by about `eta` more. Default `1e-3`.
     pub linear_rtol: f64,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for BdfConfig {
@@ -202,7 +202,7 @@ impl Default for BdfConfig {
             keep_step_band: (0.9, 1.5),
             jacobian_c_growth: 100.0,
             newton_tol: 0.03,
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }

@@ -7,6 +7,7 @@
 //! outcome of a step, they answer [`StepDecision::Accept`] with the next step
 //! size or [`StepDecision::Retry`] with a smaller one.
 
+use crate::NonExhaustive;
 use hookean_nonlinear::{NewtonStats, NonlinearError};
 
 use crate::error::OdeError;
@@ -105,10 +106,9 @@ pub struct IterationControllerOptions {
     pub shrink_factor: f64,
     /// Shrink ratio for the retry after a Newton failure. Default `0.5`.
     pub failure_factor: f64,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for IterationControllerOptions {
@@ -119,7 +119,7 @@ impl Default for IterationControllerOptions {
             grow_factor: 1.5,
             shrink_factor: 0.7,
             failure_factor: 0.5,
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }
@@ -259,10 +259,9 @@ pub struct PiControllerOptions {
     /// `n_iter` of the step (RADAU5's and SciPy BDF's rule): steps whose
     /// Newton iteration struggled grow less. Default `None`.
     pub newton_max_iter: Option<usize>,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for PiControllerOptions {
@@ -276,7 +275,7 @@ impl Default for PiControllerOptions {
             max_factor: 5.0,
             failure_factor: 0.5,
             newton_max_iter: None,
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }

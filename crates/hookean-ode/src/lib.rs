@@ -114,11 +114,25 @@
 //!     failure_factor: 0.5,
 //! };
 //! ```
+//!
+//! ```compile_fail
+//! // Nor can the seal be written: only hookean-ode makes a `NonExhaustive`.
+//! let control = hookean_ode::IterationControllerOptions {
+//!     few_iterations: 2,
+//!     many_iterations: 6,
+//!     grow_factor: 1.5,
+//!     shrink_factor: 0.7,
+//!     failure_factor: 0.5,
+//!     non_exhaustive: hookean_ode::NonExhaustive(()),
+//! };
+//! ```
 
 /// The README's example, compiled and run as a doctest.
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
 struct ReadmeExample;
+
+hookean_sparse::non_exhaustive_seal!();
 
 pub mod bdf;
 mod bdf_config;

@@ -4,6 +4,7 @@
 //! settings that belong to one method family ([`BdfConfig`] of the
 //! variable-order BDF).
 
+use crate::NonExhaustive;
 use hookean_nonlinear::{NewtonOptions, PcgOptions};
 
 use crate::bdf_config::BdfConfig;
@@ -146,10 +147,9 @@ pub struct StepSizePolicy {
     pub h_max: f64,
     /// Step-size control of variable-step BDF2. Default error-based.
     pub control: StepControl,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for StepSizePolicy {
@@ -158,7 +158,7 @@ impl Default for StepSizePolicy {
             h_min: 0.0,
             h_max: f64::INFINITY,
             control: StepControl::default(),
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }
@@ -230,10 +230,9 @@ pub struct SolverOptions {
     pub max_growth: f64,
     /// The settings of the variable-order BDF ([`Method::VariableBdf`](crate::Method::VariableBdf)).
     pub bdf: BdfConfig,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for SolverOptions {
@@ -251,7 +250,7 @@ impl Default for SolverOptions {
             filter_matrix: false,
             max_growth: DEFAULT_MAX_GROWTH,
             bdf: BdfConfig::default(),
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }

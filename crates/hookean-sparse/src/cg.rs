@@ -1,6 +1,7 @@
 //! Preconditioned conjugate gradients, plain and filtered (Baraff-Witkin,
 //! the tutorial's Algorithm 4).
 
+use crate::NonExhaustive;
 use std::ops::ControlFlow;
 
 use crate::constraints::Constraints;
@@ -37,10 +38,9 @@ pub struct CgParams {
     /// matrix is not positive definite there). Default
     /// [`NegativeCurvature::Error`].
     pub negative_curvature: NegativeCurvature,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 /// What CG does on meeting a direction `p` with `p . A p <= 0`.
@@ -71,7 +71,7 @@ impl Default for CgParams {
             initial_guess: InitialGuess::Zero,
             record_history: false,
             negative_curvature: NegativeCurvature::Error,
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }

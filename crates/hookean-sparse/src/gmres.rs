@@ -6,6 +6,7 @@
 //! Gram-Schmidt, the least-squares problem by Givens rotations, every vector
 //! in a [`GmresWorkspace`] allocated once.
 
+use crate::NonExhaustive;
 use crate::error::{SparseError, check_finite, check_len};
 use crate::operator::LinearOperator;
 use crate::precond::Preconditioner;
@@ -23,10 +24,9 @@ pub struct GmresParams {
     pub rtol: f64,
     /// ... or when `|b - A x| <= atol`. Default `0`.
     pub atol: f64,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for GmresParams {
@@ -36,7 +36,7 @@ impl Default for GmresParams {
             restarts: 2,
             rtol: 1e-8,
             atol: 0.0,
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }

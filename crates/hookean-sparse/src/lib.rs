@@ -94,6 +94,8 @@
 #[doc = include_str!("../README.md")]
 struct ReadmeExample;
 
+crate::non_exhaustive_seal!();
+
 pub mod block;
 mod cg;
 mod constraints;
@@ -109,6 +111,7 @@ mod operator;
 pub mod par;
 mod power;
 mod precond;
+pub mod seal;
 pub mod short;
 mod symcsr;
 pub mod text;

@@ -12,6 +12,7 @@
 // A parser of user files: no panic on any input (tests/fuzz_mtx.rs).
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used))]
 
+use crate::NonExhaustive;
 use std::io::{BufRead, Write};
 
 use crate::error::SparseError;
@@ -110,10 +111,9 @@ pub struct ReadOptions {
     /// Longest line, in bytes (a file without line breaks stops here).
     /// Default 1 MiB.
     pub max_line_bytes: usize,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for ReadOptions {
@@ -121,7 +121,7 @@ impl Default for ReadOptions {
         Self {
             max_bytes: 4 << 30,
             max_line_bytes: 1 << 20,
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }

@@ -1,6 +1,7 @@
 //! The power method for the dominant eigenvalue, with a hook between
 //! iterations (the filtering paper's Algorithm 1 plugs its velocity filter in).
 
+use crate::NonExhaustive;
 use crate::error::SparseError;
 use crate::operator::LinearOperator;
 
@@ -16,10 +17,9 @@ pub struct PowerParams {
     pub max_iter: usize,
     /// Seed of the deterministic pseudo-random start vector. Default `1`.
     pub seed: u64,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for PowerParams {
@@ -28,7 +28,7 @@ impl Default for PowerParams {
             rtol: 1e-8,
             max_iter: 10_000,
             seed: 1,
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }

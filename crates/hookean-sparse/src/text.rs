@@ -22,6 +22,7 @@
 //! assert!(long.unwrap_err().to_string().contains("line 1"));
 //! ```
 
+use crate::NonExhaustive;
 use std::fs::File;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
@@ -185,10 +186,9 @@ pub struct LineLimits {
     pub max_line_bytes: usize,
     /// Bytes of the whole input. Default 4 GiB.
     pub max_total_bytes: u64,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for LineLimits {
@@ -196,7 +196,7 @@ impl Default for LineLimits {
         Self {
             max_line_bytes: 1 << 20,
             max_total_bytes: 4 << 30,
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }

@@ -76,6 +76,8 @@ pub use hookean_ode as ode;
 pub use hookean_sparse as sparse;
 
 #[cfg(feature = "filter")]
+hookean_sparse::non_exhaustive_seal!();
+
 mod error;
 #[cfg(feature = "sparse")]
 pub mod range;

@@ -2,6 +2,7 @@
 //! implicit, BDF, or explicit with the velocity filter), its Newton and PCG
 //! settings, run step by step or to an end time, with output sinks.
 
+use crate::NonExhaustive;
 use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
@@ -38,10 +39,9 @@ pub struct SimulationOptions {
     /// energy scale (see [`Simulation`]). Default `1e3`; `f64::INFINITY`
     /// turns it off.
     pub blow_up_factor: f64,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl SimulationOptions {
@@ -106,7 +106,7 @@ impl Default for SimulationOptions {
             filter: None,
             filter_coupling: FilterCoupling::default(),
             blow_up_factor: 1e3,
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }

@@ -1,6 +1,7 @@
 //! [`PcgSolver`]: preconditioned conjugate gradients for symmetric positive
 //! definite Jacobians, with the options it owns ([`PcgOptions`]).
 
+use crate::NonExhaustive;
 use hookean_sparse::{
     AnyPreconditioner, CgParams, CgWorkspace, Constraints, InitialGuess, LinearOperator,
     NegativeCurvature, PreconditionerOptions, PreconditionerSetup, filtered_pcg, pcg,
@@ -30,10 +31,9 @@ pub struct PcgOptions {
     /// exact Jacobian that is indefinite (compressed springs); the
     /// preconditioner must stay positive definite (MIC(0)'s shift keeps it so).
     pub negative_curvature: NegativeCurvature,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for PcgOptions {
@@ -42,7 +42,7 @@ impl Default for PcgOptions {
             preconditioner: PreconditionerOptions::default(),
             max_iter: None,
             negative_curvature: NegativeCurvature::Error,
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }

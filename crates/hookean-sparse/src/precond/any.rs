@@ -1,5 +1,6 @@
 //! Choosing a preconditioner by name (scene files, the command line).
 
+use crate::NonExhaustive;
 use std::fmt;
 use std::str::FromStr;
 
@@ -153,10 +154,10 @@ pub struct PreconditionerOptions {
     /// (including what each `setup` on new values does: refill, keep,
     /// rebuild). Default [`AmgOptions::default`].
     pub amg: AmgOptions,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()` or `From<PrecondKind>`.
+    /// Build with `..Default::default()` or `From<PrecondKind>` (see
+    /// [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for PreconditionerOptions {
@@ -171,7 +172,7 @@ impl From<PrecondKind> for PreconditionerOptions {
         Self {
             kind,
             amg: AmgOptions::default(),
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }

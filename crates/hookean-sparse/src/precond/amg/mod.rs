@@ -1,6 +1,7 @@
 //! Smoothed-aggregation algebraic multigrid: [`Amg`] (its documentation
 //! describes the algorithm and the re-use of the hierarchy).
 
+use crate::NonExhaustive;
 mod aggregate;
 mod bsr;
 mod hierarchy;
@@ -161,10 +162,9 @@ pub struct AmgOptions {
     pub block_size: usize,
     /// Storage precision of the hierarchy. Default [`AmgPrecision::Single`].
     pub precision: AmgPrecision,
-    /// Not an option: it makes adding options a non-breaking change.
-    /// Construct with `..Default::default()`.
+    /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
-    pub __non_exhaustive: (),
+    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for AmgOptions {
@@ -184,7 +184,7 @@ impl Default for AmgOptions {
             near_nullspace: Vec::new(),
             block_size: 1,
             precision: AmgPrecision::Single,
-            __non_exhaustive: (),
+            non_exhaustive: NonExhaustive(()),
         }
     }
 }
