@@ -182,7 +182,7 @@ fn discover(paths: &[PathBuf], cloth: &[usize]) -> Result<Vec<Input>, CliError> 
                 .filter_map(Result::ok)
                 .map(|e| e.path())
                 // A FIFO or device among them is read by the shared reader
-                // (hookean_sparse::text::open_regular), which refuses it
+                // (hookean_io::open_regular), which refuses it
                 // without waiting: a row saying what it is.
                 .filter(|f| f.extension().is_some_and(|x| x == "mtx") && !f.is_dir())
                 .collect();

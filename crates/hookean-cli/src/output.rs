@@ -356,7 +356,7 @@ impl Manifest {
         if !meta.is_file() || meta.len() > 64 << 20 {
             return None;
         }
-        let text = hookean_sparse::text::read_file(path, 64 << 20).ok()?;
+        let text = hookean_io::read_file(path, 64 << 20).ok()?;
         let mut lines = text.lines();
         let header = lines.next()?;
         let failed = if header == MARKER_HEADER {

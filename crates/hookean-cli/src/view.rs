@@ -424,7 +424,7 @@ fn input(e: impl std::fmt::Display) -> CliError {
 
 /// Energies of `steps.csv` rows by time (`t,h,newton,cg,kinetic,gravitational,spring,total`).
 fn read_step_energies(path: &Path, times: &[f64]) -> Result<Vec<Option<FrameEnergies>>, CliError> {
-    let lines = hookean_sparse::text::file_lines(path, hookean_sparse::text::LineLimits::default())
+    let lines = hookean_io::file_lines(path, hookean_io::LineLimits::default())
         .map_err(|e| input(format!("{}: {e}", path.display())))?;
     // Rows and frame times both ascend: one pass matches them, keeping only
     // the rows of frames (the file may hold millions of steps).
@@ -574,7 +574,7 @@ impl ViewRun {
             let positions = if k == 0 {
                 first.positions.clone()
             } else {
-                let file = hookean_sparse::text::open_regular(&path)
+                let file = hookean_io::open_regular(&path)
                     .map_err(|e| input(format!("{}: {e}", path.display())))?;
                 parse_obj(std::io::BufReader::new(file))
                     .map_err(|e| input(format!("{}: {e}", path.display())))?
@@ -613,8 +613,7 @@ const FRAME_BYTES: u64 = 1 << 30;
 
 /// The text of `path`, at most `max` bytes.
 fn read_text(path: &Path, max: u64) -> Result<String, CliError> {
-    hookean_sparse::text::read_file(path, max)
-        .map_err(|e| input(format!("{}: {e}", path.display())))
+    hookean_io::read_file(path, max).map_err(|e| input(format!("{}: {e}", path.display())))
 }
 
 /// `hookean view OUT_DIR`: writes `OUT_DIR/view.html`.

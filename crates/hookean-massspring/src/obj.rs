@@ -38,8 +38,8 @@ pub struct ObjMesh {
 pub fn parse_obj(reader: impl BufRead) -> Result<ObjMesh, MassSpringError> {
     let mut mesh = ObjMesh::default();
     let mut face: Vec<usize> = Vec::new();
-    // Lines of at most 1 MiB, 4 GiB in all (hookean_sparse::text).
-    let lines = hookean_sparse::text::capped_lines(reader, Default::default());
+    // Lines of at most 1 MiB, 4 GiB in all (hookean_io).
+    let lines = hookean_io::capped_lines(reader, Default::default());
     for (k, line) in lines.enumerate() {
         let line_no = k + 1;
         let err = |message: String| MassSpringError::ObjParse {
@@ -47,7 +47,7 @@ pub fn parse_obj(reader: impl BufRead) -> Result<ObjMesh, MassSpringError> {
             message,
         };
         let line = line.map_err(|e| match e {
-            hookean_sparse::text::TextError::Io(e) => io_err("<obj reader>", e),
+            hookean_io::TextError::Io(e) => io_err("<obj reader>", e),
             e => err(e.to_string()),
         })?;
         let content = line.split('#').next().unwrap_or("");
@@ -117,12 +117,11 @@ pub fn parse_obj(reader: impl BufRead) -> Result<ObjMesh, MassSpringError> {
 /// # Errors
 /// As [`parse_obj`]; [`MassSpringError::Io`] if the file cannot be opened
 /// or is not a regular file (a folder, a FIFO, a device:
-/// [`hookean_sparse::text::open_regular`]).
+/// [`hookean_io::open_regular`]).
 pub fn read_obj_file(path: impl AsRef<Path>) -> Result<ObjMesh, MassSpringError> {
     let p = path.as_ref();
     // Only a regular file: a FIFO or a device is refused, never waited on.
-    let file =
-        hookean_sparse::text::open_regular(p).map_err(|e| io_err(&p.display().to_string(), e))?;
+    let file = hookean_io::open_regular(p).map_err(|e| io_err(&p.display().to_string(), e))?;
     parse_obj(std::io::BufReader::new(file))
 }
 

@@ -72,7 +72,7 @@
 //! # Options structs
 //!
 //! [`CgParams`], [`GmresParams`], [`PowerParams`], [`AmgOptions`],
-//! [`ReadOptions`] and [`text::LineLimits`] have a `Default`:
+//! and [`ReadOptions`] have a `Default`:
 //! construct them with `..Default::default()`. Each has a hidden field, so
 //! that a later version may add an option without breaking your code; a
 //! literal naming every field does not compile outside this crate.
@@ -86,7 +86,7 @@
 //!
 //! ```compile_fail
 //! // Every field named, none left to the default: refused outside the crate.
-//! let limits = hookean_sparse::text::LineLimits { max_line_bytes: 1 << 10, max_total_bytes: 1 << 20 };
+//! let params = hookean_sparse::PowerParams { max_iter: 100, rtol: 1e-6, seed: 1 };
 //! ```
 
 /// The README's example, compiled and run as a doctest.
@@ -114,7 +114,6 @@ mod precond;
 pub mod seal;
 pub mod short;
 mod symcsr;
-pub mod text;
 mod transpose;
 pub mod vecops;
 

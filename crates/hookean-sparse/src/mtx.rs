@@ -173,16 +173,15 @@ pub fn read_matrix_market_with(
     reader: impl BufRead,
     opts: &ReadOptions,
 ) -> Result<MatrixMarket, SparseError> {
-    let limits = crate::text::LineLimits {
+    let limits = hookean_io::LineLimits {
         max_line_bytes: opts.max_line_bytes,
         max_total_bytes: opts.max_bytes,
-        ..Default::default()
     };
-    let mut lines = crate::text::capped_lines(reader, limits)
+    let mut lines = hookean_io::capped_lines(reader, limits)
         .enumerate()
         .map(|(i, l)| {
             l.map(|s| (i + 1, s)).map_err(|e| match e {
-                crate::text::TextError::Io(e) => SparseError::Io {
+                hookean_io::TextError::Io(e) => SparseError::Io {
                     path: "<input>".into(),
                     message: e.to_string(),
                 },
@@ -435,7 +434,7 @@ pub fn read_matrix_market_file_with(
     opts: &ReadOptions,
 ) -> Result<MatrixMarket, SparseError> {
     let path = path.as_ref();
-    let file = crate::text::open_regular(path).map_err(|e| SparseError::Io {
+    let file = hookean_io::open_regular(path).map_err(|e| SparseError::Io {
         path: path.display().to_string(),
         message: e.to_string(),
     })?;

@@ -277,8 +277,7 @@ pub(super) fn spectra(ctx: &Ctx) -> Result<Outcome, CliError> {
     ])?;
     crate::filter_analysis::run(&args)?;
     let _ = std::fs::remove_file(&scene);
-    let json =
-        hookean_sparse::text::read_file(plot.join("analysis.json"), 64 << 20).map_err(failed)?;
+    let json = hookean_io::read_file(plot.join("analysis.json"), 64 << 20).map_err(failed)?;
     let analysis: serde_json::Value = serde_json::from_str(&json).map_err(failed)?;
     let hf_of = |name: &str, key: &str| -> f64 {
         analysis["figure4"]

@@ -25,7 +25,7 @@ impl Default for OutputScene {
 pub(super) fn obj_vertex_count(path: &Path) -> u64 {
     use std::io::Read;
     // Only a regular file (never waits on a FIFO).
-    let Ok(mut file) = hookean_sparse::text::open_regular(path) else {
+    let Ok(mut file) = hookean_io::open_regular(path) else {
         return 0;
     };
     let mut buf = [0u8; 1 << 16];

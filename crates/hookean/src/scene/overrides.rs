@@ -238,16 +238,15 @@ impl Scene {
         let path = path.as_ref();
         // A scene is a few kilobytes: 16 MiB is far beyond any. Only a
         // regular file is read (a FIFO or a device is refused, not waited on).
-        let text =
-            hookean_sparse::text::read_file(path, Self::MAX_FILE_BYTES).map_err(|e| match e {
-                hookean_sparse::text::TextError::Io(e) => HookeanError::io(path, e),
-                e => HookeanError::Scene {
-                    file: path.display().to_string(),
-                    line: e.line().unwrap_or(1),
-                    column: 1,
-                    message: e.to_string(),
-                },
-            })?;
+        let text = hookean_io::read_file(path, Self::MAX_FILE_BYTES).map_err(|e| match e {
+            hookean_io::TextError::Io(e) => HookeanError::io(path, e),
+            e => HookeanError::Scene {
+                file: path.display().to_string(),
+                line: e.line().unwrap_or(1),
+                column: 1,
+                message: e.to_string(),
+            },
+        })?;
         let (mut scene, program) =
             Self::parse_with::<P>(&path.display().to_string(), &text, overrides)?;
         scene.base = path.parent().map(Path::to_path_buf);

@@ -1,28 +1,5 @@
-//! Line-oriented text input with a cap on the bytes of one line and of the
-//! whole input: the one reader under every text format of the workspace
-//! (Matrix Market here, OBJ in `hookean-massspring`, scene files in the
-//! facade, the `hookean` program's run folders), so that a file without
-//! line breaks or of absurd size is an error naming the line, never an
-//! allocation that aborts.
-//!
-//! Files are opened by [`open_regular`], which opens only regular files
-//! (following links) and never blocks: a FIFO, a device or a folder is an
-//! error saying what it is ([`NotRegularFile`]), before anything is read.
-//! A UTF-8 byte-order mark at the start of the input is skipped.
-//!
-//! ```
-//! use hookean_sparse::text::{LineLimits, capped_lines};
-//! let lines: Vec<String> = capped_lines(&b"a\nbb\n"[..], LineLimits::default())
-//!     .collect::<Result<_, _>>()
-//!     .unwrap();
-//! assert_eq!(lines, ["a", "bb"]);
-//! let long = capped_lines(&b"0123456789\n"[..], LineLimits { max_line_bytes: 4, ..Default::default() })
-//!     .next()
-//!     .unwrap();
-//! assert!(long.unwrap_err().to_string().contains("line 1"));
-//! ```
+#![doc = include_str!("../README.md")]
 
-use crate::NonExhaustive;
 use std::fs::File;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
@@ -115,7 +92,7 @@ fn check_regular(t: std::fs::FileType) -> std::io::Result<()> {
 /// Every reader of the workspace opens its files here.
 ///
 /// ```
-/// use hookean_sparse::text::{FileKind, NotRegularFile, open_regular};
+/// use hookean_io::{FileKind, NotRegularFile, open_regular};
 /// let e = open_regular(std::env::temp_dir()).unwrap_err();
 /// let why = e.get_ref().and_then(|e| e.downcast_ref::<NotRegularFile>());
 /// assert_eq!(why, Some(&NotRegularFile { kind: FileKind::Folder }));
@@ -179,16 +156,14 @@ pub fn read_file(path: impl AsRef<Path>, max_bytes: u64) -> Result<String, TextE
 /// The UTF-8 byte-order mark some editors put at the start of a text file.
 const BOM: &[u8] = b"\xEF\xBB\xBF";
 
-/// Caps of [`capped_lines`] and [`read_capped`].
+/// Caps of [`capped_lines`] and [`read_capped`]: a value of two numbers,
+/// both always given (`..Default::default()` keeps the other's default).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct LineLimits {
     /// Bytes of one line, without its line break. Default 1 MiB.
     pub max_line_bytes: usize,
     /// Bytes of the whole input. Default 4 GiB.
     pub max_total_bytes: u64,
-    /// Build with `..Default::default()` (see [`NonExhaustive`]).
-    #[doc(hidden)]
-    pub non_exhaustive: NonExhaustive,
 }
 
 impl Default for LineLimits {
@@ -196,7 +171,6 @@ impl Default for LineLimits {
         Self {
             max_line_bytes: 1 << 20,
             max_total_bytes: 4 << 30,
-            non_exhaustive: NonExhaustive(()),
         }
     }
 }
@@ -398,7 +372,6 @@ mod tests {
         let l = LineLimits {
             max_line_bytes: 100,
             max_total_bytes: 6,
-            ..Default::default()
         };
         assert_eq!(all(b"ab\ncd\n", l).unwrap(), ["ab", "cd"]);
         let e = all(b"ab\ncd\ne", l).unwrap_err();
