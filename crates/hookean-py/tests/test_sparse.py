@@ -197,3 +197,56 @@ def test_same_results_as_hookean_solve(system, precond, tmp_path):
     # Both are PCG's true residual of the same iterate (the command's is on
     # A scaled by a power of two: exact), to round-off of the residual's sum.
     assert relative_residual(A, x, b) == pytest.approx(cli["rel_residual"], rel=1e-6)
+
+
+def test_solves_in_a_thread_pool_give_the_sequential_bits():
+    """Set-ups and solves run without the GIL, several at once: each gives
+    the bits it gives alone."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from conftest import elasticity_2d
+
+    A, B = elasticity_2d(16)
+    rhs = [np.random.default_rng(s).standard_normal(A.shape[0]) for s in range(4)]
+    alone = [hs.solve(A, b, nullspace=B)[0] for b in rhs]
+    with ThreadPoolExecutor(4) as pool:
+        together = list(pool.map(lambda b: hs.solve(A, b, nullspace=B)[0], rhs))
+    for x, y in zip(alone, together):
+        assert np.array_equal(x, y)
+
+
+def test_solve_info_pickles():
+    import pickle
+
+    A, _ = poisson_3d(6)
+    _, info = hs.solve(A, np.ones(A.shape[0]))
+    assert pickle.loads(pickle.dumps(info)) == info
+
+
+def test_the_gil_is_released_during_a_solve():
+    """While PCG runs in a thread, the main thread keeps running: its
+    longest pause is a fraction of the solve (holding the GIL, it would be
+    the whole solve)."""
+    import threading
+    import time
+
+    A, _ = poisson_3d(40)
+    b = np.ones(A.shape[0])
+    P = hs.Jacobi(A)
+    span = {}
+
+    def work():
+        span["start"] = time.perf_counter()
+        P.solve(b, rtol=1e-12)
+        span["end"] = time.perf_counter()
+
+    worker = threading.Thread(target=work)
+    stamps = []
+    worker.start()
+    while worker.is_alive():
+        stamps.append(time.perf_counter())
+    worker.join()
+    inside = [t for t in stamps if span["start"] <= t <= span["end"]]
+    edges = [span["start"]] + inside + [span["end"]]
+    longest = max(b - a for a, b in zip(edges, edges[1:]))
+    assert longest < 0.5 * (span["end"] - span["start"]), (longest, span)
