@@ -1,17 +1,18 @@
 #!/usr/bin/env bash
 # "Every shipped scene writes the same frames" (docs/PERFORMANCE.md): runs
 # every scenes/*.toml with a release build of a baseline commit (its own
-# scene file, read from git) and with this checkout's build, one thread
-# each, and compares the OBJ frames (scripts/frames-diff.py): how many are
+# scene file, read from git) and with this checkout's build, on THREADS
+# kernel threads each (default 1), and compares the OBJ frames (scripts/frames-diff.py): how many are
 # byte-identical, the largest vertex-coordinate difference and vertex
 # distance (m) over all frames, and the last frame's mean distance.
 #
-# usage: BASE_BIN=path/to/hookean-of-BASE scripts/frames-ab.sh [BASE] [OUTDIR]
+# usage: BASE_BIN=path/to/hookean-of-BASE [THREADS=2] scripts/frames-ab.sh [BASE] [OUTDIR]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BASE="${1:-f2acdf6}"
 OUT="${2:-target/frames-ab}"
 HEAD_BIN="${HEAD_BIN:-target/release/hookean}"
+THREADS="${THREADS:-1}"
 : "${BASE_BIN:?set BASE_BIN to a release build of $BASE}"
 mkdir -p "$OUT"
 # The baseline's scenes with the files they name (meshes in data/, given
@@ -27,7 +28,7 @@ for scene in scenes/*.toml; do
         continue
     fi
     rm -rf "$OUT/base-$name" "$OUT/head-$name"
-    "$BASE_BIN" run --quiet --threads 1 --out "$OUT/base-$name" "$OUT/base-tree/$scene" > /dev/null
-    "$HEAD_BIN" run --quiet --threads 1 --out "$OUT/head-$name" "$scene" > /dev/null
+    "$BASE_BIN" run --quiet --threads "$THREADS" --out "$OUT/base-$name" "$OUT/base-tree/$scene" > /dev/null
+    "$HEAD_BIN" run --quiet --threads "$THREADS" --out "$OUT/head-$name" "$scene" > /dev/null
     python3 scripts/frames-diff.py "$OUT/base-$name" "$OUT/head-$name" "$name"
 done

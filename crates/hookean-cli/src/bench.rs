@@ -19,14 +19,14 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 use clap::Args;
-use hookean_sparse::check_csr_symmetric;
+use hookean_sparse::{check_csr_symmetric, nullspace_block_size};
 
 use crate::CliError;
 use crate::amg_args::{AmgArgs, read_columns};
 use crate::lineplot::{LogLogPlot, Series};
 use crate::solve::{
     BlockSizeSource, Matrix, Plan, RunOptions, SolveRecord, SolverArgs, System, empty_record,
-    load_system, nullspace_block_size, run_solver,
+    load_system, run_solver,
 };
 
 #[derive(Debug, Args)]

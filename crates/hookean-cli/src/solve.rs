@@ -9,8 +9,8 @@ use clap::Args;
 use hookean_sparse::{
     AmgSmoother, AmgStats, AnyPreconditioner, CgParams, CgProgress, CgWorkspace, DirectCholesky,
     LinearOperator, PrecondKind, PreconditionerOptions, PreconditionerSetup, ReadOptions,
-    SparseError, SymBlockMatrix, SymCsrMatrix, detect_block_size, pcg,
-    read_matrix_market_file_with, vecops::norm2,
+    SparseError, SymBlockMatrix, detect_block_size, pcg, read_matrix_market_file_with,
+    vecops::norm2,
 };
 use serde::Serialize;
 
@@ -281,31 +281,8 @@ fn parse_solver(name: &str, omega: f64, out: &mut Vec<Solver>) -> Result<(), Cli
     Ok(())
 }
 
-/// The matrix in the storage PCG runs on.
-pub enum Matrix {
-    /// Symmetric 3x3-block storage.
-    Block(SymBlockMatrix),
-    /// Plain CSR, with the unknowns per node multigrid groups into blocks;
-    /// the preconditioners are built from `a`, and PCG's products use its
-    /// upper triangle (`product`, [`SymCsrMatrix`]) when `a` is symmetric.
-    Csr {
-        a: sprs::CsMat<f64>,
-        block_size: usize,
-        product: Option<Box<SymCsrMatrix>>,
-    },
-}
-
-impl Matrix {
-    /// CSR storage of `a`, with the symmetric product when `a` is symmetric.
-    pub fn csr(a: sprs::CsMat<f64>, block_size: usize) -> Self {
-        let product = SymCsrMatrix::from_csr(&a).ok().map(Box::new);
-        Matrix::Csr {
-            a,
-            block_size,
-            product,
-        }
-    }
-}
+/// The matrix in the storage PCG runs on (hookean-sparse owns the rule).
+pub use hookean_sparse::PcgMatrix as Matrix;
 
 /// Runs one solver on `A x = b` (`matrix` in PCG's storage, `original` the
 /// same matrix as CSR, for the residual and the direct solver), the best
@@ -378,7 +355,7 @@ pub fn run_solver(
 pub enum BlockSizeSource {
     /// `--block-size`.
     Flag,
-    /// The near-nullspace file's first vector ([`nullspace_block_size`]).
+    /// The near-nullspace file's first vector ([`hookean_sparse::nullspace_block_size`]).
     Nullspace,
     /// The dimension of `--coordinates`.
     Coordinates,
@@ -498,10 +475,6 @@ pub fn load_system(
             "--block-size must be 1, 2 or 3, got {block_size:?}"
         )));
     }
-    let format = match format {
-        "auto" if source != BlockSizeSource::Default && block_size != 3 => "csr",
-        f => f,
-    };
     let matrix = match format {
         "csr" => Matrix::csr(a.clone(), block_size),
         "block" => Matrix::Block(SymBlockMatrix::from_csr(&a).map_err(|e| {
@@ -510,10 +483,7 @@ pub fn load_system(
                 matrix.display()
             ))
         })?),
-        "auto" => match SymBlockMatrix::from_csr(&a) {
-            Ok(m) => Matrix::Block(m),
-            Err(_) => Matrix::csr(a.clone(), block_size),
-        },
+        "auto" => Matrix::auto(a.clone(), block_size, source != BlockSizeSource::Default),
         other => {
             return Err(CliError::Input(format!(
                 "unknown --format '{other}' (expected block, csr or auto)"
@@ -544,7 +514,8 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     let (near_nullspace, implied) = match (&args.nullspace, &args.coordinates) {
         (Some(p), _) => {
             let v = read_columns(p, cap).map_err(|e| input("nullspace", p, e))?;
-            let d = nullspace_block_size(&v).map(|d| (d, BlockSizeSource::Nullspace));
+            let d =
+                hookean_sparse::nullspace_block_size(&v).map(|d| (d, BlockSizeSource::Nullspace));
             (v, d)
         }
         (None, Some(p)) => {
@@ -726,21 +697,6 @@ pub(crate) fn empty_record(
         trace: Vec::new(),
         setup_bytes: None,
     }
-}
-
-/// The unknowns per node `d` a near-nullspace implies: its first vector (a
-/// translation along the first axis, or the constant) is non-zero exactly
-/// at the entries `i` with `i % d == 0`. 1 for a vector without zeros (the
-/// constant of a scalar problem); `None` for another pattern.
-pub fn nullspace_block_size(nullspace: &[Vec<f64>]) -> Option<usize> {
-    let first = nullspace.first()?;
-    (1..=3).find(|&d| {
-        first.len().is_multiple_of(d)
-            && first
-                .iter()
-                .enumerate()
-                .all(|(i, v)| (*v != 0.0) == i.is_multiple_of(d))
-    })
 }
 
 /// What [`run_solver`] does besides solving.
@@ -936,42 +892,4 @@ fn run_direct(
         ];
     }
     record
-}
-
-#[cfg(test)]
-mod nullspace_tests {
-    use super::nullspace_block_size;
-
-    /// The rigid-body modes of n nodes in `d` dimensions at coordinates
-    /// `(i, 2 i, ...)`: d translations, then rotations (the first vector is
-    /// the translation along x).
-    fn rigid_modes(n: usize, d: usize) -> Vec<Vec<f64>> {
-        let mut modes: Vec<Vec<f64>> = (0..d)
-            .map(|c| (0..n * d).map(|i| f64::from(i % d == c)).collect())
-            .collect();
-        // The rotation in the xy plane: (-y, x, 0).
-        modes.push(
-            (0..n * d)
-                .map(|i| match i % d {
-                    0 => -2.0 * (i / d) as f64 - 1.0,
-                    1 => (i / d) as f64 + 1.0,
-                    _ => 0.0,
-                })
-                .collect(),
-        );
-        modes
-    }
-
-    #[test]
-    fn the_first_translation_gives_the_unknowns_per_node() {
-        assert_eq!(nullspace_block_size(&[vec![1.0; 12]]), Some(1));
-        assert_eq!(nullspace_block_size(&rigid_modes(5, 2)), Some(2));
-        assert_eq!(nullspace_block_size(&rigid_modes(5, 3)), Some(3));
-        // A vector with zeros in no period: no answer.
-        assert_eq!(
-            nullspace_block_size(&[vec![1.0, 0.0, 0.0, 0.0, 1.0, 1.0]]),
-            None
-        );
-        assert_eq!(nullspace_block_size(&[]), None);
-    }
 }

@@ -109,6 +109,7 @@ mod matrix;
 mod mtx;
 mod operator;
 pub mod par;
+mod pcg_matrix;
 mod power;
 mod precond;
 pub mod seal;
@@ -143,6 +144,7 @@ pub use mtx::{
     write_vector_market,
 };
 pub use operator::{LinearOperator, MatrixFree};
+pub use pcg_matrix::{PcgMatrix, nullspace_block_size};
 pub use power::{PowerHook, PowerInfo, PowerParams, power_method};
 pub use precond::{
     AMG_MAX_COARSE_SIZE, AMG_MAX_LEVELS, AMG_MAX_SWEEPS, AMG_NEAR_NULLSPACE_SHAPES, Amg,

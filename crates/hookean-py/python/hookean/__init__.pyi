@@ -1,0 +1,4 @@
+from . import sparse as sparse
+from ._hookean import ConvergenceError as ConvergenceError
+
+__all__: list[str]
