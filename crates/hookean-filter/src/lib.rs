@@ -1,6 +1,6 @@
-//! Velocity filtering of explicit mass-spring integrators, after Ahmad,
-//! Adly, Terraz and Ghazanfarpour, "Stability Analysis of Filtered
-//! Mass-Spring Systems" (TPCG 2007).
+#![doc = include_str!("../README.md")]
+//!
+//! # The crate's map
 //!
 //! Implicit solves low-pass filter the forces (the paper's eq. 9: the
 //! forward substitution of a Cholesky solve is a recursive exponential
@@ -106,11 +106,6 @@
 //! // Every field named, none left to the default: refused outside the crate.
 //! let bisection = BisectionOptions { run: RunOptions::default(), rel_tol: 0.02, max_runs: 40 };
 //! ```
-
-/// The README's example, compiled and run as a doctest.
-#[cfg(doctest)]
-#[doc = include_str!("../README.md")]
-struct ReadmeExample;
 
 hookean_sparse::non_exhaustive_seal!();
 

@@ -1,7 +1,6 @@
-//! Contact geometry for deforming triangle meshes, independent of any
-//! physics (the mass-spring model of `hookean-massspring` uses it for mesh
-//! colliders and cloth self-collision; nothing here knows about masses,
-//! forces or time integration).
+#![doc = include_str!("../README.md")]
+//!
+//! # The crate's map
 //!
 //! - [`Aabb`] and [`Bvh`]: a tree of axis-aligned boxes, one primitive per
 //!   leaf, built once per topology and refitted in place as the primitives
@@ -19,25 +18,6 @@
 //! - [`ccd`]: continuous collision detection of a vertex and a triangle or
 //!   two edges moving linearly over a step (the coplanarity cubic, its roots
 //!   in order, the distance at each).
-//!
-//! # Example: a particle above a box, and a step that would cross a face
-//!
-//! ```
-//! use hookean_geometry::TriMesh;
-//! use nalgebra::Vector3;
-//!
-//! // The unit square at z = 0 as two triangles facing +z (an open mesh).
-//! let v = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
-//! let floor = TriMesh::new(v, vec![[0, 1, 2], [0, 2, 3]])?;
-//! let p = Vector3::new(0.3, 0.6, 0.25);
-//! let c = floor.closest(&p);
-//! assert!((c.distance - 0.25).abs() < 1e-15);
-//! assert!((c.normal - Vector3::z()).norm() < 1e-15);
-//! // Moving to z = -0.75 crosses the floor a quarter of the way.
-//! let (s, _triangle) = floor.first_hit(&p, &Vector3::new(0.3, 0.6, -0.75)).unwrap();
-//! assert!((s - 0.25).abs() < 1e-15);
-//! # Ok::<(), hookean_geometry::GeometryError>(())
-//! ```
 
 mod aabb;
 mod bvh;

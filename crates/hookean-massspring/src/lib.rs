@@ -1,8 +1,6 @@
-//! Mass-spring models for soft objects: particles, springs, damping,
-//! constraints and collisions, and the models of both papers the Hookean
-//! workspace follows (Hauth's Eurographics 2004 tutorial, section 1.1 and its
-//! example 3; Ahmad et al.'s filtered mass-spring systems: rope, cloth, 3D
-//! body).
+#![doc = include_str!("../README.md")]
+//!
+//! # The crate's map
 //!
 //! - [`MassSpringModel`] (module `model`): lumped masses, [`Spring`]s with
 //!   stiffness and damping ([`SpringDamping`]: projected, the "incorrect"
@@ -84,11 +82,6 @@
 //! // Every field named, none left to the default: refused outside the crate.
 //! let contact = hookean_massspring::SelfCollision { thickness: 0.004, stiffness: 50.0 };
 //! ```
-
-/// The README's example, compiled and run as a doctest.
-#[cfg(doctest)]
-#[doc = include_str!("../README.md")]
-struct ReadmeExample;
 
 hookean_sparse::non_exhaustive_seal!();
 

@@ -1,11 +1,4 @@
-//! Newton's method for the nonlinear systems `G(Y) = 0` of implicit
-//! integrators, after section 3 of Hauth's tutorial "Numerical Techniques for
-//! Soft Object Simulation" (Eurographics 2004): Newton (Algorithm 1),
-//! inexact Newton with residual control (Algorithm 2, section 3.2),
-//! simplified and inexact simplified Newton with a cheap approximate
-//! Jacobian (Algorithm 3, section 3.3). It knows nothing of time or
-//! springs: the step-size controllers of section 3.4, which turn Newton's
-//! iteration counts into step sizes, live in `hookean-ode` (`control`).
+#![doc = include_str!("../README.md")]
 //!
 //! # The pieces
 //!
@@ -16,7 +9,9 @@
 //!   any hookean-sparse preconditioner, optionally filtered by
 //!   [`Constraints`](hookean_sparse::Constraints); for SPD Jacobians such as
 //!   the cloth matrix, a [`SymBlockMatrix`](hookean_sparse::SymBlockMatrix)),
-//!   [`DenseLu`] (`faer::Mat<f64>`, small general systems) and [`SparseLu`]
+//!   [`GmresSolver`] (restarted GMRES of hookean-sparse, on the stored
+//!   Jacobian or matrix-free, for nonsymmetric systems), [`DenseLu`]
+//!   (`faer::Mat<f64>`, small general systems) and [`SparseLu`]
 //!   (`sprs::CsMat<f64>`, general sparse). Each reports its iterations.
 //! - [`Newton`]: a reusable solver holding the options ([`NewtonOptions`],
 //!   the variant in [`NewtonMethod`], the forcing term in [`ForcingTerm`]),
@@ -131,11 +126,6 @@
 
 // `!(x > 0.0)` is deliberate: it also rejects NaN parameters.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
-
-/// The README's example, compiled and run as a doctest.
-#[cfg(doctest)]
-#[doc = include_str!("../README.md")]
-struct ReadmeExample;
 
 hookean_sparse::non_exhaustive_seal!();
 

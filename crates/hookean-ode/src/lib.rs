@@ -1,9 +1,6 @@
-//! Time integration for soft-object simulation, after section 2 of Hauth's
-//! tutorial ("Numerical Techniques for Soft Object Simulation") and the
-//! forward-backward Euler of the filtering paper (Ahmad et al.), with a
-//! variable-order BDF for stiff problems. One framework, as diffsol has:
-//! one options struct, one statistics struct, one stepping contract, one
-//! Newton.
+#![doc = include_str!("../README.md")]
+//!
+//! # The crate's map
 //!
 //! - The contracts, [`FirstOrderProblem`] `y' = f(t, y)` and
 //!   [`SecondOrderProblem`] `M x'' = f(t, x, v)` (lumped `M`, 3x3-block
@@ -126,11 +123,6 @@
 //!     non_exhaustive: hookean_ode::NonExhaustive(()),
 //! };
 //! ```
-
-/// The README's example, compiled and run as a doctest.
-#[cfg(doctest)]
-#[doc = include_str!("../README.md")]
-struct ReadmeExample;
 
 hookean_sparse::non_exhaustive_seal!();
 

@@ -1,6 +1,6 @@
-//! The problem contracts between models and time integrators, in a crate of
-//! their own so that a model (`hookean-massspring`) and the integrators
-//! (`hookean-ode`) can each be used without the other.
+#![doc = include_str!("../README.md")]
+//!
+//! # The crate's map
 //!
 //! - [`FirstOrderProblem`]: `y' = f(t, y)` (the tutorial's eq. 7), with an
 //!   optional dense or sparse Jacobian.
@@ -25,11 +25,6 @@
 //! Dahlquist(-15.0).rhs(0.0, &[2.0], &mut dy);
 //! assert_eq!(dy[0], -30.0);
 //! ```
-
-/// The README's example, compiled and run as a doctest.
-#[cfg(doctest)]
-#[doc = include_str!("../README.md")]
-struct ReadmeExample;
 
 use std::sync::Arc;
 

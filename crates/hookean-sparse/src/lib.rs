@@ -1,13 +1,6 @@
-//! Sparse linear algebra for mass-spring systems: 3x3 block-sparse
-//! matrices, preconditioned conjugate gradients (plain and filtered for
-//! constraints), six preconditioners (one of them smoothed-aggregation
-//! multigrid), a power method, Matrix Market I/O and a sparse Cholesky
-//! baseline.
+#![doc = include_str!("../README.md")]
 //!
-//! This is section 4 of Hauth's tutorial "Numerical Techniques for Soft
-//! Object Simulation" (Eurographics 2004), built for the systems an implicit
-//! cloth step produces: `A = M - h df/dv - h^2 df/dx`, one 3x3 block per
-//! pair of particles joined by a spring, symmetric positive definite.
+//! # The crate's map
 //!
 //! - [`SymBlockMatrix`]: symmetric block CSR (diagonal + upper 3x3 blocks).
 //!   The pattern ([`BlockPattern`]) is built once per topology; values are
@@ -19,7 +12,9 @@
 //! - [`Preconditioner`] / [`PreconditionerSetup`]: [`Identity`], [`Jacobi`],
 //!   [`BlockJacobi`], [`Ssor`], [`IncompleteCholesky`] (IC(0), and MIC(0)
 //!   with [`IncompleteCholesky::modified`]) and smoothed-aggregation
-//!   multigrid [`Amg`]; [`AnyPreconditioner`] picks one by name.
+//!   multigrid [`Amg`]; [`AnyPreconditioner`] picks one by name, or from a
+//!   [`PreconditionerOptions`] (the kind with its settings) through
+//!   [`AnyPreconditioner::from_options`].
 //! - [`Pcg`], a solver value holding its parameters and workspace
 //!   (`Pcg::new(params).solve(&a, &precond, &b, &mut x)`), and the free
 //!   functions [`pcg`] and [`filtered_pcg`] (Baraff-Witkin's filtered CG, the
@@ -88,11 +83,6 @@
 //! // Every field named, none left to the default: refused outside the crate.
 //! let params = hookean_sparse::PowerParams { max_iter: 100, rtol: 1e-6, seed: 1 };
 //! ```
-
-/// The README's example, compiled and run as a doctest.
-#[cfg(doctest)]
-#[doc = include_str!("../README.md")]
-struct ReadmeExample;
 
 crate::non_exhaustive_seal!();
 

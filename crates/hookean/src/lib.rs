@@ -1,14 +1,16 @@
-//! Hookean: soft-object simulation with mass-spring systems.
+#![doc = include_str!("../README.md")]
 //!
-//! The facade composes the workspace's crates, each re-exported as a module
+//! # The crate's map
+//!
+//! The facade re-exports five crates of the workspace, each as a module
 //! behind a feature of its own (all on by default):
 //!
 //! | module | crate | what |
 //! |---|---|---|
-//! | [`sparse`] | `hookean-sparse` | 3x3 block matrices, PCG and filtered PCG, Jacobi / block-Jacobi / SSOR / IC(0) / MIC(0) |
-//! | [`nonlinear`] | `hookean-nonlinear` | Newton, inexact Newton (forcing terms), simplified Newton, step controllers |
-//! | [`ode`] | `hookean-ode` | explicit, symplectic, implicit and BDF integrators, stability regions |
-//! | [`massspring`] | `hookean-massspring` | particles, springs, damping, pins, colliders, builders, OBJ |
+//! | [`sparse`] | `hookean-sparse` | 3x3 block matrices, PCG and filtered PCG, GMRES, the preconditioners (Jacobi / block-Jacobi / SSOR / IC(0) / MIC(0) / multigrid), Matrix Market I/O |
+//! | [`nonlinear`] | `hookean-nonlinear` | Newton, inexact Newton (forcing terms), simplified Newton; PCG, GMRES and LU for the correction |
+//! | [`ode`] | `hookean-ode` | explicit, symplectic, implicit, IMEX and BDF integrators (the variable-order BDF), step-size controllers, stability regions |
+//! | [`massspring`] | `hookean-massspring` | particles, springs, damping, pins, colliders, contact and self-collision, builders, OBJ |
 //! | [`filter`] | `hookean-filter` | velocity filtering of explicit schemes, `dt_max` |
 //!
 //! and adds [`Simulation`] (a model, an integrator and its solvers, run
@@ -58,11 +60,6 @@
 //!     blow_up_factor: 1e6,
 //! };
 //! ```
-
-/// The README's example, compiled and run as a doctest.
-#[cfg(doctest)]
-#[doc = include_str!("../README.md")]
-struct ReadmeExample;
 
 #[cfg(feature = "filter")]
 pub use hookean_filter as filter;
