@@ -8,11 +8,13 @@
 //!
 //! writes `OUT_PREFIX-A.mtx` (symmetric coordinate, full precision) and
 //! `OUT_PREFIX-b.mtx` for the cloth of `N x N` particles and stiffness `K`
-//! (the system `hookean bench-precond --n N --k K` solves).
+//! (the system `hookean bench-precond --n N --k K` solves). Run again, it
+//! replaces the files it wrote before (they carry its comment line) and
+//! keeps any other file at those paths unless `--force` is given.
 
-use std::fs::File;
-use std::io::{BufWriter, Write};
 use std::process::ExitCode;
+
+use hookean_io::{Written, write_own};
 
 use hookean_cli::deformed_cloth_system;
 use hookean_sparse::{write_matrix_market, write_vector_market};
@@ -31,12 +33,6 @@ fn main() -> ExitCode {
     };
     let a_path = format!("{prefix}-A.mtx");
     let b_path = format!("{prefix}-b.mtx");
-    for p in [&a_path, &b_path] {
-        if std::path::Path::new(p).exists() && !force {
-            eprintln!("{p} exists; pass --force to overwrite it");
-            return ExitCode::from(2);
-        }
-    }
     let (a, b) = match deformed_cloth_system(n, k) {
         Ok(system) => system,
         Err(e) => {
@@ -45,19 +41,27 @@ fn main() -> ExitCode {
         }
     };
     let csr = a.to_csr();
-    let write = || -> Result<(), Box<dyn std::error::Error>> {
-        let mut wa = BufWriter::new(File::create(&a_path)?);
-        write_matrix_market(&mut wa, &csr, true)?;
-        wa.flush()?;
-        let mut wb = BufWriter::new(File::create(&b_path)?);
-        write_vector_market(&mut wb, &b)?;
-        wb.flush()?;
-        Ok(())
+    let write = || -> Result<Vec<Written>, Box<dyn std::error::Error>> {
+        let mut ma = Vec::new();
+        write_matrix_market(&mut ma, &csr, true)?;
+        let mut mb = Vec::new();
+        write_vector_market(&mut mb, &b)?;
+        let mut out = Vec::new();
+        for (path, content) in [(&a_path, ma), (&b_path, mb)] {
+            let content = mark(&content);
+            out.push(write_own(path, &content, is_own, force)?);
+        }
+        Ok(out)
     };
     match write() {
-        Ok(()) => {
+        Ok(w) => {
+            let verb = if w.iter().all(|w| *w == Written::Unchanged) {
+                "kept (unchanged)"
+            } else {
+                "wrote"
+            };
             println!(
-                "wrote {a_path} ({} rows, {} stored entries of the full matrix) and {b_path}",
+                "{verb} {a_path} ({} rows, {} stored entries of the full matrix) and {b_path}",
                 b.len(),
                 csr.nnz()
             );
@@ -68,4 +72,22 @@ fn main() -> ExitCode {
             ExitCode::from(1)
         }
     }
+}
+
+/// The comment line that marks a file as this example's own.
+const MARK: &[u8] = b"% written by hookean-cli's example write_bench_system\n";
+
+/// `content` with [`MARK`] after its Matrix Market banner line.
+fn mark(content: &[u8]) -> Vec<u8> {
+    let cut = content
+        .iter()
+        .position(|&c| c == b'\n')
+        .map_or(content.len(), |i| i + 1);
+    [&content[..cut], MARK, &content[cut..]].concat()
+}
+
+fn is_own(old: &[u8]) -> bool {
+    old.split(|&c| c == b'\n')
+        .nth(1)
+        .is_some_and(|line| [line, b"\n"].concat() == MARK)
 }

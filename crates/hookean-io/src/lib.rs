@@ -1,5 +1,8 @@
 #![doc = include_str!("../README.md")]
 
+mod own;
+pub use own::{OwnError, Written, write_own};
+
 use std::fs::File;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;

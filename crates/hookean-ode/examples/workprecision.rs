@@ -5,6 +5,9 @@
 //! cargo run --release -p hookean-ode --example workprecision -- target/ode-workprecision.csv
 //! ```
 //!
+//! Run again, it replaces the table it wrote before (a file that starts with
+//! the table's header) and keeps any other file at the path unless `--force`.
+//!
 //! Example 3 runs as the one-particle second-order problem (so FB Euler and
 //! Verlet apply; the implicit methods use the reduced velocity form). Fixed
 //! step methods use `n = 25 * 2^i` steps on `[0, 2]` (`i = 0..=10`),
@@ -13,8 +16,6 @@
 //! For comparison the table also fits the orders on example 2 (`n = 100 *
 //! 2^i`, `i = 0..=4`) and on example 1 with `lambda = 2` (`n = 32 * 2^i`).
 
-use std::fs::File;
-use std::io::BufWriter;
 use std::process::ExitCode;
 
 use hookean_ode::tutorial::{Dahlquist, LinearOscillator};
@@ -64,8 +65,10 @@ fn fmt(q: Option<f64>) -> String {
 }
 
 fn main() -> ExitCode {
-    let Some(path) = std::env::args().nth(1) else {
-        eprintln!("usage: workprecision <output.csv>");
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let force = args.iter().any(|a| a == "--force");
+    let Some(path) = args.iter().find(|a| !a.starts_with("--")).cloned() else {
+        eprintln!("usage: workprecision <output.csv> [--force]");
         return ExitCode::FAILURE;
     };
     let ex3 = LinearOscillator::example3();
@@ -118,15 +121,16 @@ fn main() -> ExitCode {
         );
         all.extend(rows);
     }
-    let file = match File::create(&path) {
-        Ok(f) => f,
-        Err(e) => {
-            eprintln!("cannot create {path}: {e}");
-            return ExitCode::FAILURE;
-        }
-    };
-    if let Err(e) = workprecision::write_csv(BufWriter::new(file), &all) {
-        eprintln!("cannot write {path}: {e}");
+    let mut table = Vec::new();
+    if let Err(e) = workprecision::write_csv(&mut table, &all) {
+        eprintln!("cannot write the table: {e}");
+        return ExitCode::FAILURE;
+    }
+    // A file that starts with the table's header is an earlier run's: replaced.
+    let header = format!("{}\n", workprecision::WorkPrecisionRow::CSV_HEADER);
+    let own = |old: &[u8]| old.starts_with(header.as_bytes());
+    if let Err(e) = hookean_io::write_own(&path, &table, own, force) {
+        eprintln!("{e}");
         return ExitCode::FAILURE;
     }
     eprintln!("wrote {} rows to {path}", all.len());

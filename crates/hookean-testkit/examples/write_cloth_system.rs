@@ -5,12 +5,13 @@
 //! cargo run -p hookean-testkit --example write_cloth_system -- N OUT_PREFIX [--force]
 //! ```
 //!
-//! writes `OUT_PREFIX-A.mtx` (symmetric coordinate) and `OUT_PREFIX-b.mtx`;
-//! existing files are kept unless `--force` is given.
+//! writes `OUT_PREFIX-A.mtx` (symmetric coordinate) and `OUT_PREFIX-b.mtx`.
+//! Run again, it replaces the files it wrote before (they carry its comment
+//! line) and keeps any other file at those paths unless `--force` is given.
 
-use std::fs::File;
-use std::io::BufWriter;
 use std::process::ExitCode;
+
+use hookean_io::{Written, write_own};
 
 use hookean_sparse::{write_matrix_market, write_vector_market};
 use hookean_testkit::cloth::{ClothSystemParams, cloth_system};
@@ -32,20 +33,25 @@ fn main() -> ExitCode {
     });
     let a_path = format!("{prefix}-A.mtx");
     let b_path = format!("{prefix}-b.mtx");
-    for p in [&a_path, &b_path] {
-        if std::path::Path::new(p).exists() && !force {
-            eprintln!("{p} exists; pass --force to overwrite it");
-            return ExitCode::from(2);
+    let write = || -> Result<Vec<Written>, Box<dyn std::error::Error>> {
+        let mut ma = Vec::new();
+        write_matrix_market(&mut ma, &a.to_csr(), true)?;
+        let mut mb = Vec::new();
+        write_vector_market(&mut mb, &b)?;
+        let mut out = Vec::new();
+        for (path, content) in [(&a_path, ma), (&b_path, mb)] {
+            out.push(write_own(path, &mark(&content), is_own, force)?);
         }
-    }
-    let write = || -> Result<(), Box<dyn std::error::Error>> {
-        write_matrix_market(BufWriter::new(File::create(&a_path)?), &a.to_csr(), true)?;
-        write_vector_market(BufWriter::new(File::create(&b_path)?), &b)?;
-        Ok(())
+        Ok(out)
     };
     match write() {
-        Ok(()) => {
-            println!("wrote {a_path} ({} rows) and {b_path}", a.dim());
+        Ok(w) => {
+            let verb = if w.iter().all(|w| *w == Written::Unchanged) {
+                "kept (unchanged)"
+            } else {
+                "wrote"
+            };
+            println!("{verb} {a_path} ({} rows) and {b_path}", a.dim());
             ExitCode::SUCCESS
         }
         Err(e) => {
@@ -53,4 +59,22 @@ fn main() -> ExitCode {
             ExitCode::from(1)
         }
     }
+}
+
+/// The comment line that marks a file as this example's own.
+const MARK: &[u8] = b"% written by hookean-testkit's example write_cloth_system\n";
+
+/// `content` with [`MARK`] after its Matrix Market banner line.
+fn mark(content: &[u8]) -> Vec<u8> {
+    let cut = content
+        .iter()
+        .position(|&c| c == b'\n')
+        .map_or(content.len(), |i| i + 1);
+    [&content[..cut], MARK, &content[cut..]].concat()
+}
+
+fn is_own(old: &[u8]) -> bool {
+    old.split(|&c| c == b'\n')
+        .nth(1)
+        .is_some_and(|line| [line, b"\n"].concat() == MARK)
 }
