@@ -514,4 +514,37 @@ pub(crate) const VIEW: &[Case] = &[
         2,
         "none",
     ),
+    case(
+        "export-cache: a frame of the run is missing",
+        &[(
+            "s.toml",
+            "duration = 0.05\n[cloth]\nn = 4\n[output]\nframe_rate = 40.0\nwidth = 8\nheight = 8\n",
+        )],
+        &["export-cache", "{}/out", "--format", "pc2"],
+        2,
+        "frame-0001.obj",
+    )
+    .before(&[
+        &["run", "{}/s.toml", "--out", "{}/out", "--quiet"],
+        &["!", "rm", "{}/out/frame-0001.obj"],
+    ])
+    .absent(&["out/cache.pc2", "out/cache-rest.obj"]),
+    case(
+        "export-cache: an unknown format",
+        &[],
+        &["export-cache", "{}", "--format", "abc"],
+        2,
+        "pc2",
+    ),
+    case(
+        "run: output.cache without OBJ frames",
+        &[(
+            "s.toml",
+            "[cloth]\nn = 4\n[output]\nframe_rate = 0.0\ncache = \"pc2\"\n",
+        )],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "output.cache",
+    )
+    .absent(&["out"]),
 ];
