@@ -230,3 +230,56 @@ impl MassSpringModel {
             .sum()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ModelOptions;
+    use hookean_problem::SecondOrderProblem;
+    use hookean_sparse::Constraints;
+
+    /// One particle on a soft pin: `f = m g - w k (x - y)` and `df/dx = -w k I`.
+    #[test]
+    fn a_soft_pin_is_a_spring_to_its_target_with_its_jacobian() {
+        let (m, w, k) = (0.3, 0.25, 80.0);
+        let g = [0.0, 0.0, -9.81];
+        let options = ModelOptions {
+            gravity: g,
+            ..Default::default()
+        };
+        let mut model = MassSpringModel::new(vec![m], vec![], options).unwrap();
+        let y = [1.0, 2.0, 3.0];
+        let group = PinGroup {
+            particles: vec![0],
+            weight: w,
+            stiffness: k,
+            path: None,
+            release: None,
+        };
+        model.add_pin_group(group, &y).unwrap();
+        let mut x = vec![1.1, 1.9, 2.5];
+        let mut v = vec![0.0; 3];
+        let mut c = Constraints::new(1);
+        model.begin_step(0.0, &mut x, &mut v, &mut c);
+        let mut f = vec![0.0; 3];
+        model.force(0.0, &x, &v, &mut f);
+        for r in 0..3 {
+            let expected = m * g[r] - w * k * (x[r] - y[r]);
+            assert!((f[r] - expected).abs() < 1e-12, "{f:?}");
+        }
+        let (mut dfdx, mut dfdv) = model.new_jacobians();
+        model.force_jacobians(0.0, &x, &v, &mut dfdx, &mut dfdv);
+        let d = dfdx.diagonal_block(0);
+        for r in 0..3 {
+            for s in 0..3 {
+                let expected = if r == s { -w * k } else { 0.0 };
+                assert_eq!(d[r][s], expected);
+            }
+        }
+        // Released: nothing left.
+        model.handles[0].group.release = Some(1.0);
+        model.begin_step(1.0, &mut x, &mut v, &mut c);
+        model.force(1.0, &x, &v, &mut f);
+        assert_eq!(f, vec![0.0, 0.0, m * g[2]]);
+    }
+}
