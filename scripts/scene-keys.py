@@ -10,14 +10,18 @@ fail until you do."""
 import re, pathlib, textwrap
 root = pathlib.Path(__file__).resolve().parent.parent
 facade_src = "".join((root / "crates/hookean/src/scene" / f).read_text()
-                     for f in ("mod.rs", "model.rs", "solver.rs", "output.rs"))
+                     for f in ("mod.rs", "model.rs", "solver.rs", "output.rs", "pins.rs"))
 cli_src = (root / "crates/hookean-cli/src/scene.rs").read_text()
 # (table, its structs): the facade's, then where the program's join them.
 facade = [("", ["Scene"]), ("cloth", ["ClothScene"]), ("rope", ["RopeScene"]),
           ("jelly", ["JellyScene"]), ("model", ["ModelScene"]),
           ("integrator", ["IntegratorScene"]), ("solver", ["SolverScene"]),
           ("solver.amg", ["AmgScene"]), ("filter", ["FilterScene"]),
-          ("output", ["OutputScene"]), ("mesh", ["MeshScene"]), ("contact", ["ContactScene"])]
+          ("output", ["OutputScene"]), ("mesh", ["MeshScene"]), ("contact", ["ContactScene"]),
+          ("pin", ["PinGroupScene"]), ("pin.keys", ["KeyScene"])]
+# Arrays of tables: one [[pin]] table per group, its keys an array of inline tables.
+array_tables = {"pin": "[[pin]] (one table per pin group; docs/CONTACT.md, \"Pins as handles\")",
+                "pin.keys": "pin.keys = [{ t, translation, rotation }, ...] (the path's keys)"}
 program = {"": ["ProgramKeys"], "output": ["PictureScene"]}
 merged = []
 for table, structs in facade:
@@ -78,7 +82,7 @@ def listing(header, tables, src, program_words):
     lines, seen = header + [""], set()
     for table, structs in tables:
         if table:
-            lines.append(f"[{table}]")
+            lines.append(array_tables.get(table, f"[{table}]"))
         for name in structs:
             lines += entries(src, name, table, seen, program_words)
         lines.append("")

@@ -514,4 +514,77 @@ pub(crate) const VIEW: &[Case] = &[
         2,
         "none",
     ),
+    case(
+        "export-cache: a frame of the run is missing",
+        &[(
+            "s.toml",
+            "duration = 0.05\n[cloth]\nn = 4\n[output]\nframe_rate = 40.0\nwidth = 8\nheight = 8\n",
+        )],
+        &["export-cache", "{}/out", "--format", "pc2"],
+        2,
+        "frame-0001.obj",
+    )
+    .before(&[
+        &["run", "{}/s.toml", "--out", "{}/out", "--quiet"],
+        &["!", "rm", "{}/out/frame-0001.obj"],
+    ])
+    .absent(&["out/cache.pc2", "out/cache-rest.obj"]),
+    case(
+        "export-cache: an unknown format",
+        &[],
+        &["export-cache", "{}", "--format", "abc"],
+        2,
+        "pc2",
+    ),
+    case(
+        "run: output.cache without OBJ frames",
+        &[(
+            "s.toml",
+            "[cloth]\nn = 4\n[output]\nframe_rate = 0.0\ncache = \"pc2\"\n",
+        )],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "output.cache",
+    )
+    .absent(&["out"]),
+    case(
+        "run: a pin group's vertex past the mesh",
+        &[("s.toml", "[cloth]\nn = 4\n[[pin]]\nvertices = [16]\n")],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "[pin 1]: vertices: vertex 16 does not exist (16 vertices",
+    )
+    .absent(&["out"]),
+    case(
+        "run: a pin group's weight outside [0, 1]",
+        &[("s.toml", "[cloth]\nn = 4\n[[pin]]\nvertices = [0]\nweight = 1.5\n")],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "s.toml:5:10: pin.weight: must lie in [0, 1], got 1.5",
+    )
+    .absent(&["out"]),
+    case(
+        "run: a pin group's negative stiffness",
+        &[("s.toml", "[cloth]\nn = 4\n[[pin]]\nvertices = [0]\nweight = 0.5\nstiffness = -2\n")],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "pin.stiffness: must lie in [0, inf), got -2",
+    )
+    .absent(&["out"]),
+    case(
+        "run: a NaN in a pin group's path",
+        &[("s.toml", "[cloth]\nn = 4\n[[pin]]\nvertices = [0]\nkeys = [{ t = 0 }, { t = 1, translation = [nan, 0, 0] }]\n")],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "pin.keys.translation: components must be finite numbers",
+    )
+    .absent(&["out"]),
+    case(
+        "run: a pin group's key times that do not increase",
+        &[("s.toml", "[cloth]\nn = 4\n[[pin]]\nvertices = [0]\nkeys = [{ t = 1 }, { t = 1 }]\n")],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        2,
+        "[pin 1]: keys: key 2: t = 1 does not come after",
+    )
+    .absent(&["out"]),
 ];

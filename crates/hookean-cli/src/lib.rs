@@ -9,6 +9,7 @@
 //! hookean export-system SCENE --at T --out DIR [--force]
 //! hookean filter-analysis SCENE --plot DIR [--n 16] [--t-end 1.0] [--force]
 //! hookean view OUT_DIR [--force]
+//! hookean export-cache OUT_DIR --format pc2|mdd [--force]
 //! hookean scene-keys
 //! hookean reproduce [--paper tutorial|filter|all] [--out DIR] [--quick] [--claims 1,2] [--force]
 //! ```
@@ -43,6 +44,7 @@ pub mod alloc;
 mod amg_args;
 mod bench;
 mod bench_precond;
+mod export_cache;
 mod export_system;
 mod filter_analysis;
 mod lineplot;
@@ -97,6 +99,9 @@ enum Command {
     FilterAnalysis(filter_analysis::FilterAnalysisArgs),
     /// Write view.html (a self-contained WebGL player) for the output folder of an earlier `hookean run`.
     View(view::ViewArgs),
+    /// Write a point cache (cache.pc2 or cache.mdd, with cache-rest.obj) of an earlier `hookean run`'s
+    /// OBJ frames, for Blender's Mesh Cache modifier (docs/OUTPUTS.md, "Point caches").
+    ExportCache(export_cache::ExportCacheArgs),
     /// Write the linearised implicit-Euler system (A.mtx, b.mtx) of a scene's state at time T.
     ExportSystem(export_system::ExportSystemArgs),
     /// List every scene key (TOML) with its units and default.
@@ -290,6 +295,7 @@ fn dispatch(command: Command, threads: Option<usize>) -> Result<(), CliError> {
         Command::BenchPrecond(args) => bench_precond::run(&args),
         Command::Bench(args) => bench::run(&args),
         Command::ExportSystem(args) => export_system::run(&args),
+        Command::ExportCache(args) => export_cache::run(&args),
         Command::FilterAnalysis(args) => filter_analysis::run(&args),
         Command::View(args) => view::run(&args),
         Command::SceneKeys => outln!("{}", scene::KEYS.trim_end()),

@@ -77,6 +77,8 @@ pub struct RunRecord {
     pub final_kinetic_energy: f64,
     pub final_total_energy: f64,
     pub frames: usize,
+    /// OBJ frames per simulated second (`output.frame_rate`).
+    pub frame_rate: f64,
     /// Simulated time of each `frame-NNNN.obj`.
     pub frame_times: Vec<f64>,
     /// The colliders, for viewers (`hookean view`): meshes by their file.
@@ -545,11 +547,21 @@ fn run_model(
         final_kinetic_energy: energies.kinetic,
         final_total_energy: energies.total(),
         frames: frames.as_ref().map_or(0, |f| f.obj.times().len()),
+        frame_rate: scene.output.frame_rate,
         frame_times: frames
             .as_ref()
             .map_or_else(Vec::new, |f| f.obj.times().to_vec()),
         colliders: summary_colliders(scene, &sim),
     };
+    // The point cache of the frames (the scene refuses a cache without frames).
+    if let Some(format) = scene.output.cache {
+        crate::export_cache::write_in_run(
+            &out,
+            &record.frame_times,
+            scene.output.frame_rate,
+            format,
+        )?;
+    }
     let json = crate::to_json(&record, true)?;
     let summary_path = out.join("summary.json");
     crate::output::write_text(&summary_path, &(json + "\n"))?;

@@ -270,11 +270,11 @@ mod tests {
         let m = parse("[cloth]\n[output]\nwidht = 3\n", &[]).unwrap_err();
         assert_eq!(
             m,
-            "s.toml:3:1: unknown field `widht`, expected one of `frame_rate`, `width`, `height`"
+            "s.toml:3:1: unknown field `widht`, expected one of `frame_rate`, `cache`, `width`, `height`"
         );
         let m = parse("[cloth]\n", &["output.widht=3"]).unwrap_err();
         assert!(
-            m.ends_with("expected one of `frame_rate`, `width`, `height`"),
+            m.ends_with("expected one of `frame_rate`, `cache`, `width`, `height`"),
             "{m}"
         );
         let m = parse("duraton = 1.0\n[cloth]\n", &[]).unwrap_err();

@@ -473,14 +473,24 @@ fn read_obj_lines(text: &str) -> Vec<(usize, usize)> {
         .collect()
 }
 
-impl ViewRun {
-    /// Rebuilds a run from its folder: positions and topology from the
-    /// `frame-NNNN.obj` files, frame times and colliders from
-    /// `summary.json` (older summaries without `frame_times`: frames evenly
-    /// spread over the simulated time), energies from the `steps.csv` row
-    /// at each frame's time, speeds by finite differences of the frames
-    /// (OBJ files hold no velocities).
-    pub fn from_folder(dir: &Path) -> Result<Self, CliError> {
+/// The frames of a run folder as its `summary.json` records them.
+pub struct RunFrames {
+    /// `dir/summary.json`.
+    pub summary_path: PathBuf,
+    /// Its content.
+    pub summary: serde_json::Value,
+    /// The simulated time of each `frame-NNNN.obj` (at least one frame).
+    pub times: Vec<f64>,
+}
+
+impl RunFrames {
+    /// Reads `dir/summary.json`: the frame count and times (older summaries
+    /// without `frame_times`: frames evenly spread over the simulated time).
+    ///
+    /// # Errors
+    /// [`CliError::Input`] for a missing or malformed summary, a run without
+    /// frames or with more than a run writes.
+    pub fn read(dir: &Path) -> Result<Self, CliError> {
         let summary_path = dir.join("summary.json");
         let text = read_text(&summary_path, SUMMARY_BYTES)?;
         let summary: serde_json::Value = serde_json::from_str(&text)
@@ -521,6 +531,28 @@ impl ViewRun {
                 times.len()
             )));
         }
+        Ok(RunFrames {
+            summary_path,
+            summary,
+            times,
+        })
+    }
+}
+
+impl ViewRun {
+    /// Rebuilds a run from its folder: positions and topology from the
+    /// `frame-NNNN.obj` files, frame times and colliders from
+    /// `summary.json` (older summaries without `frame_times`: frames evenly
+    /// spread over the simulated time), energies from the `steps.csv` row
+    /// at each frame's time, speeds by finite differences of the frames
+    /// (OBJ files hold no velocities).
+    pub fn from_folder(dir: &Path) -> Result<Self, CliError> {
+        let RunFrames {
+            summary_path,
+            summary,
+            times,
+        } = RunFrames::read(dir)?;
+        let count = times.len();
         let recorded: Vec<SummaryCollider> = match summary.get("colliders") {
             Some(c) => serde_json::from_value(c.clone())
                 .map_err(|e| input(format!("{}: colliders: {e}", summary_path.display())))?,

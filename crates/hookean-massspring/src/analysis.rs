@@ -170,6 +170,7 @@ impl MassSpringModel {
             }
             e.spring += 0.5 * s.stiffness * (l - s.rest_length).powi(2);
         }
+        e.spring += self.soft_pin_energy(x);
         Ok(e)
     }
 

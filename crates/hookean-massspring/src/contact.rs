@@ -307,6 +307,7 @@ impl MassSpringModel {
         if let Some(sc) = &self.contact.self_contact {
             sc.add_forces(x, f);
         }
+        self.add_soft_pin_forces(x, f);
     }
 
     /// Adds `a d(f_c)/dx + b d(f_c)/dv` of the contact forces `f_c` to the
@@ -333,6 +334,12 @@ impl MassSpringModel {
             sc.for_each_diagonal_block(x, |p, blk| {
                 self.add_to_diagonal_projected(m, p, &block::scale(blk, a));
             });
+        }
+        if a != 0.0 {
+            // Soft pins (handles.rs): d(-k (x_p - y_p))/dx_p = -k I.
+            for s in &self.soft_pins {
+                self.add_to_diagonal_projected(m, s.p, &block::scale(&block::IDENTITY, -a * s.k));
+            }
         }
     }
 

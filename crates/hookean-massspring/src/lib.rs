@@ -21,6 +21,10 @@
 //!   [`MassSpringModel::dfdx_exact`] (the full non-symmetric Jacobian), and
 //!   the linearised implicit-Euler system `(A, b)` with Matrix Market export
 //!   ([`MassSpringModel::export_implicit_euler_system`]).
+//! - Pin groups as handles ([`PinGroup`], [`MassSpringModel::add_pin_group`]):
+//!   hard pins (prescribed motion) or soft pins (zero-rest-length springs
+//!   with their Jacobian) whose targets move along a [`KeyframedPath`]
+//!   ([`path`]), released at a time.
 //! - [`builders`]: [`tutorial_example3`], [`rope`], [`cloth`],
 //!   [`jelly_block`], [`from_mesh`].
 //! - [`obj`]: [`parse_obj`] / [`read_obj_file`], [`write_obj`] with per-vertex
@@ -91,8 +95,10 @@ pub mod builders;
 mod collide;
 mod contact;
 mod error;
+mod handles;
 mod model;
 pub mod obj;
+pub mod path;
 mod self_contact;
 
 pub use analysis::{Energies, ImplicitSystem, Momentum, StabilityInfo};
@@ -103,10 +109,12 @@ pub use builders::{
 pub use collide::{Collider, Friction, MeshCollider, RigidMotion};
 pub use contact::{ContactStats, STICK_SPEED};
 pub use error::MassSpringError;
+pub use handles::PinGroup;
 pub use hookean_geometry::{GeometryError, TriMesh};
 pub use hookean_problem::SecondOrderProblem;
 pub use model::{
     DampingInDfdx, MassSpringModel, ModelOptions, ParticleConstraint, Spring, SpringDamping,
 };
 pub use obj::{ObjMesh, parse_obj, read_obj_file, read_surface, speed_colours, write_obj};
+pub use path::{Interpolation, Keyframe, KeyframedPath};
 pub use self_contact::SelfCollision;

@@ -144,6 +144,17 @@ impl Dirs {
         values: [0.0; 3],
     };
 
+    /// A pin at `position`: the three coordinate axes.
+    pub(crate) fn pin(position: [f64; 3]) -> Dirs {
+        let mut d = Dirs::EMPTY;
+        for (c, &value) in position.iter().enumerate() {
+            let mut e = [0.0; 3];
+            e[c] = 1.0;
+            d.push(e, value);
+        }
+        d
+    }
+
     /// Adds direction `d` (orthonormalised against the others) with
     /// coordinate `value` of the current point; returns false when `d` is
     /// degenerate (zero, dependent, or a fourth direction).
@@ -265,6 +276,10 @@ pub struct MassSpringModel {
     pub(crate) scratch: Vec<f64>,
     pub(crate) faces: Vec<[usize; 3]>,
     pub(crate) revision: u64,
+    /// Pin groups (`handles.rs`).
+    pub(crate) handles: Vec<crate::handles::Handle>,
+    /// The soft pins of the current step.
+    pub(crate) soft_pins: Vec<crate::handles::SoftPin>,
 }
 
 impl MassSpringModel {
@@ -353,6 +368,8 @@ impl MassSpringModel {
             scratch: vec![0.0; 3 * n],
             faces: Vec::new(),
             revision: 0,
+            handles: Vec::new(),
+            soft_pins: Vec::new(),
         })
     }
 
@@ -438,13 +455,7 @@ impl MassSpringModel {
                 index: c,
             });
         }
-        let mut d = Dirs::EMPTY;
-        for (c, &value) in position.iter().enumerate() {
-            let mut e = [0.0; 3];
-            e[c] = 1.0;
-            d.push(e, value);
-        }
-        self.fixes[particle] = d;
+        self.fixes[particle] = Dirs::pin(position);
         self.refresh_permanent();
         self.revision += 1;
         Ok(())

@@ -15,7 +15,8 @@
 //!
 //! and adds [`Simulation`] (a model, an integrator and its solvers, run
 //! step-wise or to an end time, with output [`Sink`]s: the per-step CSV, OBJ
-//! frames and progress of [`sinks`]) and scene files ([`scene`]).
+//! frames and progress of [`sinks`]), scene files ([`scene`]) and point
+//! caches of a run's frames for other tools ([`cache`]: PC2, MDD).
 //!
 //! # Drape a cloth
 //!
@@ -75,6 +76,8 @@ pub use hookean_sparse as sparse;
 #[cfg(feature = "filter")]
 hookean_sparse::non_exhaustive_seal!();
 
+pub mod cache;
+#[cfg(feature = "filter")]
 mod error;
 #[cfg(feature = "sparse")]
 pub mod range;

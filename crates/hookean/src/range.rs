@@ -164,6 +164,9 @@ pub const MASS: Range = Range::closed(1e-100, 1e100);
 /// zero-length spring at 5e-324 m. Within [1e-100, 1e100] the squares stay
 /// normal numbers for any grid the memory cap allows.
 pub const LENGTH: Range = Range::closed(1e-100, 1e100);
+/// A `[[pin]]` group's `weight`: 1 a hard pin, below 1 a soft pin of
+/// stiffness `weight * stiffness`, 0 no pull.
+pub const PIN_WEIGHT: Range = Range::closed(0.0, 1.0);
 /// `mesh.scale`, the factor on an OBJ file's coordinates: the mesh checks
 /// its faces' squared areas (products of four coordinates), which
 /// underflow to a "degenerate face" at a scale of 1e-100 on coordinates of

@@ -149,9 +149,9 @@ impl ObjFrames {
         &self.times
     }
 
-    /// The path of frame `k`.
+    /// The path of frame `k` ([`frame_path`]).
     pub fn path(&self, k: usize) -> PathBuf {
-        self.dir.join(format!("frame-{k:04}.obj"))
+        frame_path(&self.dir, k)
     }
 
     /// Writes a frame if one is due at the simulation's time; returns whether it did.
@@ -186,6 +186,12 @@ impl Sink for ObjFrames {
     fn step(&mut self, sim: &Simulation, _: &StepReport) -> Result<(), HookeanError> {
         self.write_if_due(sim).map(drop)
     }
+}
+
+/// The OBJ frame `k` of a run folder `dir`: `dir/frame-0000.obj`, ...
+/// (the one place of the frames' names).
+pub fn frame_path(dir: &Path, k: usize) -> PathBuf {
+    dir.join(format!("frame-{k:04}.obj"))
 }
 
 /// Where a run is, as [`Progress`] reports it.

@@ -211,7 +211,9 @@ impl SecondOrderProblem for MassSpringModel {
     /// The active directions also project `force` and the Jacobians until the
     /// next `begin_step`.
     fn begin_step(&mut self, t: f64, x: &mut [f64], v: &mut [f64], constraints: &mut Constraints) {
+        self.begin_handles(t);
         self.apply_constraints_and_contacts(t, x, v);
+        self.move_hard_pins(t, v);
         let n = self.n_particles();
         if constraints.n_particles() != n {
             *constraints = Constraints::new(n);
@@ -238,8 +240,12 @@ impl SecondOrderProblem for MassSpringModel {
     }
 
     /// The continuous contact passes (`contact.rs`): cloth self-collision
-    /// and mesh colliders; nothing (and `false`) for a model without them.
+    /// and mesh colliders, then the hard pins of pin groups set exactly on
+    /// their paths (`handles.rs`); nothing (and `false`) for a model
+    /// without them.
     fn end_step(&mut self, t: f64, h: f64, x_start: &[f64], x: &mut [f64], v: &mut [f64]) -> bool {
-        self.end_contact_step(t, h, x_start, x, v)
+        let contact = self.end_contact_step(t, h, x_start, x, v);
+        let pins = self.end_handles(t + h, x, v);
+        contact || pins
     }
 }

@@ -336,21 +336,7 @@ impl Scene {
                 },
             )
             .map_err(in_table("mesh"))?;
-            let n = model.n_particles();
-            let mut pins = m.pins.clone();
-            if let Some(&bad) = pins.iter().find(|&&p| p >= n) {
-                return Err(HookeanError::Build {
-                    table: "mesh".into(),
-                    message: format!(
-                        "pins: vertex {bad} does not exist ({n} vertices, numbered from 0)"
-                    ),
-                });
-            }
-            if let Some([lo, hi]) = m.pin_box {
-                pins.extend((0..n).filter(|&p| {
-                    (0..3).all(|c| lo[c] <= state.x[3 * p + c] && state.x[3 * p + c] <= hi[c])
-                }));
-            }
+            let pins = pins::select_vertices("mesh", "pins", &m.pins, m.pin_box, &state.x)?;
             for p in pins {
                 let at = [state.x[3 * p], state.x[3 * p + 1], state.x[3 * p + 2]];
                 model.pin(p, at).map_err(in_table("mesh"))?;
@@ -418,6 +404,9 @@ impl Scene {
                         .with_friction(friction(*static_friction, *kinetic_friction)?)
                 }
             });
+        }
+        for (i, group) in self.pins.iter().enumerate() {
+            group.add_to(i + 1, &mut model, &state.x)?;
         }
         if self.contact.self_collision {
             model

@@ -50,12 +50,14 @@ mod build;
 mod model;
 mod output;
 mod overrides;
+mod pins;
 mod solver;
 mod validate;
 
 pub use model::*;
 pub use output::*;
 pub use overrides::SceneExtension;
+pub use pins::{InterpolationScene, KeyScene, PinGroupScene};
 pub use solver::*;
 use validate::*;
 
@@ -106,6 +108,9 @@ pub struct Scene {
     /// Planes, spheres and triangle meshes.
     #[serde(default, rename = "collider")]
     pub colliders: Vec<ColliderScene>,
+    /// Pin groups as handles, moving along keyframes, hard or soft.
+    #[serde(default, rename = "pin")]
+    pub pins: Vec<PinGroupScene>,
     /// Cloth self-collision.
     #[serde(default)]
     pub contact: ContactScene,
@@ -139,6 +144,7 @@ mod tests {
             include_str!("model.rs"),
             include_str!("solver.rs"),
             include_str!("output.rs"),
+            include_str!("pins.rs"),
         ]
         .concat();
         let tables = [
@@ -154,6 +160,8 @@ mod tests {
             ("OutputScene", "output."),
             ("MeshScene", "mesh."),
             ("ContactScene", "contact."),
+            ("PinGroupScene", "pin."),
+            ("KeyScene", "pin.keys."),
         ];
         let mut count = 0;
         for (name, prefix) in tables {

@@ -9,12 +9,24 @@ pub struct OutputScene {
     /// OBJ frames per simulated second (0: none). Range [0, inf). Default 10.
     #[serde(default = "d_frame_rate", deserialize_with = "non_negative")]
     pub frame_rate: f64,
+    /// A point cache of every OBJ frame in one file, for Blender's Mesh
+    /// Cache modifier and other tools: "pc2" (cache.pc2, Point Cache 2) or
+    /// "mdd" (cache.mdd, LightWave's MDD), with cache-rest.obj, the mesh of
+    /// the same vertex order to play it on; needs frame_rate > 0. In
+    /// Blender: set the scene's frame rate to frame_rate and its start
+    /// frame to 0, import cache-rest.obj with forward axis Y and up axis Z,
+    /// add a Mesh Cache modifier (format PC2 or MDD, the cache file, frame
+    /// start 0); docs/OUTPUTS.md, "Point caches", has every step. Default:
+    /// none.
+    #[serde(default)]
+    pub cache: Option<crate::cache::CacheFormat>,
 }
 
 impl Default for OutputScene {
     fn default() -> Self {
         Self {
             frame_rate: d_frame_rate(),
+            cache: None,
         }
     }
 }

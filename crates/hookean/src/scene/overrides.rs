@@ -352,7 +352,8 @@ impl Scene {
     /// Whole-scene rules serde cannot express: exactly one model table (the
     /// facade's, or one of a program's `program_tables`, of which the scene
     /// has `program_models`), and `[solver.amg]` only with the multigrid
-    /// preconditioner (`"amg"`, or `"auto"`, which picks it for large models).
+    /// preconditioner (`"amg"`, or `"auto"`, which picks it for large models),
+    /// and `output.cache` only with OBJ frames.
     pub(super) fn check(
         &self,
         program_tables: &[&str],
@@ -381,6 +382,13 @@ impl Scene {
         {
             return Err(format!(
                 "integrator.h: \"auto\" is the stable step of a mass-spring model; a [{table}] scene needs a number"
+            ));
+        }
+        if let Some(cache) = self.output.cache
+            && self.output.frame_rate == 0.0
+        {
+            return Err(format!(
+                "output.cache: \"{cache}\" caches the OBJ frames, but output.frame_rate = 0 writes none; set output.frame_rate > 0"
             ));
         }
         if models != 1 {
