@@ -1,3 +1,4 @@
+from . import ode as ode
 from . import sparse as sparse
 from ._hookean import ConvergenceError as ConvergenceError
 

@@ -1,4 +1,4 @@
-"""Type stubs of the native module hookean._hookean (use hookean.sparse)."""
+"""Type stubs of the native module hookean._hookean (use hookean.sparse and hookean.ode)."""
 
 from typing import Any, Callable, Optional
 
@@ -57,3 +57,20 @@ class Precond:
         maxiter: Optional[int] = None,
         callback: Optional[Callable[[npt.NDArray[np.float64]], object]] = None,
     ) -> tuple[npt.NDArray[np.float64], dict[str, Any]]: ...
+
+def bdf_solve(
+    fun: Callable[[float, npt.NDArray[np.float64]], npt.NDArray[np.float64]],
+    jac: Optional[Callable[[float, npt.NDArray[np.float64]], npt.NDArray[np.float64]]],
+    t0: float,
+    y0: list[float],
+    t_end: float,
+    rtol: float,
+    atol: list[float],
+    first_step: Optional[float],
+    max_step: float,
+    t_eval: Optional[list[float]],
+    dense: bool,
+    events: list[Callable[[float, npt.NDArray[np.float64]], float]],
+    directions: list[int],
+    terminal: list[bool],
+) -> dict[str, Any]: ...
