@@ -173,5 +173,5 @@ pub use phases::PhaseTimes;
 pub use sprs;
 pub use stage::FirstOrderForm;
 pub use stats::{IntegrateInfo, Stats, StepReport};
-pub use stepping::{Integrator, Solution, landing_slack};
+pub use stepping::{EventRun, Integrator, Solution, landing_slack};
 pub use tableau::ButcherTableau;

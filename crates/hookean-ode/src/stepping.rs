@@ -3,7 +3,8 @@
 //! the drivers built on them once for all: one step that lands on an end
 //! time (the one landing rule, [`step_to`](Integrator::step_to)),
 //! [`integrate`](Integrator::integrate), [`solve_at`](Integrator::solve_at)
-//! and event location ([`solve_at_with_events`](Integrator::solve_at_with_events)).
+//! and event location ([`integrate_with_events`](Integrator::integrate_with_events),
+//! [`solve_at_with_events`](Integrator::solve_at_with_events)).
 
 use std::ops::ControlFlow;
 
@@ -193,6 +194,76 @@ pub trait Integrator {
         })
     }
 
+    /// [`integrate_with`](Self::integrate_with) with event location (the
+    /// one event driver, under [`solve_at_with_events`](Self::solve_at_with_events)
+    /// too): [`step_to`](Self::step_to) until `t_end`; after every step the
+    /// event functions are compared at both ends and the roots are located
+    /// on the dense output (as in [`solve_at_with_events`](Self::solve_at_with_events)),
+    /// then `callback(self, (t_prev, t_stop), hits)` runs with `t_stop` the
+    /// step's end, or the root of a terminal event, and `hits` the events
+    /// of this step; [`interpolate`](Self::interpolate) covers
+    /// `[t_prev, t_stop]` during the callback. A terminal event ends the run
+    /// after the callback: the integrator restarts at the root
+    /// ([`restart`](Self::restart)). `ControlFlow::Break(())` stops the run.
+    /// `events = None` locates none.
+    ///
+    /// # Errors
+    /// As [`step_to`](Self::step_to); [`OdeError::DimensionMismatch`] for
+    /// events of another size.
+    fn integrate_with_events<F>(
+        &mut self,
+        t_end: f64,
+        mut events: Option<&mut Events<'_>>,
+        mut callback: F,
+    ) -> Result<EventRun, OdeError>
+    where
+        F: FnMut(&Self, (f64, f64), &[EventHit]) -> ControlFlow<()>,
+        Self: Sized,
+    {
+        if let Some(ev) = events.as_deref_mut() {
+            ev.start(self.t(), self.state())?;
+            self.count_event_evaluations(1);
+        }
+        let mut run = EventRun {
+            t: self.t(),
+            events: Vec::new(),
+            terminal: false,
+            stopped_by_callback: false,
+            stats: self.stats(),
+        };
+        while self.step_to(t_end)?.is_some() {
+            let first = run.events.len();
+            let mut t_stop = self.t();
+            if let Some(ev) = events.as_deref_mut() {
+                let (terminal, evaluations) = ev.locate(
+                    (self.t_prev(), self.t()),
+                    self.state(),
+                    |t, out| self.interpolate(t, out),
+                    &mut run.events,
+                )?;
+                self.count_event_evaluations(evaluations);
+                if terminal {
+                    run.terminal = true;
+                    t_stop = run.events.last().map_or(t_stop, |e| e.t);
+                }
+            }
+            let flow = callback(self, (self.t_prev(), t_stop), &run.events[first..]);
+            if run.terminal {
+                let hit = run.events.last().expect("a terminal event was recorded");
+                let (t_root, y_root) = (hit.t, hit.y.clone());
+                self.restart(t_root, &y_root)?;
+                break;
+            }
+            if flow.is_break() {
+                run.stopped_by_callback = true;
+                break;
+            }
+        }
+        run.t = self.t();
+        run.stats = self.stats();
+        Ok(run)
+    }
+
     /// The solution at the non-decreasing `times` (none before the current
     /// time), stepping to the last one and interpolating the others.
     ///
@@ -229,6 +300,21 @@ pub trait Integrator {
     }
 }
 
+/// The result of [`Integrator::integrate_with_events`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct EventRun {
+    /// The time reached (the root of a terminal event, if one ended the run).
+    pub t: f64,
+    /// The events located, in time order.
+    pub events: Vec<EventHit>,
+    /// True when a terminal event ended the run.
+    pub terminal: bool,
+    /// True when the callback stopped the run.
+    pub stopped_by_callback: bool,
+    /// The integrator's counters after the run.
+    pub stats: Stats,
+}
+
 /// The result of [`Integrator::solve_at`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Solution {
@@ -255,7 +341,7 @@ impl Solution {
 fn solve_at<I: Integrator>(
     ode: &mut I,
     times: &[f64],
-    mut events: Option<&mut Events<'_>>,
+    events: Option<&mut Events<'_>>,
 ) -> Result<Solution, OdeError> {
     for (i, &t) in times.iter().enumerate() {
         if !t.is_finite() || t < ode.t() || (i > 0 && t < times[i - 1]) {
@@ -277,47 +363,31 @@ fn solve_at<I: Integrator>(
     let Some(&t_end) = times.last() else {
         return Ok(sol);
     };
-    if let Some(ev) = events.as_deref_mut() {
-        ev.start(ode.t(), ode.state())?;
-        ode.count_event_evaluations(1);
-    }
     let mut next = 0;
-    let mut y = vec![0.0; n];
     while next < times.len() && times[next] <= ode.t() {
         sol.t.push(times[next]);
         sol.values.extend_from_slice(ode.state());
         next += 1;
     }
-    while ode.step_to(t_end)?.is_some() {
-        let mut stop_at = ode.t();
-        let mut terminal = false;
-        if let Some(ev) = events.as_deref_mut() {
-            let (hit_terminal, evaluations) = ev.locate(
-                (ode.t_prev(), ode.t()),
-                ode.state(),
-                |t, out| ode.interpolate(t, out),
-                &mut sol.events,
-            )?;
-            ode.count_event_evaluations(evaluations);
-            terminal = hit_terminal;
-            if terminal {
-                stop_at = sol.events.last().map_or(ode.t(), |e| e.t);
+    let mut y = vec![0.0; n];
+    let mut failed = None;
+    let run = ode.integrate_with_events(t_end, events, |ode, (_, t_stop), _| {
+        while next < times.len() && times[next] <= t_stop {
+            if let Err(e) = ode.interpolate(times[next], &mut y) {
+                failed = Some(e);
+                return ControlFlow::Break(());
             }
-        }
-        while next < times.len() && times[next] <= stop_at {
-            ode.interpolate(times[next], &mut y)?;
             sol.t.push(times[next]);
             sol.values.extend_from_slice(&y);
             next += 1;
         }
-        if terminal {
-            let hit = sol.events.last().expect("a terminal event was recorded");
-            let (t_root, y_root) = (hit.t, hit.y.clone());
-            ode.restart(t_root, &y_root)?;
-            break;
-        }
+        ControlFlow::Continue(())
+    })?;
+    if let Some(e) = failed {
+        return Err(e);
     }
-    sol.stats = ode.stats();
+    sol.events = run.events;
+    sol.stats = run.stats;
     Ok(sol)
 }
 

@@ -254,6 +254,62 @@ fn a_terminal_event_stops_at_the_known_crossing() {
 }
 
 #[test]
+fn integrate_with_events_hands_each_step_and_stops_at_the_terminal_root() {
+    // y = e^{-t} crosses 1/2 at ln 2: every step [t_prev, t_stop] is handed
+    // over, contiguous from 0, the last ending on the root, with the hit.
+    let mut s =
+        FirstOrderIntegrator::new(Decay, Method::VariableBdf, 0.0, &[1.0], tight()).unwrap();
+    let mut ev = Events::new(
+        |_t: f64, y: &[f64], g: &mut [f64]| g[0] = y[0] - 0.5,
+        vec![Direction::Falling],
+        vec![true],
+    )
+    .unwrap();
+    let mut steps: Vec<(f64, f64, usize)> = Vec::new();
+    let mut y = [0.0];
+    let run = s
+        .integrate_with_events(2.0, Some(&mut ev), |ode, (a, b), hits| {
+            // The dense output covers the handed-over step.
+            ode.interpolate(b, &mut y).unwrap();
+            assert!((y[0] - (-b).exp()).abs() < 1e-8);
+            steps.push((a, b, hits.len()));
+            std::ops::ControlFlow::Continue(())
+        })
+        .unwrap();
+    assert!(run.terminal && !run.stopped_by_callback);
+    assert_eq!(run.events.len(), 1);
+    assert!((run.t - std::f64::consts::LN_2).abs() < 1e-8, "{}", run.t);
+    assert_eq!(steps[0].0, 0.0);
+    assert!(steps.windows(2).all(|w| w[0].1 == w[1].0));
+    let last = steps.last().unwrap();
+    assert_eq!((last.1, last.2), (run.events[0].t, 1));
+    assert!(steps[..steps.len() - 1].iter().all(|s| s.2 == 0));
+    assert_eq!(s.t(), run.t);
+    assert!((s.state()[0] - 0.5).abs() < 1e-9);
+}
+
+#[test]
+fn integrate_with_events_without_events_stops_when_the_callback_breaks() {
+    let mut s =
+        FirstOrderIntegrator::new(Decay, Method::VariableBdf, 0.0, &[1.0], tight()).unwrap();
+    let mut n = 0;
+    let run = s
+        .integrate_with_events(2.0, None, |_, _, hits| {
+            assert!(hits.is_empty());
+            n += 1;
+            if n == 3 {
+                std::ops::ControlFlow::Break(())
+            } else {
+                std::ops::ControlFlow::Continue(())
+            }
+        })
+        .unwrap();
+    assert!(run.stopped_by_callback && !run.terminal);
+    assert_eq!(run.stats.num_steps, 3);
+    assert!(run.t < 2.0);
+}
+
+#[test]
 fn a_rising_event_ignores_falling_crossings() {
     let mut s =
         FirstOrderIntegrator::new(Decay, Method::VariableBdf, 0.0, &[1.0], tight()).unwrap();

@@ -1,5 +1,6 @@
-"""Type stubs of the native module hookean._hookean (use hookean.sparse)."""
+"""Type stubs of the native module hookean._hookean (use hookean.sparse and hookean.ode)."""
 
+import os
 from typing import Any, Callable, Optional
 
 import numpy as np
@@ -57,3 +58,52 @@ class Precond:
         maxiter: Optional[int] = None,
         callback: Optional[Callable[[npt.NDArray[np.float64]], object]] = None,
     ) -> tuple[npt.NDArray[np.float64], dict[str, Any]]: ...
+
+def bdf_solve(
+    fun: Callable[[float, npt.NDArray[np.float64]], npt.NDArray[np.float64]],
+    jac: Optional[Callable[[float, npt.NDArray[np.float64]], npt.NDArray[np.float64]]],
+    t0: float,
+    y0: list[float],
+    t_end: float,
+    rtol: float,
+    atol: list[float],
+    first_step: Optional[float],
+    max_step: float,
+    t_eval: Optional[list[float]],
+    dense: bool,
+    events: list[Callable[[float, npt.NDArray[np.float64]], float]],
+    directions: list[int],
+    terminal: list[bool],
+) -> dict[str, Any]: ...
+
+class Scene:
+    """A scene file with its key=value overrides (the facade's Scene); pickles as its path, text and overrides."""
+
+    @staticmethod
+    def from_file(path: str | os.PathLike[str], overrides: list[str] = ...) -> Scene: ...
+    @staticmethod
+    def from_text(path: str | os.PathLike[str], text: str, overrides: list[str]) -> Scene: ...
+    def build(self) -> Simulation: ...
+    @property
+    def duration(self) -> float: ...
+    @property
+    def path(self) -> str: ...
+    @property
+    def overrides(self) -> list[str]: ...
+    @property
+    def text(self) -> str: ...
+
+class Simulation:
+    """A running simulation of a scene (the facade's Simulation)."""
+
+    def step(self) -> float: ...
+    def run_until(self, t: float, callback: Optional[Callable[[float], object]] = None) -> float: ...
+    @property
+    def t(self) -> float: ...
+    @property
+    def positions(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def velocities(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def stats(self) -> dict[str, Any]: ...
+    def write_obj(self, path: str | os.PathLike[str], overwrite: bool = False) -> None: ...

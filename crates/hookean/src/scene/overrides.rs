@@ -247,8 +247,37 @@ impl Scene {
                 message: e.to_string(),
             },
         })?;
+        Self::from_text_with::<P>(path, &text, overrides)
+    }
+
+    /// A scene from the text of the file `path` (read before, kept, or
+    /// sent to another process), as [`from_file`](Self::from_file) would
+    /// make it: `path` names it in messages and relative paths in it (mesh
+    /// colliders, OBJ models) resolve against its folder.
+    ///
+    /// # Errors
+    /// As [`with_overrides`](Self::with_overrides).
+    pub fn from_text(
+        path: impl AsRef<Path>,
+        text: &str,
+        overrides: &[&str],
+    ) -> Result<Self, HookeanError> {
+        Self::from_text_with::<NoProgram>(path, text, overrides).map(|(scene, _)| scene)
+    }
+
+    /// [`from_text`](Self::from_text) for a program that adds keys of its
+    /// own ([`SceneExtension`]).
+    ///
+    /// # Errors
+    /// As [`with_overrides`](Self::with_overrides), for the program's keys too.
+    pub fn from_text_with<P: SceneExtension>(
+        path: impl AsRef<Path>,
+        text: &str,
+        overrides: &[&str],
+    ) -> Result<(Self, P), HookeanError> {
+        let path = path.as_ref();
         let (mut scene, program) =
-            Self::parse_with::<P>(&path.display().to_string(), &text, overrides)?;
+            Self::parse_with::<P>(&path.display().to_string(), text, overrides)?;
         scene.base = path.parent().map(Path::to_path_buf);
         Ok((scene, program))
     }
