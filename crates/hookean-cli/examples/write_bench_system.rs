@@ -14,7 +14,7 @@
 
 use std::process::ExitCode;
 
-use hookean_io::{Written, write_own};
+use hookean_io::{Written, has_banner_mark, with_banner_mark, write_own};
 
 use hookean_cli::deformed_cloth_system;
 use hookean_sparse::{write_matrix_market, write_vector_market};
@@ -48,8 +48,13 @@ fn main() -> ExitCode {
         write_vector_market(&mut mb, &b)?;
         let mut out = Vec::new();
         for (path, content) in [(&a_path, ma), (&b_path, mb)] {
-            let content = mark(&content);
-            out.push(write_own(path, &content, is_own, force)?);
+            let content = with_banner_mark(&content, MARK);
+            out.push(write_own(
+                path,
+                &content,
+                |old| has_banner_mark(old, MARK),
+                force,
+            )?);
         }
         Ok(out)
     };
@@ -76,18 +81,3 @@ fn main() -> ExitCode {
 
 /// The comment line that marks a file as this example's own.
 const MARK: &[u8] = b"% written by hookean-cli's example write_bench_system\n";
-
-/// `content` with [`MARK`] after its Matrix Market banner line.
-fn mark(content: &[u8]) -> Vec<u8> {
-    let cut = content
-        .iter()
-        .position(|&c| c == b'\n')
-        .map_or(content.len(), |i| i + 1);
-    [&content[..cut], MARK, &content[cut..]].concat()
-}
-
-fn is_own(old: &[u8]) -> bool {
-    old.split(|&c| c == b'\n')
-        .nth(1)
-        .is_some_and(|line| [line, b"\n"].concat() == MARK)
-}

@@ -1,7 +1,7 @@
 #![doc = include_str!("../README.md")]
 
 mod own;
-pub use own::{OwnError, Written, write_own};
+pub use own::{OwnError, Written, has_banner_mark, with_banner_mark, write_own};
 
 use std::fs::File;
 use std::io::{BufRead, BufReader, Read};

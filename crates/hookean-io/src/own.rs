@@ -111,3 +111,31 @@ pub fn write_own(
         Written::Created
     })
 }
+
+/// `content` with the line `mark` (ending in a line break) inserted after
+/// its first line, a format's banner (Matrix Market's `%%MatrixMarket ...`
+/// takes `%` comment lines after it): how a program marks a file as its
+/// own for [`write_own`] and [`has_banner_mark`].
+///
+/// ```
+/// let marked = hookean_io::with_banner_mark(b"%%banner\n1 1\n", b"% mine\n");
+/// assert_eq!(marked, b"%%banner\n% mine\n1 1\n");
+/// assert!(hookean_io::has_banner_mark(&marked, b"% mine\n"));
+/// assert!(!hookean_io::has_banner_mark(b"%%banner\n1 1\n", b"% mine\n"));
+/// ```
+pub fn with_banner_mark(content: &[u8], mark: &[u8]) -> Vec<u8> {
+    let cut = content
+        .iter()
+        .position(|&c| c == b'\n')
+        .map_or(content.len(), |i| i + 1);
+    [&content[..cut], mark, &content[cut..]].concat()
+}
+
+/// Whether the second line of `old` is `mark` (see [`with_banner_mark`]).
+pub fn has_banner_mark(old: &[u8], mark: &[u8]) -> bool {
+    let start = old
+        .iter()
+        .position(|&c| c == b'\n')
+        .map_or(old.len(), |i| i + 1);
+    old[start..].starts_with(mark)
+}
