@@ -73,9 +73,12 @@ pub use hookean_ode as ode;
 #[cfg(feature = "sparse")]
 pub use hookean_sparse as sparse;
 
+// The seal of the options structs (`SimulationOptions`), which all need the
+// `filter` feature.
 #[cfg(feature = "filter")]
 hookean_sparse::non_exhaustive_seal!();
 
+#[cfg(feature = "filter")]
 pub mod cache;
 #[cfg(feature = "filter")]
 mod error;
