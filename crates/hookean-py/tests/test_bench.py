@@ -50,8 +50,8 @@ def test_the_rows_of_hookean_bench(tmp_path):
             assert str(r["iterations"]) == c["iterations"]
             assert r["rel_residual"] <= 1e-8
             assert r["total_s"] == pytest.approx(r["setup_s"] + r["solve_s"])
-    # MIC(0) needs block storage: a failed row on CSR Poisson, converged on 2D elasticity's blocks? No:
-    # 2D elasticity has 2 unknowns per node (CSR) too, so both are failed rows.
+    # MIC(0) needs 3x3 block storage; both systems are CSR (1 and 2 unknowns
+    # per node): failed rows, in both tables.
     assert all(r["status"].startswith("failed") for r in rows if r["preconditioner"] == "mic0")
 
 
