@@ -1,5 +1,10 @@
 """pyamg's gallery systems: 2D and 3D linear elasticity with their rigid-body
-near-nullspace, 3D Poisson (small sizes: the tests check answers, not speed)."""
+near-nullspace, 3D Poisson, the DG diffusion matrix (small sizes: the tests
+check answers, not speed)."""
+
+import os
+import pathlib
+import shutil
 
 import numpy as np
 import pytest
@@ -42,7 +47,19 @@ def poisson_3d(n=16):
     return A, None
 
 
-SYSTEMS = {"elasticity-2d": elasticity_2d, "elasticity-3d": elasticity_3d, "poisson-3d": poisson_3d}
+def dg_diffusion():
+    """pyamg's local discontinuous Galerkin diffusion matrix (its example
+    `local_disc_galerkin_diffusion`, 966 unknowns) with its near-nullspace."""
+    d = pyamg.gallery.load_example("local_disc_galerkin_diffusion")
+    return d["A"].tocsr(), np.ascontiguousarray(d["B"], dtype=np.float64)
+
+
+SYSTEMS = {
+    "elasticity-2d": elasticity_2d,
+    "elasticity-3d": elasticity_3d,
+    "poisson-3d": poisson_3d,
+    "dg-diffusion": dg_diffusion,
+}
 
 
 @pytest.fixture(params=sorted(SYSTEMS))
@@ -55,3 +72,15 @@ def system(request):
 
 def relative_residual(A, x, b):
     return np.linalg.norm(b - A @ x) / np.linalg.norm(b)
+
+
+ROOT = pathlib.Path(__file__).resolve().parents[3]
+
+
+def hookean_bin():
+    """The `hookean` command to compare with: $HOOKEAN_BIN, the workspace's
+    debug build, or one on the PATH; None when there is none."""
+    for candidate in (os.environ.get("HOOKEAN_BIN"), ROOT / "target/debug/hookean", shutil.which("hookean")):
+        if candidate and pathlib.Path(candidate).is_file():
+            return str(candidate)
+    return None

@@ -2,9 +2,6 @@
 SciPy's CG with Hookean's AMG, the same results as the `hookean` command."""
 
 import json
-import os
-import pathlib
-import shutil
 import subprocess
 
 import numpy as np
@@ -15,9 +12,8 @@ import scipy.sparse.linalg as sla
 
 import hookean
 import hookean.sparse as hs
-from conftest import poisson_3d, relative_residual
+from conftest import hookean_bin as _hookean_bin, poisson_3d, relative_residual
 
-ROOT = pathlib.Path(__file__).resolve().parents[3]
 
 
 @pytest.mark.parametrize("rtol", [1e-6, 1e-10])
@@ -167,13 +163,6 @@ def test_an_indefinite_matrix_raises_convergence_error():
     A = sp.diags([1.0] * 10 + [-1.0] * 10, format="csr")
     with pytest.raises(hookean.ConvergenceError):
         hs.solve(A, np.ones(20), precond="none")
-
-
-def _hookean_bin():
-    for candidate in (os.environ.get("HOOKEAN_BIN"), ROOT / "target/debug/hookean", shutil.which("hookean")):
-        if candidate and pathlib.Path(candidate).is_file():
-            return str(candidate)
-    return None
 
 
 @pytest.mark.skipif(_hookean_bin() is None, reason="no `hookean` binary (cargo build -p hookean-cli, or HOOKEAN_BIN)")

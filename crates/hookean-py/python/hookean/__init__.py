@@ -6,6 +6,7 @@ and scene files run by the facade (:class:`Scene`, :class:`Simulation`)::
     sim = hookean.Scene.from_file("scenes/drape.toml", overrides=["cloth.n=16"]).build()
     sim.run_until(0.5)
     sim.positions          # (n, 3) NumPy array
+    hookean.cloth(n=32, stiffness=2e4, integrator={"method": "bdf"}).build()
 
 Errors are Python exceptions carrying Hookean's message: ``ValueError``
 (naming the argument) for bad input, :class:`ConvergenceError` (a
@@ -14,5 +15,6 @@ Errors are Python exceptions carrying Hookean's message: ``ValueError``
 
 from ._hookean import ConvergenceError, Scene, Simulation
 from . import ode, sparse
+from .builders import cloth, jelly, rope
 
-__all__ = ["ConvergenceError", "Scene", "Simulation", "ode", "sparse"]
+__all__ = ["ConvergenceError", "Scene", "Simulation", "cloth", "jelly", "ode", "rope", "sparse"]

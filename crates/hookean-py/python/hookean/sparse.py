@@ -34,6 +34,8 @@ __all__ = [
     "MIC0",
     "AMG",
     "PRECONDITIONERS",
+    "bench",
+    "BENCH_COLUMNS",
 ]
 
 #: The preconditioner names ``solve`` takes.
@@ -404,3 +406,229 @@ def solve(
             raise ValueError(f"amg: multigrid options given with precond={precond!r}")
         P = _CLASSES[precond](A, **kw)
     return _pcg(P, b, rtol, maxiter, x0, callback, setup_seconds=P.setup_seconds)
+
+
+#: The columns of a :func:`bench` row: those of ``hookean bench``'s ``bench.csv``.
+BENCH_COLUMNS = (
+    "system",
+    "rows",
+    "nonzeros",
+    "block_size",
+    "block_size_source",
+    "preconditioner",
+    "iterations",
+    "setup_s",
+    "solve_s",
+    "total_s",
+    "rel_residual",
+    "recursive_rel_residual",
+    "setup_memory_bytes",
+    "status",
+)
+
+#: ``bench``'s default preconditioners: ``hookean bench``'s, without ``direct``.
+BENCH_PRECONDS = ("jacobi", "block-jacobi", "ssor", "ic0", "amg")
+
+#: The most rounds (``hookean bench --repeat``'s bound).
+MAX_REPEAT = 1000
+
+
+def _bench_systems(matrices):
+    """``matrices`` as a list of ``(name, A, b, nodes)``.
+
+    Takes a dict ``{name: A}`` or ``{name: (A, b)}`` or
+    ``{name: dict(A=..., b=..., nullspace=..., coordinates=..., block_size=...)}``,
+    or a list of such values (named ``system-0``, ``system-1``, ...).
+    """
+    if isinstance(matrices, dict):
+        items = list(matrices.items())
+    elif scipy.sparse.issparse(matrices):
+        items = [("system-0", matrices)]
+    else:
+        try:
+            items = [(f"system-{k}", v) for k, v in enumerate(matrices)]
+        except TypeError:
+            raise ValueError(
+                "matrices: expected a dict {name: A}, a list of matrices, or one matrix, "
+                f"got {type(matrices).__name__}"
+            ) from None
+    if not items:
+        raise ValueError("matrices: no systems given")
+    out = []
+    for name, v in items:
+        if not isinstance(name, str):
+            raise ValueError(f"matrices: system names must be strings, got {name!r}")
+        nodes = {}
+        if isinstance(v, dict):
+            unknown = set(v) - {"A", "b", "nullspace", "coordinates", "block_size"}
+            if unknown or "A" not in v:
+                raise ValueError(
+                    f"matrices[{name!r}]: expected keys A, b, nullspace, coordinates, "
+                    f"block_size (A required), got {sorted(v)}"
+                )
+            A, b = v["A"], v.get("b")
+            nodes = {k: v[k] for k in ("nullspace", "coordinates", "block_size") if k in v}
+        elif isinstance(v, tuple):
+            if len(v) != 2:
+                raise ValueError(f"matrices[{name!r}]: expected (A, b), got {len(v)} items")
+            A, b = v
+        else:
+            A, b = v, None
+        out.append((name, A, b, nodes))
+    return out
+
+
+def bench(
+    matrices,
+    *,
+    preconds=BENCH_PRECONDS,
+    rtol=1e-8,
+    maxiter=None,
+    repeat=3,
+    amg=None,
+    omega=1.0,
+):
+    """Every preconditioner on every system, in interleaved rounds: ``hookean bench`` from Python.
+
+    Each round runs every preconditioner once, in order, on a system (set-up
+    and PCG solve); a row holds the best set-up and the best solve time over
+    the rounds, so that a slow first round (caches, page faults) does not
+    decide. A system that cannot be used (not square, not symmetric, not
+    finite) and a preconditioner that fails on it (no convergence, a
+    breakdown, MIC(0) on CSR storage) are rows whose ``status`` says why;
+    bad arguments raise ``ValueError``.
+
+    Args:
+        matrices: ``{name: A}``, ``{name: (A, b)}`` or ``{name: dict(A=...,
+            b=..., nullspace=..., coordinates=..., block_size=...)}``, or a
+            list of matrices. ``b`` defaults to ``A @ ones``, as in ``hookean
+            bench``.
+        preconds: names from :data:`PRECONDITIONERS` (default
+            :data:`BENCH_PRECONDS`).
+        rtol: PCG's relative residual tolerance, in [0, 1).
+        maxiter: PCG's iteration limit (default 2 n).
+        repeat: rounds, 1 to 1000.
+        amg: the multigrid's options (see :class:`AMG`).
+        omega: SSOR's relaxation.
+
+    Returns:
+        A list of dicts with the columns of ``bench.csv``
+        (:data:`BENCH_COLUMNS`), one per system and preconditioner, or a
+        ``pandas.DataFrame`` of them when pandas is importable.
+        ``setup_memory_bytes`` is ``None``: the command line measures it
+        with its own heap counter, which a Python process does not have.
+
+    >>> import scipy.sparse as sp, hookean.sparse as hs
+    >>> A = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(200, 200), format="csr")
+    >>> rows = hs.bench({"laplace-1d": A}, preconds=["jacobi", "ic0"], repeat=1)
+    >>> [(r["preconditioner"], r["status"]) for r in list(getattr(rows, "to_dict", lambda _: rows)("records"))]
+    [('jacobi', 'converged'), ('ic0', 'converged')]
+    """
+    if isinstance(preconds, str):
+        preconds = [p.strip() for p in preconds.split(",")]
+    preconds = list(preconds)
+    if not preconds:
+        raise ValueError("preconds: no preconditioner given")
+    for p in preconds:
+        if p not in _CLASSES:
+            raise ValueError(
+                f"preconds: unknown preconditioner {p!r} (expected {', '.join(PRECONDITIONERS)})"
+            )
+    if len(set(preconds)) != len(preconds):
+        raise ValueError(f"preconds: a preconditioner is named twice in {preconds}")
+    _check_rtol(rtol)
+    _check_maxiter(maxiter)
+    if isinstance(repeat, bool) or not isinstance(repeat, numbers.Integral):
+        raise ValueError(f"repeat: expected an integer, got {repeat!r}")
+    if not (1 <= repeat <= MAX_REPEAT):
+        raise ValueError(f"repeat: must lie in 1 to {MAX_REPEAT}, got {repeat}")
+    if amg is not None and not isinstance(amg, dict):
+        raise ValueError(f"amg: expected a dict of options, got {type(amg).__name__}")
+    if isinstance(omega, bool) or not isinstance(omega, numbers.Real) or not (0.0 < omega < 2.0):
+        raise ValueError(f"omega: SSOR's relaxation must lie in (0, 2), got {omega!r}")
+    systems = _bench_systems(matrices)
+    names = [name for name, *_ in systems]
+    if len(set(names)) != len(names):
+        raise ValueError(f"matrices: a system name is used twice in {names}")
+
+    rows = []
+    for name, A, b, nodes in systems:
+        try:
+            system = _system(A, name=f"matrices[{name!r}]", **nodes)
+            n = system.n
+            b = (
+                np.asarray(A @ np.ones(n), dtype=np.float64).reshape(-1)
+                if b is None
+                else _vector(b, f"matrices[{name!r}] b", n)
+            )
+        except ValueError as e:
+            where = f"matrices[{name!r}]"
+            status = str(e) if str(e).startswith(where) else f"{where}: {e}"
+            rows.append(dict.fromkeys(BENCH_COLUMNS) | {"system": name, "status": status})
+            continue
+        nnz = int(A.nnz)
+        best = {}
+        for _ in range(repeat):
+            for p in preconds:
+                if isinstance(best.get(p), str):
+                    continue  # failed in an earlier round
+                options = {}
+                if p == "amg":
+                    options = dict(amg=amg)
+                elif p == "ssor":
+                    options = dict(omega=omega)
+                try:
+                    P = _CLASSES[p](A, **nodes, **options)
+                    _, info = _pcg(P, b, rtol, maxiter, None, None, P.setup_seconds)
+                    converged = True
+                except ValueError as e:
+                    # A bad option is the caller's (raised); a preconditioner
+                    # that does not apply to this system (MIC(0) on CSR
+                    # storage) is a row, as in ``hookean bench``.
+                    if str(e).startswith(("amg:", "omega:")):
+                        raise
+                    best[p] = f"failed: {e}"
+                    continue
+                except ConvergenceError as e:
+                    info = getattr(e, "info", None)
+                    if info is None:  # the set-up broke down
+                        best[p] = f"failed: {e}"
+                        continue
+                    converged = False
+                prev = best.get(p)
+                if prev is not None:
+                    info.setup_seconds = min(info.setup_seconds, prev[0].setup_seconds)
+                    info.solve_seconds = min(info.solve_seconds, prev[0].solve_seconds)
+                best[p] = (info, converged)
+        for p in preconds:
+            r = best[p]
+            row = dict.fromkeys(BENCH_COLUMNS) | {
+                "system": name,
+                "rows": n,
+                "nonzeros": nnz,
+                "block_size": system.block_size,
+                "block_size_source": system.block_size_source,
+                "preconditioner": p,
+            }
+            if isinstance(r, str):
+                row["status"] = r
+            else:
+                info, converged = r
+                history = info.residual_history
+                row |= {
+                    "iterations": info.iterations,
+                    "setup_s": info.setup_seconds,
+                    "solve_s": info.solve_seconds,
+                    "total_s": info.setup_seconds + info.solve_seconds,
+                    "rel_residual": info.relative_residual,
+                    "recursive_rel_residual": history[-1] if history else None,
+                    "status": "converged"
+                    if converged
+                    else f"not converged (|r|/|b| = {info.relative_residual:.1e})",
+                }
+            rows.append(row)
+    try:
+        import pandas
+    except ImportError:
+        return rows
+    return pandas.DataFrame(rows, columns=list(BENCH_COLUMNS))

@@ -90,3 +90,18 @@ def solve(
     amg: Optional[dict[str, Any]] = ...,
     callback: Optional[Callback] = ...,
 ) -> tuple[npt.NDArray[np.float64], SolveInfo]: ...
+
+BENCH_COLUMNS: tuple[str, ...]
+BENCH_PRECONDS: tuple[str, ...]
+MAX_REPEAT: int
+
+def bench(
+    matrices: Any,
+    *,
+    preconds: Union[str, list[str], tuple[str, ...]] = ...,
+    rtol: float = ...,
+    maxiter: Optional[int] = ...,
+    repeat: int = ...,
+    amg: Optional[dict[str, Any]] = ...,
+    omega: float = ...,
+) -> Any: ...

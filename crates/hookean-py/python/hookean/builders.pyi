@@ -1,0 +1,9 @@
+"""Type stubs of hookean.builders."""
+
+from typing import Any, Sequence
+
+from ._hookean import Scene
+
+def cloth(*, duration: float | None = ..., overrides: Sequence[str] = ..., **keys: Any) -> Scene: ...
+def rope(*, duration: float | None = ..., overrides: Sequence[str] = ..., **keys: Any) -> Scene: ...
+def jelly(*, duration: float | None = ..., overrides: Sequence[str] = ..., **keys: Any) -> Scene: ...
