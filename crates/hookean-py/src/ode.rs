@@ -21,6 +21,7 @@ use hookean_ode::{
 use numpy::{PyArray1, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
+use sprs::CsMat;
 
 use crate::errors::bad;
 
@@ -32,7 +33,12 @@ const DENSE_NODES: usize = 6;
 /// `fun` and `jac` of the caller, and the first exception they raised.
 struct PyProblem {
     fun: Py<PyAny>,
+    /// Returns the dense `(n, n)` Jacobian, or, with `pattern`, the values
+    /// of the sparse one in the pattern's CSR order.
     jac: Option<Py<PyAny>>,
+    /// The sparse Jacobian's pattern (CSR, the diagonal included, values
+    /// ignored): the BDF then factors `I - c J` with a sparse LU.
+    pattern: Option<CsMat<f64>>,
     n: usize,
     raised: Arc<Mutex<Option<PyErr>>>,
 }
@@ -90,13 +96,45 @@ impl FirstOrderProblem for PyProblem {
 
     fn jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) -> bool {
         match &self.jac {
-            Some(j) => {
+            Some(j) if self.pattern.is_none() => {
                 self.call_into(j, "jac", t, y, jac);
                 true
             }
-            None => false,
+            _ => false,
         }
     }
+
+    fn sparse_jacobian_pattern(&self) -> Option<CsMat<f64>> {
+        self.pattern.clone()
+    }
+
+    fn jacobian_sparse(&self, t: f64, y: &[f64], jac: &mut CsMat<f64>) -> bool {
+        match (&self.jac, &self.pattern) {
+            (Some(j), Some(_)) => {
+                self.call_into(j, "jac", t, y, jac.data_mut());
+                true
+            }
+            _ => false,
+        }
+    }
+}
+
+/// The CSR pattern `(indptr, indices)` the Python layer built (sorted
+/// columns, the diagonal included) as a matrix of zeros.
+fn csr_pattern(n: usize, indptr: Vec<i64>, indices: Vec<i64>) -> PyResult<CsMat<f64>> {
+    let wrong = |what: &str| bad("jac_sparsity", what.to_string());
+    if indptr.len() != n + 1 {
+        return Err(wrong("the pattern's row pointer has the wrong length"));
+    }
+    let to_usize = |v: &[i64]| -> PyResult<Vec<usize>> {
+        v.iter()
+            .map(|&i| usize::try_from(i).map_err(|_| wrong("a negative index in the pattern")))
+            .collect()
+    };
+    let (indptr, indices) = (to_usize(&indptr)?, to_usize(&indices)?);
+    let data = vec![0.0; indices.len()];
+    CsMat::try_new((n, n), indptr, indices, data)
+        .map_err(|(_, _, _, e)| wrong(&format!("not a valid CSR pattern ({e})")))
 }
 
 /// A shape as Python prints it: `(2,)`, `(2, 3)`.
@@ -192,19 +230,22 @@ fn stats_dict<'py>(py: Python<'py>, s: &Stats) -> PyResult<Bound<'py, PyDict>> {
 /// Integrates `y' = fun(t, y)` from `(t0, y0)` to `t_end` with the
 /// variable-order BDF; the Python layer (`hookean.ode.solve_ivp`) has
 /// checked every argument and wrapped `fun`, `jac` and the events to
-/// return float arrays. `directions` and `terminal` describe `events`
+/// return float arrays; with `pattern` (a CSR `(indptr, indices)` with the
+/// diagonal) `jac` returns the sparse Jacobian's values in that order and
+/// the Newton matrix is factored by a sparse LU. `directions` and `terminal` describe `events`
 /// (`-1`, `0`, `1`: falling, both, rising). Returns a dict: `t`, `y`
 /// (flattened, `n` per time), `segments` and `nodes` (the dense output:
 /// step ends after `t0` and six values per step), `events` (a list of
 /// `(index, t, y)`), `status` (0 reached `t_end`, 1 terminal event, -1
 /// failed), `message` and the counters.
 #[pyfunction]
-#[pyo3(signature = (fun, jac, t0, y0, t_end, rtol, atol, first_step, max_step, t_eval, dense, events, directions, terminal))]
+#[pyo3(signature = (fun, jac, pattern, t0, y0, t_end, rtol, atol, first_step, max_step, t_eval, dense, events, directions, terminal))]
 #[allow(clippy::too_many_arguments)]
 pub fn bdf_solve<'py>(
     py: Python<'py>,
     fun: Py<PyAny>,
     jac: Option<Py<PyAny>>,
+    pattern: Option<(Vec<i64>, Vec<i64>)>,
     t0: f64,
     y0: Vec<f64>,
     t_end: f64,
@@ -243,9 +284,13 @@ pub fn bdf_solve<'py>(
     };
     options.bdf.initial_step = first_step;
     let raised_slot = Arc::new(Mutex::new(None));
+    let pattern = pattern
+        .map(|(indptr, indices)| csr_pattern(n, indptr, indices))
+        .transpose()?;
     let problem = PyProblem {
         fun,
         jac,
+        pattern,
         n,
         raised: Arc::clone(&raised_slot),
     };

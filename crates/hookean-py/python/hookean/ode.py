@@ -113,12 +113,101 @@ def _events(events):
     return fns, directions, terminal
 
 
-def _jac(jac, n):
-    """``jac`` as a callable returning a C-contiguous (n, n) float array
-    (a constant matrix, a dense or a scipy.sparse result densified), or
-    None for the BDF's difference-quotient Jacobian."""
+#: The relative step of the difference quotients on ``jac_sparsity`` (the
+#: square root of the unit round-off, the usual forward-difference choice).
+_FD_STEP = math.sqrt(np.finfo(float).eps)
+
+
+def _pattern(S, n, name):
+    """The CSR pattern of ``S`` (sparse or dense) with the diagonal added, canonical."""
+    S = scipy.sparse.csr_array(S) if not scipy.sparse.issparse(S) else scipy.sparse.csr_array(S)
+    S = S.astype(bool).astype(float) + scipy.sparse.eye_array(n, format="csr")
+    S = scipy.sparse.csr_array(S)
+    S.sum_duplicates()
+    S.sort_indices()
+    if S.shape != (n, n):
+        raise ValueError(f"{name}: has shape {S.shape}, expected ({n}, {n})")
+    return np.asarray(S.indptr, dtype=np.int64), np.asarray(S.indices, dtype=np.int64)
+
+
+def _on_pattern(J, indptr, indices, n):
+    """The values of the sparse ``J`` in the CSR order of ``(indptr, indices)``."""
+    J = scipy.sparse.coo_array(J)
+    if J.shape != (n, n):
+        raise ValueError(f"jac: returned shape {J.shape}, expected ({n}, {n})")
+    rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr))
+    keys = rows * n + indices  # increasing: the pattern is canonical
+    k = J.row.astype(np.int64) * n + J.col.astype(np.int64)
+    pos = np.searchsorted(keys, k)
+    inside = (pos < keys.size) & (keys[np.minimum(pos, keys.size - 1)] == k)
+    if not np.all(inside | (J.data == 0.0)):
+        i = int(np.flatnonzero(~inside & (J.data != 0.0))[0])
+        raise ValueError(
+            f"jac: returned a nonzero at ({J.row[i]}, {J.col[i]}), outside the pattern of "
+            "its first result (a sparse jac must keep its sparsity pattern)"
+        )
+    values = np.zeros(keys.size)
+    np.add.at(values, pos[inside], J.data[inside])
+    return values
+
+
+def _column_groups(indptr, indices, n):
+    """Columns that share no row, in groups (Curtis, Powell and Reid, 1974):
+    one difference quotient of ``fun`` gives all the columns of a group.
+    Greedy, in column order."""
+    csc = scipy.sparse.csr_array((np.ones(indices.size), indices, indptr), shape=(n, n)).tocsc()
+    group = np.empty(n, dtype=np.int64)
+    taken = []  # per group, the rows its columns touch
+    for j in range(n):
+        rows = csc.indices[csc.indptr[j]:csc.indptr[j + 1]]
+        for g, mask in enumerate(taken):
+            if not mask[rows].any():
+                break
+        else:
+            g = len(taken)
+            taken.append(np.zeros(n, dtype=bool))
+        taken[g][rows] = True
+        group[j] = g
+    return group, len(taken)
+
+
+def _sparse_differences(fun, indptr, indices, n, counts):
+    """``jac(t, y)`` by forward differences of ``fun`` on the pattern, one
+    evaluation per column group, returning the values in the pattern's order."""
+    group, groups = _column_groups(indptr, indices, n)
+    rows = np.repeat(np.arange(n), np.diff(indptr))
+
+    def jac(t, y):
+        f0 = np.asarray(fun(t, y), dtype=float)
+        h = _FD_STEP * np.maximum(np.abs(y), 1.0)
+        h = (y + h) - y  # a step the floating point can represent exactly
+        values = np.empty(indices.size)
+        for g in range(groups):
+            cols = group == g
+            step = np.where(cols, h, 0.0)
+            df = np.asarray(fun(t, y + step), dtype=float) - f0
+            on = cols[indices]
+            values[on] = df[rows[on]] / h[indices[on]]
+        counts["nfev"] += 1 + groups
+        return values
+
+    return jac
+
+
+def _jac(jac, n, jac_sparsity, fun, t0, y0, counts):
+    """``jac`` for the BDF: ``(callable, pattern)``. The callable returns a
+    C-contiguous (n, n) float array (``pattern`` None: dense LU), or the
+    values of a sparse Jacobian in the CSR order of ``pattern = (indptr,
+    indices)`` (sparse LU). As SciPy: a ``jac`` whose first result (at
+    ``(t0, y0)``, counted in ``njev``) is sparse keeps that pattern; with
+    ``jac`` None, ``jac_sparsity`` makes the difference quotients sparse
+    (their ``fun`` calls counted in ``nfev``), without it the BDF takes
+    dense ones. ``counts`` takes the ``nfev`` and ``njev`` made here."""
     if jac is None:
-        return None
+        if jac_sparsity is None:
+            return None, None
+        indptr, indices = _pattern(jac_sparsity, n, "jac_sparsity")
+        return _sparse_differences(fun, indptr, indices, n, counts), (indptr, indices)
 
     def dense(j):
         if scipy.sparse.issparse(j):
@@ -129,11 +218,29 @@ def _jac(jac, n):
         return j
 
     if callable(jac):
-        return lambda t, y: dense(jac(t, y))
+        first = jac(t0, y0.copy())
+        counts["njev"] += 1
+        if not scipy.sparse.issparse(first):
+            return (lambda t, y: dense(jac(t, y))), None
+        indptr, indices = _pattern(first, n, "jac")
+
+        def sparse(t, y):
+            j = jac(t, y)
+            if not scipy.sparse.issparse(j):
+                raise ValueError("jac: returned a dense array after a sparse first result")
+            return _on_pattern(j, indptr, indices, n)
+
+        return sparse, (indptr, indices)
+    if scipy.sparse.issparse(jac):
+        indptr, indices = _pattern(jac, n, "jac")
+        values = _on_pattern(jac, indptr, indices, n)
+        if not np.all(np.isfinite(values)):
+            raise ValueError("jac: has NaN or infinite entries")
+        return (lambda t, y: values), (indptr, indices)
     constant = dense(jac)
     if not np.all(np.isfinite(constant)):
         raise ValueError("jac: has NaN or infinite entries")
-    return lambda t, y: constant
+    return (lambda t, y: constant), None
 
 
 def solve_ivp(
@@ -168,8 +275,12 @@ def solve_ivp(
     and ``atol`` (scalar or one per component) non-negative; ``jac`` a
     callable ``jac(t, y)`` returning a dense array or a ``scipy.sparse``
     matrix, or a constant matrix, or None for difference quotients;
-    ``jac_sparsity`` is checked for its shape and otherwise unused (the
-    Newton matrix is dense); ``first_step`` and ``max_step`` positive.
+    ``jac_sparsity`` the Jacobian's sparsity pattern for the difference
+    quotients when ``jac`` is None (ignored otherwise, as in SciPy). A sparse
+    Jacobian (``jac`` returning or being a ``scipy.sparse`` matrix, or
+    ``jac_sparsity``) makes the BDF factor its Newton matrix with a sparse
+    LU, as SciPy's ``splu``; a sparse ``jac`` must keep the pattern of its
+    first result. ``first_step`` and ``max_step`` positive.
     ``vectorized`` is accepted and ignored (``fun`` is called on one state).
 
     Returns an :class:`OdeResult` with SciPy's fields. Bad arguments raise
@@ -226,6 +337,8 @@ def solve_ivp(
         shape = np.shape(jac_sparsity) if not scipy.sparse.issparse(jac_sparsity) else jac_sparsity.shape
         if tuple(shape) != (n, n):
             raise ValueError(f"jac_sparsity: has shape {tuple(shape)}, expected ({n}, {n})")
+        if jac is not None:
+            jac_sparsity = None  # SciPy: ignored when jac is given
     if args is not None:
         if not isinstance(args, tuple):
             args = (args,)
@@ -242,9 +355,12 @@ def solve_ivp(
                 wrapped.append(w)
             events = wrapped
     event_fns, directions, terminal = _events(events)
+    counts = {"nfev": 0, "njev": 0}  # calls made here (SciPy counts them too)
+    jac_fn, pattern = _jac(jac, n, jac_sparsity, _returns_floats(fun), t0, y0, counts)
     r = _hookean.bdf_solve(
         _returns_floats(fun),
-        _jac(jac, n),
+        jac_fn,
+        None if pattern is None else (list(pattern[0]), list(pattern[1])),
         t0,
         list(y0),
         tf,
@@ -286,8 +402,8 @@ def solve_ivp(
         sol=sol,
         t_events=[np.asarray(te) for te in t_events] if events is not None else None,
         y_events=[np.asarray(ye) for ye in y_events] if events is not None else None,
-        nfev=r["nfev"],
-        njev=r["njev"],
+        nfev=r["nfev"] + counts["nfev"],
+        njev=r["njev"] + counts["njev"],
         nlu=r["nlu"],
         status=status,
         message=MESSAGES.get(status, r["message"]),
