@@ -2,6 +2,8 @@
 SciPy's CG with Hookean's AMG, the same results as the `hookean` command."""
 
 import json
+import os
+import pathlib
 import subprocess
 
 import numpy as np
@@ -12,8 +14,7 @@ import scipy.sparse.linalg as sla
 
 import hookean
 import hookean.sparse as hs
-from conftest import hookean_bin as _hookean_bin, poisson_3d, relative_residual
-
+from conftest import ROOT, hookean_bin as _hookean_bin, poisson_3d, relative_residual
 
 
 @pytest.mark.parametrize("rtol", [1e-6, 1e-10])
@@ -239,3 +240,36 @@ def test_the_gil_is_released_during_a_solve():
     edges = [span["start"]] + inside + [span["end"]]
     longest = max(b - a for a, b in zip(edges, edges[1:]))
     assert longest < 0.5 * (span["end"] - span["start"]), (longest, span)
+
+
+def _pcg_solution_bin():
+    for candidate in (
+        os.environ.get("HOOKEAN_PCG_SOLUTION_BIN"),
+        ROOT / "target/debug/examples/pcg_solution",
+        ROOT / "target/release/examples/pcg_solution",
+    ):
+        if candidate and pathlib.Path(candidate).is_file():
+            return str(candidate)
+    return None
+
+
+@pytest.mark.skipif(
+    _pcg_solution_bin() is None,
+    reason="no pcg_solution example (cargo build -p hookean-sparse --example pcg_solution)",
+)
+@pytest.mark.parametrize("precond", ["amg", "ic0", "jacobi"])
+def test_same_bits_as_the_rust_api(system, precond, tmp_path):
+    """x bit for bit as crates/hookean-sparse/examples/pcg_solution.rs, the
+    library's PCG called from Rust on the system written as Matrix Market."""
+    name, A, B, b = system
+    scipy.io.mmwrite(tmp_path / "A.mtx", sp.coo_matrix(A), precision=17)
+    scipy.io.mmwrite(tmp_path / "b.mtx", b[:, None], precision=17)
+    args = [_pcg_solution_bin(), str(tmp_path / "A.mtx"), str(tmp_path / "b.mtx"), precond]
+    if B is not None:
+        scipy.io.mmwrite(tmp_path / "B.mtx", B, precision=17)
+        args.append(str(tmp_path / "B.mtx"))
+    out = subprocess.run(args, capture_output=True, text=True, check=True).stdout
+    rust = np.array([float(v) for v in out.split()])
+    x, _ = hs.solve(A, b, precond=precond, rtol=1e-8, nullspace=B)
+    assert x.shape == rust.shape
+    assert np.array_equal(x.view(np.uint64), rust.view(np.uint64))
