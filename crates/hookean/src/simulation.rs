@@ -286,8 +286,17 @@ impl EnergyGuard {
         self.baseline = Some(Baseline {
             t0,
             start: e,
-            bound: e.total() + 2.0 * total_mass * u * u + self.factor * scale,
-            budget: e.total() + 2.0 * total_mass * u * u + self.budget * scale,
+            // An infinite factor turns its check off (also at `scale = 0`).
+            bound: if self.factor.is_finite() {
+                e.total() + 2.0 * total_mass * u * u + self.factor * scale
+            } else {
+                f64::INFINITY
+            },
+            budget: if self.budget.is_finite() {
+                e.total() + 2.0 * total_mass * u * u + self.budget * scale
+            } else {
+                f64::INFINITY
+            },
             collider_power: weight * u,
         });
         self.x0.clear();
@@ -458,6 +467,17 @@ impl Simulation {
         }
         let budget = baseline.budget(self.t());
         let model = self.integrator.problem();
+        // Not yet with cloth self-collision: redone steps of the shipped
+        // 64 x 64 cloth-fold end with intersecting layers (t = 0.505 s), so
+        // the budget leaves such models alone (docs/CONTACT.md, "Energy").
+        if model.self_collision().is_some() {
+            return Ok(None);
+        }
+        // Explicit methods: energy growth is instability, which the
+        // blow-up check names with the stable step (substeps would hide it).
+        if !self.integrator.method().is_implicit() {
+            return Ok(None);
+        }
         let landed = if model.colliders().is_empty() {
             match self.current {
                 Some(e) => e,
