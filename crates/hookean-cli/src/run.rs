@@ -492,7 +492,10 @@ fn run_model(
     let summary = match summary {
         Ok(s) => s,
         Err(e) => {
-            let mut message = if matches!(e, HookeanError::BlowUp { .. }) {
+            let mut message = if matches!(
+                e,
+                HookeanError::BlowUp { .. } | HookeanError::EnergyGain { .. }
+            ) {
                 format!("{}: {e}", args.scene.display())
             } else {
                 format!(

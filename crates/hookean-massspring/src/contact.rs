@@ -251,6 +251,52 @@ impl MassSpringModel {
         self.contact.found = found;
     }
 
+    /// The state the next step's contact handling starts from, written in
+    /// place: every particle (not pinned in all three directions) that
+    /// ended closer to a collider than its target (inside a plane or
+    /// sphere, within a mesh's thickness) is pushed out along the contact
+    /// normal, and the inward normal velocity relative to the surface of
+    /// every particle within a band is removed, as `begin_step` does at
+    /// time `t` (docs/CONTACT.md). Friction, which only takes tangential
+    /// velocity away, is left out, so the kinetic energy of the result is
+    /// an upper bound of the next step's. The energy guard of the facade's
+    /// `Simulation` compares the energy of this state with its budget: the
+    /// push-out of a particle that ended a step deep inside a collider is
+    /// where contact can store energy in the springs. No allocation;
+    /// particles are independent (threaded, the same bits for every thread
+    /// count).
+    pub fn put_back_contacts(&self, t: f64, x: &mut [f64], v: &mut [f64]) {
+        if self.colliders.is_empty() {
+            return;
+        }
+        let (colliders, fixes) = (&self.colliders, &self.fixes);
+        x.par_chunks_exact_mut(3)
+            .zip(v.par_chunks_exact_mut(3))
+            .enumerate()
+            .for_each(|(p, (xp, vp))| {
+                if fixes[p].count == 3 {
+                    return;
+                }
+                for c in colliders {
+                    let y = Vector3::from_column_slice(xp);
+                    let Some((touch, target, band)) = touch(c, t, &y) else {
+                        continue;
+                    };
+                    if touch.phi.is_nan() || touch.phi > band {
+                        continue;
+                    }
+                    if touch.phi < target {
+                        xp.copy_from_slice(pushed_out(&y, &touch, target).as_slice());
+                    }
+                    let w = Vector3::from_column_slice(vp);
+                    let vn = (w - touch.velocity).dot(&touch.normal);
+                    if vn < 0.0 {
+                        vp.copy_from_slice((w - touch.normal * vn).as_slice());
+                    }
+                }
+            });
+    }
+
     /// The first pass of the collider contacts: for every particle (not
     /// pinned in all three directions) and collider, in collider order, the
     /// contact at the particle's position after the push-outs of the

@@ -1,5 +1,6 @@
 //! The facade's error type: every crate's error, plus scenes and output.
 
+use hookean_sparse::Short;
 use thiserror::Error;
 
 /// Everything that can go wrong in a simulation run.
@@ -106,6 +107,42 @@ pub enum HookeanError {
         /// The explicit stability limit `2 / sqrt(k0)` at the starting
         /// positions (the filtering paper's eq. 11) for explicit methods.
         dt_max: Option<f64>,
+    },
+    /// A step gained energy that nothing in the scene can give, and gained
+    /// it again when redone in substeps: its total energy (counted after
+    /// the put-back of the particles it left inside a collider) exceeds
+    /// the start plus what moving colliders can give plus
+    /// [`SimulationOptions::energy_budget`](crate::SimulationOptions::energy_budget)
+    /// times the scene's energy scale (docs/CONTACT.md, "Energy").
+    #[error(
+        "the run gained energy at t = {} s (step {step}): the {term} energy went from {} J at the start to {} J; the total energy {} J exceeds {} J, the start plus {} of the scene's energy scale, even with the step split into {substeps} substeps; lower integrator.h (or integrator.h_max), or tighten solver.newton_rtol",
+        short_time(*t),
+        Short(*term_start),
+        Short(*term_now),
+        Short(*energy),
+        Short(*budget),
+        Short(*fraction)
+    )]
+    EnergyGain {
+        /// Simulated time of the first state past the budget.
+        t: f64,
+        /// Accepted steps so far.
+        step: usize,
+        /// Total energy of that state after the contact put-back (J).
+        energy: f64,
+        /// The budget (J).
+        budget: f64,
+        /// The budget's fraction of the energy scale
+        /// (`SimulationOptions::energy_budget`).
+        fraction: f64,
+        /// The term that grew the most (as [`HookeanError::BlowUp`]'s).
+        term: &'static str,
+        /// That term at the start (J).
+        term_start: f64,
+        /// That term now (J).
+        term_now: f64,
+        /// The substeps of the last attempt.
+        substeps: usize,
     },
     /// Reading or writing a file failed. `From<std::io::Error>` makes one
     /// without a path; [`Error::source`](std::error::Error::source) gives

@@ -114,3 +114,76 @@ fn a_cloth_dropped_on_a_concave_polygon_gains_no_energy() {
     let t = vec![[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 5]];
     assert_within_budget("L", drop_cloth("L", v, t, 1.0));
 }
+
+/// scenes/cloth-slope.toml (a 32 x 32 cloth of 1 kg, 0.6 m wide, 15 cm
+/// above a 25-degree slope with friction) run for `t_end` s with `method`
+/// at h = 0.05 s, ten times its step: the step that reaches the plane ends
+/// deep inside it. Returns the run's error, if it failed, and the largest
+/// total energy seen with the budget derived here, independently of the
+/// simulation's guard: the start `E_0 = M g z_bar` (at rest, flat, so no
+/// kinetic or spring energy; `z_bar` the mean height of the starting grid)
+/// plus 5% of the scene's energy scale `M g D` (`D` the diagonal of the
+/// starting bounding box, 0.6 sqrt 2 m); the plane is static, so no
+/// external work.
+fn land_on_slope(
+    method: &str,
+    t_end: f64,
+    extra: &[&str],
+) -> (Option<hookean::HookeanError>, f64, f64) {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cloth-slope.toml");
+    let (m_key, d_key) = (
+        format!("integrator.method={method}"),
+        format!("duration={t_end}"),
+    );
+    let mut overrides = vec!["integrator.h=0.05", m_key.as_str(), d_key.as_str()];
+    overrides.extend_from_slice(extra);
+    let scene = Scene::from_file(&path, &overrides).unwrap();
+    let mut sim = scene.build().unwrap();
+    let (m, z_bar) = (1.0, 0.15);
+    let e0 = m * G * z_bar;
+    let budget = e0 + 0.05 * m * G * 0.6 * 2f64.sqrt();
+    assert!((sim.energies().unwrap().total() - e0).abs() < 1e-9 * e0);
+    let mut e_max = e0;
+    let mut error = None;
+    while sim.t() < t_end - 1e-9 {
+        if let Err(e) = sim.step() {
+            error = Some(e);
+            break;
+        }
+        e_max = e_max.max(sim.energies().unwrap().total());
+    }
+    (error, e_max, budget)
+}
+
+#[test]
+fn landing_on_a_plane_with_implicit_euler_at_a_long_step_gains_no_energy() {
+    // Before the energy budget: 1.47 J -> 25.6 J, exit 0.
+    let (error, e_max, budget) = land_on_slope("implicit-euler", 1.0, &[]);
+    assert!(error.is_none(), "{error:?}");
+    assert!(e_max <= budget, "{e_max} J > {budget} J");
+    // Implicit Euler only dissipates: not even the allowance is used.
+    assert!(e_max <= G * 0.15 * (1.0 + 1e-12), "{e_max} J");
+}
+
+#[test]
+fn landing_on_a_plane_with_the_variable_step_bdfs_stays_within_budget_or_fails() {
+    // bdf2-variable lands within budget; the variable-order BDF (at
+    // newton_rtol 0.1) stalls on contact and fails (its step cap), never
+    // exiting with energy it never had. Either way no state past the budget.
+    // (The variable-order BDF's step cap lowered so that it fails soon.)
+    for (method, extra) in [
+        ("bdf2-variable", &[][..]),
+        ("bdf", &["integrator.max_steps=3000"][..]),
+    ] {
+        let (error, e_max, budget) = land_on_slope(method, 0.3, extra);
+        if let Some(e) = &error {
+            let msg = e.to_string();
+            assert!(msg.contains("t = "), "{method}: {msg}");
+        }
+        assert!(
+            e_max <= budget,
+            "{method}: {e_max} J > {budget} J ({error:?})"
+        );
+    }
+}
