@@ -1,5 +1,5 @@
 //! `y' = fun(t, y)` with Python callables, integrated by hookean-ode's
-//! variable-order BDF ([`Method::VariableBdf`]) through the one event
+//! variable-order BDF ([`Method::VariableBdf`], its first step from `first_step`) through the one event
 //! driver of the stepping contract
 //! ([`Integrator::integrate_with_events`]): the native half of
 //! `hookean.ode.solve_ivp`.
@@ -15,7 +15,7 @@ use std::ops::ControlFlow;
 use std::sync::{Arc, Mutex, PoisonError};
 
 use hookean_ode::{
-    Direction, EventHit, Events, FirstOrderIntegrator, FirstOrderProblem, Integrator, Method,
+    BdfConfig, Direction, EventHit, Events, FirstOrderIntegrator, FirstOrderProblem, Integrator, Method,
     OdeError, SolverOptions, Stats, StepSizePolicy, Tolerance,
 };
 use numpy::{PyArray1, PyReadonlyArrayDyn, PyUntypedArrayMethods};
@@ -228,7 +228,7 @@ pub fn bdf_solve<'py>(
     if directions.len() != events.len() || terminal.len() != events.len() {
         return Err(bad("events", "one direction and terminal flag per event"));
     }
-    let mut options = SolverOptions {
+    let options = SolverOptions {
         rtol,
         atol: if atol.len() == 1 {
             Tolerance::Scalar(atol[0])
@@ -241,7 +241,6 @@ pub fn bdf_solve<'py>(
         },
         ..Default::default()
     };
-    options.bdf.initial_step = first_step;
     let raised_slot = Arc::new(Mutex::new(None));
     let problem = PyProblem {
         fun,
@@ -252,8 +251,11 @@ pub fn bdf_solve<'py>(
     let (collected, outcome, stats, raised) = py.detach(move || {
         let event_raised: RefCell<Option<PyErr>> = RefCell::new(None);
         let mut c = Collected::default();
-        let mut ode =
-            match FirstOrderIntegrator::new(problem, Method::VariableBdf, t0, &y0, options) {
+        let method = Method::VariableBdf(BdfConfig {
+            initial_step: first_step,
+            ..Default::default()
+        });
+        let mut ode = match FirstOrderIntegrator::new(problem, method, t0, &y0, options) {
                 Ok(ode) => ode,
                 Err(e) => return (c, Err(e), Stats::default(), None),
             };
