@@ -82,13 +82,13 @@ fn trajectory_error<P: TestProblem + Clone + Send + 'static>(
     let times = trajectory_times(p.t_end());
     let floor = p.floor();
     FirstOrderIntegrator::new(p.clone(), sweep_method(), 0.0, &p.y0(), options(p, rtol))
-    .and_then(|mut s| s.solve_at(&times))
-    .map(|sol| {
-        (0..times.len())
-            .map(|i| mixed_error(sol.y(i), &reference[i], &floor))
-            .fold(0.0, f64::max)
-    })
-    .unwrap_or(f64::INFINITY)
+        .and_then(|mut s| s.solve_at(&times))
+        .map(|sol| {
+            (0..times.len())
+                .map(|i| mixed_error(sol.y(i), &reference[i], &floor))
+                .fold(0.0, f64::max)
+        })
+        .unwrap_or(f64::INFINITY)
 }
 
 fn run<P: TestProblem + Clone + Send + 'static>(

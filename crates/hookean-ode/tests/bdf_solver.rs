@@ -6,8 +6,9 @@ use hookean_ode::testset::{
     self, E5, Hires, Orego, Robertson, SpringChain, TestProblem, VanDerPol, mixed_error,
 };
 use hookean_ode::{
-    BdfCoefficients, BdfConfig, BdfLinearSolver, Direction, Events, FirstOrderIntegrator, FirstOrderProblem,
-    Integrator, Method, OdeError, PrecondKind, SolverOptions, Stats, StepSizePolicy,
+    BdfCoefficients, BdfConfig, BdfLinearSolver, Direction, Events, FirstOrderIntegrator,
+    FirstOrderProblem, Integrator, Method, OdeError, PrecondKind, SolverOptions, Stats,
+    StepSizePolicy,
 };
 use num_complex::Complex64;
 
@@ -190,8 +191,9 @@ fn solve_at_interpolates_without_extra_steps() {
     )
     .unwrap();
     let sol = a.solve_at(&times).unwrap();
-    let mut b = FirstOrderIntegrator::new(ProtheroRobinson, Method::variable_bdf(), 0.0, &[1.0], opts)
-        .unwrap();
+    let mut b =
+        FirstOrderIntegrator::new(ProtheroRobinson, Method::variable_bdf(), 0.0, &[1.0], opts)
+            .unwrap();
     let stats = b.integrate(5.0).unwrap().stats;
     // Output times do not change the step sequence (dense output).
     assert_eq!(sol.stats.num_steps, stats.num_steps);
@@ -331,9 +333,14 @@ fn a_rising_event_ignores_falling_crossings() {
 fn non_terminal_events_are_all_located_with_their_direction() {
     // sin t vanishes at pi, 2 pi, 3 pi in (0.1, 10]: falling, rising, falling.
     // Event 0 watches both directions, event 1 rising ones only.
-    let mut s =
-        FirstOrderIntegrator::new(Oscillator, Method::variable_bdf(), 0.0, &[0.0, 1.0], tight())
-            .unwrap();
+    let mut s = FirstOrderIntegrator::new(
+        Oscillator,
+        Method::variable_bdf(),
+        0.0,
+        &[0.0, 1.0],
+        tight(),
+    )
+    .unwrap();
     let mut ev = Events::new(
         |_t: f64, y: &[f64], g: &mut [f64]| {
             g[0] = y[0];
@@ -405,7 +412,8 @@ fn growth_past_the_bound_is_an_error() {
         max_growth: 1e10,
         ..SolverOptions::default()
     };
-    let mut s = FirstOrderIntegrator::new(Growth, Method::variable_bdf(), 0.0, &[1.0], opts).unwrap();
+    let mut s =
+        FirstOrderIntegrator::new(Growth, Method::variable_bdf(), 0.0, &[1.0], opts).unwrap();
     let e = s.integrate(100.0).unwrap_err();
     let OdeError::StateGrowth { t, norm, bound } = e else {
         panic!("{e}")
@@ -457,8 +465,8 @@ fn repeated_newton_failure_is_an_error() {
         max_retries: 3,
         ..Default::default()
     };
-    let mut s = FirstOrderIntegrator::new(Broken, Method::variable_bdf(), 1.0, &[1.0], opts)
-        .unwrap();
+    let mut s =
+        FirstOrderIntegrator::new(Broken, Method::variable_bdf(), 1.0, &[1.0], opts).unwrap();
     let e = s.integrate(2.0).unwrap_err();
     let OdeError::NewtonFailed { t, retries, .. } = e else {
         panic!("expected NewtonFailed, got {e:?}")
@@ -730,7 +738,8 @@ fn no_step_exceeds_h_max() {
         },
         ..SolverOptions::default()
     };
-    let mut s = FirstOrderIntegrator::new(Decay, Method::variable_bdf(), 0.0, &[1.0], opts).unwrap();
+    let mut s =
+        FirstOrderIntegrator::new(Decay, Method::variable_bdf(), 0.0, &[1.0], opts).unwrap();
     let mut largest = 0.0f64;
     while s.t() < 2.0 {
         s.step_to(2.0).unwrap();

@@ -7,7 +7,8 @@
 
 use hookean_ode::tutorial::Dahlquist;
 use hookean_ode::{
-    BdfConfig, FirstOrderIntegrator, FirstOrderProblem, Integrator, Method, OdeError, SolverOptions, Tolerance,
+    BdfConfig, FirstOrderIntegrator, FirstOrderProblem, Integrator, Method, OdeError,
+    SolverOptions, Tolerance,
 };
 
 /// `y' = -y` that returns NaN once `t` passes `nan_after`.
@@ -117,14 +118,8 @@ fn absurd_options_are_refused_when_the_integrator_is_built() {
             ..Default::default()
         });
         assert!(
-            FirstOrderIntegrator::new(
-                Dahlquist { lambda: -1.0 },
-                method,
-                0.0,
-                &[1.0],
-                opts
-            )
-            .is_err(),
+            FirstOrderIntegrator::new(Dahlquist { lambda: -1.0 }, method, 0.0, &[1.0], opts)
+                .is_err(),
             "max_order {order}"
         );
     }
@@ -256,14 +251,8 @@ fn a_billion_steps_allowed_reserve_nothing() {
         max_newton_iterations: 1_000_000_000,
         ..Default::default()
     });
-    let mut bdf = FirstOrderIntegrator::new(
-        Dahlquist { lambda: -1.0 },
-        method,
-        0.0,
-        &[1.0],
-        opts,
-    )
-    .unwrap();
+    let mut bdf =
+        FirstOrderIntegrator::new(Dahlquist { lambda: -1.0 }, method, 0.0, &[1.0], opts).unwrap();
     while bdf.step_to(1.0).unwrap().is_some() {}
     assert!((bdf.y()[0] - (-1.0f64).exp()).abs() < 1e-4);
 }

@@ -15,8 +15,8 @@ use std::ops::ControlFlow;
 use std::sync::{Arc, Mutex, PoisonError};
 
 use hookean_ode::{
-    BdfConfig, Direction, EventHit, Events, FirstOrderIntegrator, FirstOrderProblem, Integrator, Method,
-    OdeError, SolverOptions, Stats, StepSizePolicy, Tolerance,
+    BdfConfig, Direction, EventHit, Events, FirstOrderIntegrator, FirstOrderProblem, Integrator,
+    Method, OdeError, SolverOptions, Stats, StepSizePolicy, Tolerance,
 };
 use numpy::{PyArray1, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -256,9 +256,9 @@ pub fn bdf_solve<'py>(
             ..Default::default()
         });
         let mut ode = match FirstOrderIntegrator::new(problem, method, t0, &y0, options) {
-                Ok(ode) => ode,
-                Err(e) => return (c, Err(e), Stats::default(), None),
-            };
+            Ok(ode) => ode,
+            Err(e) => return (c, Err(e), Stats::default(), None),
+        };
         let mut next = 0;
         match &t_eval {
             Some(times) => {

@@ -59,11 +59,7 @@ impl<P: SecondOrderProblem> Corrector for SecondSys<P> {
         let problem = &self.problem;
         let n = problem.dim();
         let pattern = problem.jacobian_pattern();
-        let options = newton_options(
-            newton_tol,
-            config.max_newton_iterations,
-            config.linear_rtol,
-        );
+        let options = newton_options(newton_tol, config.max_newton_iterations, config.linear_rtol);
         let linear = PcgSolver::from_options(&opts.linear)?;
         let mut newton = Newton::new(options, SymBlockMatrix::new(pattern.clone()), linear)?;
         newton.time_phases(true);
