@@ -26,7 +26,8 @@ fn main() -> Result<(), OdeError> {
     // y2 is about 1e-5: it needs its own absolute tolerance (as in CVODE's example).
     let options = SolverOptions::with_tolerances(1e-4, Tolerance::Vector(vec![1e-8, 1e-14, 1e-6]));
     let y0 = [1.0, 0.0, 0.0];
-    let mut solver = FirstOrderIntegrator::new(Robertson, Method::VariableBdf, 0.0, &y0, options)?;
+    let mut solver =
+        FirstOrderIntegrator::new(Robertson, Method::variable_bdf(), 0.0, &y0, options)?;
     let times = [0.4, 4.0, 40.0, 400.0, 4e3, 4e4, 4e5];
     let solution = solver.solve_at(&times)?;
     for (t, y) in solution.t.iter().zip(solution.values.chunks(3)) {

@@ -1,5 +1,5 @@
 //! Wall time to reach a mixed error <= 1e-4 at t_end on the stiff test set,
-//! for hookean-ode's BdfSolver and diffsol's BDF (dense nalgebra matrices and
+//! for hookean-ode's variable-order BDF (`Method::VariableBdf`) and diffsol's BDF (dense nalgebra matrices and
 //! LU, the Jacobian from analytic Jacobian-vector products; on the spring
 //! chain also faer's sparse matrices and sparse LU, the sparsity detected
 //! from the same products), with the statistics of that run. For each solver and problem the loosest `rtol`
@@ -45,7 +45,7 @@ type Run = Option<(Vec<f64>, [usize; 5])>;
 
 fn ours<P: TestProblem + Clone + 'static>(p: &P, rtol: f64) -> Run {
     let opts = options(p, rtol);
-    let mut s = FirstOrderIntegrator::new(p.clone(), Method::VariableBdf, 0.0, &p.y0(), opts).ok()?;
+    let mut s = FirstOrderIntegrator::new(p.clone(), Method::variable_bdf(), 0.0, &p.y0(), opts).ok()?;
     let st = s.integrate(p.t_end()).ok()?.stats;
     Some((
         s.y().to_vec(),

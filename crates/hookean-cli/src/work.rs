@@ -43,7 +43,7 @@ pub fn scene_steps(
     let t = AsWritten(t_end);
     let i = &scene.integrator;
     let method = &i.method;
-    if !(method.is_variable_step() || *method == Method::VariableBdf) {
+    if !(method.is_variable_step() || matches!(method, Method::VariableBdf(_))) {
         let auto = if i.h.value().is_none() {
             " (\"auto\")"
         } else {

@@ -19,18 +19,20 @@ use std::time::Instant;
 use hookean_ode::testset::{
     E5, Hires, Orego, Robertson, SpringChain, TestProblem, VanDerPol, mixed_error, options,
 };
-use hookean_ode::{FirstOrderIntegrator, Integrator, Method, OdeError, SolverOptions, Stats};
+use hookean_ode::{
+    BdfConfig, FirstOrderIntegrator, Integrator, Method, OdeError, SolverOptions, Stats,
+};
 
 /// The `--exponent` argument, if given.
 static EXPONENT: OnceLock<f64> = OnceLock::new();
 
-/// The test set's options ([`options`]), with the `--exponent` override.
-fn sweep_options<P: TestProblem>(p: &P, rtol: f64) -> SolverOptions {
-    let mut opts = options(p, rtol);
-    if let Some(&e) = EXPONENT.get() {
-        opts.bdf.tolerance_exponent = Some(e);
-    }
-    opts
+/// The variable-order BDF with the default settings, but for the
+/// `--exponent` override.
+fn sweep_method() -> Method {
+    Method::VariableBdf(BdfConfig {
+        tolerance_exponent: EXPONENT.get().copied(),
+        ..Default::default()
+    })
 }
 
 /// The output times of the trajectory error, the same rule for every
@@ -56,10 +58,15 @@ fn reference_trajectory<P: TestProblem + Clone + Send + 'static>(
     p: &P,
     times: &[f64],
 ) -> Option<Vec<Vec<f64>>> {
-    let mut opts = options(p, 1e-12);
-    opts.bdf.tolerance_exponent = Some(1.0);
-    opts.bdf.max_steps = 10_000_000;
-    let sol = FirstOrderIntegrator::new(p.clone(), Method::VariableBdf, 0.0, &p.y0(), opts)
+    let opts = SolverOptions {
+        max_steps: 10_000_000,
+        ..options(p, 1e-12)
+    };
+    let method = Method::VariableBdf(BdfConfig {
+        tolerance_exponent: Some(1.0),
+        ..Default::default()
+    });
+    let sol = FirstOrderIntegrator::new(p.clone(), method, 0.0, &p.y0(), opts)
         .and_then(|mut s| s.solve_at(times))
         .ok()?;
     Some((0..times.len()).map(|i| sol.y(i).to_vec()).collect())
@@ -74,28 +81,22 @@ fn trajectory_error<P: TestProblem + Clone + Send + 'static>(
 ) -> f64 {
     let times = trajectory_times(p.t_end());
     let floor = p.floor();
-    FirstOrderIntegrator::new(
-        p.clone(),
-        Method::VariableBdf,
-        0.0,
-        &p.y0(),
-        sweep_options(p, rtol),
-    )
-    .and_then(|mut s| s.solve_at(&times))
-    .map(|sol| {
-        (0..times.len())
-            .map(|i| mixed_error(sol.y(i), &reference[i], &floor))
-            .fold(0.0, f64::max)
-    })
-    .unwrap_or(f64::INFINITY)
+    FirstOrderIntegrator::new(p.clone(), sweep_method(), 0.0, &p.y0(), options(p, rtol))
+        .and_then(|mut s| s.solve_at(&times))
+        .map(|sol| {
+            (0..times.len())
+                .map(|i| mixed_error(sol.y(i), &reference[i], &floor))
+                .fold(0.0, f64::max)
+        })
+        .unwrap_or(f64::INFINITY)
 }
 
 fn run<P: TestProblem + Clone + Send + 'static>(
     p: &P,
     rtol: f64,
 ) -> Result<(Vec<f64>, Stats), OdeError> {
-    let opts = sweep_options(p, rtol);
-    let mut s = FirstOrderIntegrator::new(p.clone(), Method::VariableBdf, 0.0, &p.y0(), opts)?;
+    let opts = options(p, rtol);
+    let mut s = FirstOrderIntegrator::new(p.clone(), sweep_method(), 0.0, &p.y0(), opts)?;
     let info = s.integrate(p.t_end())?;
     Ok((s.y().to_vec(), info.stats))
 }

@@ -1,13 +1,13 @@
 //! [`BdfConfig`]: the settings that belong to the variable-order BDF alone
-//! (the formula, the order limit, Newton's limits, the re-use of the
-//! Jacobian and of the Newton matrix, the tolerance mapping, the linear
-//! solver, the step-size change limits: no hidden constant); the
-//! tolerances and step bounds are [`SolverOptions`](crate::SolverOptions)'.
+//! (the formula, the order limit, the simplified Newton's iteration limit
+//! and linear tolerance, the re-use of the Jacobian and of the Newton
+//! matrix, the tolerance mapping, the first-order linear solver, the
+//! step-size change limits: no hidden constant). The tolerances, step
+//! bounds, step cap and retries are [`SolverOptions`](crate::SolverOptions)'.
 //!
-//! The settings value lives beside the engine (`bdf/`), not in it, as
-//! diffsol keeps its `BdfConfig` in `ode_solver/config.rs`: the options
-//! ([`SolverOptions::bdf`](crate::SolverOptions::bdf)) hold the value
-//! without depending on the engine, and the engine reads the options.
+//! The value travels with the method, [`Method::VariableBdf`](crate::Method::VariableBdf)`(BdfConfig)`,
+//! as diffsol's `BdfConfig` travels with its BDF: one door to the engine,
+//! and no method's settings inside the options of every method.
 
 use crate::NonExhaustive;
 use hookean_sparse::PreconditionerOptions;
@@ -103,15 +103,21 @@ pub struct BdfConfig {
     pub max_order: usize,
     /// Initial step size; `None` (default) for Hairer-Wanner's estimate.
     pub initial_step: Option<f64>,
-    /// A run of a variable-step method (this BDF and variable-step BDF2,
-    /// [`Method::Bdf2Variable`](crate::Method::Bdf2Variable)) fails with
-    /// [`OdeError::TooManySteps`](crate::OdeError::TooManySteps) after this
-    /// many accepted steps. Default 100 000.
-    pub max_steps: usize,
-    /// Newton iterations per attempt. Default 4.
+    /// Newton iterations per attempt at the corrector. Default 4 (SciPy's
+    /// `NEWTON_MAXITER`; CVODE's `NLS_MAXCOR` is 3). Not
+    /// [`SolverOptions::newton`](crate::SolverOptions::newton)'s `max_iter`
+    /// (10 by default, 8 in the scenes), because it means something else
+    /// here: the corrector's Newton is simplified, with a Jacobian and a
+    /// Newton matrix kept over many steps, and its rate test gives up as soon
+    /// as the predicted contraction cannot reach the tolerance within this
+    /// many iterations; a failed attempt is cheap (a fresh Jacobian, then
+    /// half the step), and the limit sets the step-size safety factor
+    /// `0.9 (2 m + 1) / (2 m + iterations)`. The one-step methods' Newton
+    /// is the whole solve of a stage, exact or inexact, from a cold start.
+    /// The number of failed attempts per step is
+    /// [`SolverOptions::max_retries`](crate::SolverOptions::max_retries),
+    /// shared with every method.
     pub max_newton_iterations: usize,
-    /// Newton failures on one step before the run fails. Default 10 (CVODE's `MXNCF`).
-    pub max_convergence_failures: usize,
     /// Error test failures on one step before the run fails. Default 20
     /// (CVODE's `MXNEF` is 7, SciPy has no limit; 7 stopped Van der Pol at
     /// `rtol = 1.5e-4` in its steep transition, where 20 gets through).
@@ -141,7 +147,9 @@ pub struct BdfConfig {
     /// control of SciPy and CVODE.
     pub tolerance_exponent: Option<f64>,
     /// The linear solver of first-order problems' Newton systems. Default
-    /// [`BdfLinearSolver::Direct`].
+    /// [`BdfLinearSolver::Direct`]. (The one-step methods solve first-order
+    /// stages by LU only; [`SolverOptions::linear`](crate::SolverOptions::linear)
+    /// is the PCG of second-order stages, which this BDF uses as well.)
     pub linear_solver: BdfLinearSolver,
     /// The largest factor by which the step grows after an accepted step.
     /// Default 10 (Shampine-Reichelt's, and SciPy's `MAX_FACTOR`).
@@ -174,7 +182,12 @@ pub struct BdfConfig {
     /// [`SolverOptions::linear`](crate::SolverOptions::linear)'s). The rate
     /// test needs corrections accurate well below its tolerance: a
     /// correction `s` with `|A s + G| <= eta |G|` contracts the Newton
-    /// iteration by about `eta` more. Default `1e-3`.
+    /// iteration by about `eta` more. Default `1e-3`. Not
+    /// [`SolverOptions::newton`](crate::SolverOptions::newton)'s
+    /// `linear_rtol`, which the one-step methods' exact Newton solves to
+    /// (`1e-10` by default, or the inexact Newton's forcing term): here the
+    /// accuracy is set against the rate test's tolerance
+    /// ([`newton_tol`](Self::newton_tol)), not against Newton's own stop.
     pub linear_rtol: f64,
     /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
@@ -187,9 +200,7 @@ impl Default for BdfConfig {
             formula: Formula::Ndf,
             max_order: MAX_ORDER,
             initial_step: None,
-            max_steps: 100_000,
             max_newton_iterations: 4,
-            max_convergence_failures: 10,
             max_error_test_failures: 20,
             max_gamma_change: 0.3,
             steps_per_factorization: 20,
@@ -298,7 +309,6 @@ impl BdfConfig {
         }
         for (name, v) in [
             ("max_newton_iterations", self.max_newton_iterations),
-            ("max_convergence_failures", self.max_convergence_failures),
             ("max_error_test_failures", self.max_error_test_failures),
             ("steps_per_factorization", self.steps_per_factorization),
             ("steps_per_jacobian", self.steps_per_jacobian.unwrap_or(1)),

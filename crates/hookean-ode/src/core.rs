@@ -279,12 +279,12 @@ impl<S: System> Core<S> {
         let t = self.t;
         let first_of_bdf2 = self.hist_len < 2;
         let (h, err) = if self.method.is_variable_step() {
-            // The step cap of the variable-step methods (BdfConfig::max_steps,
+            // The step cap of the variable-step methods (SolverOptions::max_steps,
             // which the variable-order BDF's engine checks alike).
-            if self.stats.num_steps >= self.opts.bdf.max_steps {
+            if self.stats.num_steps >= self.opts.max_steps {
                 return Err(OdeError::TooManySteps {
                     t: self.t,
-                    max_steps: self.opts.bdf.max_steps,
+                    max_steps: self.opts.max_steps,
                 });
             }
             self.variable_step(limit)?
@@ -483,7 +483,7 @@ impl<S: System> Core<S> {
             Method::Bdf(k) => self.bdf_step(t, h, k),
             Method::Imex => self.sys.imex_step(t, h, &mut self.s, &mut self.stats),
             Method::Bdf2Variable => unreachable!("variable-step method in fixed_step"),
-            Method::VariableBdf => unreachable!("the variable-order BDF is not run by the core"),
+            Method::VariableBdf(_) => unreachable!("the variable-order BDF is not run by the core"),
         }
     }
 

@@ -52,7 +52,7 @@ where
     S::Data: Send,
 {
     Ok(match method {
-        Method::VariableBdf => Box::new(Bdf::new(sys, t0, &s0, options)?),
+        Method::VariableBdf(config) => Box::new(Bdf::new(sys, t0, &s0, options, config)?),
         _ => Box::new(Core::new(sys, method, t0, s0, options)?),
     })
 }
@@ -84,7 +84,7 @@ pub enum SecondOrder {}
 /// (`df/dy` from [`FirstOrderProblem::jacobian`] or forward differences), or
 /// sparse LU when the problem has a
 /// [`sparse_jacobian_pattern`](FirstOrderProblem::sparse_jacobian_pattern).
-/// [`Method::VariableBdf`] runs the variable-order BDF ([`crate::bdf`]'s engine).
+/// [`Method::VariableBdf`] runs the variable-order BDF with its settings ([`crate::bdf`]'s engine).
 pub type FirstOrderIntegrator<P> = OdeIntegrator<P, FirstOrder>;
 
 impl<P: FirstOrderProblem + Send + 'static> OdeIntegrator<P, FirstOrder> {
@@ -147,7 +147,7 @@ impl<P> OdeIntegrator<P, FirstOrder> {
 /// // The variable-order BDF with error control on the same problem.
 /// let opts = SolverOptions::with_tolerances(1e-6, 1e-8);
 /// let mut bdf = SecondOrderIntegrator::new(
-///     ex3.particle(), Method::VariableBdf, 0.0, &ex3.x0(), &ex3.v0_vec(), opts,
+///     ex3.particle(), Method::variable_bdf(), 0.0, &ex3.x0(), &ex3.v0_vec(), opts,
 /// )?;
 /// bdf.integrate(ex3.t_end)?;
 /// assert!((bdf.x()[2] - z).abs() < 1e-5 && (bdf.v()[2] - v).abs() < 1e-4);

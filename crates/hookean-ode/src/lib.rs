@@ -73,7 +73,7 @@
 //! use hookean_ode::{FirstOrderIntegrator, Integrator, Method, SolverOptions};
 //!
 //! let opts = SolverOptions::with_tolerances(1e-6, 1e-6);
-//! let mut solver = FirstOrderIntegrator::new(VanDerPol, Method::VariableBdf, 0.0, &[2.0, 0.0], opts)?;
+//! let mut solver = FirstOrderIntegrator::new(VanDerPol, Method::variable_bdf(), 0.0, &[2.0, 0.0], opts)?;
 //! let sol = solver.solve_at(&[0.5, 1.0, 1.5, 2.0])?;
 //! // The IVP test set's reference value at t = 2 (Mazzia-Magherini).
 //! assert!(mixed_error(sol.y(3), &VanDerPol.reference(), &VanDerPol.floor()) < 1e-4);

@@ -3,6 +3,7 @@
 use std::fmt;
 use std::str::FromStr;
 
+use crate::bdf_config::BdfConfig;
 use crate::error::OdeError;
 use crate::tableau::ButcherTableau;
 
@@ -39,12 +40,14 @@ pub enum Method {
     /// `"bdf"`: the variable-order (1-5), variable-step BDF/NDF with error
     /// control, the recommended solver for stiff problems
     /// ([`bdf`](crate::bdf); the NDF of ode15s by default,
-    /// [`BdfConfig::formula`](crate::BdfConfig::formula)). Second-order
+    /// [`BdfConfig::formula`]), with its own settings (the name `"bdf"`
+    /// gives the defaults, [`Method::variable_bdf`]). Second-order
     /// problems run on the reduced stage equations with PCG. Tolerances
-    /// `rtol`, `atol` of [`SolverOptions`](crate::SolverOptions). Not in
+    /// `rtol`, `atol`, step cap and retries of
+    /// [`SolverOptions`](crate::SolverOptions). Not in
     /// [`Method::all_named`], whose methods the work-precision sweeps run
     /// over step sizes: this one chooses its own.
-    VariableBdf,
+    VariableBdf(BdfConfig),
     /// `"imex"`: the implicit-explicit Euler scheme of Eberhardt, Etzmuss
     /// and Hauth (2000) for second-order problems with a linear part
     /// (eq. 50): the linear force implicit, with its constant matrix
@@ -55,6 +58,12 @@ pub enum Method {
 }
 
 impl Method {
+    /// The variable-order BDF with the default [`BdfConfig`] (the method
+    /// named `"bdf"`).
+    pub fn variable_bdf() -> Method {
+        Method::VariableBdf(BdfConfig::default())
+    }
+
     /// All methods that have a name and run at a given step size or by
     /// BDF2's controller, in a fixed order (not IMEX, which needs a linear
     /// part, nor the variable-order BDF, which chooses its steps).
@@ -75,8 +84,8 @@ impl Method {
 
     /// The classical order of convergence (for Verlet: on forces that do
     /// not depend on the velocity; for a custom tableau: its order from
-    /// the order conditions up to 4; for the variable-order BDF its highest
-    /// order, 5).
+    /// the order conditions up to 4; for the variable-order BDF its order
+    /// limit, [`BdfConfig::max_order`]).
     pub fn order(&self) -> usize {
         match self {
             Method::ExplicitEuler | Method::FbEuler | Method::ImplicitEuler | Method::Imex => 1,
@@ -86,7 +95,7 @@ impl Method {
             Method::Rk4 => 4,
             Method::ExplicitRk(t) => t.order(1e-12),
             Method::Bdf(k) => *k,
-            Method::VariableBdf => crate::bdf::MAX_ORDER,
+            Method::VariableBdf(config) => config.max_order,
         }
     }
 
@@ -100,7 +109,7 @@ impl Method {
                 | Method::ImplicitMidpoint
                 | Method::Bdf(_)
                 | Method::Bdf2Variable
-                | Method::VariableBdf
+                | Method::VariableBdf(_)
                 | Method::Imex
         )
     }
@@ -159,7 +168,7 @@ impl fmt::Display for Method {
             Method::ImplicitMidpoint => f.write_str("implicit-midpoint"),
             Method::Bdf(k) => write!(f, "bdf{k}"),
             Method::Bdf2Variable => f.write_str("bdf2-variable"),
-            Method::VariableBdf => f.write_str("bdf"),
+            Method::VariableBdf(_) => f.write_str("bdf"),
             Method::Imex => f.write_str("imex"),
         }
     }
@@ -178,7 +187,7 @@ impl FromStr for Method {
             "implicit-euler" => Method::ImplicitEuler,
             "implicit-midpoint" => Method::ImplicitMidpoint,
             "bdf2-variable" => Method::Bdf2Variable,
-            "bdf" => Method::VariableBdf,
+            "bdf" => Method::variable_bdf(),
             "imex" | "imex-euler" => Method::Imex,
             _ => match s.strip_prefix("bdf").and_then(|k| k.parse::<usize>().ok()) {
                 Some(k) if (1..=6).contains(&k) => Method::Bdf(k),

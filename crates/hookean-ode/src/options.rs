@@ -1,13 +1,13 @@
 //! [`SolverOptions`]: the one options struct of every method, with the
 //! tolerances ([`Tolerance`] per component), the step-size policy
-//! ([`StepSizePolicy`]), Newton's and the linear solver's options, and the
-//! settings that belong to one method family ([`BdfConfig`] of the
-//! variable-order BDF).
+//! ([`StepSizePolicy`]), the step cap, the retries, and Newton's and the
+//! linear solver's options. The settings that belong to one method travel
+//! with the method (diffsol's shape): the variable-order BDF's are
+//! [`Method::VariableBdf`](crate::Method::VariableBdf)'s [`BdfConfig`](crate::BdfConfig).
 
 use crate::NonExhaustive;
 use hookean_nonlinear::{NewtonOptions, PcgOptions};
 
-use crate::bdf_config::BdfConfig;
 use crate::control::{IterationControllerOptions, PiControllerOptions};
 use crate::error::OdeError;
 
@@ -168,7 +168,7 @@ impl Default for StepSizePolicy {
 pub struct SolverOptions {
     /// The step size of the fixed-step methods and the initial step size
     /// of variable-step BDF2 (the variable-order BDF estimates its own
-    /// unless [`BdfConfig::initial_step`] is set). Default
+    /// unless [`BdfConfig::initial_step`](crate::BdfConfig::initial_step) is set). Default
     /// [`DEFAULT_STEP`]` = 1e-2` (the reference drape).
     pub h: f64,
     /// Relative tolerance of the variable-step methods. Default `1e-6`.
@@ -179,11 +179,16 @@ pub struct SolverOptions {
     /// Step-size bounds and BDF2's controller.
     pub step: StepSizePolicy,
     /// How often a step whose Newton iteration failed is retried with a
-    /// smaller step (`h/4` for the variable-step method, `2^r` substeps
-    /// for the fixed-step methods; implicit Euler substeps for BDF(k)) before
-    /// the run fails. Default 6. (The variable-order BDF counts its
-    /// failures per step against [`BdfConfig::max_convergence_failures`].)
+    /// smaller step before the run fails: `h/4` for variable-step BDF2,
+    /// `2^r` substeps for the fixed-step methods (implicit Euler substeps
+    /// for BDF(k)), `h/2` (after a fresh Jacobian) for the variable-order
+    /// BDF. Default 6.
     pub max_retries: usize,
+    /// A run of a variable-step method (the variable-order BDF and
+    /// variable-step BDF2, [`Method::Bdf2Variable`](crate::Method::Bdf2Variable))
+    /// fails with [`OdeError::TooManySteps`] after this many accepted
+    /// steps. Default 100 000.
+    pub max_steps: usize,
     /// The Newton iteration of the implicit methods (the tutorial's
     /// section 3): `hookean-nonlinear`'s options, with the integrators'
     /// defaults (see [`SolverOptions::default_newton`]). For second-order
@@ -191,8 +196,11 @@ pub struct SolverOptions {
     /// momentum: its absolute tolerance `newton.atol` is read as a velocity
     /// and multiplied by the mean particle mass, so that the same `k/m`
     /// gives the same motion in any mass unit. The variable-order BDF runs
-    /// its own simplified Newton with CVODE's rate test (settings in
-    /// [`BdfConfig`]).
+    /// the same Newton as a simplified Newton with CVODE's rate test, whose
+    /// iteration limit and linear tolerance are
+    /// [`BdfConfig::max_newton_iterations`](crate::BdfConfig::max_newton_iterations)
+    /// and [`BdfConfig::linear_rtol`](crate::BdfConfig::linear_rtol) (they
+    /// mean something else there: see those fields).
     pub newton: NewtonOptions,
     /// The linear solver of second-order Newton steps: PCG's preconditioner,
     /// multigrid options, iteration limit and curvature policy
@@ -228,8 +236,6 @@ pub struct SolverOptions {
     /// growth outside the stability region is the tutorial's demonstration
     /// (RK4 just outside its interval grows by about `1e73` in 4000 steps).
     pub max_growth: f64,
-    /// The settings of the variable-order BDF ([`Method::VariableBdf`](crate::Method::VariableBdf)).
-    pub bdf: BdfConfig,
     /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
     pub non_exhaustive: NonExhaustive,
@@ -243,13 +249,13 @@ impl Default for SolverOptions {
             atol: Tolerance::Scalar(1e-8),
             step: StepSizePolicy::default(),
             max_retries: 6,
+            max_steps: 100_000,
             newton: Self::default_newton(),
             linear: PcgOptions::default(),
             predictor: Predictor::Previous,
             warm_start: false,
             filter_matrix: false,
             max_growth: DEFAULT_MAX_GROWTH,
-            bdf: BdfConfig::default(),
             non_exhaustive: NonExhaustive(()),
         }
     }
@@ -331,7 +337,6 @@ impl SolverOptions {
             });
         }
         self.newton.validate()?;
-        self.bdf.check()?;
         self.atol.expand(n)
     }
 }

@@ -44,7 +44,7 @@ use crate::stats::{IntegrateInfo, Stats, StepReport};
 /// }
 /// let opts = SolverOptions { rtol: 1e-8, ..SolverOptions::with_h(1e-3) };
 /// let rk4 = FirstOrderIntegrator::new(Decay, Method::Rk4, 0.0, &[1.0], opts.clone())?;
-/// let bdf = FirstOrderIntegrator::new(Decay, Method::VariableBdf, 0.0, &[1.0], opts)?;
+/// let bdf = FirstOrderIntegrator::new(Decay, Method::variable_bdf(), 0.0, &[1.0], opts)?;
 /// let exact = (-1.0f64).exp();
 /// assert!((y_at_one(rk4)? - exact).abs() < 1e-12);
 /// assert!((y_at_one(bdf)? - exact).abs() < 1e-6);

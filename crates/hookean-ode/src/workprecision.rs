@@ -213,10 +213,7 @@ fn settings(sweep: &Sweep, base: &SolverOptions, span: f64) -> Vec<(SolverOption
                         // A sweep to tight tolerances takes millions of steps
                         // (bdf2-variable: 0.5-3.1 million at 1e-16): its caller
                         // bounds the work, not the step cap of a single run.
-                        bdf: crate::BdfConfig {
-                            max_steps: usize::MAX,
-                            ..base.bdf.clone()
-                        },
+                        max_steps: usize::MAX,
                         ..base.clone()
                     },
                     Some(tol),

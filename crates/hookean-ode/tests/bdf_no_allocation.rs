@@ -19,7 +19,7 @@ fn check<P: TestProblem + Send + 'static>(p: P) {
     let t_end = p.t_end();
     let opts = options(&p, 1e-6);
     let y0 = p.y0();
-    let mut s = FirstOrderIntegrator::new(p, Method::VariableBdf, 0.0, &y0, opts).unwrap();
+    let mut s = FirstOrderIntegrator::new(p, Method::variable_bdf(), 0.0, &y0, opts).unwrap();
     s.step_to(t_end).unwrap();
     let (mut refactored, mut checked) = (0, 0);
     while s.t() < t_end {

@@ -1,4 +1,4 @@
-//! The variable-order BDF on second-order problems (`Method::VariableBdf`
+//! The variable-order BDF on second-order problems (`Method::variable_bdf()`
 //! through `SecondOrderIntegrator`): the reduced stage equations on the
 //! sparse block matrix with PCG, checked against the same solver on the
 //! problem's first-order form (a dense LU on the `2n x 2n` Jacobian: other
@@ -19,7 +19,8 @@ fn reduced(rtol: f64, t_end: f64) -> (Vec<f64>, hookean_ode::Stats) {
     let p = chain();
     let (x0, v0) = p.initial_state(1.2);
     let opts = SolverOptions::with_tolerances(rtol, rtol / 100.0);
-    let mut ode = SecondOrderIntegrator::new(p, Method::VariableBdf, 0.0, &x0, &v0, opts).unwrap();
+    let mut ode =
+        SecondOrderIntegrator::new(p, Method::variable_bdf(), 0.0, &x0, &v0, opts).unwrap();
     ode.integrate(t_end).unwrap();
     assert_eq!(ode.t(), t_end);
     (ode.state().to_vec(), ode.stats())
@@ -40,9 +41,14 @@ fn the_reduced_form_agrees_with_the_first_order_form() {
     let mut y0 = x0.clone();
     y0.extend_from_slice(&v0);
     let opts = SolverOptions::with_tolerances(1e-10, 1e-12);
-    let mut dense =
-        FirstOrderIntegrator::new(FirstOrderForm::new(p), Method::VariableBdf, 0.0, &y0, opts)
-            .unwrap();
+    let mut dense = FirstOrderIntegrator::new(
+        FirstOrderForm::new(p),
+        Method::variable_bdf(),
+        0.0,
+        &y0,
+        opts,
+    )
+    .unwrap();
     dense.integrate(t_end).unwrap();
     let reference = dense.y().to_vec();
     // The springs oscillate: the state is of order 0.1 m and 1 m/s.
@@ -80,7 +86,8 @@ fn pinned_particles_stay_put() {
     p.pinned = vec![0];
     let (x0, v0) = p.initial_state(1.0);
     let opts = SolverOptions::with_tolerances(1e-6, 1e-8);
-    let mut ode = SecondOrderIntegrator::new(p, Method::VariableBdf, 0.0, &x0, &v0, opts).unwrap();
+    let mut ode =
+        SecondOrderIntegrator::new(p, Method::variable_bdf(), 0.0, &x0, &v0, opts).unwrap();
     let sol = ode.solve_at(&[0.1, 0.2, 0.3]).unwrap();
     for i in 0..3 {
         let y = sol.y(i);

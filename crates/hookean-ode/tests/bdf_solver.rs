@@ -6,8 +6,9 @@ use hookean_ode::testset::{
     self, E5, Hires, Orego, Robertson, SpringChain, TestProblem, VanDerPol, mixed_error,
 };
 use hookean_ode::{
-    BdfCoefficients, BdfLinearSolver, Direction, Events, FirstOrderIntegrator, FirstOrderProblem,
-    Integrator, Method, OdeError, PrecondKind, SolverOptions, Stats, StepSizePolicy,
+    BdfCoefficients, BdfConfig, BdfLinearSolver, Direction, Events, FirstOrderIntegrator,
+    FirstOrderProblem, Integrator, Method, OdeError, PrecondKind, SolverOptions, Stats,
+    StepSizePolicy,
 };
 use num_complex::Complex64;
 
@@ -18,7 +19,7 @@ fn solve<P: TestProblem + Clone + Send + 'static>(
     rtol: f64,
 ) -> Result<(f64, Stats), OdeError> {
     let opts = testset::options(p, rtol);
-    let mut s = FirstOrderIntegrator::new(p.clone(), Method::VariableBdf, 0.0, &p.y0(), opts)?;
+    let mut s = FirstOrderIntegrator::new(p.clone(), Method::variable_bdf(), 0.0, &p.y0(), opts)?;
     let stats = s.integrate(p.t_end())?.stats;
     assert_eq!(s.t(), p.t_end());
     Ok((mixed_error(s.y(), &p.reference(), &p.floor()), stats))
@@ -78,9 +79,12 @@ fn a_jacobian_from_a_fast_transient_is_not_kept_for_much_longer_steps() {
     // y1 / (1 - y1^2)), and the run ended 3800 rtol off.
     let p = VanDerPol;
     let rtol = 10f64.powf(-4.5);
-    let mut opts = testset::options(&p, rtol);
-    opts.bdf.tolerance_exponent = Some(1.0);
-    let mut s = FirstOrderIntegrator::new(p, Method::VariableBdf, 0.0, &p.y0(), opts).unwrap();
+    let opts = testset::options(&p, rtol);
+    let method = Method::VariableBdf(BdfConfig {
+        tolerance_exponent: Some(1.0),
+        ..Default::default()
+    });
+    let mut s = FirstOrderIntegrator::new(p, method, 0.0, &p.y0(), opts).unwrap();
     s.integrate(p.t_end()).unwrap();
     let err = mixed_error(s.y(), &p.reference(), &p.floor());
     assert!(err < 20.0 * rtol, "error {err:e}");
@@ -180,15 +184,16 @@ fn solve_at_interpolates_without_extra_steps() {
     let times: Vec<f64> = (0..=100).map(|i| 0.05 * i as f64).collect();
     let mut a = FirstOrderIntegrator::new(
         ProtheroRobinson,
-        Method::VariableBdf,
+        Method::variable_bdf(),
         0.0,
         &[1.0],
         opts.clone(),
     )
     .unwrap();
     let sol = a.solve_at(&times).unwrap();
-    let mut b = FirstOrderIntegrator::new(ProtheroRobinson, Method::VariableBdf, 0.0, &[1.0], opts)
-        .unwrap();
+    let mut b =
+        FirstOrderIntegrator::new(ProtheroRobinson, Method::variable_bdf(), 0.0, &[1.0], opts)
+            .unwrap();
     let stats = b.integrate(5.0).unwrap().stats;
     // Output times do not change the step sequence (dense output).
     assert_eq!(sol.stats.num_steps, stats.num_steps);
@@ -234,7 +239,7 @@ fn tight() -> SolverOptions {
 fn a_terminal_event_stops_at_the_known_crossing() {
     // y = e^{-t} crosses 1/2 at ln 2, falling.
     let mut s =
-        FirstOrderIntegrator::new(Decay, Method::VariableBdf, 0.0, &[1.0], tight()).unwrap();
+        FirstOrderIntegrator::new(Decay, Method::variable_bdf(), 0.0, &[1.0], tight()).unwrap();
     let mut ev = Events::new(
         |_t: f64, y: &[f64], g: &mut [f64]| g[0] = y[0] - 0.5,
         vec![Direction::Falling],
@@ -258,7 +263,7 @@ fn integrate_with_events_hands_each_step_and_stops_at_the_terminal_root() {
     // y = e^{-t} crosses 1/2 at ln 2: every step [t_prev, t_stop] is handed
     // over, contiguous from 0, the last ending on the root, with the hit.
     let mut s =
-        FirstOrderIntegrator::new(Decay, Method::VariableBdf, 0.0, &[1.0], tight()).unwrap();
+        FirstOrderIntegrator::new(Decay, Method::variable_bdf(), 0.0, &[1.0], tight()).unwrap();
     let mut ev = Events::new(
         |_t: f64, y: &[f64], g: &mut [f64]| g[0] = y[0] - 0.5,
         vec![Direction::Falling],
@@ -291,7 +296,7 @@ fn integrate_with_events_hands_each_step_and_stops_at_the_terminal_root() {
 #[test]
 fn integrate_with_events_without_events_stops_when_the_callback_breaks() {
     let mut s =
-        FirstOrderIntegrator::new(Decay, Method::VariableBdf, 0.0, &[1.0], tight()).unwrap();
+        FirstOrderIntegrator::new(Decay, Method::variable_bdf(), 0.0, &[1.0], tight()).unwrap();
     let mut n = 0;
     let run = s
         .integrate_with_events(2.0, None, |_, _, hits| {
@@ -312,7 +317,7 @@ fn integrate_with_events_without_events_stops_when_the_callback_breaks() {
 #[test]
 fn a_rising_event_ignores_falling_crossings() {
     let mut s =
-        FirstOrderIntegrator::new(Decay, Method::VariableBdf, 0.0, &[1.0], tight()).unwrap();
+        FirstOrderIntegrator::new(Decay, Method::variable_bdf(), 0.0, &[1.0], tight()).unwrap();
     let mut ev = Events::new(
         |_t: f64, y: &[f64], g: &mut [f64]| g[0] = y[0] - 0.5,
         vec![Direction::Rising],
@@ -328,9 +333,14 @@ fn a_rising_event_ignores_falling_crossings() {
 fn non_terminal_events_are_all_located_with_their_direction() {
     // sin t vanishes at pi, 2 pi, 3 pi in (0.1, 10]: falling, rising, falling.
     // Event 0 watches both directions, event 1 rising ones only.
-    let mut s =
-        FirstOrderIntegrator::new(Oscillator, Method::VariableBdf, 0.0, &[0.0, 1.0], tight())
-            .unwrap();
+    let mut s = FirstOrderIntegrator::new(
+        Oscillator,
+        Method::variable_bdf(),
+        0.0,
+        &[0.0, 1.0],
+        tight(),
+    )
+    .unwrap();
     let mut ev = Events::new(
         |_t: f64, y: &[f64], g: &mut [f64]| {
             g[0] = y[0];
@@ -367,10 +377,12 @@ fn non_terminal_events_are_all_located_with_their_direction() {
 
 #[test]
 fn too_many_steps_is_an_error_and_the_statistics_stay() {
-    let mut opts = SolverOptions::default();
-    opts.bdf.max_steps = 10;
+    let opts = SolverOptions {
+        max_steps: 10,
+        ..Default::default()
+    };
     let p = Robertson { t_end: 1e5 };
-    let mut s = FirstOrderIntegrator::new(p, Method::VariableBdf, 0.0, &p.y0(), opts).unwrap();
+    let mut s = FirstOrderIntegrator::new(p, Method::variable_bdf(), 0.0, &p.y0(), opts).unwrap();
     let e = s.integrate(1e5).unwrap_err();
     // The same shape as every method's failures: the cause itself, with
     // the time reached; the counters are the integrator's.
@@ -400,7 +412,8 @@ fn growth_past_the_bound_is_an_error() {
         max_growth: 1e10,
         ..SolverOptions::default()
     };
-    let mut s = FirstOrderIntegrator::new(Growth, Method::VariableBdf, 0.0, &[1.0], opts).unwrap();
+    let mut s =
+        FirstOrderIntegrator::new(Growth, Method::variable_bdf(), 0.0, &[1.0], opts).unwrap();
     let e = s.integrate(100.0).unwrap_err();
     let OdeError::StateGrowth { t, norm, bound } = e else {
         panic!("{e}")
@@ -421,7 +434,7 @@ fn a_step_below_h_min_is_an_error() {
     };
     let mut s = FirstOrderIntegrator::new(
         Robertson { t_end: 40.0 },
-        Method::VariableBdf,
+        Method::variable_bdf(),
         0.0,
         &[1.0, 0.0, 0.0],
         opts,
@@ -445,26 +458,27 @@ impl FirstOrderProblem for Broken {
 
 #[test]
 fn repeated_newton_failure_is_an_error() {
-    // From t = 1 on, no step of any size converges.
-    let mut s = FirstOrderIntegrator::new(
-        Broken,
-        Method::VariableBdf,
-        1.0,
-        &[1.0],
-        SolverOptions::default(),
-    )
-    .unwrap();
+    // From t = 1 on, no step of any size converges: the step is tried
+    // once and retried `max_retries` times (the one retry limit of every
+    // method), each time at half the step.
+    let opts = SolverOptions {
+        max_retries: 3,
+        ..Default::default()
+    };
+    let mut s =
+        FirstOrderIntegrator::new(Broken, Method::variable_bdf(), 1.0, &[1.0], opts).unwrap();
     let e = s.integrate(2.0).unwrap_err();
-    let OdeError::NewtonFailed { t, .. } = e else {
+    let OdeError::NewtonFailed { t, retries, .. } = e else {
         panic!("expected NewtonFailed, got {e:?}")
     };
     let stats = s.stats();
-    assert!(t == 1.0 && stats.num_nonlin_solv_conv_fails >= 10 && stats.num_steps == 0);
+    assert_eq!((t, retries, stats.num_steps), (1.0, 3, 0));
+    assert_eq!(stats.num_nonlin_solv_conv_fails, 4);
     // Approaching the breakdown from before it, the steps shrink until they
     // underflow at t = 1.
     let mut s = FirstOrderIntegrator::new(
         Broken,
-        Method::VariableBdf,
+        Method::variable_bdf(),
         0.0,
         &[1.0],
         SolverOptions::default(),
@@ -478,21 +492,33 @@ fn repeated_newton_failure_is_an_error() {
 #[test]
 fn bad_input_is_refused() {
     let bad = |opts: SolverOptions| {
-        FirstOrderIntegrator::new(Decay, Method::VariableBdf, 0.0, &[1.0], opts).is_err()
+        FirstOrderIntegrator::new(Decay, Method::variable_bdf(), 0.0, &[1.0], opts).is_err()
     };
     assert!(bad(SolverOptions::with_tolerances(0.0, 1e-8)));
     assert!(bad(SolverOptions::with_tolerances(1.0, 1e-8)));
     assert!(bad(SolverOptions::with_tolerances(1e-6, vec![1e-8, 1e-8])));
-    let mut opts = SolverOptions::default();
-    opts.bdf.max_order = 6;
-    assert!(bad(opts));
-    let mut opts = SolverOptions::default();
-    opts.bdf.tolerance_exponent = Some(0.9);
-    assert!(bad(opts));
+    let bad_config = |config: BdfConfig| {
+        FirstOrderIntegrator::new(
+            Decay,
+            Method::VariableBdf(config),
+            0.0,
+            &[1.0],
+            SolverOptions::default(),
+        )
+        .is_err()
+    };
+    assert!(bad_config(BdfConfig {
+        max_order: 6,
+        ..Default::default()
+    }));
+    assert!(bad_config(BdfConfig {
+        tolerance_exponent: Some(0.9),
+        ..Default::default()
+    }));
     assert!(
         FirstOrderIntegrator::new(
             Decay,
-            Method::VariableBdf,
+            Method::variable_bdf(),
             0.0,
             &[f64::NAN],
             SolverOptions::default()
@@ -501,7 +527,7 @@ fn bad_input_is_refused() {
     );
     let mut s = FirstOrderIntegrator::new(
         Decay,
-        Method::VariableBdf,
+        Method::variable_bdf(),
         0.0,
         &[1.0],
         SolverOptions::default(),
@@ -571,10 +597,12 @@ fn solve_with<P: TestProblem + Clone + Send + 'static>(
     rtol: f64,
     linear_solver: BdfLinearSolver,
 ) -> (f64, Stats) {
-    let mut opts = testset::options(p, rtol);
-    opts.bdf.linear_solver = linear_solver;
-    let mut s =
-        FirstOrderIntegrator::new(p.clone(), Method::VariableBdf, 0.0, &p.y0(), opts).unwrap();
+    let opts = testset::options(p, rtol);
+    let method = Method::VariableBdf(BdfConfig {
+        linear_solver,
+        ..Default::default()
+    });
+    let mut s = FirstOrderIntegrator::new(p.clone(), method, 0.0, &p.y0(), opts).unwrap();
     let st = s
         .integrate(p.t_end())
         .unwrap_or_else(|e| panic!("{}: {e}", p.name()))
@@ -632,22 +660,28 @@ fn preconditioned_gmres_on_the_sparse_chain() {
 
 #[test]
 fn a_gmres_preconditioner_needs_a_sparse_pattern() {
-    let mut opts = SolverOptions::default();
-    opts.bdf.linear_solver = BdfLinearSolver::gmres(PrecondKind::Jacobi);
+    let gmres = |linear_solver| {
+        Method::VariableBdf(BdfConfig {
+            linear_solver,
+            ..Default::default()
+        })
+    };
+    let opts = SolverOptions::default();
+    let method = gmres(BdfLinearSolver::gmres(PrecondKind::Jacobi));
     assert!(matches!(
-        FirstOrderIntegrator::new(Decay, Method::VariableBdf, 0.0, &[1.0], opts),
+        FirstOrderIntegrator::new(Decay, method, 0.0, &[1.0], opts),
         Err(OdeError::InvalidParameter {
             name: "linear_solver",
             ..
         })
     ));
-    let mut opts = SolverOptions::default();
-    opts.bdf.linear_solver = BdfLinearSolver::Gmres {
+    let method = gmres(BdfLinearSolver::Gmres {
         krylov_dim: 0,
         restarts: 0,
         preconditioner: PrecondKind::None.into(),
-    };
-    assert!(FirstOrderIntegrator::new(Decay, Method::VariableBdf, 0.0, &[1.0], opts).is_err());
+    });
+    let opts = SolverOptions::default();
+    assert!(FirstOrderIntegrator::new(Decay, method, 0.0, &[1.0], opts).is_err());
 }
 
 /// `y' = lambda y`, `y(0) = 1`, with its Jacobian.
@@ -675,7 +709,7 @@ fn the_automatic_initial_step_follows_the_time_scale() {
     let first_step = |lambda: f64| {
         let mut s = FirstOrderIntegrator::new(
             Exponential(lambda),
-            Method::VariableBdf,
+            Method::variable_bdf(),
             0.0,
             &[1.0],
             SolverOptions::default(),
@@ -704,7 +738,8 @@ fn no_step_exceeds_h_max() {
         },
         ..SolverOptions::default()
     };
-    let mut s = FirstOrderIntegrator::new(Decay, Method::VariableBdf, 0.0, &[1.0], opts).unwrap();
+    let mut s =
+        FirstOrderIntegrator::new(Decay, Method::variable_bdf(), 0.0, &[1.0], opts).unwrap();
     let mut largest = 0.0f64;
     while s.t() < 2.0 {
         s.step_to(2.0).unwrap();

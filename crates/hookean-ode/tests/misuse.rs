@@ -7,7 +7,8 @@
 
 use hookean_ode::tutorial::Dahlquist;
 use hookean_ode::{
-    FirstOrderIntegrator, FirstOrderProblem, Integrator, Method, OdeError, SolverOptions, Tolerance,
+    BdfConfig, FirstOrderIntegrator, FirstOrderProblem, Integrator, Method, OdeError,
+    SolverOptions, Tolerance,
 };
 
 /// `y' = -y` that returns NaN once `t` passes `nan_after`.
@@ -100,7 +101,7 @@ fn absurd_options_are_refused_when_the_integrator_is_built() {
         }
         let bdf = FirstOrderIntegrator::new(
             Dahlquist { lambda: -1.0 },
-            Method::VariableBdf,
+            Method::variable_bdf(),
             0.0,
             &[1.0],
             opts,
@@ -111,17 +112,14 @@ fn absurd_options_are_refused_when_the_integrator_is_built() {
         );
     }
     for order in [0, 6, 1_000_000] {
-        let mut opts = SolverOptions::with_tolerances(1e-6, 1e-8);
-        opts.bdf.max_order = order;
+        let opts = SolverOptions::with_tolerances(1e-6, 1e-8);
+        let method = Method::VariableBdf(BdfConfig {
+            max_order: order,
+            ..Default::default()
+        });
         assert!(
-            FirstOrderIntegrator::new(
-                Dahlquist { lambda: -1.0 },
-                Method::VariableBdf,
-                0.0,
-                &[1.0],
-                opts
-            )
-            .is_err(),
+            FirstOrderIntegrator::new(Dahlquist { lambda: -1.0 }, method, 0.0, &[1.0], opts)
+                .is_err(),
             "max_order {order}"
         );
     }
@@ -154,7 +152,7 @@ fn states_and_end_times_that_cannot_be_are_typed_errors() {
     assert!(
         FirstOrderIntegrator::new(
             Dahlquist { lambda: -1.0 },
-            Method::VariableBdf,
+            Method::variable_bdf(),
             f64::NAN,
             &[1.0],
             opts()
@@ -168,7 +166,7 @@ fn states_and_end_times_that_cannot_be_are_typed_errors() {
     assert!(int.step_to(0.0).is_err());
     let mut bdf = FirstOrderIntegrator::new(
         Dahlquist { lambda: -1.0 },
-        Method::VariableBdf,
+        Method::variable_bdf(),
         0.0,
         &[1.0],
         opts(),
@@ -177,7 +175,7 @@ fn states_and_end_times_that_cannot_be_are_typed_errors() {
     assert!(bdf.step_to(f64::INFINITY).is_err());
     // An empty problem is refused, not integrated.
     assert!(FirstOrderIntegrator::new(Empty, Method::ImplicitEuler, 0.0, &[], opts()).is_err());
-    assert!(FirstOrderIntegrator::new(Empty, Method::VariableBdf, 0.0, &[], opts()).is_err());
+    assert!(FirstOrderIntegrator::new(Empty, Method::variable_bdf(), 0.0, &[], opts()).is_err());
 }
 
 #[test]
@@ -219,7 +217,7 @@ fn a_right_hand_side_that_turns_nan_stops_the_run_with_an_error() {
     }
     let mut bdf = FirstOrderIntegrator::new(
         TurnsNan { nan_after: 0.1 },
-        Method::VariableBdf,
+        Method::variable_bdf(),
         0.0,
         &[1.0],
         SolverOptions::with_tolerances(1e-6, 1e-8),
@@ -245,17 +243,16 @@ fn a_right_hand_side_that_turns_nan_stops_the_run_with_an_error() {
 
 #[test]
 fn a_billion_steps_allowed_reserve_nothing() {
-    let mut opts = SolverOptions::with_tolerances(1e-6, 1e-8);
-    opts.bdf.max_steps = 1_000_000_000;
-    opts.bdf.max_newton_iterations = 1_000_000_000;
-    let mut bdf = FirstOrderIntegrator::new(
-        Dahlquist { lambda: -1.0 },
-        Method::VariableBdf,
-        0.0,
-        &[1.0],
-        opts,
-    )
-    .unwrap();
+    let opts = SolverOptions {
+        max_steps: 1_000_000_000,
+        ..SolverOptions::with_tolerances(1e-6, 1e-8)
+    };
+    let method = Method::VariableBdf(BdfConfig {
+        max_newton_iterations: 1_000_000_000,
+        ..Default::default()
+    });
+    let mut bdf =
+        FirstOrderIntegrator::new(Dahlquist { lambda: -1.0 }, method, 0.0, &[1.0], opts).unwrap();
     while bdf.step_to(1.0).unwrap().is_some() {}
     assert!((bdf.y()[0] - (-1.0f64).exp()).abs() < 1e-4);
 }

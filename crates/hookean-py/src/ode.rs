@@ -1,5 +1,5 @@
 //! `y' = fun(t, y)` with Python callables, integrated by hookean-ode's
-//! variable-order BDF ([`Method::VariableBdf`]) through the one event
+//! variable-order BDF ([`Method::VariableBdf`], its first step from `first_step`) through the one event
 //! driver of the stepping contract
 //! ([`Integrator::integrate_with_events`]): the native half of
 //! `hookean.ode.solve_ivp`.
@@ -15,8 +15,8 @@ use std::ops::ControlFlow;
 use std::sync::{Arc, Mutex, PoisonError};
 
 use hookean_ode::{
-    Direction, EventHit, Events, FirstOrderIntegrator, FirstOrderProblem, Integrator, Method,
-    OdeError, SolverOptions, Stats, StepSizePolicy, Tolerance,
+    BdfConfig, Direction, EventHit, Events, FirstOrderIntegrator, FirstOrderProblem, Integrator,
+    Method, OdeError, SolverOptions, Stats, StepSizePolicy, Tolerance,
 };
 use numpy::{PyArray1, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -269,7 +269,7 @@ pub fn bdf_solve<'py>(
     if directions.len() != events.len() || terminal.len() != events.len() {
         return Err(bad("events", "one direction and terminal flag per event"));
     }
-    let mut options = SolverOptions {
+    let options = SolverOptions {
         rtol,
         atol: if atol.len() == 1 {
             Tolerance::Scalar(atol[0])
@@ -282,7 +282,6 @@ pub fn bdf_solve<'py>(
         },
         ..Default::default()
     };
-    options.bdf.initial_step = first_step;
     let raised_slot = Arc::new(Mutex::new(None));
     let pattern = pattern
         .map(|(indptr, indices)| csr_pattern(n, indptr, indices))
@@ -297,11 +296,14 @@ pub fn bdf_solve<'py>(
     let (collected, outcome, stats, raised) = py.detach(move || {
         let event_raised: RefCell<Option<PyErr>> = RefCell::new(None);
         let mut c = Collected::default();
-        let mut ode =
-            match FirstOrderIntegrator::new(problem, Method::VariableBdf, t0, &y0, options) {
-                Ok(ode) => ode,
-                Err(e) => return (c, Err(e), Stats::default(), None),
-            };
+        let method = Method::VariableBdf(BdfConfig {
+            initial_step: first_step,
+            ..Default::default()
+        });
+        let mut ode = match FirstOrderIntegrator::new(problem, method, t0, &y0, options) {
+            Ok(ode) => ode,
+            Err(e) => return (c, Err(e), Stats::default(), None),
+        };
         let mut next = 0;
         match &t_eval {
             Some(times) => {

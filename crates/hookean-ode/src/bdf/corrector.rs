@@ -11,6 +11,7 @@ use hookean_nonlinear::{
     LinearSolveStats, LinearSolver, NewtonMethod, NewtonOptions, NonlinearError,
 };
 
+use crate::bdf_config::BdfConfig;
 use crate::error::OdeError;
 use crate::options::SolverOptions;
 use crate::stage::System;
@@ -94,11 +95,13 @@ pub(crate) trait Corrector: System {
     /// The corrector's Newton solver, kept Jacobian and work vectors.
     type Data;
 
-    /// The corrector for a run with `opts`; `newton_tol` is the rate test's
-    /// tolerance, `atol` and `rtol` the (mapped) error tolerances.
+    /// The corrector for a run with `opts` and the BDF's `config`;
+    /// `newton_tol` is the rate test's tolerance, `atol` and `rtol` the
+    /// (mapped) error tolerances.
     fn corrector(
         &self,
         opts: &SolverOptions,
+        config: &BdfConfig,
         newton_tol: f64,
         atol: &[f64],
         rtol: f64,

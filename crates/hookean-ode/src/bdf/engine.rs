@@ -5,7 +5,7 @@
 
 use super::corrector::Corrector;
 use super::history::{Coefficients, History};
-use crate::bdf_config::MAX_ORDER;
+use crate::bdf_config::{BdfConfig, MAX_ORDER};
 use crate::error::OdeError;
 use crate::integrator::Engine;
 use crate::options::SolverOptions;
@@ -18,6 +18,8 @@ pub(crate) struct Bdf<S: Corrector> {
     pub(super) sys: S,
     pub(super) corrector: S::Data,
     pub(super) opts: SolverOptions,
+    /// The method's own settings ([`Method::VariableBdf`](crate::Method::VariableBdf)'s value).
+    pub(super) config: BdfConfig,
     pub(super) n: usize,
     /// The mapped `atol_i` and `rtol` of the local error test (`rtol^p`, see
     /// [`BdfConfig::exponent`](super::BdfConfig::exponent)).
@@ -57,15 +59,22 @@ pub(crate) struct Bdf<S: Corrector> {
 }
 
 impl<S: Corrector> Bdf<S> {
-    /// The solver for the system `sys` from `(t0, y0)`.
+    /// The solver with the settings `config` for the system `sys` from `(t0, y0)`.
     ///
     /// # Errors
     /// [`OdeError::InvalidParameter`] / [`OdeError::DimensionMismatch`] for
     /// bad options or sizes; [`OdeError::NonFinite`] for a non-finite `t0`
     /// or `y0`.
-    pub fn new(sys: S, t0: f64, y0: &[f64], opts: SolverOptions) -> Result<Self, OdeError> {
+    pub fn new(
+        sys: S,
+        t0: f64,
+        y0: &[f64],
+        opts: SolverOptions,
+        config: BdfConfig,
+    ) -> Result<Self, OdeError> {
         let n = sys.state_len();
         let mut atol = opts.check(n)?;
+        config.check()?;
         if !(opts.rtol > 0.0 && opts.rtol < 1.0) {
             return Err(OdeError::InvalidParameter {
                 name: "rtol",
@@ -86,19 +95,20 @@ impl<S: Corrector> Bdf<S> {
                 t: t0,
             });
         }
-        let rtol = opts.rtol.powf(opts.bdf.exponent());
+        let rtol = opts.rtol.powf(config.exponent());
         let atol_scale = rtol / opts.rtol;
         for a in &mut atol {
             *a *= atol_scale;
         }
-        let newton_tol = (10.0 * f64::EPSILON / rtol).max(opts.bdf.newton_tol);
-        let corrector = sys.corrector(&opts, newton_tol, &atol, rtol)?;
+        let newton_tol = (10.0 * f64::EPSILON / rtol).max(config.newton_tol);
+        let corrector = sys.corrector(&opts, &config, newton_tol, &atol, rtol)?;
         Ok(Self {
             sys,
             corrector,
-            coef: Coefficients::new(opts.bdf.formula),
+            coef: Coefficients::new(config.formula),
             bound: growth_bound(opts.max_growth, y0),
             opts,
+            config,
             n,
             atol,
             rtol,
@@ -228,10 +238,10 @@ impl<S: Corrector> Bdf<S> {
     /// step that would pass it is shortened (the history re-interpolated)
     /// to end on it exactly.
     fn bounded_step(&mut self, t_bound: f64) -> Result<StepReport, OdeError> {
-        if self.stats.num_steps >= self.opts.bdf.max_steps {
+        if self.stats.num_steps >= self.opts.max_steps {
             return Err(OdeError::TooManySteps {
                 t: self.t,
-                max_steps: self.opts.bdf.max_steps,
+                max_steps: self.opts.max_steps,
             });
         }
         let before = self.stats;
@@ -290,7 +300,7 @@ impl<S: Corrector> Bdf<S> {
 
     /// The highest order the history may use.
     pub(super) fn max_order(&self) -> usize {
-        self.opts.bdf.max_order.min(MAX_ORDER)
+        self.config.max_order.min(MAX_ORDER)
     }
 }
 
@@ -420,12 +430,15 @@ mod tests {
     /// and of the dense output at the middle of the last step.
     fn frozen_run(formula: Formula, k: usize, n: usize) -> (f64, f64) {
         let (t0, h) = (1.0f64, 1.0 / n as f64);
-        let mut opts = SolverOptions::with_tolerances(1e-12, 1e-12);
-        opts.bdf.formula = formula;
-        opts.bdf.max_order = k;
-        opts.bdf.max_newton_iterations = 20;
+        let opts = SolverOptions::with_tolerances(1e-12, 1e-12);
+        let config = BdfConfig {
+            formula,
+            max_order: k,
+            max_newton_iterations: 20,
+            ..Default::default()
+        };
         let sys = FirstSys::new(Sine, &opts).unwrap();
-        let mut s = Bdf::new(sys, t0, &[t0.sin()], opts).unwrap();
+        let mut s = Bdf::new(sys, t0, &[t0.sin()], opts, config).unwrap();
         freeze_on_exact_history(&mut s, f64::sin, t0, h, k);
         let t_end = t0 + 1.0;
         while s.t() < t_end - 0.5 * h {
@@ -478,11 +491,14 @@ mod tests {
                 let c_k = kappa * gamma + 1.0 / (k + 1) as f64;
                 let (t0, h) = (1.0f64, 0.1);
                 let y = |t: f64| t.powi(k as i32 + 1);
-                let mut opts = SolverOptions::with_tolerances(1e-12, 1e-12);
-                opts.bdf.formula = formula;
-                opts.bdf.max_order = k;
+                let opts = SolverOptions::with_tolerances(1e-12, 1e-12);
+                let config = BdfConfig {
+                    formula,
+                    max_order: k,
+                    ..Default::default()
+                };
                 let sys = FirstSys::new(Monomial(k), &opts).unwrap();
-                let mut s = Bdf::new(sys, t0, &[y(t0)], opts).unwrap();
+                let mut s = Bdf::new(sys, t0, &[y(t0)], opts, config).unwrap();
                 freeze_on_exact_history(&mut s, y, t0, h, k);
                 s.step().unwrap();
                 let factorial: f64 = (1..=k + 1).map(|m| m as f64).product();

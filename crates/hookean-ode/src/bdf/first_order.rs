@@ -11,7 +11,7 @@ use hookean_sparse::vecops::negate_into;
 use hookean_sparse::{GmresParams, PrecondKind};
 
 use super::corrector::{Attempt, Corrector, CorrectorStep, Rescaled, account, newton_options};
-use crate::bdf_config::BdfLinearSolver;
+use crate::bdf_config::{BdfConfig, BdfLinearSolver};
 use crate::error::OdeError;
 use crate::options::SolverOptions;
 use crate::stage::{
@@ -96,14 +96,14 @@ impl<P: FirstOrderProblem> Corrector for FirstSys<P> {
 
     fn corrector(
         &self,
-        opts: &SolverOptions,
+        _opts: &SolverOptions,
+        config: &BdfConfig,
         newton_tol: f64,
         atol: &[f64],
         rtol: f64,
     ) -> Result<FirstCorrector, OdeError> {
         let problem = &self.problem;
         let n = problem.dim();
-        let config = &opts.bdf;
         let pattern = problem.sparse_jacobian_pattern();
         let options = newton_options(newton_tol, config.max_newton_iterations, 0.0);
         let matrices = match (&config.linear_solver, pattern) {

@@ -93,7 +93,7 @@
 //!
 //! let opts = SolverOptions::with_tolerances(1e-6, vec![1e-8, 1e-12, 1e-8]);
 //! let mut solver =
-//!     FirstOrderIntegrator::new(Robertson, Method::VariableBdf, 0.0, &[1.0, 0.0, 0.0], opts)?;
+//!     FirstOrderIntegrator::new(Robertson, Method::variable_bdf(), 0.0, &[1.0, 0.0, 0.0], opts)?;
 //! let sol = solver.solve_at(&[0.4, 40.0])?;
 //! // Hairer-Wanner's reference value y_1(40) = 0.7158270687...
 //! assert!((sol.y(1)[0] - 0.7158270687).abs() < 1e-5);

@@ -21,6 +21,7 @@ use hookean_problem::SecondOrderProblem;
 use hookean_sparse::{AnyPreconditioner, SymBlockMatrix};
 
 use super::corrector::{Attempt, Corrector, CorrectorStep, account, newton_options};
+use crate::bdf_config::BdfConfig;
 use crate::error::OdeError;
 use crate::options::SolverOptions;
 use crate::stage::{JacobianSource, ReducedStage, SecondSys, begin_stage};
@@ -50,6 +51,7 @@ impl<P: SecondOrderProblem> Corrector for SecondSys<P> {
     fn corrector(
         &self,
         opts: &SolverOptions,
+        config: &BdfConfig,
         newton_tol: f64,
         _atol: &[f64],
         _rtol: f64,
@@ -57,11 +59,7 @@ impl<P: SecondOrderProblem> Corrector for SecondSys<P> {
         let problem = &self.problem;
         let n = problem.dim();
         let pattern = problem.jacobian_pattern();
-        let options = newton_options(
-            newton_tol,
-            opts.bdf.max_newton_iterations,
-            opts.bdf.linear_rtol,
-        );
+        let options = newton_options(newton_tol, config.max_newton_iterations, config.linear_rtol);
         let linear = PcgSolver::from_options(&opts.linear)?;
         let mut newton = Newton::new(options, SymBlockMatrix::new(pattern.clone()), linear)?;
         newton.time_phases(true);

@@ -71,7 +71,7 @@ impl<S: Corrector> Bdf<S> {
                 t: self.t,
             });
         }
-        let h = match self.opts.bdf.initial_step {
+        let h = match self.config.initial_step {
             Some(h0) => h0.min(span),
             None => self.initial_step(span),
         };
@@ -105,14 +105,13 @@ impl<S: Corrector> Bdf<S> {
     fn correct(&mut self, t_new: f64, c: f64) -> Result<Attempt, OdeError> {
         loop {
             let mut refactor = !(self.lu_c.abs() > 0.0)
-                || (c / self.lu_c - 1.0).abs() > self.opts.bdf.max_gamma_change
-                || self.lu_age >= self.opts.bdf.steps_per_factorization;
+                || (c / self.lu_c - 1.0).abs() > self.config.max_gamma_change
+                || self.lu_age >= self.config.steps_per_factorization;
             let jac_old = self
-                .opts
-                .bdf
+                .config
                 .steps_per_jacobian
                 .is_some_and(|n| self.jac_age >= n)
-                || c > self.opts.bdf.jacobian_c_growth * self.jac_c;
+                || c > self.config.jacobian_c_growth * self.jac_c;
             let mut usable = true;
             if !self.jac_evaluated || jac_old {
                 usable = self.eval_jacobian(t_new)?;
@@ -220,7 +219,7 @@ impl<S: Corrector> Bdf<S> {
                     cause,
                 } => {
                     conv_fails += 1;
-                    if conv_fails >= self.opts.bdf.max_convergence_failures {
+                    if conv_fails > self.opts.max_retries {
                         let retries = conv_fails - 1;
                         return Err(match cause {
                             Some(source) => OdeError::LinearSolver { t, retries, source },
@@ -241,7 +240,7 @@ impl<S: Corrector> Bdf<S> {
                     continue;
                 }
             };
-            let maxit = self.opts.bdf.max_newton_iterations as f64;
+            let maxit = self.config.max_newton_iterations as f64;
             let safety = 0.9 * (2.0 * maxit + 1.0) / (2.0 * maxit + iterations as f64);
             for i in 0..self.n {
                 self.y_new[i] = self.y_pred[i] + self.dcor[i];
@@ -257,7 +256,7 @@ impl<S: Corrector> Bdf<S> {
             if error_norm > 1.0 && !self.frozen {
                 self.stats.num_err_test_fails += 1;
                 err_fails += 1;
-                if err_fails >= self.opts.bdf.max_error_test_failures {
+                if err_fails >= self.config.max_error_test_failures {
                     return Err(OdeError::ErrorTestFailed {
                         t,
                         h,
@@ -265,7 +264,7 @@ impl<S: Corrector> Bdf<S> {
                     });
                 }
                 let factor = (safety * error_norm.powf(-1.0 / (k as f64 + 1.0)))
-                    .max(self.opts.bdf.min_step_shrink);
+                    .max(self.config.min_step_shrink);
                 if err_fails < 3 {
                     self.hist.rescale(factor);
                 } else {
@@ -337,11 +336,11 @@ impl<S: Corrector> Bdf<S> {
             }
         }
         self.hist.order = k + best - 1;
-        let factor = (safety * factors[best]).min(self.opts.bdf.max_step_growth);
+        let factor = (safety * factors[best]).min(self.config.max_step_growth);
         // Hysteresis: keep the order and step unless the change is worth
         // the re-interpolation and a likely refactorisation (CVODE keeps h
         // for growth below THRESH = 1.5).
-        let (keep_low, keep_high) = self.opts.bdf.keep_step_band;
+        let (keep_low, keep_high) = self.config.keep_step_band;
         if best != 1 || !(keep_low < factor && factor < keep_high) {
             self.hist.rescale(factor);
         }

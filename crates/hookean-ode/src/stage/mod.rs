@@ -1,7 +1,8 @@
 //! The two problem kinds seen by the integrators as "a state vector and a
 //! stage equation": first-order `y' = f(t, y)` (Newton with a dense or
-//! sparse LU, or matrix-free GMRES) and second-order `M x'' = f(t, x, v)`
-//! (the reduced velocity form with PCG). Every stage equation is solved by
+//! sparse LU; the variable-order BDF's corrector adds matrix-free GMRES,
+//! `bdf/first_order.rs`) and second-order `M x'' = f(t, x, v)` (the
+//! reduced velocity form with PCG). Every stage equation is solved by
 //! `hookean-nonlinear`'s [`Newton`](hookean_nonlinear::Newton); the fixed-
 //! and variable-step methods of `core.rs` and the variable-order BDF
 //! (`bdf/`) share these systems. Private except for [`FirstOrderForm`].

@@ -39,6 +39,16 @@ impl Scene {
         }
     }
 
+    /// The scene's `integrator.method`, with the settings the scene gives
+    /// the method: `integrator.max_order` for the variable-order BDF.
+    pub fn method(&self) -> Method {
+        let mut method = self.integrator.method.clone();
+        if let Method::VariableBdf(config) = &mut method {
+            config.max_order = self.integrator.max_order;
+        }
+        method
+    }
+
     /// The integrator, Newton and PCG options of the scene.
     pub fn simulation_options(&self) -> SimulationOptions {
         let s = &self.solver;
@@ -53,8 +63,7 @@ impl Scene {
         solver.rtol = self.integrator.rtol;
         solver.atol = self.integrator.atol.into();
         solver.step.h_max = self.integrator.h_max;
-        solver.bdf.max_order = self.integrator.max_order;
-        solver.bdf.max_steps = self.integrator.max_steps;
+        solver.max_steps = self.integrator.max_steps;
         solver.step.control = match self.integrator.control {
             ControlScene::Error => StepControl::error_based(),
             ControlScene::Newton => StepControl::newton_iterations(),
@@ -89,7 +98,7 @@ impl Scene {
             NegativeCurvature::Truncate
         };
         SimulationOptions {
-            method: self.integrator.method.clone(),
+            method: self.method(),
             solver,
             filter: self.filter.as_ref().map(|f| FilterOptions {
                 kernel: match f.kernel {
