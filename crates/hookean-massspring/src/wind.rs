@@ -44,8 +44,8 @@
 //! (`n -> -n` leaves it alone); in the frame of a uniform wind it never
 //! does positive work (`f_t . v_rel = -1/2 rho A_t (C_d |v_n| + C_l |v_rel|) v_n^2 <= 0`).
 //!
-//! **The Jacobian.** `df_t/dv_rel = -1/2 rho A_t [ (2 C_d |v_n| + C_l |v_rel|) n n^T
-//! + C_l v_n n v_rel^T / |v_rel| ]`. The first term is symmetric and negative
+//! **The Jacobian.** `df_t/dv_rel = -1/2 rho A_t [ (2 C_d |v_n| + C_l |v_rel|)
+//! n n^T + C_l v_n n v_rel^T / |v_rel| ]`. The first term is symmetric and negative
 //! semidefinite and is kept: `df_i/dv_j = -(1/9) K`, `K = 1/2 rho A_t
 //! (2 C_d |v_n| + C_l |v_rel|) n n^T`, for every pair of corners `i, j` (the
 //! triangle's block matrix `-(1/9) (1 1^T) (x) K` stays negative
