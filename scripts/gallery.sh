@@ -9,7 +9,7 @@ hookean=${HOOKEAN:-target/release/hookean}
 out=$(mktemp -d)
 g=docs/gallery
 
-for scene in drape cloth-sphere cloth-table cloth-fold cloth-slope jelly rope tutorial1 tutorial2 tutorial3; do
+for scene in drape cloth-sphere cloth-table cloth-fold cloth-slope flag jelly rope tutorial1 tutorial2 tutorial3; do
   "$hookean" run "scenes/$scene.toml" --out "$out/$scene" --quiet
   cp "$out/$scene/final.png" "$g/final-$scene.png"
 done

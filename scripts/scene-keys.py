@@ -17,7 +17,7 @@ facade = [("", ["Scene"]), ("cloth", ["ClothScene"]), ("rope", ["RopeScene"]),
           ("jelly", ["JellyScene"]), ("model", ["ModelScene"]),
           ("integrator", ["IntegratorScene"]), ("solver", ["SolverScene"]),
           ("solver.amg", ["AmgScene"]), ("filter", ["FilterScene"]),
-          ("output", ["OutputScene"]), ("mesh", ["MeshScene"]), ("contact", ["ContactScene"]),
+          ("output", ["OutputScene"]), ("mesh", ["MeshScene"]), ("contact", ["ContactScene"]), ("wind", ["WindScene"]),
           ("pin", ["PinGroupScene"]), ("pin.keys", ["KeyScene"])]
 # Arrays of tables: one [[pin]] table per group, its keys an array of inline tables.
 array_tables = {"pin": "[[pin]] (one table per pin group; docs/CONTACT.md, \"Pins as handles\")",

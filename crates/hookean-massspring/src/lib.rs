@@ -25,6 +25,9 @@
 //!   hard pins (prescribed motion) or soft pins (zero-rest-length springs
 //!   with their Jacobian) whose targets move along a [`KeyframedPath`]
 //!   ([`path`]), released at a time.
+//! - [`Wind`] ([`MassSpringModel::set_wind`]): a constant or gusting wind
+//!   field and the aerodynamic drag and lift on every triangle, with its
+//!   velocity Jacobian in the implicit matrix.
 //! - [`builders`]: [`tutorial_example3`], [`rope`], [`cloth`],
 //!   [`jelly_block`], [`from_mesh`].
 //! - [`obj`]: [`parse_obj`] / [`read_obj_file`], [`write_obj`] with per-vertex
@@ -100,6 +103,7 @@ mod model;
 pub mod obj;
 pub mod path;
 mod self_contact;
+mod wind;
 
 pub use analysis::{Energies, ImplicitSystem, Momentum, StabilityInfo};
 pub use builders::{
@@ -118,3 +122,4 @@ pub use model::{
 pub use obj::{ObjMesh, parse_obj, read_obj_file, read_surface, speed_colours, write_obj};
 pub use path::{Interpolation, Keyframe, KeyframedPath};
 pub use self_contact::SelfCollision;
+pub use wind::Wind;

@@ -280,6 +280,8 @@ pub struct MassSpringModel {
     pub(crate) handles: Vec<crate::handles::Handle>,
     /// The soft pins of the current step.
     pub(crate) soft_pins: Vec<crate::handles::SoftPin>,
+    /// The wind on the triangles (`wind.rs`), if on.
+    pub(crate) wind: Option<Box<crate::wind::WindState>>,
 }
 
 impl MassSpringModel {
@@ -370,6 +372,7 @@ impl MassSpringModel {
             revision: 0,
             handles: Vec::new(),
             soft_pins: Vec::new(),
+            wind: None,
         })
     }
 

@@ -219,7 +219,11 @@ pub struct Simulation {
 /// mass, `D` the diagonal of the starting bounding box; the last term
 /// keeps a scene at rest without gravity from tripping on round-off) and
 /// `U = max (|v| + |omega| (|c - x_c| + D))` over the moving colliders (`c`
-/// the pivot, `x_c` the box's centre). An unstable integrator, a solver
+/// the pivot, `x_c` the box's centre). Wind counts as such a body moving
+/// at the air's fastest speed `|w_0| + A` ([`Wind::max_speed`](hookean_massspring::Wind::max_speed)):
+/// in the air's frame drag and lift never do positive work, so like a
+/// moving surface the air can bring the cloth up to its speed and carry
+/// it against its weight over the distance it blows. An unstable integrator, a solver
 /// that stopped far from the solution or a contact that stores energy
 /// breaks it by orders of magnitude. It costs one
 /// [`energies`](MassSpringModel::energies) per step: a pass over the
@@ -281,7 +285,9 @@ impl EnergyGuard {
         let d2: f64 = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum();
         let d = d2.sqrt();
         let centre: [f64; 3] = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
-        let u = collider_speed(model, centre, d);
+        // The wind is a moving body of speed |w_0| + A for the bound.
+        let wind = model.wind().map_or(0.0, |w| w.max_speed());
+        let u = collider_speed(model, centre, d).max(wind);
         let scale = e.kinetic + e.spring + weight * d + 1e-6 * total_mass * d2;
         self.baseline = Some(Baseline {
             t0,

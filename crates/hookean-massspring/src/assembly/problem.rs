@@ -211,6 +211,7 @@ impl SecondOrderProblem for MassSpringModel {
     /// The active directions also project `force` and the Jacobians until the
     /// next `begin_step`.
     fn begin_step(&mut self, t: f64, x: &mut [f64], v: &mut [f64], constraints: &mut Constraints) {
+        self.begin_wind(t, x);
         self.begin_handles(t);
         self.apply_constraints_and_contacts(t, x, v);
         self.move_hard_pins(t, v);

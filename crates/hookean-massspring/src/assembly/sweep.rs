@@ -397,6 +397,7 @@ impl MassSpringModel {
             }
         }
         self.add_contact_forces(x, v, f);
+        self.add_wind_forces(v, f);
         self.project_rows(f);
     }
 
@@ -564,10 +565,12 @@ impl MassSpringModel {
         // The contact forces' diagonal blocks (nothing without contact).
         if let Some((a, b)) = comb {
             self.add_contact_jacobians(x, a, b, dfdx);
+            self.add_wind_jacobians(v, b, dfdx);
         } else {
             self.add_contact_jacobians(x, 1.0, 0.0, dfdx);
             if let Some(m) = dfdv.as_deref_mut() {
                 self.add_contact_jacobians(x, 0.0, 1.0, m);
+                self.add_wind_jacobians(v, 1.0, m);
             }
         }
         if parts > 1 {
@@ -599,6 +602,7 @@ impl MassSpringModel {
         }
         if let Some(f) = f {
             self.add_contact_forces(x, v, f);
+            self.add_wind_forces(v, f);
             self.project_rows(f);
         }
     }

@@ -429,6 +429,9 @@ impl Scene {
                 .check_self_thickness(&state.x)
                 .map_err(in_table("contact"))?;
         }
+        if let Some(w) = &self.wind {
+            model.set_wind(Some(w.wind())).map_err(in_table("wind"))?;
+        }
         // A start inside a collider: its put-back would turn the depth into
         // spring energy the scene never had (docs/CONTACT.md).
         let inside = model.particles_inside(&state.x);

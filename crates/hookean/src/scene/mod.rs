@@ -4,7 +4,7 @@
 //! A scene has exactly one model table — `[cloth]`, `[rope]`, `[jelly]`,
 //! `[mesh]` (a model from an OBJ file) or `[particle]` (the tutorial's
 //! example 3) — and optional `[integrator]`, `[solver]`, `[filter]`,
-//! `[model]`, `[[collider]]`, `[contact]` and `[output]` tables.
+//! `[model]`, `[[collider]]`, `[[pin]]`, `[contact]`, `[wind]` and `[output]` tables.
 //! Every key has a documented default (the field docs below; `scenes/drape.toml`
 //! spells them all out). Unknown keys, wrong types and out-of-range values
 //! are errors that name the file, line and column.
@@ -114,6 +114,8 @@ pub struct Scene {
     /// Cloth self-collision.
     #[serde(default)]
     pub contact: ContactScene,
+    /// Wind on the model's triangles.
+    pub wind: Option<WindScene>,
     /// What to write.
     #[serde(default)]
     pub output: OutputScene,
@@ -160,6 +162,7 @@ mod tests {
             ("OutputScene", "output."),
             ("MeshScene", "mesh."),
             ("ContactScene", "contact."),
+            ("WindScene", "wind."),
             ("PinGroupScene", "pin."),
             ("KeyScene", "pin.keys."),
         ];

@@ -1,4 +1,4 @@
-//! The model tables of a scene: `[cloth]`, `[rope]`, `[jelly]`, `[mesh]`, `[contact]`, `[particle]`, `[tutorial]`, `[model]`, and `[[collider]]`.
+//! The model tables of a scene: `[cloth]`, `[rope]`, `[jelly]`, `[mesh]`, `[contact]`, `[wind]`, `[particle]`, `[tutorial]`, `[model]`, and `[[collider]]`.
 
 use super::*;
 
@@ -240,6 +240,67 @@ pub(super) fn d_self_thickness() -> f64 {
 }
 pub(super) fn d_self_stiffness() -> f64 {
     hookean_massspring::SelfCollision::default().stiffness
+}
+
+/// `[wind]`: the air's velocity field and the aerodynamic drag and lift on
+/// the model's triangles (hookean-massspring's `Wind`; docs/CONTACT.md, "Wind").
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WindScene {
+    /// The mean wind (m/s). Default [0, 0, 0].
+    #[serde(default, deserialize_with = "finite3")]
+    pub velocity: [f64; 3],
+    /// Air density rho (kg/m^3). Range [0, inf). Default 1.2.
+    #[serde(default = "d_air_density", deserialize_with = "non_negative")]
+    pub air_density: f64,
+    /// Drag coefficient C_d of a triangle (a flat plate normal to the flow: about 1.2). Range [0, inf). Default 1.
+    #[serde(default = "d_drag", deserialize_with = "non_negative")]
+    pub drag: f64,
+    /// Lift coefficient C_l of a triangle. Range [0, inf). Default 0.
+    #[serde(default, deserialize_with = "non_negative")]
+    pub lift: f64,
+    /// Amplitude of the gusts (m/s); 0: a constant wind. Range [0, inf). Default 0.
+    #[serde(default, deserialize_with = "non_negative")]
+    pub gust_amplitude: f64,
+    /// Mean frequency of the gusts (Hz). Range (0, inf). Default 0.5.
+    #[serde(default = "d_gust_frequency", deserialize_with = "positive")]
+    pub gust_frequency: f64,
+    /// Wavelength of the gusts (m). Range (0, inf). Default 4.
+    #[serde(default = "d_gust_wavelength", deserialize_with = "positive")]
+    pub gust_wavelength: f64,
+    /// Seed of the gust field: the same seed, the same wind. Default 0.
+    #[serde(default)]
+    pub seed: u64,
+}
+
+pub(super) fn d_air_density() -> f64 {
+    hookean_massspring::Wind::default().air_density
+}
+pub(super) fn d_drag() -> f64 {
+    hookean_massspring::Wind::default().drag
+}
+pub(super) fn d_gust_frequency() -> f64 {
+    hookean_massspring::Wind::default().gust_frequency
+}
+pub(super) fn d_gust_wavelength() -> f64 {
+    hookean_massspring::Wind::default().gust_wavelength
+}
+
+impl WindScene {
+    /// The library's wind.
+    pub fn wind(&self) -> hookean_massspring::Wind {
+        hookean_massspring::Wind {
+            velocity: self.velocity,
+            air_density: self.air_density,
+            drag: self.drag,
+            lift: self.lift,
+            gust_amplitude: self.gust_amplitude,
+            gust_frequency: self.gust_frequency,
+            gust_wavelength: self.gust_wavelength,
+            seed: self.seed,
+            ..Default::default()
+        }
+    }
 }
 
 /// `[particle]`: the tutorial's example 3 with its parameters (no keys).
