@@ -105,6 +105,84 @@ impl<T, K: RowKernel<T>> pulp::WithSimd for KernelLoop<'_, T, K> {
     }
 }
 
+/// One row of a compressed-row kernel run by [`kernel_row_slices_with`]:
+/// row `i`'s slice `row` with the task's scratch `w` (as in
+/// [`row_slices_with`]: a row's result must not depend on what an earlier
+/// row left in `w`). `row` is to be marked `#[inline(always)]`, as
+/// [`RowKernel::row`].
+pub(crate) trait RowSliceKernel<T, W>: Sync {
+    /// Row `i`'s slice `row`.
+    fn row(&self, i: usize, row: &mut [T], w: &mut W);
+}
+
+/// [`row_slices_with`] for a [`RowSliceKernel`], each task's loop compiled
+/// for the CPU's instruction set (as [`kernel_rows`]).
+pub(crate) fn kernel_row_slices_with<T: Send, W, I, K>(
+    row_ptr: &[usize],
+    data: &mut [T],
+    init: &I,
+    kernel: &K,
+) where
+    I: Fn() -> W + Sync,
+    K: RowSliceKernel<T, W>,
+{
+    kernel_slices_from(row_ptr, 0, row_ptr.len() - 1, data, init, kernel);
+}
+
+fn kernel_slices_from<T: Send, W, I, K>(
+    row_ptr: &[usize],
+    start: usize,
+    rows: usize,
+    data: &mut [T],
+    init: &I,
+    kernel: &K,
+) where
+    I: Fn() -> W + Sync,
+    K: RowSliceKernel<T, W>,
+{
+    if sequential(rows) {
+        let mut w = init();
+        pulp::Arch::new().dispatch(SliceLoop {
+            row_ptr,
+            start,
+            rows,
+            data,
+            w: &mut w,
+            kernel,
+        });
+    } else {
+        let mid = rows / 2;
+        let (lo, hi) = data.split_at_mut(row_ptr[start + mid] - row_ptr[start]);
+        join(
+            || kernel_slices_from(row_ptr, start, mid, lo, init, kernel),
+            || kernel_slices_from(row_ptr, start + mid, rows - mid, hi, init, kernel),
+        );
+    }
+}
+
+/// The loop of one task of [`kernel_row_slices_with`].
+struct SliceLoop<'a, T, W, K> {
+    row_ptr: &'a [usize],
+    start: usize,
+    rows: usize,
+    data: &'a mut [T],
+    w: &'a mut W,
+    kernel: &'a K,
+}
+
+impl<T, W, K: RowSliceKernel<T, W>> pulp::WithSimd for SliceLoop<'_, T, W, K> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        let base = self.row_ptr[self.start];
+        for i in self.start..self.start + self.rows {
+            let row = &mut self.data[self.row_ptr[i] - base..self.row_ptr[i + 1] - base];
+            self.kernel.row(i, row, self.w);
+        }
+    }
+}
+
 /// `f(i, &mut data[row_ptr[i]..row_ptr[i + 1]])` for every row `i` of a
 /// compressed-row array (`data.len() == row_ptr[n]`), split across threads.
 pub(crate) fn row_slices<T: Send, F: Fn(usize, &mut [T]) + Sync>(
