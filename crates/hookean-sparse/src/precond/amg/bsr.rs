@@ -1078,6 +1078,7 @@ mod tests {
     /// entries over six decades).
     #[test]
     fn dispatched_products_have_the_baseline_bits_on_any_thread_count() {
+        type RowFn<'k> = &'k dyn Fn(usize, &mut [SBlk<f32, 3>], &mut RowScratch<3, 3>);
         let (n, half) = (2500usize, 4usize);
         let mut seed = 0x2545_f491_4f6c_dd1d_u64;
         let mut a = Bsr::<3, f32>::empty(n, n);
@@ -1102,16 +1103,14 @@ mod tests {
         }
         let (mut at, map) = a.transpose_pattern();
         a.fill_transpose(&mut at, &map);
-        let plain =
-            |c: &mut Bsr<3, f32>,
-             kernel: &dyn Fn(usize, &mut [SBlk<f32, 3>], &mut RowScratch<3, 3>)| {
-                let mut scratch = RowScratch::new();
-                for i in 0..c.nrows {
-                    let r = c.row(i);
-                    kernel(i, &mut c.val[r], &mut scratch);
-                }
-            };
-        let pattern = product_pattern(&a, &a);
+        let plain = |c: &mut Bsr<3, f32>, kernel: RowFn<'_>| {
+            let mut scratch = RowScratch::new();
+            for i in 0..c.nrows {
+                let r = c.row(i);
+                kernel(i, &mut c.val[r], &mut scratch);
+            }
+        };
+        let pattern: Bsr<3, f32> = product_pattern(&a, &a);
         let mut base = pattern.pattern_as::<f32>();
         let (ptr, col) = (base.row_ptr.clone(), base.col.clone());
         let k = Product {
@@ -1121,7 +1120,7 @@ mod tests {
             col: &col,
         };
         plain(&mut base, &|i, v, w| par::RowSliceKernel::row(&k, i, v, w));
-        let sym_pattern = product_pattern(&at, &a);
+        let sym_pattern: Bsr<3, f32> = product_pattern(&at, &a);
         let mut sym_base = sym_pattern.pattern_as::<f32>();
         let (sptr, scol) = (sym_base.row_ptr.clone(), sym_base.col.clone());
         let ks = SymmetricProduct(Product {
