@@ -121,9 +121,9 @@ fn filtered_pcg_with_amg_honours_constraints_in_few_iterations() {
 /// Every kernel of the set-up, the refill and the V-cycle writes only its
 /// own rows with the same sequential arithmetic whatever the split: on a
 /// cloth of 72 x 72 particles (5 184 block rows, more than one rayon task's
-/// 1 024) one thread and two threads give the same bits.
+/// 1 024) one, two and three threads give the same bits.
 #[test]
-fn amg_gives_the_same_bits_for_one_and_two_threads() {
+fn amg_gives_the_same_bits_for_one_two_and_three_threads() {
     let (mut a, b) = cloth_system(&ClothSystemParams {
         n: 72,
         k: 1e4,
@@ -141,15 +141,19 @@ fn amg_gives_the_same_bits_for_one_and_two_threads() {
                 z
             })
     };
-    let (mut one, mut two) = (Amg::new(), Amg::new());
+    let (mut one, mut two, mut three) = (Amg::new(), Amg::new(), Amg::new());
     let z1 = run(1, &a, &mut one);
     let z2 = run(2, &a, &mut two);
+    let z3 = run(3, &a, &mut three);
     assert!(z1.iter().all(|v| v.is_finite()) && norm2(&z1) > 0.0);
-    assert_eq!(z1, z2, "full set-up");
+    assert_eq!(z1, z2, "full set-up, 2 threads");
+    assert_eq!(z1, z3, "full set-up, 3 threads");
     // A refill with new values (same pattern).
     a.scale(1.5);
     let z1 = run(1, &a, &mut one);
     let z2 = run(2, &a, &mut two);
+    let z3 = run(3, &a, &mut three);
     assert_eq!(one.stats().refills, 1, "{:?}", one.stats());
-    assert_eq!(z1, z2, "refill");
+    assert_eq!(z1, z2, "refill, 2 threads");
+    assert_eq!(z1, z3, "refill, 3 threads");
 }
