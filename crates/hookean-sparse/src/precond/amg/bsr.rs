@@ -987,25 +987,21 @@ mod tests {
         }
     }
 
-    /// The dispatched kernels ([`par::kernel_rows`]: AVX2 where the CPU has
-    /// it) give the bits of the same rows computed by a plain loop, which
-    /// this test binary compiles for the x86-64 baseline (SSE2), and
-    /// `b - A x` within round-off of a dense sum in another order. 3 000
-    /// block rows of 13 f32 blocks (three rayon tasks and more), entries
-    /// over eight decades, on 1, 2 and 3 threads.
-    #[test]
-    fn dispatched_residual_has_the_baseline_bits_on_any_thread_count() {
-        let (n, half) = (3000usize, 6usize);
-        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut next = move || {
+    /// Marsaglia's xorshift64 from `seed`: numbers in [-1, 1) times
+    /// 10^[-decades, decades).
+    fn xorshift(mut seed: u64, decades: u64) -> impl FnMut() -> f64 {
+        move || {
             seed ^= seed << 13;
             seed ^= seed >> 7;
             seed ^= seed << 17;
-            // In [-1, 1) times 10^[-4, 4).
             let u = (seed >> 11) as f64 / (1u64 << 53) as f64;
-            let e = ((seed >> 3) % 8) as i32 - 4;
+            let e = ((seed >> 3) % (2 * decades)) as i32 - decades as i32;
             (2.0 * u - 1.0) * 10f64.powi(e)
-        };
+        }
+    }
+
+    /// An `n x n` block matrix of band half-width `half`, entries from `next`.
+    fn banded(n: usize, half: usize, next: &mut impl FnMut() -> f64) -> Bsr<3, f32> {
         let mut a = Bsr::<3, f32>::empty(n, n);
         a.row_ptr.clear();
         a.row_ptr.push(0);
@@ -1022,6 +1018,21 @@ mod tests {
             }
             a.row_ptr.push(a.col.len());
         }
+        a
+    }
+
+    /// The dispatched kernels ([`par::kernel_rows`]: AVX2 where the CPU has
+    /// it) give the bits of the same rows computed by a plain loop, which
+    /// this test binary compiles for the x86-64 baseline (SSE2), and
+    /// `b - A x` within round-off of a dense sum in another order. 3 000
+    /// block rows of 13 f32 blocks (three rayon tasks and more), entries
+    /// over eight decades, on 1, 2 and 3 threads.
+    #[test]
+    fn dispatched_residual_has_the_baseline_bits_on_any_thread_count() {
+        let (n, half) = (3000usize, 6usize);
+        // In [-1, 1) times 10^[-4, 4).
+        let mut next = xorshift(0x9e37_79b9_7f4a_7c15, 4);
+        let a = banded(n, half, &mut next);
         let x: Vec<f64> = (0..3 * n).map(|_| next()).collect();
         let b: Vec<f64> = (0..3 * n).map(|_| next()).collect();
         // The baseline's bits: the same row kernel in a plain loop.
@@ -1080,27 +1091,8 @@ mod tests {
     fn dispatched_products_have_the_baseline_bits_on_any_thread_count() {
         type RowFn<'k> = &'k dyn Fn(usize, &mut [SBlk<f32, 3>], &mut RowScratch<3, 3>);
         let (n, half) = (2500usize, 4usize);
-        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
-        let mut a = Bsr::<3, f32>::empty(n, n);
-        a.row_ptr.clear();
-        a.row_ptr.push(0);
-        for i in 0..n {
-            for j in i.saturating_sub(half)..(i + half + 1).min(n) {
-                a.col.push(j as u32);
-                let mut blk = szero::<f32, 3, 3>();
-                for row in &mut blk {
-                    for v in row.iter_mut() {
-                        seed ^= seed << 13;
-                        seed ^= seed >> 7;
-                        seed ^= seed << 17;
-                        let u = (seed >> 11) as f64 / (1u64 << 53) as f64;
-                        *v = ((2.0 * u - 1.0) * 10f64.powi((seed % 6) as i32 - 3)) as f32;
-                    }
-                }
-                a.val.push(blk);
-            }
-            a.row_ptr.push(a.col.len());
-        }
+        // In [-1, 1) times 10^[-3, 3).
+        let a = banded(n, half, &mut xorshift(0x2545_f491_4f6c_dd1d, 3));
         let (mut at, map) = a.transpose_pattern();
         a.fill_transpose(&mut at, &map);
         let plain = |c: &mut Bsr<3, f32>, kernel: RowFn<'_>| {
