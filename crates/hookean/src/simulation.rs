@@ -43,7 +43,7 @@ pub struct SimulationOptions {
     /// put-back of the particles it left inside a collider
     /// ([`MassSpringModel::put_back_contacts`]), exceeds the starting total
     /// (plus what moving colliders can give) by more than this fraction of
-    /// the scene's energy scale is redone as 2, 4, ..., [`MAX_SUBSTEPS`]
+    /// the scene's energy scale is redone as 2, 4, ..., 64
     /// substeps; if even those cannot keep it, the run stops with
     /// [`HookeanError::EnergyGain`]. Default `0.05` (the integrator's own
     /// error allowed by docs/CONTACT.md, "Energy"); `f64::INFINITY` turns it
