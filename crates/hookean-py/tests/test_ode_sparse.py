@@ -116,3 +116,8 @@ def test_jac_sparsity_of_the_wrong_shape_is_refused():
     fun, jac, y0, D = heat(20)
     with pytest.raises(ValueError, match="^jac_sparsity: has shape"):
         ho.solve_ivp(fun, (0.0, 0.05), y0, jac_sparsity=np.ones((3, 3)))
+
+
+def test_a_sparse_jac_of_the_wrong_shape_is_refused_naming_it():
+    with pytest.raises(ValueError, match=r"^jac: has shape \(4, 4\), expected \(3, 3\)"):
+        ho.solve_ivp(lambda t, y: -y, (0.0, 1.0), np.ones(3), jac=lambda t, y: sp.eye(4, format="csr"))

@@ -120,13 +120,12 @@ _FD_STEP = math.sqrt(np.finfo(float).eps)
 
 def _pattern(S, n, name):
     """The CSR pattern of ``S`` (sparse or dense) with the diagonal added, canonical."""
-    S = scipy.sparse.csr_array(S) if not scipy.sparse.issparse(S) else scipy.sparse.csr_array(S)
-    S = S.astype(bool).astype(float) + scipy.sparse.eye_array(n, format="csr")
     S = scipy.sparse.csr_array(S)
-    S.sum_duplicates()
-    S.sort_indices()
     if S.shape != (n, n):
         raise ValueError(f"{name}: has shape {S.shape}, expected ({n}, {n})")
+    S = scipy.sparse.csr_array(S.astype(bool).astype(float) + scipy.sparse.eye_array(n, format="csr"))
+    S.sum_duplicates()
+    S.sort_indices()
     return np.asarray(S.indptr, dtype=np.int64), np.asarray(S.indices, dtype=np.int64)
 
 
