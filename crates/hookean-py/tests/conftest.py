@@ -84,3 +84,16 @@ def hookean_bin():
         if candidate and pathlib.Path(candidate).is_file():
             return str(candidate)
     return None
+
+
+def example_bin(name, env):
+    """The workspace's example `name` to compare with: $`env`, or its debug
+    or release build; None when it is not built."""
+    for candidate in (
+        os.environ.get(env),
+        ROOT / "target/debug/examples" / name,
+        ROOT / "target/release/examples" / name,
+    ):
+        if candidate and pathlib.Path(candidate).is_file():
+            return str(candidate)
+    return None

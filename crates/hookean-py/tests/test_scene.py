@@ -3,30 +3,22 @@ positions bit for bit as the Rust API (crates/hookean/examples/scene_positions.r
 which prints each f64 in its shortest round-trip form), the facade's message
 for an unknown key, pickling, the OBJ writer that keeps existing files."""
 
-import os
 import pathlib
 import pickle
-import shutil
 import subprocess
 
 import numpy as np
 import pytest
 
 import hookean
+from conftest import example_bin
 
 ROOT = pathlib.Path(__file__).resolve().parents[3]
 DRAPE = str(ROOT / "scenes" / "drape.toml")
 
 
 def _positions_bin():
-    for candidate in (
-        os.environ.get("HOOKEAN_SCENE_POSITIONS_BIN"),
-        ROOT / "target/debug/examples/scene_positions",
-        ROOT / "target/release/examples/scene_positions",
-    ):
-        if candidate and pathlib.Path(candidate).is_file():
-            return str(candidate)
-    return None
+    return example_bin("scene_positions", "HOOKEAN_SCENE_POSITIONS_BIN")
 
 
 @pytest.mark.skipif(

@@ -2,8 +2,6 @@
 SciPy's CG with Hookean's AMG, the same results as the `hookean` command."""
 
 import json
-import os
-import pathlib
 import subprocess
 
 import numpy as np
@@ -14,7 +12,7 @@ import scipy.sparse.linalg as sla
 
 import hookean
 import hookean.sparse as hs
-from conftest import ROOT, hookean_bin as _hookean_bin, poisson_3d, relative_residual
+from conftest import example_bin, hookean_bin as _hookean_bin, poisson_3d, relative_residual
 
 
 @pytest.mark.parametrize("rtol", [1e-6, 1e-10])
@@ -243,14 +241,7 @@ def test_the_gil_is_released_during_a_solve():
 
 
 def _pcg_solution_bin():
-    for candidate in (
-        os.environ.get("HOOKEAN_PCG_SOLUTION_BIN"),
-        ROOT / "target/debug/examples/pcg_solution",
-        ROOT / "target/release/examples/pcg_solution",
-    ):
-        if candidate and pathlib.Path(candidate).is_file():
-            return str(candidate)
-    return None
+    return example_bin("pcg_solution", "HOOKEAN_PCG_SOLUTION_BIN")
 
 
 @pytest.mark.skipif(
