@@ -38,18 +38,21 @@ pub struct BlockPattern {
 /// [`SparseError::NonFinite`] or [`SparseError::NotSymmetric`] naming the
 /// first offending entry.
 pub fn check_csr_symmetric(a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
-    let cols = a.cols();
-    let mut max_abs = 0.0_f64;
-    for (&v, (r, c)) in a.iter() {
-        if !v.is_finite() {
-            return Err(SparseError::NonFinite {
-                what: "matrix",
-                index: Some(r * cols + c),
-            });
-        }
-        max_abs = max_abs.max(v.abs());
+    let data = a.data();
+    if let Some(k) = data.iter().position(|v| !v.is_finite()) {
+        // The entry's position in the order `a.iter()` visits (storage order).
+        let (_, (r, c)) = a.iter().nth(k).expect("k indexes a stored entry");
+        return Err(SparseError::NonFinite {
+            what: "matrix",
+            index: Some(r * a.cols() + c),
+        });
     }
-    let tol = 1e-12 * max_abs;
+    let tol = 1e-12 * data.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    if a.rows() == a.cols() && a.is_csr() && csr_mirrors_agree(a, tol) {
+        return Ok(());
+    }
+    // Not symmetric (or not square CSR): the first offending entry in
+    // storage order, by a search per entry.
     for (&v, (r, c)) in a.iter() {
         let t = a.get(c, r).copied().unwrap_or(0.0);
         if (v - t).abs() > tol {
@@ -57,6 +60,50 @@ pub fn check_csr_symmetric(a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
         }
     }
     Ok(())
+}
+
+/// Whether every entry `a_rc` of the square CSR matrix `a` (rows sorted,
+/// as sprs keeps them) lies within `tol` of its mirror `a_cr` (0 when not
+/// stored), in one pass over the entries and no search.
+///
+/// Rows are visited in order; `next[c]` points at row `c`'s first entry
+/// right of the diagonal not yet paired. Row `r`'s entries `(r, c)` with
+/// `c < r` arrive in order of `c`, and row `c`'s entries right of the
+/// diagonal are met in order of their column `r`, so each mirror is found
+/// at `next[c]`: entries it skips have no mirror and must be within `tol`
+/// of zero, as must those left over at the end.
+fn csr_mirrors_agree(a: &sprs::CsMat<f64>, tol: f64) -> bool {
+    let (indptr, indices, data) = (a.indptr(), a.indices(), a.data());
+    let (start, end) = (|i: usize| indptr.index(i), |i: usize| indptr.index(i + 1));
+    let mut next: Vec<usize> = (0..a.rows())
+        .map(|i| start(i) + indices[start(i)..end(i)].partition_point(|&c| c <= i))
+        .collect();
+    for r in 0..a.rows() {
+        for k in start(r)..end(r) {
+            let c = indices[k];
+            if c >= r {
+                break;
+            }
+            let mut m = next[c];
+            while m < end(c) && indices[m] < r {
+                if data[m].abs() > tol {
+                    return false;
+                }
+                m += 1;
+            }
+            let mirror = if m < end(c) && indices[m] == r {
+                m += 1;
+                data[m - 1]
+            } else {
+                0.0
+            };
+            next[c] = m;
+            if (data[k] - mirror).abs() > tol {
+                return false;
+            }
+        }
+    }
+    (0..a.rows()).all(|i| data[next[i]..end(i)].iter().all(|v| v.abs() <= tol))
 }
 
 /// The unknowns per node `B` of `a`'s sparsity pattern: 3 or 2 when the
@@ -885,16 +932,38 @@ impl SymBlockMatrix {
         }
         let n = rows / 3;
         check_csr_symmetric(a)?;
-        let pattern = Arc::new(BlockPattern::new(
-            n,
-            a.iter().map(|(_, (r, c))| (r / 3, c / 3)),
-        )?);
-        let mut m = SymBlockMatrix::new(pattern);
-        for (&v, (r, c)) in a.iter() {
-            let (bi, bj) = (r / 3, c / 3);
-            if bi <= bj {
-                let slot = m.pattern.find(bi, bj).expect("pattern holds every entry");
-                m.values[slot.index][r % 3][c % 3] = v;
+        if !a.is_csr() {
+            return Self::from_csr(&a.to_csr());
+        }
+        let (indptr, indices, data) = (a.indptr(), a.indices(), a.data());
+        let row = |r: usize| indptr.index(r)..indptr.index(r + 1);
+        // `a` is symmetric: its upper triangle gives the pattern. A row's
+        // columns are sorted, so its block columns repeat consecutively and
+        // each is passed once per scalar row.
+        let upper = (0..rows).flat_map(|r| {
+            let cols = &indices[row(r)];
+            cols.iter()
+                .enumerate()
+                .filter(move |&(k, &c)| c / 3 > r / 3 && (k == 0 || cols[k - 1] / 3 != c / 3))
+                .map(move |(_, &c)| (r / 3, c / 3))
+        });
+        let mut m = SymBlockMatrix::try_new(Arc::new(BlockPattern::new(n, upper)?))?;
+        // Each scalar row meets its block row's stored blocks in column
+        // order: one cursor per row instead of a search per entry.
+        for r in 0..rows {
+            let bi = r / 3;
+            let (start, end) = (m.pattern.row_ptr[bi], m.pattern.row_ptr[bi + 1]);
+            let mut slot = start;
+            for k in row(r) {
+                let bj = indices[k] / 3;
+                if bj < bi {
+                    continue;
+                }
+                while slot < end && (m.pattern.col_idx[slot] as usize) < bj {
+                    slot += 1;
+                }
+                debug_assert!(slot < end && m.pattern.col_idx[slot] as usize == bj);
+                m.values[slot][r % 3][indices[k] % 3] = data[k];
             }
         }
         Ok(m)

@@ -528,3 +528,86 @@ fn an_ambiguous_pattern_gives_1() {
     assert!(!is_block_pattern(&wide, 3));
     assert_eq!(detect_block_size(&wide), 1);
 }
+
+proptest::proptest! {
+    /// The one-pass mirror check against the definition, entry by entry
+    /// with a search for each mirror: random square patterns whose entries
+    /// are symmetric, perturbed above or below the tolerance, or without a
+    /// mirror (small or large), dense and sparse.
+    #[test]
+    fn symmetry_check_agrees_with_the_definition(
+        n in 1usize..12,
+        entries in proptest::collection::vec((0usize..12, 0usize..12, -4i32..5, 0u8..6), 0..60),
+    ) {
+        let mut t = sprs::TriMat::new((n, n));
+        let mut seen = std::collections::HashSet::new();
+        for &(i, j, v, kind) in &entries {
+            let (i, j) = (i % n, j % n);
+            if !seen.insert((i.min(j), i.max(j))) {
+                continue;
+            }
+            let v = f64::from(v);
+            match kind {
+                // Symmetric pair (or a diagonal entry).
+                0 | 1 => {
+                    t.add_triplet(i, j, v);
+                    if i != j { t.add_triplet(j, i, v); }
+                }
+                // Mirror off by far more, or far less, than 1e-12 of the largest.
+                2 | 3 if i != j => {
+                    let d = if kind == 2 { 1e-6 } else { 1e-15 };
+                    t.add_triplet(i, j, v);
+                    t.add_triplet(j, i, v + d);
+                }
+                // No mirror stored: symmetric only when the entry is (near) zero.
+                4 => t.add_triplet(i, j, v * 1e-14),
+                _ => t.add_triplet(i, j, v),
+            }
+        }
+        let a: sprs::CsMat<f64> = t.to_csr();
+        let max = a.data().iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        let first_bad = a.iter().find(|&(&v, (r, c))| {
+            (v - a.get(c, r).copied().unwrap_or(0.0)).abs() > 1e-12 * max
+        });
+        let expected = match first_bad {
+            Some((_, (row, col))) => Err(SparseError::NotSymmetric { row, col }),
+            None => Ok(()),
+        };
+        proptest::prop_assert_eq!(check_csr_symmetric(&a), expected.clone());
+        // CSC storage takes the general path and must agree.
+        let csc = a.to_csc();
+        proptest::prop_assert_eq!(check_csr_symmetric(&csc).is_ok(), expected.is_ok());
+    }
+}
+
+proptest::proptest! {
+    /// `from_csr` keeps every entry: its dense form equals the scalar
+    /// matrix's, on random symmetric patterns that fill 3x3 blocks partly
+    /// (writers drop exact zeros), with empty block rows and CSC input.
+    #[test]
+    fn from_csr_keeps_every_entry(
+        nodes in 1usize..6,
+        entries in proptest::collection::vec((0usize..18, 0usize..18, 1i32..9), 0..40),
+    ) {
+        let dim = 3 * nodes;
+        let mut seen = std::collections::HashSet::new();
+        let mut t = sprs::TriMat::new((dim, dim));
+        let mut want = vec![vec![0.0; dim]; dim];
+        for &(i, j, v) in &entries {
+            let (i, j) = (i % dim, j % dim);
+            if !seen.insert((i.min(j), i.max(j))) {
+                continue;
+            }
+            let v = f64::from(v);
+            t.add_triplet(i, j, v);
+            want[i][j] = v;
+            if i != j {
+                t.add_triplet(j, i, v);
+                want[j][i] = v;
+            }
+        }
+        let csr: sprs::CsMat<f64> = t.to_csr();
+        proptest::prop_assert_eq!(dense(&SymBlockMatrix::from_csr(&csr).unwrap()), want.clone());
+        proptest::prop_assert_eq!(dense(&SymBlockMatrix::from_csr(&csr.to_csc()).unwrap()), want);
+    }
+}
