@@ -22,9 +22,6 @@ pub struct System {
     pub near_nullspace: Vec<Vec<f64>>,
     /// Where the unknowns per node came from.
     pub block_size_source: &'static str,
-    /// The CSR pattern as given (row pointers, column indices), for
-    /// [`same_pattern`](System::same_pattern).
-    pattern: (Vec<usize>, Vec<usize>),
 }
 
 #[pymethods]
@@ -54,22 +51,48 @@ impl System {
         self.matrix.format()
     }
 
-    /// Whether `other` has the same rows and sparsity pattern.
+    /// Whether `other` is stored on the same pattern (the same 3x3 blocks,
+    /// or the same CSR rows and columns), as a refill of a preconditioner
+    /// built from `self` needs.
     fn same_pattern(&self, other: &System) -> bool {
-        self.pattern == other.pattern
+        match (&self.matrix, &other.matrix) {
+            (PcgMatrix::Block(a), PcgMatrix::Block(b)) => a.pattern() == b.pattern(),
+            (PcgMatrix::Csr { a, .. }, PcgMatrix::Csr { a: b, .. }) => {
+                a.indptr().raw_storage() == b.indptr().raw_storage() && a.indices() == b.indices()
+            }
+            _ => false,
+        }
     }
 }
 
-/// Row pointers or column indices as `usize`, each in `0..=max`.
-fn indices(arg: &str, what: &str, v: &[i64], max: usize) -> PyResult<Vec<usize>> {
-    v.iter()
-        .map(|&i| {
-            usize::try_from(i)
-                .ok()
-                .filter(|&u| u <= max)
-                .ok_or_else(|| bad(arg, format!("{what} entry {i} outside 0 to {max}")))
-        })
-        .collect()
+/// Row pointers or column indices (a NumPy array of `int32` or `int64`) as
+/// `usize`, each in `0..=max`: one pass, one copy.
+fn indices(arg: &str, what: &str, v: &Bound<'_, PyAny>, max: usize) -> PyResult<Vec<usize>> {
+    fn convert<T: Copy + Into<i64>>(
+        arg: &str,
+        what: &str,
+        v: &[T],
+        max: usize,
+    ) -> PyResult<Vec<usize>> {
+        let out: Vec<usize> = v
+            .iter()
+            .map(|&i| usize::try_from(i.into()).unwrap_or(usize::MAX))
+            .collect();
+        match out.iter().position(|&u| u > max) {
+            Some(k) => Err(bad(
+                arg,
+                format!("{what} entry {} outside 0 to {max}", v[k].into()),
+            )),
+            None => Ok(out),
+        }
+    }
+    let contiguous = |e| bad(arg, format!("arrays must be contiguous ({e})"));
+    if let Ok(a) = v.extract::<PyReadonlyArray1<'_, i32>>() {
+        convert(arg, what, a.as_slice().map_err(contiguous)?, max)
+    } else {
+        let a: PyReadonlyArray1<'_, i64> = v.extract()?;
+        convert(arg, what, a.as_slice().map_err(contiguous)?, max)
+    }
 }
 
 /// The columns of an `(n, k)` array.
@@ -83,45 +106,38 @@ fn columns(a: &PyReadonlyArray2<'_, f64>) -> Vec<Vec<f64>> {
 /// (PCG's matrix), the unknowns per node from `block_size`, the first
 /// vector of `nullspace` (an `(n, k)` array), the columns of `coordinates`
 /// (an `(n / d, d)` array whose rigid-body modes become the
-/// near-nullspace) or the pattern.
+/// near-nullspace) or the pattern. The index arrays may be `int32` or
+/// `int64`. The entries are copied once, into the storage PCG runs on
+/// (the CSR copy itself becomes block storage when that is chosen), and
+/// symmetry is checked once, by the conversion.
 #[pyfunction]
 #[pyo3(signature = (n, indptr, indices_, data, block_size=None, nullspace=None, coordinates=None))]
 pub fn system(
     py: Python<'_>,
     n: usize,
-    indptr: PyReadonlyArray1<'_, i64>,
-    indices_: PyReadonlyArray1<'_, i64>,
+    indptr: &Bound<'_, PyAny>,
+    indices_: &Bound<'_, PyAny>,
     data: PyReadonlyArray1<'_, f64>,
     block_size: Option<i64>,
     nullspace: Option<PyReadonlyArray2<'_, f64>>,
     coordinates: Option<PyReadonlyArray2<'_, f64>>,
 ) -> PyResult<System> {
     let contiguous = |e| bad("A", format!("arrays must be contiguous ({e})"));
-    let (ptr, idx, val) = (
-        indptr.as_slice().map_err(contiguous)?,
-        indices_.as_slice().map_err(contiguous)?,
-        data.as_slice().map_err(contiguous)?.to_vec(),
-    );
     if n == 0 {
         return Err(bad(
             "A",
             "the matrix is empty (0 x 0): there is nothing to solve",
         ));
     }
-    let nnz = val.len();
-    let ptr = indices("A", "row pointer", ptr, nnz)?;
-    let idx = indices("A", "column index", idx, n.saturating_sub(1))?;
-    let pattern = (ptr.clone(), idx.clone());
-    let a = sprs::CsMat::try_new((n, n), ptr, idx, val)
-        .map_err(|(.., e)| bad("A", format!("not a valid CSR matrix: {e}")))?;
-    if let Some(k) = a.data().iter().position(|v| !v.is_finite()) {
-        return Err(bad(
-            "A",
-            format!("entry {k} of its data is {}", a.data()[k]),
-        ));
+    let val = data.as_slice().map_err(contiguous)?;
+    if let Some(k) = val.iter().position(|v| !v.is_finite()) {
+        return Err(bad("A", format!("entry {k} of its data is {}", val[k])));
     }
-    check_csr_symmetric(&a).map_err(|e| bad("A", format!("{e} (PCG needs a symmetric matrix)")))?;
-
+    let nnz = val.len();
+    let ptr = indices("A", "row pointer", indptr, nnz)?;
+    let idx = indices("A", "column index", indices_, n.saturating_sub(1))?;
+    let a = sprs::CsMat::try_new((n, n), ptr, idx, val.to_vec())
+        .map_err(|(.., e)| bad("A", format!("not a valid CSR matrix: {e}")))?;
     let (near_nullspace, implied) = match (&nullspace, &coordinates) {
         (Some(_), Some(_)) => {
             return Err(bad("nullspace", "give nullspace or coordinates, not both"));
@@ -171,22 +187,33 @@ pub fn system(
         Some(b) => return Err(bad("block_size", format!("must be 1, 2 or 3, got {b}"))),
         None => implied,
     };
-    // The pattern detection and the symmetric product read the whole
-    // matrix: without the GIL.
-    let (matrix, source) = py.detach(move || {
-        let (b, source) = given.unwrap_or_else(|| match detect_block_size(&a) {
-            1 => (1, "default"),
-            d => (d, "detected"),
-        });
-        let m = PcgMatrix::auto(a, b, source != "default");
-        // Block storage has 3 unknowns per node whatever was asked.
-        let source = if m.block_size() != b {
-            "default"
-        } else {
-            source
-        };
-        (m, source)
-    });
+    // The pattern detection and the conversion read the whole matrix:
+    // without the GIL. Both storages check symmetry as they are built
+    // (`SymBlockMatrix::from_csr`, `SymCsrMatrix::from_csr`); CSR without
+    // the symmetric product is a matrix that failed it, whose first
+    // offending entry the check names.
+    let (matrix, source) = py
+        .detach(move || {
+            let (b, source) = given.unwrap_or_else(|| match detect_block_size(&a) {
+                1 => (1, "default"),
+                d => (d, "detected"),
+            });
+            let m = PcgMatrix::auto(a, b, source != "default");
+            // Block storage has 3 unknowns per node whatever was asked.
+            let source = if m.block_size() != b {
+                "default"
+            } else {
+                source
+            };
+            let symmetric = match &m {
+                PcgMatrix::Csr {
+                    a, product: None, ..
+                } => check_csr_symmetric(a),
+                _ => Ok(()),
+            };
+            symmetric.map(|()| (m, source))
+        })
+        .map_err(|e| bad("A", format!("{e} (PCG needs a symmetric matrix)")))?;
     let (b, k) = (matrix.block_size(), near_nullspace.len());
     if k > 0 && !amg_takes_near_nullspace(b, k) {
         let arg = if nullspace.is_some() {
@@ -207,6 +234,5 @@ pub fn system(
         matrix,
         near_nullspace,
         block_size_source: source,
-        pattern,
     })
 }

@@ -153,3 +153,24 @@ def test_callback_not_callable_and_callback_raising():
 
     with pytest.raises(Stop, match="from the callback"):
         hs.solve(A, b, callback=cb)
+
+
+@pytest.mark.parametrize("index", [np.int32, np.int64])
+def test_index_outside_the_matrix_names_the_entry(index):
+    M = A.tocsr().copy()
+    M.indices = M.indices.astype(index)
+    M.indptr = M.indptr.astype(index)
+    M.indices[5] = -1
+    with pytest.raises(ValueError, match="^A: column index entry -1 outside 0 to"):
+        hs.solve(M, np.ones(N))
+    M.indices[5] = N
+    with pytest.raises(ValueError, match=f"^A: column index entry {N} outside 0 to {N - 1}"):
+        hs.solve(M, np.ones(N))
+
+
+def test_asymmetric_matrix_names_the_entry_on_either_storage():
+    # Scalar (CSR) and 3x3-block storage check symmetry as they convert.
+    for block_size in (1, 3):
+        M = (A + sp.eye(N, k=1, format="csr") * 1e-3).tocsr()
+        with pytest.raises(ValueError, match=r"^A: .*\(PCG needs a symmetric matrix\)"):
+            hs.solve(M, np.ones(N), block_size=block_size, precond="jacobi")

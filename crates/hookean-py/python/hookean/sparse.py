@@ -96,8 +96,11 @@ def _system(A, *, block_size=None, nullspace=None, coordinates=None, name="A"):
     if not A.has_canonical_format:
         A = A.copy()
         A.sum_duplicates()
-    indptr = np.ascontiguousarray(A.indptr, dtype=np.int64)
-    indices = np.ascontiguousarray(A.indices, dtype=np.int64)
+    # int32 or int64 as they are (Rust reads both); other widths widened.
+    indptr, indices = (
+        np.ascontiguousarray(v, dtype=v.dtype if v.dtype in (np.int32, np.int64) else np.int64)
+        for v in (A.indptr, A.indices)
+    )
     data = np.ascontiguousarray(A.data, dtype=np.float64)
     if block_size is not None and (
         isinstance(block_size, bool) or not isinstance(block_size, numbers.Integral)
