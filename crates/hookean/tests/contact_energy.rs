@@ -187,3 +187,32 @@ fn landing_on_a_plane_with_the_variable_step_bdfs_stays_within_budget_or_fails()
         );
     }
 }
+
+#[test]
+fn the_scene_key_energy_budget_reaches_the_simulation() {
+    // Off, the long-step landing keeps the energy its put-back creates
+    // (1.47 J -> 25.6 J before the budget existed): the key is read.
+    let (error, e_max, budget) =
+        land_on_slope("implicit-euler", 1.0, &["integrator.energy_budget=\"off\""]);
+    assert!(error.is_none(), "{error:?}");
+    assert!(e_max > 2.0 * budget, "{e_max} J <= 2 x {budget} J");
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cloth-slope.toml");
+    for (value, expected) in [
+        ("0", "must lie in (0, inf), got 0 (or \"off\")"),
+        ("nan", "must lie in (0, inf), got NaN (or \"off\")"),
+        (
+            "\"none\"",
+            "must lie in (0, inf) or be \"off\", got \"none\"",
+        ),
+    ] {
+        let set = format!("integrator.energy_budget={value}");
+        let msg = Scene::from_file(&path, &[set.as_str()])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("integrator.energy_budget") && msg.contains(expected),
+            "{value}: {msg}"
+        );
+    }
+}

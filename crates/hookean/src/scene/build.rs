@@ -118,6 +118,7 @@ impl Scene {
                 Some(CouplingScene::Positions) => FilterCoupling::CorrectPositions,
                 Some(CouplingScene::Increment) | None => FilterCoupling::Increment,
             },
+            energy_budget: self.integrator.energy_budget,
             ..SimulationOptions::default()
         }
     }

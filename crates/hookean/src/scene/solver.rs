@@ -57,6 +57,14 @@ pub struct IntegratorScene {
         deserialize_with = "int_in::<_, 1, 1000000000>"
     )]
     pub max_steps: usize,
+    /// The energy budget ([`SimulationOptions::energy_budget`](crate::SimulationOptions::energy_budget)):
+    /// a step whose total energy exceeds the start (plus what moving
+    /// colliders and the wind can give) by more than this fraction of the
+    /// scene's energy scale is redone in 2 to 64 substeps, and the run fails
+    /// if even those exceed it; `"off"` turns the check off. Range (0, inf)
+    /// or `"off"`. Default 0.05.
+    #[serde(default = "d_energy_budget", deserialize_with = "energy_budget")]
+    pub energy_budget: f64,
 }
 
 /// `integrator.h`: a step size in seconds or `"auto"`.
@@ -140,6 +148,7 @@ impl Default for IntegratorScene {
             h_max: d_hmax(),
             max_order: d_max_order(),
             max_steps: d_max_steps(),
+            energy_budget: d_energy_budget(),
         }
     }
 }
@@ -161,6 +170,29 @@ pub(super) fn d_max_order() -> usize {
 }
 pub(super) fn d_max_steps() -> usize {
     100_000
+}
+pub(super) fn d_energy_budget() -> f64 {
+    crate::SimulationOptions::default().energy_budget
+}
+
+/// `integrator.energy_budget`: a number in (0, inf), or `"off"` (infinity).
+pub(super) fn energy_budget<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Raw {
+        Number(f64),
+        Name(String),
+    }
+    let range = crate::range::Range::POSITIVE;
+    match Raw::deserialize(d)? {
+        Raw::Number(b) => range
+            .check(b)
+            .map_err(|e| D::Error::custom(format!("{e} (or \"off\")"))),
+        Raw::Name(s) if s == "off" => Ok(f64::INFINITY),
+        Raw::Name(s) => Err(D::Error::custom(format!(
+            "must lie in {range} or be \"off\", got \"{s}\""
+        ))),
+    }
 }
 
 /// Step-size control of variable-step methods.
