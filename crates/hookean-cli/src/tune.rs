@@ -344,7 +344,7 @@ pub fn layouts(n: usize, first: Layout) -> Vec<Layout> {
             Layout::Block => 3,
             Layout::Csr(d) => d,
         };
-        if n % d == 0 && !out.contains(&l) {
+        if n.is_multiple_of(d) && !out.contains(&l) {
             out.push(l);
         }
     }
@@ -363,12 +363,9 @@ pub fn kind_layouts(kind: Kind, layouts: &[Layout]) -> Vec<usize> {
         _ => {
             let mut seen_csr = false;
             let mut seen_block = false;
-            all.filter(|&i| {
-                let first = match layouts[i] {
-                    Layout::Block => !std::mem::replace(&mut seen_block, true),
-                    Layout::Csr(_) => !std::mem::replace(&mut seen_csr, true),
-                };
-                first
+            all.filter(|&i| match layouts[i] {
+                Layout::Block => !std::mem::replace(&mut seen_block, true),
+                Layout::Csr(_) => !std::mem::replace(&mut seen_csr, true),
             })
             .collect()
         }
@@ -764,10 +761,10 @@ impl Tuner<'_> {
         });
         // Around the overall best first (perhaps a tuned point), then each
         // kind's default.
-        if let Some(best) = self.best() {
-            if !self.descend(self.trials[best].point) {
-                return;
-            }
+        if let Some(best) = self.best()
+            && !self.descend(self.trials[best].point)
+        {
+            return;
         }
         for i in order {
             if self.trials[i].converged && !self.descend(self.trials[i].point) {
