@@ -415,4 +415,42 @@ pub(crate) const BOUNDS: &[Case] = &[
         "",
     )
     .creates(&["out/bench.md", "out/bench.csv", "out/residual-a.svg"]),
+    case(
+        "tune: --budget 0",
+        &[("a.mtx", SPD)],
+        &["tune", "{}/a.mtx", "--budget", "0", "--out", "{}/out"],
+        2,
+        "--budget must be a positive number of seconds, got 0",
+    )
+    .absent(&["out"]),
+    case(
+        "tune: --budget NaN",
+        &[("a.mtx", SPD)],
+        &["tune", "{}/a.mtx", "--budget", "NaN", "--out", "{}/out"],
+        2,
+        "--budget must be a positive number of seconds, got NaN",
+    )
+    .absent(&["out"]),
+    case(
+        "tune: --budget -1",
+        &[("a.mtx", SPD)],
+        &["tune", "{}/a.mtx", "--budget", "-1"],
+        2,
+        "--budget must be a positive number of seconds, got -1",
+    ),
+    case(
+        "tune: --repeat 0",
+        &[("a.mtx", SPD)],
+        &["tune", "{}/a.mtx", "--repeat", "0"],
+        2,
+        "--repeat must lie in 1 to 100",
+    ),
+    case(
+        "tune: a matrix that does not exist",
+        &[],
+        &["tune", "{}/none.mtx", "--out", "{}/out"],
+        2,
+        "none.mtx",
+    )
+    .absent(&["out"]),
 ];

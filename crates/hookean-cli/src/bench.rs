@@ -126,6 +126,7 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     let solver_args = SolverArgs {
         precond: args.precond.clone(),
         omega: args.omega,
+        mic_omega: hookean_sparse::PrecondKind::MIC_OMEGA,
         rtol: args.rtol,
         max_iter: args.max_iter,
         repeat: args.repeat,
@@ -307,6 +308,7 @@ fn bench(args: &BenchArgs, inputs: &[Input], plan: &Plan, dir: &Path) -> Result<
                         Ok(v) if solver.is_amg() => v.clone(),
                         _ => Vec::new(),
                     },
+                    ..Default::default()
                 };
                 let mut record = match &nullspace {
                     Err(reason) if solver.is_amg() => {

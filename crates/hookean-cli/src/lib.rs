@@ -6,6 +6,7 @@
 //! hookean workprecision --problem tutorial1|tutorial2|tutorial3|wave [--methods a,b] --out wp.csv [--plot wp.svg] [--force]
 //! hookean stability [--methods a,b] --plot regions.svg [--re -5,3] [--im -4,4] [--force]
 //! hookean bench-precond [--n 32,64,128] [--k 1e2,1e4,1e6] [--rtol 1e-8] [--repeat K]
+//! hookean tune A.mtx [--rhs b.mtx] [--budget 60] [--exhaustive] [--rtol 1e-8] [--out DIR] [--force]
 //! hookean export-system SCENE --at T --out DIR [--force]
 //! hookean filter-analysis SCENE --plot DIR [--n 16] [--t-end 1.0] [--force]
 //! hookean view OUT_DIR [--force]
@@ -60,6 +61,7 @@ mod solve;
 mod stability;
 mod thin;
 mod threads;
+mod tune;
 mod tutorial_run;
 mod view;
 mod work;
@@ -102,6 +104,11 @@ enum Command {
     /// Write a point cache (cache.pc2 or cache.mdd, with cache-rest.obj) of an earlier `hookean run`'s
     /// OBJ frames, for Blender's Mesh Cache modifier (docs/OUTPUTS.md, "Point caches").
     ExportCache(export_cache::ExportCacheArgs),
+    /// Find the fastest preconditioner and options for one Matrix Market system (set-up plus
+    /// solve to --rtol) within --budget seconds: the default multigrid first, every preconditioner's
+    /// defaults, then one option at a time around the best; prints the winner as a `hookean solve`
+    /// command line and a scene [solver] table (--out DIR: tune.csv of every candidate).
+    Tune(tune::TuneArgs),
     /// Write the linearised implicit-Euler system (A.mtx, b.mtx) of a scene's state at time T.
     ExportSystem(export_system::ExportSystemArgs),
     /// List every scene key (TOML) with its units and default.
@@ -294,6 +301,7 @@ fn dispatch(command: Command, threads: Option<usize>) -> Result<(), CliError> {
         Command::Stability(args) => stability::run(&args),
         Command::BenchPrecond(args) => bench_precond::run(&args),
         Command::Bench(args) => bench::run(&args),
+        Command::Tune(args) => tune::run(&args),
         Command::ExportSystem(args) => export_system::run(&args),
         Command::ExportCache(args) => export_cache::run(&args),
         Command::FilterAnalysis(args) => filter_analysis::run(&args),

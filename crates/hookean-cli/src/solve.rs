@@ -69,6 +69,9 @@ pub struct SolverArgs {
     /// SSOR relaxation, in (0, 2).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub omega: f64,
+    /// MIC(0) relaxation (the scene key solver.mic_omega), in [0, 1].
+    #[arg(long, default_value_t = PrecondKind::MIC_OMEGA, allow_negative_numbers = true)]
+    pub mic_omega: f64,
     /// Relative residual tolerance |r| / |b| of PCG, in [0, 1).
     #[arg(long, default_value_t = 1e-8, allow_negative_numbers = true)]
     pub rtol: f64,
@@ -120,31 +123,21 @@ impl SolverArgs {
                 "--repeat must lie in 1 to {MAX_REPEAT}, got {repeat}"
             )));
         }
-        if let Some(m) = self.max_iter.filter(|&m| m > MAX_ITER) {
-            return Err(CliError::Input(format!(
-                "--max-iter must lie in 0 to {MAX_ITER}, got {m}"
-            )));
-        }
         // The scene key solver.omega's range (hookean::range owns it).
         hookean::range::SSOR_OMEGA
             .check(omega)
             .map_err(|m| CliError::Input(format!("--omega {m}")))?;
-        // 0 is allowed here: "cannot converge" is a solve's failure to report.
-        hookean::range::Range::closed_open(0.0, 1.0)
-            .check(rtol)
-            .map_err(|m| CliError::Input(format!("--rtol {m}")))?;
-        let params = CgParams {
-            rtol,
-            max_iter: self.max_iter,
-            ..Default::default()
-        };
+        hookean::range::MIC_OMEGA
+            .check(self.mic_omega)
+            .map_err(|m| CliError::Input(format!("--mic-omega {m}")))?;
+        let params = cg_params(rtol, self.max_iter)?;
         let amg = self.amg.options(1, Vec::new())?;
         let cap = crate::memory::cap_bytes(self.max_memory)?;
         let mut mic0_from_all = false;
         let mut solvers = Vec::new();
         for name in self.precond.split(',').map(str::trim) {
             mic0_from_all |= name == "all";
-            parse_solver(name, omega, &mut solvers)?;
+            parse_solver(name, omega, self.mic_omega, &mut solvers)?;
         }
         for solver in &mut solvers {
             if let Solver::Pcg(options) = solver {
@@ -159,6 +152,24 @@ impl SolverArgs {
             mic0_from_all,
         })
     }
+}
+
+/// PCG's parameters from `--rtol` and `--max-iter`, checked.
+pub fn cg_params(rtol: f64, max_iter: Option<usize>) -> Result<CgParams, CliError> {
+    if let Some(m) = max_iter.filter(|&m| m > MAX_ITER) {
+        return Err(CliError::Input(format!(
+            "--max-iter must lie in 0 to {MAX_ITER}, got {m}"
+        )));
+    }
+    // 0 is allowed here: "cannot converge" is a solve's failure to report.
+    hookean::range::Range::closed_open(0.0, 1.0)
+        .check(rtol)
+        .map_err(|m| CliError::Input(format!("--rtol {m}")))?;
+    Ok(CgParams {
+        rtol,
+        max_iter,
+        ..Default::default()
+    })
 }
 
 /// One JSON line of output.
@@ -204,6 +215,9 @@ pub struct SolveRecord {
     /// factor) keeps.
     #[serde(skip)]
     pub setup_bytes: Option<u64>,
+    /// PCG stopped at [`RunOptions::time_limit`] before the tolerance.
+    #[serde(skip)]
+    pub timed_out: bool,
 }
 
 /// The statistics of an AMG hierarchy in `hookean solve`'s JSON.
@@ -260,14 +274,17 @@ impl Solver {
 
 /// Appends the solvers of one name of `--precond`: `all` (every
 /// preconditioner, then `direct`), `direct`, or a preconditioner (SSOR with
-/// relaxation `omega`).
-fn parse_solver(name: &str, omega: f64, out: &mut Vec<Solver>) -> Result<(), CliError> {
+/// relaxation `omega`, MIC(0) with `mic_omega`).
+fn parse_solver(
+    name: &str,
+    omega: f64,
+    mic_omega: f64,
+    out: &mut Vec<Solver>,
+) -> Result<(), CliError> {
     let pcg = |kind: PrecondKind| Solver::Pcg(kind.into());
     if name == "all" {
         out.extend(PrecondKind::all(omega).into_iter().map(pcg));
-        out.push(pcg(PrecondKind::Mic0 {
-            omega: PrecondKind::MIC_OMEGA,
-        }));
+        out.push(pcg(PrecondKind::Mic0 { omega: mic_omega }));
         out.push(Solver::Direct);
     } else if name == "direct" {
         out.push(Solver::Direct);
@@ -275,6 +292,7 @@ fn parse_solver(name: &str, omega: f64, out: &mut Vec<Solver>) -> Result<(), Cli
         let kind: PrecondKind = name.parse()?;
         out.push(pcg(match kind {
             PrecondKind::Ssor { .. } => PrecondKind::Ssor { omega },
+            PrecondKind::Mic0 { .. } => PrecondKind::Mic0 { omega: mic_omega },
             other => other,
         }));
     }
@@ -320,6 +338,7 @@ pub fn run_solver(
                 repeat,
                 format,
                 trace: run.trace,
+                time_limit: run.time_limit,
             };
             match matrix {
                 Matrix::Block(m) => pcg.run(m, m),
@@ -505,13 +524,32 @@ pub fn load_system(
     })
 }
 
-pub fn run(args: &SolveArgs) -> Result<(), CliError> {
-    let plan = args.solver.resolve()?;
-    let cap = plan.cap;
+/// The files and flags naming a system of `hookean solve` (and `hookean tune`).
+pub struct SystemPaths<'a> {
+    /// The matrix A.
+    pub matrix: &'a std::path::Path,
+    /// `--rhs` (default `A * ones`).
+    pub rhs: Option<&'a std::path::Path>,
+    /// `--format`: auto, block or csr.
+    pub format: &'a str,
+    /// `--block-size`.
+    pub block_size: Option<usize>,
+    /// `--nullspace`.
+    pub nullspace: Option<&'a std::path::Path>,
+    /// `--coordinates`.
+    pub coordinates: Option<&'a std::path::Path>,
+}
+
+/// Reads the system of `paths` within `cap` bytes ([`load_system`]) and
+/// the multigrid's near-nullspace (`--nullspace`, or the rigid-body modes
+/// of `--coordinates`; empty for neither), which also sets the unknowns per
+/// node unless `--block-size` does; a near-nullspace of the wrong shape is
+/// bad input naming its flag.
+pub fn read_system(paths: &SystemPaths<'_>, cap: u64) -> Result<(System, Vec<Vec<f64>>), CliError> {
     let input = |flag: &str, path: &std::path::Path, e: String| {
         CliError::Input(format!("--{flag} {}: {e}", path.display()))
     };
-    let (near_nullspace, implied) = match (&args.nullspace, &args.coordinates) {
+    let (near_nullspace, implied) = match (paths.nullspace, paths.coordinates) {
         (Some(p), _) => {
             let v = read_columns(p, cap).map_err(|e| input("nullspace", p, e))?;
             let d =
@@ -525,7 +563,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         }
         (None, None) => (Vec::new(), None),
     };
-    let block_size = args
+    let block_size = paths
         .block_size
         .map(|d| (d, BlockSizeSource::Flag))
         .or(implied);
@@ -535,15 +573,9 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
         matrix,
         block_size,
         block_size_source,
-    } = load_system(
-        &args.matrix,
-        args.rhs.as_deref(),
-        &args.format,
-        block_size,
-        cap,
-    )?;
+    } = load_system(paths.matrix, paths.rhs, paths.format, block_size, cap)?;
     let rows = a.rows();
-    let source = match (&args.nullspace, &args.coordinates) {
+    let source = match (paths.nullspace, paths.coordinates) {
         (Some(p), _) => Some(("nullspace", p)),
         (None, Some(p)) => Some(("coordinates", p)),
         (None, None) => None,
@@ -562,7 +594,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
     // The shapes the multigrid takes (hookean-sparse owns them), checked
     // for any --precond: a file of the wrong shape is bad input, not a
     // failed set-up (exit 1) or a file ignored.
-    if let Some(path) = &args.nullspace {
+    if let Some(path) = paths.nullspace {
         let k = near_nullspace.len();
         let zero = near_nullspace
             .iter()
@@ -591,6 +623,41 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             ));
         }
     }
+    Ok((
+        System {
+            a,
+            b,
+            matrix,
+            block_size,
+            block_size_source,
+        },
+        near_nullspace,
+    ))
+}
+
+pub fn run(args: &SolveArgs) -> Result<(), CliError> {
+    let plan = args.solver.resolve()?;
+    let (
+        System {
+            a,
+            b,
+            matrix,
+            block_size,
+            block_size_source,
+        },
+        near_nullspace,
+    ) = read_system(
+        &SystemPaths {
+            matrix: &args.matrix,
+            rhs: args.rhs.as_deref(),
+            format: &args.format,
+            block_size: args.block_size,
+            nullspace: args.nullspace.as_deref(),
+            coordinates: args.coordinates.as_deref(),
+        },
+        plan.cap,
+    )?;
+    let rows = a.rows();
     // MIC(0) exists for block storage only: "all" skips it on CSR.
     let solvers = plan.solvers.iter().filter(|s| {
         !(plan.mic0_from_all
@@ -696,6 +763,7 @@ pub(crate) fn empty_record(
         error: None,
         trace: Vec::new(),
         setup_bytes: None,
+        timed_out: false,
     }
 }
 
@@ -706,6 +774,10 @@ pub struct RunOptions {
     pub trace: bool,
     /// The multigrid's near-nullspace vectors (empty: its default).
     pub near_nullspace: Vec<Vec<f64>>,
+    /// Stop PCG once this many seconds have passed since its set-up
+    /// started ([`SolveRecord::timed_out`]; a clock read per iteration):
+    /// `hookean tune` abandons a candidate that cannot win.
+    pub time_limit: Option<f64>,
 }
 
 /// The heap bytes live now, where the binary counts them.
@@ -727,6 +799,7 @@ struct PcgRun<'a> {
     repeat: usize,
     format: &'static str,
     trace: bool,
+    time_limit: Option<f64>,
 }
 
 impl PcgRun<'_> {
@@ -805,12 +878,20 @@ impl PcgRun<'_> {
             record.setup_bytes = record.setup_bytes.max(grown);
             trace.clear();
             let t1 = Instant::now();
-            let result = if self.trace {
-                trace.push((setup_s, 1.0));
+            let mut timed_out = false;
+            let result = if self.trace || self.time_limit.is_some() {
+                if self.trace {
+                    trace.push((setup_s, 1.0));
+                }
+                let limit = self.time_limit.unwrap_or(f64::INFINITY);
                 let mut on_iteration = |p: &CgProgress<'_>| {
-                    if trace.len() < trace_len {
-                        let t = setup_s + t1.elapsed().as_secs_f64();
+                    let t = setup_s + t1.elapsed().as_secs_f64();
+                    if self.trace && trace.len() < trace_len {
                         trace.push((t, p.relative_residual));
+                    }
+                    if t > limit {
+                        timed_out = true;
+                        return ControlFlow::Break(());
                     }
                     ControlFlow::Continue(())
                 };
@@ -824,6 +905,7 @@ impl PcgRun<'_> {
                     record.iterations = info.iterations;
                     record.recursive_rel_residual = Some(info.relative_residual);
                     record.converged = info.converged;
+                    record.timed_out = timed_out && !info.converged;
                 }
                 Err(e) => {
                     record.error = Some(self.explain(&e));
