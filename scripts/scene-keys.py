@@ -35,7 +35,10 @@ colliders = [
     "[[collider]] tables: kind = \"plane\" (point, normal, margin), \"sphere\" (center, radius, margin)",
     "or \"mesh\" (path, scale = 1, offset = [0, 0, 0], thickness = 0.005 m in [0, the diagonal of",
     "the mesh's box], velocity = [0, 0, 0] m/s, angular_velocity = [0, 0, 0] rad/s, pivot = centre of",
-    "its box); every kind also static_friction (default 0) and kinetic_friction (default:",
+    "its box; or keys = [{ t s, translation m, rotation rad }, ...] with interpolation = \"linear\" or",
+    "\"smooth\", a keyframed path; or frames = [OBJ files of frames 1, 2, ...] of path's topology,",
+    "frame_interval = 0.04 s in (0, inf), a deforming body; one motion per collider); every kind also",
+    "static_friction (default 0) and kinetic_friction (default:",
     "static_friction). No particle may start inside a collider. docs/CONTACT.md explains them."]
 
 

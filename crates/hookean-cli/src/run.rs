@@ -193,7 +193,7 @@ fn summary_colliders(scene: &Scene, sim: &Simulation) -> Vec<SummaryCollider> {
                 }),
             ) => {
                 let file = scene.resolve(path);
-                let m = mesh.motion();
+                let m = crate::view::rigid_motion_of(mesh);
                 SummaryCollider::File(MeshFile {
                     kind: MeshFileKind::MeshFile,
                     path: path.clone(),

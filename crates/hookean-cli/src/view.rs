@@ -72,8 +72,20 @@ impl From<&Collider> for ViewCollider {
                 center: *center,
                 radius: *radius,
             },
-            Collider::Mesh { mesh, .. } => ViewCollider::mesh(mesh.mesh(), *mesh.motion()),
+            Collider::Mesh { mesh, .. } => ViewCollider::mesh(mesh.mesh(), rigid_motion_of(mesh)),
         }
+    }
+}
+
+/// The constant rigid motion the page replays for a mesh collider: its
+/// own for a constant-velocity body; a keyframed or deforming body is drawn
+/// at its pose at time 0 (the page does not replay those motions yet).
+pub fn rigid_motion_of(
+    mesh: &hookean::massspring::MeshCollider,
+) -> hookean::massspring::RigidMotion {
+    match mesh.motion() {
+        hookean::massspring::ColliderMotion::Rigid(m) => *m,
+        _ => hookean::massspring::RigidMotion::default(),
     }
 }
 

@@ -404,3 +404,40 @@ fn two_runs_with_the_same_thread_count_write_identical_frames() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("threads from 1 to 1024"));
 }
+
+#[test]
+fn a_bad_animated_collider_exits_2_naming_the_file_or_key_and_writes_nothing() {
+    let dir = scratch("anim");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::copy(repo("data/platform.obj"), dir.join("f0.obj")).unwrap();
+    // Frame 1 with one vertex more than frame 0.
+    let mut more = std::fs::read_to_string(dir.join("f0.obj")).unwrap();
+    more.push_str("v 9 9 9\n");
+    std::fs::write(dir.join("f1.obj"), more).unwrap();
+    let base = "duration = 0.1\n[cloth]\nn = 4\norigin = [-0.5, -0.5, 1.0]\n[[collider]]\nkind = \"mesh\"\npath = \"f0.obj\"\n";
+    for (name, extra, named) in [
+        ("count", "frames = [\"f1.obj\"]\n", "f1.obj"),
+        ("missing", "frames = [\"f2.obj\"]\n", "f2.obj"),
+        (
+            "nan",
+            "keys = [{ t = 0.0 }, { t = 1.0, rotation = [0.0, nan, 0.0] }]\n",
+            "keys.rotation",
+        ),
+    ] {
+        let scene = dir.join(format!("{name}.toml"));
+        std::fs::write(&scene, format!("{base}{extra}")).unwrap();
+        let out = dir.join(format!("out-{name}"));
+        let o = hookean(&[
+            "run",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{name}: {stderr}");
+        assert!(stderr.contains(named), "{name}: {stderr}");
+        assert!(!out.exists(), "{name}: wrote {}", out.display());
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

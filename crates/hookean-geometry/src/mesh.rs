@@ -74,6 +74,9 @@ pub struct TriMesh {
     boundary_edges: Vec<u8>,
     /// Per vertex, true when it is on a boundary edge.
     boundary_vertices: Vec<bool>,
+    /// Per triangle, the triangle across its edge `k` (`usize::MAX` on the
+    /// boundary): the topology [`TriMesh::set_vertices`] keeps.
+    neighbours: Vec<[usize; 3]>,
     bvh: Bvh,
     closed: bool,
 }
@@ -149,6 +152,7 @@ impl TriMesh {
         let mut edge_normals = vec![[V3::zeros(); 3]; triangles.len()];
         let mut boundary_edges = vec![0u8; triangles.len()];
         let mut boundary_vertices = vec![false; n];
+        let mut neighbours = vec![[usize::MAX; 3]; triangles.len()];
         // The parts: vertices joined by the edges (union-find, the smaller
         // root kept, so the result does not depend on the scan's order).
         let mut part: Vec<usize> = (0..n).collect();
@@ -170,6 +174,9 @@ impl TriMesh {
                     boundary_vertices[b] = true;
                 }
                 2 => {
+                    let (t0, k0, t1, k1) = (edges[s].2, edges[s].3, edges[s + 1].2, edges[s + 1].3);
+                    neighbours[t0][k0 as usize] = t1;
+                    neighbours[t1][k1 as usize] = t0;
                     if edges[s].4 == edges[s + 1].4 {
                         return Err(GeometryError::Orientation {
                             triangle: edges[s + 1].2,
@@ -222,9 +229,94 @@ impl TriMesh {
             edge_normals,
             boundary_edges,
             boundary_vertices,
+            neighbours,
             bvh,
             closed,
         })
+    }
+
+    /// Moves the vertices to `vertices` (the same count and order), keeping
+    /// the topology: the face, edge and vertex pseudo-normals are computed
+    /// again as [`TriMesh::new`] does and the tree is refitted (its shape
+    /// kept). For a deforming collider, one pose per time. No allocation.
+    ///
+    /// # Errors
+    /// [`GeometryError::IndexOutOfRange`] for another vertex count (naming
+    /// the count as `index`), [`GeometryError::NonFinite`] /
+    /// [`GeometryError::TooLarge`] for a bad vertex,
+    /// [`GeometryError::Degenerate`] for a triangle collapsed by the move;
+    /// the mesh is left as it was.
+    pub fn set_vertices(&mut self, vertices: &[V3]) -> Result<(), GeometryError> {
+        if vertices.len() != self.vertices.len() {
+            return Err(GeometryError::IndexOutOfRange {
+                triangle: 0,
+                index: vertices.len(),
+                n_vertices: self.vertices.len(),
+            });
+        }
+        for (vertex, v) in vertices.iter().enumerate() {
+            if v.iter().any(|c| !c.is_finite()) {
+                return Err(GeometryError::NonFinite { vertex });
+            }
+            if let Some(&value) = v.iter().find(|c| c.abs() > Self::MAX_COORDINATE) {
+                return Err(GeometryError::TooLarge {
+                    vertex,
+                    value,
+                    max: Self::MAX_COORDINATE,
+                });
+            }
+        }
+        for (triangle, t) in self.triangles.iter().enumerate() {
+            let [a, b, c] = t.map(|i| vertices[i]);
+            if !((b - a).cross(&(c - a)).norm() > 0.0) {
+                return Err(GeometryError::Degenerate { triangle });
+            }
+        }
+        self.vertices.copy_from_slice(vertices);
+        for (t, tri) in self.triangles.iter().enumerate() {
+            let [a, b, c] = tri.map(|i| self.vertices[i]);
+            self.face_normals[t] = (b - a).cross(&(c - a)).normalize();
+        }
+        for t in 0..self.triangles.len() {
+            for k in 0..3 {
+                let other = self.neighbours[t][k];
+                let sum = if other == usize::MAX {
+                    self.face_normals[t]
+                } else {
+                    self.face_normals[t] + self.face_normals[other]
+                };
+                self.edge_normals[t][k] = sum.try_normalize(0.0).unwrap_or(self.face_normals[t]);
+            }
+        }
+        self.vertex_normals.fill(V3::zeros());
+        for (ti, t) in self.triangles.iter().enumerate() {
+            for k in 0..3 {
+                let p = self.vertices[t[k]];
+                let u = (self.vertices[t[(k + 1) % 3]] - p).normalize();
+                let w = (self.vertices[t[(k + 2) % 3]] - p).normalize();
+                let angle = u.dot(&w).clamp(-1.0, 1.0).acos();
+                self.vertex_normals[t[k]] += self.face_normals[ti] * angle;
+            }
+        }
+        for nv in &mut self.vertex_normals {
+            *nv = nv.try_normalize(0.0).unwrap_or_else(V3::z);
+        }
+        let (vs, ts) = (&self.vertices, &self.triangles);
+        self.bvh.refit(|t| triangle_box(vs, &ts[t]));
+        Ok(())
+    }
+
+    /// The barycentric coordinates of `p` (a point of triangle `t`, as
+    /// [`Closest::point`]) in that triangle: `p = sum_k w_k v_k`.
+    pub fn barycentric(&self, t: usize, p: &V3) -> [f64; 3] {
+        let [a, b, c] = self.corners(t);
+        let (e0, e1, d) = (b - a, c - a, p - a);
+        let (d00, d01, d11) = (e0.dot(&e0), e0.dot(&e1), e1.dot(&e1));
+        let (d20, d21) = (d.dot(&e0), d.dot(&e1));
+        let den = d00 * d11 - d01 * d01;
+        let v = (d11 * d20 - d01 * d21) / den;
+        let w = (d00 * d21 - d01 * d20) / den;
+        [1.0 - v - w, v, w]
     }
 
     /// The vertices.
@@ -440,6 +532,57 @@ mod tests {
     use super::*;
     use rand::rngs::SmallRng;
     use rand::{Rng, SeedableRng};
+
+    /// A pose set by `set_vertices` answers as a mesh built from those
+    /// vertices: the box stretched and moved, against `TriMesh::new` of the
+    /// same vertices, at random points; a collapsed face is refused and
+    /// leaves the mesh as it was.
+    #[test]
+    fn set_vertices_matches_a_mesh_built_at_the_pose() {
+        let mut m = unit_box();
+        let moved: Vec<V3> = m
+            .vertices()
+            .iter()
+            .map(|v| V3::new(2.0 * v.x + 0.3, v.y - 0.1, 0.5 * v.z + v.x))
+            .collect();
+        let built = TriMesh::new(
+            moved.iter().map(|v| [v.x, v.y, v.z]).collect(),
+            m.triangles().to_vec(),
+        )
+        .unwrap();
+        m.set_vertices(&moved).unwrap();
+        let mut rng = SmallRng::seed_from_u64(7);
+        for _ in 0..200 {
+            let p = V3::new(
+                rng.random_range(-1.0..3.0),
+                rng.random_range(-1.0..2.0),
+                rng.random_range(-1.0..2.0),
+            );
+            let (a, b) = (m.closest(&p), built.closest(&p));
+            assert!((a.distance - b.distance).abs() < 1e-12, "{p:?}");
+            assert!((a.normal - b.normal).norm() < 1e-9, "{p:?}");
+        }
+        assert!((m.aabb().extent() - built.aabb().extent()).norm() < 1e-15);
+        let mut flat = moved.clone();
+        for v in &mut flat {
+            v.z = 0.0;
+        }
+        assert!(matches!(
+            m.set_vertices(&flat),
+            Err(GeometryError::Degenerate { .. })
+        ));
+        assert!(matches!(
+            m.set_vertices(&moved[1..]),
+            Err(GeometryError::IndexOutOfRange { .. })
+        ));
+        assert_eq!(m.vertices(), &moved[..]);
+        // Barycentric coordinates reproduce the point.
+        let c = m.closest(&V3::new(0.9, 0.4, 2.0));
+        let w = m.barycentric(c.triangle, &c.point);
+        let t = m.triangles()[c.triangle];
+        let back: V3 = (0..3).map(|k| m.vertices()[t[k]] * w[k]).sum();
+        assert!((back - c.point).norm() < 1e-12);
+    }
 
     /// The closed box [0, 1]^3 as 12 outward triangles.
     pub(crate) fn unit_box() -> TriMesh {

@@ -1,6 +1,7 @@
-//! Colliders: planes, spheres and triangle meshes (static or moving along a
-//! prescribed rigid path), each with Coulomb friction coefficients. What
-//! contact does with them per step is in `contact.rs`.
+//! Colliders: planes, spheres and triangle meshes (static, moving rigidly
+//! at constant velocity or along a [`KeyframedPath`], or deforming through
+//! a sequence of poses of one topology), each with Coulomb friction
+//! coefficients. What contact does with them per step is in `contact.rs`.
 
 use std::sync::Arc;
 
@@ -8,6 +9,7 @@ use hookean_geometry::TriMesh;
 use nalgebra::{Rotation3, Vector3};
 
 use crate::error::MassSpringError;
+use crate::path::KeyframedPath;
 
 /// Coulomb friction of a collider: a particle in contact sticks while the
 /// tangential force stays within `mu_s` times the normal force, and slides
@@ -120,24 +122,181 @@ impl RigidMotion {
         let (_, c) = self.pose(t);
         Vector3::from(self.velocity) + Vector3::from(self.angular_velocity).cross(&(x - c))
     }
+}
 
-    /// A world direction at time `t` from the rest frame.
-    fn rotate(&self, t: f64, d: &Vector3<f64>) -> Vector3<f64> {
-        self.pose(t).0 * d
+/// How a mesh collider moves (docs/CONTACT.md, "Moving and animated
+/// colliders").
+#[derive(Debug, Clone, PartialEq)]
+pub enum ColliderMotion {
+    /// Rigidly at constant linear and angular velocity (static when both
+    /// are zero).
+    Rigid(RigidMotion),
+    /// Rigidly along keyframes: the one owner of prescribed rigid motion,
+    /// shared with the pins' targets.
+    Path(KeyframedPath),
+    /// Deforming through the poses of a [`MeshSequence`].
+    Sequence(Arc<MeshSequence>),
+}
+
+impl Default for ColliderMotion {
+    fn default() -> Self {
+        ColliderMotion::Rigid(RigidMotion::default())
     }
 }
 
-/// A triangle mesh obstacle with a thickness, at rest or moving rigidly.
-/// Particles are kept at least `thickness` away from its surface, on its
-/// outer side (the side its counter-clockwise triangles face).
+impl ColliderMotion {
+    /// True for a body at rest.
+    pub fn is_static(&self) -> bool {
+        match self {
+            ColliderMotion::Rigid(m) => m.is_static(),
+            ColliderMotion::Path(p) => p.max_rates() == (0.0, 0.0),
+            ColliderMotion::Sequence(s) => s.max_speed == 0.0,
+        }
+    }
+
+    /// The rigid pose at `t` (rotation, moved pivot) and the pivot at rest;
+    /// `None` for a sequence.
+    fn rigid_pose(&self, t: f64) -> Option<(Rotation3<f64>, Vector3<f64>, Vector3<f64>)> {
+        match self {
+            ColliderMotion::Rigid(m) => {
+                let (r, c) = m.pose(t);
+                Some((r, c, Vector3::from(m.pivot)))
+            }
+            ColliderMotion::Path(p) => {
+                let (r, c) = p.pose(t);
+                Some((r, c, Vector3::from(p.pivot())))
+            }
+            ColliderMotion::Sequence(_) => None,
+        }
+    }
+
+    /// The body point at world `x` at time `t`, in the rest frame (`x`
+    /// itself for a sequence, whose mesh is posed in world coordinates).
+    fn to_rest(&self, t: f64, x: &Vector3<f64>) -> Vector3<f64> {
+        match self.rigid_pose(t) {
+            Some((r, c, c0)) => c0 + r.inverse() * (x - c),
+            None => *x,
+        }
+    }
+
+    /// A rest-frame point in world coordinates at `t`.
+    fn to_world(&self, t: f64, x: &Vector3<f64>) -> Vector3<f64> {
+        match self.rigid_pose(t) {
+            Some((r, c, c0)) => c + r * (x - c0),
+            None => *x,
+        }
+    }
+
+    /// A rest-frame direction in world coordinates at `t`.
+    fn rotate(&self, t: f64, d: &Vector3<f64>) -> Vector3<f64> {
+        match self.rigid_pose(t) {
+            Some((r, _, _)) => r * d,
+            None => *d,
+        }
+    }
+
+    /// The velocity of the rigid body point at world `x` at `t`: `v +
+    /// omega x (x - c(t))` (zero for a sequence: its surface velocity is
+    /// per triangle, [`MeshCollider::surface_velocity`]).
+    fn rigid_velocity(&self, t: f64, x: &Vector3<f64>) -> Vector3<f64> {
+        match self {
+            ColliderMotion::Rigid(m) => m.velocity_at(t, x),
+            ColliderMotion::Path(p) => p.velocity_of_world_point(t, x),
+            ColliderMotion::Sequence(_) => Vector3::zeros(),
+        }
+    }
+}
+
+/// The poses of a deforming mesh: one vertex array per frame, all of one
+/// topology, frame `k` at time `k dt`, interpolated linearly in time and
+/// held after the last, `X(t) = X_k + u (X_{k+1} - X_k)`, `u = t / dt - k`.
+/// The velocity of a vertex is the finite difference `(X_{k+1} - X_k) /
+/// dt`, the exact derivative of the interpolation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshSequence {
+    frames: Vec<Vec<Vector3<f64>>>,
+    frame_interval: f64,
+    /// The largest vertex speed (m/s).
+    max_speed: f64,
+}
+
+impl MeshSequence {
+    /// The frame and the weight of the next one at `t`, and whether the
+    /// sequence moves at `t` (inside its time span).
+    fn segment(&self, t: f64) -> (usize, f64, bool) {
+        let last = self.frames.len() - 1;
+        // At frame 0 the rates of the first interval (the right derivative).
+        if last == 0 || !(t >= 0.0) {
+            return (0, 0.0, false);
+        }
+        let u = t / self.frame_interval;
+        if u >= last as f64 {
+            return (last - 1, 1.0, false);
+        }
+        let k = (u.floor() as usize).min(last - 1);
+        (k, u - k as f64, true)
+    }
+
+    /// Vertex `i` at time `t`.
+    pub fn vertex_at(&self, t: f64, i: usize) -> Vector3<f64> {
+        let (k, u, _) = self.segment(t);
+        let a = self.frames[k][i];
+        match self.frames.get(k + 1) {
+            Some(b) => a + (b[i] - a) * u,
+            None => a,
+        }
+    }
+
+    /// The velocity of vertex `i` at time `t` (m/s).
+    pub fn vertex_velocity(&self, t: f64, i: usize) -> Vector3<f64> {
+        let (k, _, moving) = self.segment(t);
+        if !moving {
+            return Vector3::zeros();
+        }
+        (self.frames[k + 1][i] - self.frames[k][i]) / self.frame_interval
+    }
+
+    /// Frames.
+    pub fn n_frames(&self) -> usize {
+        self.frames.len()
+    }
+
+    /// The time between frames (s).
+    pub fn frame_interval(&self) -> f64 {
+        self.frame_interval
+    }
+
+    /// The largest vertex speed of the sequence (m/s).
+    pub fn max_vertex_speed(&self) -> f64 {
+        self.max_speed
+    }
+
+    fn compute_max_speed(&self) -> f64 {
+        self.frames
+            .windows(2)
+            .flat_map(|w| w[0].iter().zip(&w[1]).map(|(a, b)| (b - a).norm()))
+            .fold(0.0, f64::max)
+            / self.frame_interval
+    }
+}
+
+/// A triangle mesh obstacle with a thickness, at rest, moving rigidly or
+/// deforming ([`ColliderMotion`]). Particles are kept at least `thickness`
+/// away from its surface, on its outer side (the side its counter-clockwise
+/// triangles face).
 #[derive(Debug, Clone)]
 pub struct MeshCollider {
+    /// The rest pose of a rigid body; a sequence's pose at `posed_at`.
     mesh: TriMesh,
     thickness: f64,
-    motion: RigidMotion,
+    motion: ColliderMotion,
     /// Slack of the contact band, `1e-9` of the mesh's size: a particle
     /// put at the thickness stays in contact despite round-off.
     slack: f64,
+    /// The time of a sequence's current pose.
+    posed_at: f64,
+    /// The vertices of the next pose (a sequence's scratch).
+    scratch: Vec<Vector3<f64>>,
 }
 
 /// A surface point in contact, in world coordinates.
@@ -174,8 +333,10 @@ impl MeshCollider {
         Ok(Self {
             mesh,
             thickness,
-            motion: RigidMotion::default(),
+            motion: ColliderMotion::default(),
             slack: 1e-9 * size,
+            posed_at: 0.0,
+            scratch: Vec::new(),
         })
     }
 
@@ -186,11 +347,99 @@ impl MeshCollider {
     /// angular velocity or pivot.
     pub fn with_motion(mut self, motion: RigidMotion) -> Result<Self, MassSpringError> {
         motion.check()?;
-        self.motion = motion;
+        self.motion = ColliderMotion::Rigid(motion);
         Ok(self)
     }
 
-    /// The mesh in its rest pose.
+    /// The same mesh moving rigidly along `path` (its pivot in the mesh's
+    /// rest frame).
+    pub fn with_path(mut self, path: KeyframedPath) -> Self {
+        self.motion = ColliderMotion::Path(path);
+        self
+    }
+
+    /// A deforming mesh collider: `frames[0]` is the mesh at time 0 and
+    /// every later frame a pose of the same vertices and triangles, frame
+    /// `k` at time `k frame_interval` ([`MeshSequence`]).
+    ///
+    /// # Errors
+    /// [`MassSpringError::InvalidParameter`] naming `thickness` as
+    /// [`MeshCollider::new`], `frame_interval` for one not positive and
+    /// finite, and `sequence` for no frames or a frame whose vertex count or
+    /// triangles differ from frame 0's (naming the frame, from 0).
+    pub fn sequence(
+        frames: Vec<TriMesh>,
+        frame_interval: f64,
+        thickness: f64,
+    ) -> Result<Self, MassSpringError> {
+        if !(frame_interval > 0.0 && frame_interval.is_finite()) {
+            return Err(MassSpringError::InvalidParameter {
+                name: "frame_interval",
+                message: format!("{frame_interval:?} s must be positive and finite"),
+            });
+        }
+        let Some(first) = frames.first() else {
+            return Err(MassSpringError::InvalidParameter {
+                name: "sequence",
+                message: "a sequence needs at least one frame".into(),
+            });
+        };
+        for (k, f) in frames.iter().enumerate().skip(1) {
+            if f.vertices().len() != first.vertices().len() {
+                return Err(MassSpringError::InvalidParameter {
+                    name: "sequence",
+                    message: format!(
+                        "frame {k} has {} vertices, frame 0 has {}: the frames must be one topology",
+                        f.vertices().len(),
+                        first.vertices().len()
+                    ),
+                });
+            }
+            if f.triangles() != first.triangles() {
+                return Err(MassSpringError::InvalidParameter {
+                    name: "sequence",
+                    message: format!(
+                        "frame {k} has other triangles than frame 0: the frames must be one topology"
+                    ),
+                });
+            }
+        }
+        let mut sequence = MeshSequence {
+            frames: frames.iter().map(|f| f.vertices().to_vec()).collect(),
+            frame_interval,
+            max_speed: 0.0,
+        };
+        sequence.max_speed = sequence.compute_max_speed();
+        let mut collider = Self::new(
+            frames.into_iter().next().unwrap_or_else(|| unreachable!()),
+            thickness,
+        )?;
+        let n = collider.mesh.vertices().len();
+        collider.scratch = Vec::with_capacity(n);
+        collider.posed_at = 0.0;
+        collider.motion = ColliderMotion::Sequence(Arc::new(sequence));
+        Ok(collider)
+    }
+
+    /// Poses a sequence's mesh at time `t` (nothing for a rigid body). An
+    /// interpolated pose with a collapsed triangle keeps the pose before.
+    /// No allocation.
+    pub(crate) fn pose_at(&mut self, t: f64) {
+        let ColliderMotion::Sequence(seq) = &self.motion else {
+            return;
+        };
+        if self.posed_at == t {
+            return;
+        }
+        self.scratch.clear();
+        let n = self.mesh.vertices().len();
+        self.scratch.extend((0..n).map(|i| seq.vertex_at(t, i)));
+        if self.mesh.set_vertices(&self.scratch).is_ok() {
+            self.posed_at = t;
+        }
+    }
+
+    /// The mesh: a rigid body's rest pose, a sequence's current pose.
     pub fn mesh(&self) -> &TriMesh {
         &self.mesh
     }
@@ -201,26 +450,95 @@ impl MeshCollider {
     }
 
     /// The motion.
-    pub fn motion(&self) -> &RigidMotion {
+    pub fn motion(&self) -> &ColliderMotion {
         &self.motion
     }
 
+    /// The velocity at time `t` of the surface point at world `y` (on the
+    /// surface or pushed out from it): `v + omega x r` for a rigid body;
+    /// for a sequence, the vertex velocities of the triangle closest to `y`
+    /// weighted by the barycentric coordinates of its closest point.
+    pub fn surface_velocity(&self, t: f64, y: &Vector3<f64>) -> Vector3<f64> {
+        match &self.motion {
+            ColliderMotion::Sequence(seq) => {
+                let c = self.mesh.closest(y);
+                self.sequence_velocity(seq, t, c.triangle, &c.point)
+            }
+            m => m.rigid_velocity(t, y),
+        }
+    }
+
+    fn sequence_velocity(
+        &self,
+        seq: &MeshSequence,
+        t: f64,
+        triangle: usize,
+        point: &Vector3<f64>,
+    ) -> Vector3<f64> {
+        let w = self.mesh.barycentric(triangle, point);
+        let tri = self.mesh.triangles()[triangle];
+        (0..3).map(|k| seq.vertex_velocity(t, tri[k]) * w[k]).sum()
+    }
+
     /// The contact of a particle at `x` at time `t` with the closest
-    /// feature of the surface.
+    /// feature of the surface (a sequence: of its current pose, which the
+    /// model sets at every step's start and end).
     pub(crate) fn touch(&self, t: f64, x: &Vector3<f64>) -> Touch {
-        if self.motion.is_static() {
-            let c = self.mesh.closest(x);
-            return Touch {
-                phi: c.distance,
-                normal: c.normal,
-                velocity: Vector3::zeros(),
-            };
+        match &self.motion {
+            ColliderMotion::Sequence(seq) => {
+                let c = self.mesh.closest(x);
+                let velocity = if c.distance.is_nan() {
+                    Vector3::zeros()
+                } else {
+                    self.sequence_velocity(seq, t, c.triangle, &c.point)
+                };
+                return Touch {
+                    phi: c.distance,
+                    normal: c.normal,
+                    velocity,
+                };
+            }
+            m if m.is_static() => {
+                let c = self.mesh.closest(x);
+                return Touch {
+                    phi: c.distance,
+                    normal: c.normal,
+                    velocity: Vector3::zeros(),
+                };
+            }
+            _ => {}
         }
         let c = self.mesh.closest(&self.motion.to_rest(t, x));
         Touch {
             phi: c.distance,
             normal: self.motion.rotate(t, &c.normal),
-            velocity: self.motion.velocity_at(t, x),
+            velocity: self.motion.rigid_velocity(t, x),
+        }
+    }
+
+    /// The largest surface speed near a box of centre `centre` and
+    /// half-diagonal `d` (m/s): `|v| + |omega| (|c - centre| + d)` for a
+    /// rigid body (the path's largest rates), the largest vertex speed of a
+    /// sequence. The energy budget's bound of the work the body can do.
+    pub fn max_surface_speed(&self, centre: [f64; 3], d: f64) -> f64 {
+        let arm = |pivot: [f64; 3]| (Vector3::from(pivot) - Vector3::from(centre)).norm() + d;
+        match &self.motion {
+            ColliderMotion::Rigid(m) => {
+                Vector3::from(m.velocity).norm()
+                    + Vector3::from(m.angular_velocity).norm() * arm(m.pivot)
+            }
+            ColliderMotion::Path(p) => {
+                let (v, w) = p.max_rates();
+                // The pivot moves: its farthest is within the path's
+                // translations, bounded by the sum of the keys' extents.
+                let reach = p
+                    .keys()
+                    .iter()
+                    .map(|k| Vector3::from(k.translation).norm())
+                    .fold(0.0, f64::max);
+                v + w * (arm(p.pivot()) + reach)
+            }
+            ColliderMotion::Sequence(s) => s.max_vertex_speed(),
         }
     }
 
@@ -240,10 +558,28 @@ impl MeshCollider {
         a: &Vector3<f64>,
         b: &Vector3<f64>,
     ) -> Option<(Vector3<f64>, Vector3<f64>)> {
-        let (ra, rb) = if self.motion.is_static() {
-            (*a, *b)
-        } else {
-            (self.motion.to_rest(t, a), self.motion.to_rest(t + h, b))
+        let (ra, rb) = match &self.motion {
+            // The pose is at t + h: the start carried by the surface's
+            // displacement over the step at its closest point (exact for a
+            // translating patch, first order otherwise).
+            ColliderMotion::Sequence(seq) => {
+                let mut boxed = hookean_geometry::Aabb::point(a);
+                boxed.add_point(b);
+                let reach = seq.max_speed * h + self.thickness + self.slack;
+                if !boxed.overlaps(&self.mesh.aabb().inflated(reach)) {
+                    return None;
+                }
+                let c = self.mesh.closest(a);
+                if c.distance.is_nan() {
+                    return None;
+                }
+                let w = self.mesh.barycentric(c.triangle, &c.point);
+                let tri = self.mesh.triangles()[c.triangle];
+                let before: Vector3<f64> = (0..3).map(|k| seq.vertex_at(t, tri[k]) * w[k]).sum();
+                (a + (c.point - before), *b)
+            }
+            m if m.is_static() => (*a, *b),
+            m => (m.to_rest(t, a), m.to_rest(t + h, b)),
         };
         let mut boxed = hookean_geometry::Aabb::point(&ra);
         boxed.add_point(&rb);

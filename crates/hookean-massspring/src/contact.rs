@@ -42,6 +42,11 @@ use crate::self_contact::SelfContact;
 /// step of a run); afterwards the static cone of the momentum decides.
 pub const STICK_SPEED: f64 = 1e-3;
 
+/// The relative normal speed below which a particle counts as moving
+/// with a surface, as a fraction of the surface's speed (0 on a static
+/// collider): the round-off of `v_s`.
+const SEPARATION_ROUND_OFF: f64 = 1e-12;
+
 /// A sliding contact of the current step: the kinetic friction force
 /// `-c P_t (v_p - v_s)` on particle `p` (`P_t = I - n n^T`, `v_s` the
 /// surface's velocity), a damping in the tangent plane.
@@ -122,6 +127,7 @@ impl MassSpringModel {
     /// self-contact pairs, then collider contacts. No allocation once the
     /// lists have grown to their size.
     pub(crate) fn apply_constraints_and_contacts(&mut self, t: f64, x: &mut [f64], v: &mut [f64]) {
+        self.pose_colliders(t);
         self.refresh_permanent();
         let n = self.n_particles();
         for p in 0..n {
@@ -171,8 +177,13 @@ impl MassSpringModel {
                     let w = vp - normal * vn;
                     v[3 * p..3 * p + 3].copy_from_slice(w.as_slice());
                 }
-                if vn > 0.0 || point(&f, p).dot(&normal) > 0.0 {
-                    continue; // separating: no constraint this step
+                // Separating: no constraint this step. On a moving surface
+                // the relative velocity carries the round-off of the
+                // surface's velocity (a few ulps of |v_s|): a particle
+                // moving with the surface is not separating.
+                let round_off = SEPARATION_ROUND_OFF * touch.velocity.norm();
+                if vn > round_off || point(&f, p).dot(&normal) > 0.0 {
+                    continue;
                 }
                 let friction = self.colliders[c].friction();
                 let mut dirs: Dirs = self.active_set.dirs[p];
@@ -389,6 +400,20 @@ impl MassSpringModel {
         }
     }
 
+    /// Poses every deforming mesh collider at time `t` (the queries of a
+    /// sequence see its latest pose: `begin_step` poses it at the step's
+    /// start, `end_step` at its end). No allocation; a mesh shared with a
+    /// clone of the model is copied once.
+    fn pose_colliders(&mut self, t: f64) {
+        for c in &mut self.colliders {
+            if let Collider::Mesh { mesh, .. } = c
+                && matches!(mesh.motion(), crate::collide::ColliderMotion::Sequence(_))
+            {
+                std::sync::Arc::make_mut(mesh).pose_at(t);
+            }
+        }
+    }
+
     /// `m_pp += P_p j P_p` (`P_p` the projector of the step's constraints).
     fn add_to_diagonal_projected(&self, m: &mut SymBlockMatrix, p: usize, j: &Block3) {
         let j = if self.active_set.constrained[p] {
@@ -416,6 +441,7 @@ impl MassSpringModel {
         v: &mut [f64],
     ) -> bool {
         self.contact.h_last = h;
+        self.pose_colliders(t + h);
         let has_mesh = self
             .colliders
             .iter()
@@ -485,7 +511,7 @@ impl MassSpringModel {
                             let Some((y, n)) = mesh.correct_path(t, h, &a, &b) else {
                                 continue;
                             };
-                            (y, n, mesh.motion().velocity_at(t + h, &y))
+                            (y, n, mesh.surface_velocity(t + h, &y))
                         }
                         _ if analytic => {
                             let (phi, n) = c.signed_distance(&b);

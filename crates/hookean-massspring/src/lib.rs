@@ -110,7 +110,7 @@ pub use builders::{
     BlockParams, ClothParams, ClothPins, MAX_PARTICLES, MeshParams, RopeParams, SpringMaterial,
     State, cloth, from_mesh, jelly_block, rope, tutorial_example3,
 };
-pub use collide::{Collider, Friction, MeshCollider, RigidMotion};
+pub use collide::{Collider, ColliderMotion, Friction, MeshCollider, MeshSequence, RigidMotion};
 pub use contact::{ContactStats, STICK_SPEED};
 pub use error::MassSpringError;
 pub use handles::PinGroup;

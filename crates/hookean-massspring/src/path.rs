@@ -112,9 +112,12 @@ impl KeyframedPath {
     }
 
     /// The segment at `t` and `(s(u), ds/dt)` on it (held outside the keys).
+    /// At a key the rates are those of the segment that starts there (the
+    /// right derivative: a step from the first key's time moves with the
+    /// path), after the last key zero.
     fn segment(&self, t: f64) -> (usize, f64, f64) {
         let last = self.keys.len() - 1;
-        if last == 0 || t <= self.keys[0].t {
+        if last == 0 || t < self.keys[0].t {
             return (0, 0.0, 0.0);
         }
         if t >= self.keys[last].t {
@@ -153,6 +156,51 @@ impl KeyframedPath {
         let c0 = Vector3::from(self.pivot);
         let w = c0 + tr + Rotation3::from_scaled_axis(rot) * (Vector3::from(x_rest) - c0);
         [w.x, w.y, w.z]
+    }
+
+    /// The pose at time `t`: the rotation `R(theta(t))` and the moved pivot
+    /// `c(t) = c0 + T(t)`.
+    pub fn pose(&self, t: f64) -> (Rotation3<f64>, Vector3<f64>) {
+        let [tr, _, rot, _] = self.state(t);
+        (
+            Rotation3::from_scaled_axis(rot),
+            Vector3::from(self.pivot) + tr,
+        )
+    }
+
+    /// The pivot at rest, `c0` (m).
+    pub fn pivot(&self) -> [f64; 3] {
+        self.pivot
+    }
+
+    /// The velocity at time `t` of the body point that is at the world
+    /// point `x` then: `T'(t) + theta'(t) x (x - c(t))`, as
+    /// [`velocity_at`](Self::velocity_at).
+    pub fn velocity_of_world_point(&self, t: f64, x: &Vector3<f64>) -> Vector3<f64> {
+        let [tr, dtr, _, drot] = self.state(t);
+        let c = Vector3::from(self.pivot) + tr;
+        dtr + drot.cross(&(x - c))
+    }
+
+    /// Bounds of the path's speeds over all time: the largest `|T'(t)|`
+    /// (m/s) and `|theta'(t)|` (rad/s) (`s'(u)` peaks at `1.5 / span` for
+    /// smooth interpolation), for the energy budget's bound of the work a
+    /// body on the path can do.
+    pub fn max_rates(&self) -> (f64, f64) {
+        let peak = match self.interpolation {
+            Interpolation::Linear => 1.0,
+            Interpolation::Smooth => 1.5,
+        };
+        let mut rates = (0.0f64, 0.0f64);
+        for w in self.keys.windows(2) {
+            let span = w[1].t - w[0].t;
+            let d = |a: [f64; 3], b: [f64; 3]| (Vector3::from(b) - Vector3::from(a)).norm();
+            rates.0 = rates
+                .0
+                .max(peak * d(w[0].translation, w[1].translation) / span);
+            rates.1 = rates.1.max(peak * d(w[0].rotation, w[1].rotation) / span);
+        }
+        rates
     }
 
     /// The velocity at time `t` of the point at `x_rest` at rest:

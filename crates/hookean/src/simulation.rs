@@ -219,7 +219,9 @@ pub struct Simulation {
 /// mass, `D` the diagonal of the starting bounding box; the last term
 /// keeps a scene at rest without gravity from tripping on round-off) and
 /// `U = max (|v| + |omega| (|c - x_c| + D))` over the moving colliders (`c`
-/// the pivot, `x_c` the box's centre). Wind counts as such a body moving
+/// the pivot, `x_c` the box's centre; for a keyframed path its largest
+/// rates and the pivot's farthest reach, for a deforming sequence its
+/// largest vertex speed). Wind counts as such a body moving
 /// at the air's fastest speed `|w_0| + A` ([`Wind::max_speed`](hookean_massspring::Wind::max_speed)):
 /// in the air's frame drag and lift never do positive work, so like a
 /// moving surface the air can bring the cloth up to its speed and carry
@@ -336,19 +338,19 @@ impl Baseline {
 pub const MAX_SUBSTEPS: usize = 64;
 
 /// The largest surface speed of the moving mesh colliders near the cloth
-/// at the start: `|v| + |omega| (|c - centre| + d)` (0 without them).
+/// at the start (0 without them): `|v| + |omega| (|c - centre| + d)` for a
+/// rigid body (a keyframed path's largest rates, its pivot's farthest
+/// reach added to the arm), the largest vertex speed of a deforming
+/// sequence ([`MeshCollider::max_surface_speed`](hookean_massspring::MeshCollider::max_surface_speed)).
 fn collider_speed(model: &MassSpringModel, centre: [f64; 3], d: f64) -> f64 {
-    let norm = |a: [f64; 3]| a.iter().map(|c| c * c).sum::<f64>().sqrt();
     model
         .colliders()
         .iter()
         .filter_map(|c| match c {
-            Collider::Mesh { mesh, .. } if !mesh.motion().is_static() => Some(*mesh.motion()),
+            Collider::Mesh { mesh, .. } if !mesh.motion().is_static() => {
+                Some(mesh.max_surface_speed(centre, d))
+            }
             _ => None,
-        })
-        .map(|m| {
-            let arm = norm(std::array::from_fn(|k| m.pivot[k] - centre[k])) + d;
-            norm(m.velocity) + norm(m.angular_velocity) * arm
         })
         .fold(0.0, f64::max)
 }

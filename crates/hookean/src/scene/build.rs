@@ -397,19 +397,76 @@ impl Scene {
                     velocity,
                     angular_velocity,
                     pivot,
+                    keys,
+                    interpolation,
+                    frames,
+                    frame_interval,
                 } => {
+                    let table = format!("collider {}", i + 1);
+                    let build = |message: String| HookeanError::Build {
+                        table: table.clone(),
+                        message,
+                    };
+                    let rigid = *velocity != [0.0; 3] || *angular_velocity != [0.0; 3];
+                    if [rigid, !keys.is_empty(), !frames.is_empty()]
+                        .iter()
+                        .filter(|&&b| b)
+                        .count()
+                        > 1
+                    {
+                        return Err(build(
+                            "give one motion: velocity / angular_velocity, keys, or frames".into(),
+                        ));
+                    }
+                    crate::range::Range::POSITIVE
+                        .check(*frame_interval)
+                        .map_err(|e| build(format!("frame_interval: {e}")))?;
                     let (_, surface) =
                         hookean_massspring::read_surface(self.resolve(path), *scale, *offset)
                             .map_err(&collider)?;
                     let centre = surface.aabb().center();
-                    let motion = RigidMotion {
-                        velocity: *velocity,
-                        angular_velocity: *angular_velocity,
-                        pivot: pivot.unwrap_or([centre.x, centre.y, centre.z]),
+                    let pivot = pivot.unwrap_or([centre.x, centre.y, centre.z]);
+                    let mesh = if !frames.is_empty() {
+                        let mut poses = Vec::with_capacity(frames.len() + 1);
+                        poses.push(surface);
+                        for (k, f) in frames.iter().enumerate() {
+                            let file = self.resolve(f);
+                            let (_, pose) =
+                                hookean_massspring::read_surface(&file, *scale, *offset)
+                                    .map_err(&collider)?;
+                            if pose.vertices().len() != poses[0].vertices().len()
+                                || pose.triangles() != poses[0].triangles()
+                            {
+                                return Err(build(format!(
+                                    "frames[{k}] ({}): {} vertices and {} faces, path ({}) has {} and {}: every frame must have the vertices and faces of path, in the same order",
+                                    file.display(),
+                                    pose.vertices().len(),
+                                    pose.triangles().len(),
+                                    self.resolve(path).display(),
+                                    poses[0].vertices().len(),
+                                    poses[0].triangles().len()
+                                )));
+                            }
+                            poses.push(pose);
+                        }
+                        MeshCollider::sequence(poses, *frame_interval, *thickness)
+                            .map_err(&collider)?
+                    } else if !keys.is_empty() {
+                        let path = pins::keyframed_path(keys, *interpolation, pivot)
+                            .map_err(&build)?;
+                        MeshCollider::new(surface, *thickness)
+                            .map_err(&collider)?
+                            .with_path(path)
+                    } else {
+                        let motion = RigidMotion {
+                            velocity: *velocity,
+                            angular_velocity: *angular_velocity,
+                            pivot,
+                        };
+                        MeshCollider::new(surface, *thickness)
+                            .and_then(|m| m.with_motion(motion))
+                            .map_err(&collider)?
                     };
-                    let mesh = MeshCollider::new(surface, *thickness)
-                        .and_then(|m| m.with_motion(motion))
-                        .map_err(&collider)?;
                     Collider::mesh(mesh)
                         .with_friction(friction(*static_friction, *kinetic_friction)?)
                 }

@@ -418,7 +418,10 @@ pub enum ColliderScene {
     /// The outside of a triangle mesh read from OBJ (an open mesh: the side
     /// its counter-clockwise faces look to), kept at its thickness, at rest
     /// or moving rigidly: a vertex at `X` at time 0 is at `pivot + velocity
-    /// t + R(angular_velocity t) (X - pivot)` at time `t`.
+    /// t + R(angular_velocity t) (X - pivot)` at time `t`; or along `keys`
+    /// (a keyframed path, as a `[[pin]]`'s); or deforming through the OBJ
+    /// `frames` of one topology (docs/CONTACT.md, "Moving and animated
+    /// colliders"). One kind of motion per collider.
     Mesh {
         /// The OBJ file; a relative path starts at the scene file's folder.
         path: std::path::PathBuf,
@@ -447,7 +450,27 @@ pub enum ColliderScene {
         /// mesh's bounding box.
         #[serde(default)]
         pivot: Option<[f64; 3]>,
+        /// A keyframed path of the body: `{ t, translation, rotation }` keys
+        /// (s, m, rad about `pivot`), times increasing, held before the first
+        /// and after the last. Default: none.
+        #[serde(default)]
+        keys: Vec<KeyScene>,
+        /// `"linear"` (default) or `"smooth"` between `keys`.
+        #[serde(default)]
+        interpolation: InterpolationScene,
+        /// A deforming body: the OBJ files of frames 1, 2, ... (frame 0 is
+        /// `path`), each with the vertices and faces of `path` in the same
+        /// order, placed by the same `scale` and `offset`. Default: none.
+        #[serde(default)]
+        frames: Vec<std::path::PathBuf>,
+        /// The time between `frames` (s). Range (0, inf). Default 0.04.
+        #[serde(default = "d_frame_interval")]
+        frame_interval: f64,
     },
+}
+
+pub(super) fn d_frame_interval() -> f64 {
+    0.04
 }
 
 pub(super) fn d_mesh_thickness() -> f64 {

@@ -105,15 +105,15 @@ fn key_time<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
     let v = f64::deserialize(d)?;
     range::Range::FINITE
         .check(v)
-        .map_err(|e| D::Error::custom(format!("pin.keys.t: {e}")))
+        .map_err(|e| D::Error::custom(format!("keys.t: {e}")))
 }
 
 fn key_translation<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
-    finite3(d).map_err(|e: D::Error| D::Error::custom(format!("pin.keys.translation: {e}")))
+    finite3(d).map_err(|e: D::Error| D::Error::custom(format!("keys.translation: {e}")))
 }
 
 fn key_rotation<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
-    finite3(d).map_err(|e: D::Error| D::Error::custom(format!("pin.keys.rotation: {e}")))
+    finite3(d).map_err(|e: D::Error| D::Error::custom(format!("keys.rotation: {e}")))
 }
 
 /// The vertices of `indices` (each checked against the model's `n`, named
@@ -140,6 +140,33 @@ pub(super) fn select_vertices(
         );
     }
     Ok(out)
+}
+
+/// The path through the keys of a `[[pin]]` or a `[[collider]]`: the one
+/// reading of `keys` and `interpolation`; the error names the key.
+pub(super) fn keyframed_path(
+    keys: &[KeyScene],
+    interpolation: InterpolationScene,
+    pivot: [f64; 3],
+) -> Result<KeyframedPath, String> {
+    let keys = keys
+        .iter()
+        .map(|k| Keyframe {
+            t: k.t,
+            translation: k.translation,
+            rotation: k.rotation,
+        })
+        .collect();
+    let interpolation = match interpolation {
+        InterpolationScene::Linear => Interpolation::Linear,
+        InterpolationScene::Smooth => Interpolation::Smooth,
+    };
+    KeyframedPath::new(keys, interpolation, pivot).map_err(|e| match e {
+        hookean_massspring::MassSpringError::InvalidParameter { name, message } => {
+            format!("{name}: {message}")
+        }
+        e => format!("keys: {e}"),
+    })
 }
 
 impl PinGroupScene {
@@ -176,27 +203,7 @@ impl PinGroupScene {
                 }
                 c
             });
-            let keys = self
-                .keys
-                .iter()
-                .map(|k| Keyframe {
-                    t: k.t,
-                    translation: k.translation,
-                    rotation: k.rotation,
-                })
-                .collect();
-            let interpolation = match self.interpolation {
-                InterpolationScene::Linear => Interpolation::Linear,
-                InterpolationScene::Smooth => Interpolation::Smooth,
-            };
-            Some(
-                KeyframedPath::new(keys, interpolation, pivot).map_err(|e| match e {
-                    hookean_massspring::MassSpringError::InvalidParameter { name, message } => {
-                        err(format!("{name}: {message}"))
-                    }
-                    e => err(format!("keys: {e}")),
-                })?,
-            )
+            Some(keyframed_path(&self.keys, self.interpolation, pivot).map_err(err)?)
         };
         let group = PinGroup {
             particles,
