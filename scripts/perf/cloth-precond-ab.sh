@@ -6,7 +6,7 @@
 # that differs from the first binary's. Run it under scripts/quiet or on an idle
 # machine (docs/PERFORMANCE.md, "Issue 29's lines"):
 #
-#   scripts/perf/cloth-precond-ab.sh ROUNDS base=/path/to/hookean new=/path/to/hookean ...
+#   scripts/perf/cloth-precond-ab.sh ROUNDS base=$(scripts/build-ref COMMIT) new=target/release/hookean ...
 set -euo pipefail
 rounds=$1; shift
 out=$(mktemp -d); trap 'rm -rf "$out"' EXIT
