@@ -18,7 +18,10 @@ fn every_guide_page_with_rust_code_is_a_doctest() {
         if text.contains("```rust") {
             let name = path.file_name().unwrap().to_string_lossy();
             let listed = format!("\"docs/guide/src/{name}\"");
-            assert!(lib.contains(&listed), "{name} has Rust code but is not in lib.rs's pages! list");
+            assert!(
+                lib.contains(&listed),
+                "{name} has Rust code but is not in lib.rs's pages! list"
+            );
             checked += 1;
         }
     }
