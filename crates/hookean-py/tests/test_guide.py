@@ -23,6 +23,6 @@ def test_the_guide_has_python_examples():
     assert len(list(blocks())) >= 2
 
 
-@pytest.mark.parametrize("code", blocks())
+@pytest.mark.parametrize("code", list(blocks()))
 def test_guide_python_block_runs(code):
     exec(compile(code, "<guide>", "exec"), {"__name__": "__guide__"})
