@@ -1,6 +1,5 @@
 #!/usr/bin/env bash
-# The drape measurements of docs/PERFORMANCE.md ("Fast implicit cloth at
-# scale"): a release build of a baseline commit (default c3502ff, main when
+# The drape measurements of docs/PERFORMANCE.md ("The cloth step and its scaling"): a release build of a baseline commit (default c3502ff, main when
 # issue 16 was filed) and of this checkout, run interleaved round by round
 # (the machine is noisy: ratios within a round are what hold), then the
 # physics check (the 64^2 frame at t = 1 s and the final energy against the

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# "Every shipped scene writes the same frames" (docs/PERFORMANCE.md): runs
+# "Every shipped scene writes the same frames" (docs/PERFORMANCE.md, "The machine, the builds, how to rerun"): runs
 # every scenes/*.toml with a release build of a baseline commit (its own
 # scene file, read from git) and with this checkout's build, on THREADS
 # kernel threads each (default 1), and compares the OBJ frames (scripts/frames-diff.py): how many are

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The stiff-solver comparison of docs/PERFORMANCE.md ("Stiff test set"):
+# The stiff-solver comparison of docs/PERFORMANCE.md ("Stiff IVPs against diffsol and SciPy"):
 #   1. hookean-ode's BdfSolver and diffsol's BDF side by side
 #      (benches/stiff-compare, a workspace of its own: diffsol stays out of CI):
 #      the time at the first rung of the rtol ladder that meets error 1e-4

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Issue 29's peer comparison: `hookean solve` next to pyamg, AMGCL and Eigen on
 # pyamg's gallery matrices and two cloth systems, one thread, |r| <= 1e-8 |b|
-# from x = 0 (docs/PERFORMANCE.md, "Preconditioners off cloth (issue 29)").
+# from x = 0 (docs/PERFORMANCE.md, "Multigrid against pyamg and AMGCL").
 # Run by hand, not in CI (it installs and downloads):
 #
 #   scripts/peers/compare.sh [ROUNDS]        # default 3; prints the markdown tables

@@ -4,7 +4,7 @@
 # matrices scripts/peers/compare.sh writes. Prints "tool preconditioner iterations
 # total-seconds" per run; take the best of the rounds.
 #
-#   OLD=/path/to/old/hookean scripts/peers/scalar-ab.sh [ROUNDS]
+#   OLD=$(scripts/build-ref COMMIT) scripts/peers/scalar-ab.sh [ROUNDS]
 #
 # Environment: SET (default target/peers/set), EIGEN (default target/peers/eigen_pcg),
 # MATRICES (default "poisson3d elasticity2d dg bar3d-p1").

@@ -1,7 +1,6 @@
 #!/usr/bin/env bash
 # Issue 29's line "3D Poisson 40^3 and 2D elasticity at least as fast as
-# AMGCL's smoothed aggregation" (docs/PERFORMANCE.md, "The multigrid's
-# set-up against AMGCL's"): ROUNDS interleaved rounds, one thread, of each
+# AMGCL's smoothed aggregation" (docs/PERFORMANCE.md, "Multigrid against pyamg and AMGCL"): ROUNDS interleaved rounds, one thread, of each
 # hookean binary's multigrid (block Jacobi, the default; `--nullspace` from
 # NAME_nullspace.mtx) and of AMGCL's smoothed aggregation with damped Jacobi
 # and ILU(0), on poisson3d (block size 1) and elasticity2d (block size 2) of

@@ -4,9 +4,9 @@
 # for release builds of several commits; prints per size and preconditioner the
 # summed best totals, their ratio to the first binary, and any iteration count
 # that differs from the first binary's. Run it under scripts/quiet or on an idle
-# machine (docs/PERFORMANCE.md, "Issue 29's lines"):
+# machine (docs/PERFORMANCE.md, "Multigrid against pyamg and AMGCL"):
 #
-#   scripts/perf/cloth-precond-ab.sh ROUNDS base=/path/to/hookean new=/path/to/hookean ...
+#   scripts/perf/cloth-precond-ab.sh ROUNDS base=$(scripts/build-ref COMMIT) new=target/release/hookean ...
 set -euo pipefail
 rounds=$1; shift
 out=$(mktemp -d); trap 'rm -rf "$out"' EXIT

@@ -27,7 +27,7 @@ blender_run() { # mode params
 for r in $(seq "$rounds"); do
   echo "round $r"
   hookean hookean-cloth-table scenes/cloth-table.toml
-  hookean hookean-free-table docs/perf/contact/free-table.toml
+  hookean hookean-free-table scripts/perf/contact/free-table.toml
   blender_run collide hookean
   blender_run free hookean
   blender_run collide blender

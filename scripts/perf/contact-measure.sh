@@ -8,8 +8,8 @@
 # With OLD (a release build of an earlier commit), every contact scene and
 # its baselines also run with OLD, each right before NEW's run (an A/B in
 # one run; labels old-*).
-#   NEW=target/release/hookean BASE=/path/to/f2acdf6/target/release/hookean ROUNDS=3 scripts/perf/contact-measure.sh
-#   NEW=target/release/hookean OLD=/path/to/12596ff/hookean ROUNDS=3 scripts/perf/contact-measure.sh
+#   NEW=target/release/hookean BASE=$(scripts/build-ref f2acdf6) ROUNDS=3 scripts/perf/contact-measure.sh
+#   NEW=target/release/hookean OLD=$(scripts/build-ref 12596ff) ROUNDS=3 scripts/perf/contact-measure.sh
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 new=${NEW:-target/release/hookean}
@@ -23,8 +23,8 @@ run() { # label binary scene
 }
 for r in $(seq "$rounds"); do
   echo "round $r"
-  for scene in scenes/cloth-table.toml docs/perf/contact/free-table.toml \
-    docs/perf/contact/pinned-table.toml scenes/cloth-fold.toml docs/perf/contact/free-fold.toml; do
+  for scene in scenes/cloth-table.toml scripts/perf/contact/free-table.toml \
+    scripts/perf/contact/pinned-table.toml scenes/cloth-fold.toml scripts/perf/contact/free-fold.toml; do
     label=$(basename "$scene" .toml)
     if [ -n "$old" ]; then
       run "old-$label" "$old" "$scene"

@@ -1,6 +1,5 @@
 #!/usr/bin/env bash
-# Issue 25's drape A/B (docs/PERFORMANCE.md, "The step's cost with the cloth's
-# size"): runs `hookean run SCENE --set cloth.n=N --set duration=D --set
+# Issue 25's drape A/B (docs/PERFORMANCE.md, "The cloth step and its scaling"): runs `hookean run SCENE --set cloth.n=N --set duration=D --set
 # output.frame_rate=0` with each binary in turn, REPS interleaved rounds, and
 # prints wall time and peak RSS (/usr/bin/time), the Newton and CG counts,
 # rejected steps and the phases of summary.json. Run under scripts/quiet.

@@ -112,3 +112,28 @@ pub mod prelude {
     #[cfg(feature = "sparse")]
     pub use hookean_sparse::PrecondKind;
 }
+
+/// The repository's README and the user's guide (`docs/guide`), whose Rust
+/// blocks run as doctests of this crate (`cargo test -p hookean --doc`). Only
+/// under `cfg(doctest)`: a normal or packaged build never reads these files,
+/// which lie outside the crate.
+#[cfg(doctest)]
+mod guide {
+    macro_rules! pages {
+        ($($name:ident = $path:literal;)*) => {
+            $(#[doc = include_str!(concat!("../../../", $path))] pub struct $name;)*
+        };
+    }
+    pages! {
+        Readme = "README.md";
+        GettingStarted = "docs/guide/src/getting-started.md";
+        Preconditioners = "docs/guide/src/preconditioners.md";
+        Multigrid = "docs/guide/src/multigrid.md";
+        StiffOdes = "docs/guide/src/stiff-odes.md";
+        Newton = "docs/guide/src/newton.md";
+        Scenes = "docs/guide/src/scenes.md";
+        Contact = "docs/guide/src/contact.md";
+        Filter = "docs/guide/src/filter.md";
+        Reliability = "docs/guide/src/reliability.md";
+    }
+}
