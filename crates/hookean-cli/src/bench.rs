@@ -84,6 +84,10 @@ pub struct BenchArgs {
         allow_negative_numbers = true
     )]
     max_memory: f64,
+    /// Do not estimate the extreme eigenvalues of M^-1 A from PCG's coefficients (bench.csv's
+    /// `lambda_min`, `lambda_max` and `condition` columns then stay empty).
+    #[arg(long)]
+    no_condition_estimate: bool,
     /// No progress lines on stderr.
     #[arg(long)]
     quiet: bool,
@@ -132,6 +136,7 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
         repeat: args.repeat,
         amg: args.amg.clone(),
         max_memory: args.max_memory,
+        no_condition_estimate: args.no_condition_estimate,
     };
     let plan = solver_args.resolve()?;
     if let Some(b) = args.block_size.filter(|b| !(1..=3).contains(b)) {
@@ -516,7 +521,7 @@ fn table(rows: &[Row]) -> (String, String) {
          |---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     let mut csv = String::from(
-        "system,rows,nonzeros,block_size,block_size_source,preconditioner,iterations,setup_s,solve_s,total_s,rel_residual,recursive_rel_residual,setup_memory_bytes,status\n",
+        "system,rows,nonzeros,block_size,block_size_source,preconditioner,iterations,setup_s,solve_s,total_s,rel_residual,recursive_rel_residual,setup_memory_bytes,lambda_min,lambda_max,condition,status\n",
     );
     let mut fastest: BTreeMap<&str, f64> = BTreeMap::new();
     for r in rows {
@@ -529,6 +534,7 @@ fn table(rows: &[Row]) -> (String, String) {
             *t = t.min(rec.setup_s + rec.solve_s);
         }
     }
+    let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:e}"));
     let num = |v: f64, scale: f64, digits: usize| {
         if v.is_finite() {
             format!("{:.*}", digits, v * scale)
@@ -557,7 +563,7 @@ fn table(rows: &[Row]) -> (String, String) {
                     "| {} | - | - | - | - | - | - | - | - | - | - | {md_status} |\n",
                     r.system
                 ));
-                csv.push_str(&format!("{},,,,,,,,,,,,,{csv_status}\n", r.system));
+                csv.push_str(&format!("{},,,,,,,,,,,,,,,,{csv_status}\n", r.system));
             }
             Some(rec) if rec.error.is_some() => {
                 md.push_str(&format!(
@@ -565,7 +571,7 @@ fn table(rows: &[Row]) -> (String, String) {
                     r.system, r.rows, r.nnz, rec.precond
                 ));
                 csv.push_str(&format!(
-                    "{},{},{},{csv_nodes},{},,,,,,,,{csv_status}\n",
+                    "{},{},{},{csv_nodes},{},,,,,,,,,,,{csv_status}\n",
                     r.system, r.rows, r.nnz, rec.precond
                 ));
             }
@@ -596,7 +602,7 @@ fn table(rows: &[Row]) -> (String, String) {
                     },
                 ));
                 csv.push_str(&format!(
-                    "{},{},{},{csv_nodes},{},{},{:e},{:e},{:e},{:e},{},{},{csv_status}\n",
+                    "{},{},{},{csv_nodes},{},{},{:e},{:e},{:e},{:e},{},{},{},{},{},{csv_status}\n",
                     r.system,
                     r.rows,
                     r.nnz,
@@ -609,6 +615,9 @@ fn table(rows: &[Row]) -> (String, String) {
                     rec.recursive_rel_residual
                         .map_or(String::new(), |v| format!("{v:e}")),
                     rec.setup_bytes.map_or(String::new(), |b| b.to_string()),
+                    opt(rec.lambda_min),
+                    opt(rec.lambda_max),
+                    opt(rec.condition),
                 ));
             }
         }

@@ -92,6 +92,10 @@ pub struct SolverArgs {
         allow_negative_numbers = true
     )]
     pub max_memory: f64,
+    /// Do not estimate the extreme eigenvalues of M^-1 A from PCG's coefficients (the JSON's
+    /// `lambda_min`, `lambda_max`, `condition`; bench.csv's columns of those names).
+    #[arg(long)]
+    pub no_condition_estimate: bool,
 }
 
 /// The flags of [`SolverArgs`] resolved once: every solver to run with its
@@ -130,7 +134,10 @@ impl SolverArgs {
         hookean::range::MIC_OMEGA
             .check(self.mic_omega)
             .map_err(|m| CliError::Input(format!("--mic-omega {m}")))?;
-        let params = cg_params(rtol, self.max_iter)?;
+        let params = CgParams {
+            estimate_condition: !self.no_condition_estimate,
+            ..cg_params(rtol, self.max_iter)?
+        };
         let amg = self.amg.options(1, Vec::new())?;
         let cap = crate::memory::cap_bytes(self.max_memory)?;
         let mut mic0_from_all = false;
@@ -192,6 +199,17 @@ pub struct SolveRecord {
     pub recursive_rel_residual: Option<f64>,
     /// Whether the true residual met the tolerance.
     pub converged: bool,
+    /// The smallest eigenvalue of M^-1 A that PCG's Lanczos matrix gives
+    /// ([`hookean_sparse::ConditionEstimate`]; not for the direct solver,
+    /// or with `--no-condition-estimate`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lambda_min: Option<f64>,
+    /// The largest, likewise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lambda_max: Option<f64>,
+    /// `lambda_max / lambda_min`: the condition estimate of M^-1 A.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub condition: Option<f64>,
     /// The unknowns per node of the storage (3 on block storage; the
     /// multigrid's on csr), when the caller read the matrix.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -757,6 +775,9 @@ pub(crate) fn empty_record(
         rel_residual: f64::NAN,
         recursive_rel_residual: None,
         converged: false,
+        lambda_min: None,
+        lambda_max: None,
+        condition: None,
         block_size: None,
         block_size_source: None,
         amg: None,
@@ -906,6 +927,11 @@ impl PcgRun<'_> {
                     record.recursive_rel_residual = Some(info.relative_residual);
                     record.converged = info.converged;
                     record.timed_out = timed_out && !info.converged;
+                    if let Some(c) = info.condition {
+                        record.lambda_min = Some(c.lambda_min);
+                        record.lambda_max = Some(c.lambda_max);
+                        record.condition = Some(c.condition);
+                    }
                 }
                 Err(e) => {
                     record.error = Some(self.explain(&e));

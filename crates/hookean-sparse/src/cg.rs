@@ -6,6 +6,7 @@ use std::ops::ControlFlow;
 
 use crate::constraints::Constraints;
 use crate::error::{SparseError, check_finite, check_len};
+use crate::lanczos::{ConditionEstimate, LANCZOS_CAPACITY};
 use crate::operator::LinearOperator;
 use crate::precond::Preconditioner;
 use crate::vecops::{norm2, update_residual};
@@ -38,6 +39,13 @@ pub struct CgParams {
     /// matrix is not positive definite there). Default
     /// [`NegativeCurvature::Error`].
     pub negative_curvature: NegativeCurvature,
+    /// Record CG's coefficients and return the extreme eigenvalues of
+    /// `M^-1 A` and the condition estimate in [`CgInfo::condition`] (the
+    /// Lanczos matrix's; [`ConditionEstimate`]). The coefficients of at most
+    /// [`LANCZOS_CAPACITY`] iterations are kept, in the workspace (allocated
+    /// once, before the first iteration); the estimate costs a bisection on
+    /// that tridiagonal matrix at exit. Default `false`.
+    pub estimate_condition: bool,
     /// Build with `..Default::default()` (see [`NonExhaustive`]).
     #[doc(hidden)]
     pub non_exhaustive: NonExhaustive,
@@ -71,6 +79,7 @@ impl Default for CgParams {
             initial_guess: InitialGuess::Zero,
             record_history: false,
             negative_curvature: NegativeCurvature::Error,
+            estimate_condition: false,
             non_exhaustive: NonExhaustive(()),
         }
     }
@@ -112,6 +121,11 @@ pub struct CgInfo {
     pub truncated: bool,
     /// `|r_k| / |b|` for k = 0, 1, ... when [`CgParams::record_history`] is set.
     pub residual_history: Vec<f64>,
+    /// The extreme eigenvalues of `M^-1 A` (of `P M^-1 P A` on the free
+    /// subspace for filtered CG) and their ratio, from the Lanczos matrix of
+    /// the run's first segment (up to the first restart), when
+    /// [`CgParams::estimate_condition`] is set and at least one iteration ran.
+    pub condition: Option<ConditionEstimate>,
 }
 
 impl CgInfo {
@@ -156,6 +170,53 @@ pub struct CgWorkspace {
     z: Vec<f64>,
     p: Vec<f64>,
     q: Vec<f64>,
+    /// CG's step lengths and direction updates, for the condition estimate.
+    lanczos: Lanczos,
+}
+
+/// The coefficients `alpha_j`, `beta_j` of one CG run (see
+/// [`ConditionEstimate`]), in vectors whose capacity is reserved before
+/// the iteration: recording never allocates.
+#[derive(Debug, Clone, Default)]
+struct Lanczos {
+    alpha: Vec<f64>,
+    beta: Vec<f64>,
+    /// Whether the run still records (until its first restart).
+    recording: bool,
+    /// The iterations there is room for.
+    room: usize,
+}
+
+impl Lanczos {
+    /// Empties the record and reserves room for `steps` iterations
+    /// (capped at [`LANCZOS_CAPACITY`]); `on` says whether to record.
+    fn start(&mut self, on: bool, steps: usize) -> Result<(), SparseError> {
+        self.alpha.clear();
+        self.beta.clear();
+        self.recording = on;
+        self.room = 0;
+        if on {
+            let room = steps.clamp(1, LANCZOS_CAPACITY);
+            crate::error::try_grow("CG coefficients", &mut self.alpha, room)?;
+            crate::error::try_grow("CG coefficients", &mut self.beta, room)?;
+            self.room = room;
+        }
+        Ok(())
+    }
+
+    /// Records one iteration's `alpha` and the `beta` that followed it,
+    /// while there is room.
+    #[inline]
+    fn push(&mut self, alpha: f64, beta: f64) {
+        if self.recording && self.alpha.len() < self.room {
+            self.alpha.push(alpha);
+            self.beta.push(beta);
+        }
+    }
+
+    fn estimate(&self) -> Option<ConditionEstimate> {
+        ConditionEstimate::from_cg_coefficients(&self.alpha, &self.beta)
+    }
 }
 
 impl CgWorkspace {
@@ -171,6 +232,7 @@ impl CgWorkspace {
             z: vec![0.0; n],
             p: vec![0.0; n],
             q: vec![0.0; n],
+            lanczos: Lanczos::default(),
         }
     }
 
@@ -193,12 +255,15 @@ impl CgWorkspace {
             z: crate::error::try_filled(what, n, 0.0)?,
             p: crate::error::try_filled(what, n, 0.0)?,
             q: crate::error::try_filled(what, n, 0.0)?,
+            lanczos: Lanczos::default(),
         })
     }
 
     fn ensure(&mut self, n: usize) -> Result<(), SparseError> {
         if self.r.len() != n {
+            let lanczos = std::mem::take(&mut self.lanczos);
             *self = Self::try_new(n)?;
+            self.lanczos = lanczos;
         }
         Ok(())
     }
@@ -423,7 +488,14 @@ where
     }
     let max_iter = params.max_iter.unwrap_or(2 * n);
     ws.ensure(n)?;
-    let CgWorkspace { r, z, p, q } = ws;
+    let CgWorkspace {
+        r,
+        z,
+        p,
+        q,
+        lanczos,
+    } = ws;
+    lanczos.start(params.estimate_condition, max_iter)?;
 
     filter.impose(x);
     // r = P (b - A x); the reference norm is |P b|. A zero start (with
@@ -497,6 +569,7 @@ where
                 info.converged = true;
                 info.true_residual_norm = true_norm;
                 info.true_relative_residual = rel(true_norm);
+                info.condition = lanczos.estimate();
                 return Ok(info);
             }
             // It drifted. A restart that did not lower the true residual
@@ -505,9 +578,13 @@ where
             if !(true_norm < last_restart_norm) {
                 info.true_residual_norm = true_norm;
                 info.true_relative_residual = rel(true_norm);
+                info.condition = lanczos.estimate();
                 return Ok(info);
             }
             last_restart_norm = true_norm;
+            // A restart begins a new Krylov space: the Lanczos matrix of
+            // the first segment is the estimate.
+            lanczos.recording = false;
             // Restart CG from the true residual (iterating on with the
             // recursive one would stop again at once).
             r.copy_from_slice(q);
@@ -597,6 +674,7 @@ where
         r_norm = rr.sqrt();
         r_is_true = false;
         beta = rz_new / rz;
+        lanczos.push(alpha, beta);
         rz = rz_new;
         k += 1;
         if params.record_history {
@@ -612,6 +690,7 @@ where
     };
     info.true_residual_norm = true_norm;
     info.true_relative_residual = rel(true_norm);
+    info.condition = lanczos.estimate();
     Ok(info)
 }
 

@@ -95,6 +95,7 @@ mod direct;
 mod error;
 mod gmres;
 mod iso;
+mod lanczos;
 mod matrix;
 mod mtx;
 mod operator;
@@ -125,6 +126,7 @@ pub use direct::DirectCholesky;
 pub use error::SparseError;
 pub use gmres::{GmresInfo, GmresParams, GmresWorkspace, gmres};
 pub use iso::{IsoBlockMatrix, IsoSlot};
+pub use lanczos::{ConditionEstimate, LANCZOS_CAPACITY};
 pub use matrix::{
     BlockPattern, Slot, SymBlockMatrix, check_csr_symmetric, detect_block_size, is_block_pattern,
 };

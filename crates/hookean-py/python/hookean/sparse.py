@@ -426,6 +426,9 @@ BENCH_COLUMNS = (
     "rel_residual",
     "recursive_rel_residual",
     "setup_memory_bytes",
+    "lambda_min",
+    "lambda_max",
+    "condition",
     "status",
 )
 
@@ -519,7 +522,9 @@ def bench(
         (:data:`BENCH_COLUMNS`), one per system and preconditioner, or a
         ``pandas.DataFrame`` of them when pandas is importable.
         ``setup_memory_bytes`` is ``None``: the command line measures it
-        with its own heap counter, which a Python process does not have.
+        with its own heap counter, which a Python process does not have;
+        ``lambda_min``, ``lambda_max`` and ``condition`` (the command's
+        condition estimate from PCG's coefficients) are ``None`` too.
 
     >>> import scipy.sparse as sp, hookean.sparse as hs
     >>> A = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(200, 200), format="csr")
