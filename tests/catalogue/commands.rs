@@ -576,7 +576,7 @@ pub(crate) const VIEW: &[Case] = &[
         &[("s.toml", "[cloth]\nn = 4\n[[pin]]\nvertices = [0]\nkeys = [{ t = 0 }, { t = 1, translation = [nan, 0, 0] }]\n")],
         &["run", "{}/s.toml", "--out", "{}/out"],
         2,
-        "pin.keys.translation: components must be finite numbers",
+        "s.toml:5:43: keys.translation: components must be finite numbers",
     )
     .absent(&["out"]),
     case(
