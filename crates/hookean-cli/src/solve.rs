@@ -19,19 +19,26 @@ use crate::amg_args::{AmgArgs, read_columns, read_rigid_body_modes};
 
 #[derive(Debug, Args)]
 pub struct SolveArgs {
-    /// The matrix A (Matrix Market, coordinate or array, real, general or symmetric).
-    matrix: PathBuf,
-    /// The right-hand side b (Matrix Market, one column); default b = A * ones.
-    #[arg(long)]
-    rhs: Option<PathBuf>,
+    #[command(flatten)]
+    system: SystemArgs,
     #[command(flatten)]
     solver: SolverArgs,
+}
+
+/// The files and flags naming a system, of `hookean solve` and `hookean tune`.
+#[derive(Debug, Args)]
+pub struct SystemArgs {
+    /// The matrix A (Matrix Market, coordinate or array, real, general or symmetric).
+    pub matrix: PathBuf,
+    /// The right-hand side b (Matrix Market, one column); default b = A * ones.
+    #[arg(long)]
+    pub rhs: Option<PathBuf>,
     /// Matrix storage for PCG: block (symmetric 3x3 blocks, needs n divisible by 3
     /// and a symmetric matrix), csr, or auto (csr when the nodes have 1 or 2 unknowns
     /// by --block-size, --nullspace, --coordinates or the pattern; else block when
     /// possible).
     #[arg(long, default_value = "auto")]
-    format: String,
+    pub format: String,
     /// Unknowns per node for `--precond amg` on csr storage: 1, 2 (e.g. 2D
     /// elasticity) or 3 (block storage always has 3). Default: read off the
     /// first vector of `--nullspace` (a translation, non-zero at every d-th
@@ -39,18 +46,18 @@ pub struct SolveArgs {
     /// pattern (2 or 3 when every row of a node couples to the same nodes for
     /// exactly one of them), else 1. The JSON's `block_size_source` says which.
     #[arg(long)]
-    block_size: Option<usize>,
+    pub block_size: Option<usize>,
     /// The near-nullspace of `--precond amg`: a Matrix Market file whose
     /// columns are the vectors (e.g. the rigid-body modes: 3 on nodes of 2
     /// unknowns, 6 on nodes of 3; as many as the unknowns per node, or one
     /// for a scalar matrix). Default: the translations (the constant).
     #[arg(long, conflicts_with = "coordinates")]
-    nullspace: Option<PathBuf>,
+    pub nullspace: Option<PathBuf>,
     /// Node coordinates (Matrix Market, n x d, d = 2 or 3, one row per node,
     /// d unknowns per node): `amg` takes their rigid-body modes (3 in 2D, 6 in
     /// 3D) as its near-nullspace.
     #[arg(long)]
-    coordinates: Option<PathBuf>,
+    pub coordinates: Option<PathBuf>,
 }
 
 /// The most runs `--repeat` asks for.
@@ -542,32 +549,17 @@ pub fn load_system(
     })
 }
 
-/// The files and flags naming a system of `hookean solve` (and `hookean tune`).
-pub struct SystemPaths<'a> {
-    /// The matrix A.
-    pub matrix: &'a std::path::Path,
-    /// `--rhs` (default `A * ones`).
-    pub rhs: Option<&'a std::path::Path>,
-    /// `--format`: auto, block or csr.
-    pub format: &'a str,
-    /// `--block-size`.
-    pub block_size: Option<usize>,
-    /// `--nullspace`.
-    pub nullspace: Option<&'a std::path::Path>,
-    /// `--coordinates`.
-    pub coordinates: Option<&'a std::path::Path>,
-}
-
 /// Reads the system of `paths` within `cap` bytes ([`load_system`]) and
 /// the multigrid's near-nullspace (`--nullspace`, or the rigid-body modes
 /// of `--coordinates`; empty for neither), which also sets the unknowns per
 /// node unless `--block-size` does; a near-nullspace of the wrong shape is
 /// bad input naming its flag.
-pub fn read_system(paths: &SystemPaths<'_>, cap: u64) -> Result<(System, Vec<Vec<f64>>), CliError> {
+pub fn read_system(paths: &SystemArgs, cap: u64) -> Result<(System, Vec<Vec<f64>>), CliError> {
     let input = |flag: &str, path: &std::path::Path, e: String| {
         CliError::Input(format!("--{flag} {}: {e}", path.display()))
     };
-    let (near_nullspace, implied) = match (paths.nullspace, paths.coordinates) {
+    let (near_nullspace, implied) = match (paths.nullspace.as_deref(), paths.coordinates.as_deref())
+    {
         (Some(p), _) => {
             let v = read_columns(p, cap).map_err(|e| input("nullspace", p, e))?;
             let d =
@@ -591,9 +583,15 @@ pub fn read_system(paths: &SystemPaths<'_>, cap: u64) -> Result<(System, Vec<Vec
         matrix,
         block_size,
         block_size_source,
-    } = load_system(paths.matrix, paths.rhs, paths.format, block_size, cap)?;
+    } = load_system(
+        &paths.matrix,
+        paths.rhs.as_deref(),
+        &paths.format,
+        block_size,
+        cap,
+    )?;
     let rows = a.rows();
-    let source = match (paths.nullspace, paths.coordinates) {
+    let source = match (paths.nullspace.as_deref(), paths.coordinates.as_deref()) {
         (Some(p), _) => Some(("nullspace", p)),
         (None, Some(p)) => Some(("coordinates", p)),
         (None, None) => None,
@@ -612,7 +610,7 @@ pub fn read_system(paths: &SystemPaths<'_>, cap: u64) -> Result<(System, Vec<Vec
     // The shapes the multigrid takes (hookean-sparse owns them), checked
     // for any --precond: a file of the wrong shape is bad input, not a
     // failed set-up (exit 1) or a file ignored.
-    if let Some(path) = paths.nullspace {
+    if let Some(path) = paths.nullspace.as_deref() {
         let k = near_nullspace.len();
         let zero = near_nullspace
             .iter()
@@ -664,17 +662,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             block_size_source,
         },
         near_nullspace,
-    ) = read_system(
-        &SystemPaths {
-            matrix: &args.matrix,
-            rhs: args.rhs.as_deref(),
-            format: &args.format,
-            block_size: args.block_size,
-            nullspace: args.nullspace.as_deref(),
-            coordinates: args.coordinates.as_deref(),
-        },
-        plan.cap,
-    )?;
+    ) = read_system(&args.system, plan.cap)?;
     let rows = a.rows();
     // MIC(0) exists for block storage only: "all" skips it on CSR.
     let solvers = plan.solvers.iter().filter(|s| {
@@ -682,7 +670,7 @@ pub fn run(args: &SolveArgs) -> Result<(), CliError> {
             && matches!(matrix, Matrix::Csr { .. })
             && matches!(s, Solver::Pcg(o) if matches!(o.kind, PrecondKind::Mic0 { .. })))
     });
-    let name = args.matrix.display().to_string();
+    let name = args.system.matrix.display().to_string();
     let mut failed = false;
     for solver in solvers {
         let record = run_solver(

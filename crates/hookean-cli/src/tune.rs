@@ -52,16 +52,15 @@ use hookean_sparse::{
 
 use crate::CliError;
 use crate::solve::{
-    Matrix, Plan, RunOptions, SolveRecord, Solver, SystemPaths, cg_params, read_system, run_solver,
+    Matrix, Plan, RunOptions, SolveRecord, Solver, SystemArgs, cg_params, read_system, run_solver,
 };
 
 #[derive(Debug, Args)]
 pub struct TuneArgs {
-    /// The matrix A (Matrix Market, symmetric positive definite).
-    matrix: PathBuf,
-    /// The right-hand side b (Matrix Market, one column); default b = A * ones.
-    #[arg(long)]
-    rhs: Option<PathBuf>,
+    /// The matrix A, `--rhs`, the storage measured first (`--format`), `--block-size`,
+    /// `--nullspace` and `--coordinates`, as `hookean solve` takes them.
+    #[command(flatten)]
+    system: SystemArgs,
     /// Wall-clock seconds for the search, > 0 (the default configuration is always measured;
     /// no candidate starts once the budget, less what the final repeats need, is spent).
     #[arg(long, default_value_t = 60.0, allow_negative_numbers = true)]
@@ -78,19 +77,6 @@ pub struct TuneArgs {
     /// Runs of each front-runner (1 to 100); the best total is kept.
     #[arg(long, default_value_t = 3)]
     repeat: usize,
-    /// The storage measured first, as `hookean solve --format`: auto, block or csr.
-    #[arg(long, default_value = "auto")]
-    format: String,
-    /// Unknowns per node, as `hookean solve --block-size` (default: from --nullspace,
-    /// --coordinates or the pattern).
-    #[arg(long)]
-    block_size: Option<usize>,
-    /// The multigrid's near-nullspace, as `hookean solve --nullspace`.
-    #[arg(long, conflicts_with = "coordinates")]
-    nullspace: Option<PathBuf>,
-    /// Node coordinates, as `hookean solve --coordinates`.
-    #[arg(long)]
-    coordinates: Option<PathBuf>,
     /// Write tune.csv (every candidate) into this folder; it must not exist unless --force.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -818,15 +804,15 @@ fn solve_command(args: &TuneArgs, point: &Point, layouts: &[Layout]) -> String {
     let mut w: Vec<String> = vec![
         "hookean".into(),
         "solve".into(),
-        args.matrix.display().to_string(),
+        args.system.matrix.display().to_string(),
     ];
-    if let Some(r) = &args.rhs {
+    if let Some(r) = &args.system.rhs {
         w.extend(["--rhs".into(), r.display().to_string()]);
     }
-    if let Some(p) = &args.nullspace {
+    if let Some(p) = &args.system.nullspace {
         w.extend(["--nullspace".into(), p.display().to_string()]);
     }
-    if let Some(p) = &args.coordinates {
+    if let Some(p) = &args.system.coordinates {
         w.extend(["--coordinates".into(), p.display().to_string()]);
     }
     w.extend(["--precond".into(), point.kind.name().into()]);
@@ -924,31 +910,21 @@ pub fn run(args: &TuneArgs) -> Result<(), CliError> {
     // The output folder is checked before the search, not after it.
     let staging = match &args.out {
         Some(out) => {
-            let mut inputs: Vec<&Path> = vec![&args.matrix];
-            inputs.extend(args.rhs.as_deref());
-            inputs.extend(args.nullspace.as_deref());
-            inputs.extend(args.coordinates.as_deref());
+            let mut inputs: Vec<&Path> = vec![&args.system.matrix];
+            inputs.extend(args.system.rhs.as_deref());
+            inputs.extend(args.system.nullspace.as_deref());
+            inputs.extend(args.system.coordinates.as_deref());
             Some(crate::output::Staging::new(
                 "tune", out, "--out", args.force, &inputs,
             )?)
         }
         None => None,
     };
-    let (system, near_nullspace) = read_system(
-        &SystemPaths {
-            matrix: &args.matrix,
-            rhs: args.rhs.as_deref(),
-            format: &args.format,
-            block_size: args.block_size,
-            nullspace: args.nullspace.as_deref(),
-            coordinates: args.coordinates.as_deref(),
-        },
-        cap,
-    )?;
+    let (system, near_nullspace) = read_system(&args.system, cap)?;
     check_csr_symmetric(&system.a).map_err(|e| {
         CliError::Input(format!(
             "{}: {e} (PCG needs a symmetric matrix)",
-            args.matrix.display()
+            args.system.matrix.display()
         ))
     })?;
     let first = match system.matrix {
@@ -999,7 +975,7 @@ pub fn run(args: &TuneArgs) -> Result<(), CliError> {
     let Some(w) = winner else {
         return Err(CliError::Failed(format!(
             "{}: no candidate reached --rtol {} ({} tried; their reasons are above)",
-            args.matrix.display(),
+            args.system.matrix.display(),
             hookean_sparse::AsWritten(args.rtol),
             tuner.trials.len()
         )));
