@@ -55,13 +55,7 @@ impl System {
     /// or the same CSR rows and columns), as a refill of a preconditioner
     /// built from `self` needs.
     fn same_pattern(&self, other: &System) -> bool {
-        match (&self.matrix, &other.matrix) {
-            (PcgMatrix::Block(a), PcgMatrix::Block(b)) => a.pattern() == b.pattern(),
-            (PcgMatrix::Csr { a, .. }, PcgMatrix::Csr { a: b, .. }) => {
-                a.indptr().raw_storage() == b.indptr().raw_storage() && a.indices() == b.indices()
-            }
-            _ => false,
-        }
+        self.matrix.same_pattern(&other.matrix)
     }
 }
 

@@ -74,6 +74,21 @@ impl PcgMatrix {
         }
     }
 
+    /// Whether `other` is stored on the same pattern (the same 3x3 blocks,
+    /// or the same CSR rows and columns): what a preconditioner built from
+    /// `self` needs to be refilled from `other`.
+    pub fn same_pattern(&self, other: &PcgMatrix) -> bool {
+        match (self, other) {
+            (PcgMatrix::Block(a), PcgMatrix::Block(b)) => a.pattern() == b.pattern(),
+            (PcgMatrix::Csr { a, .. }, PcgMatrix::Csr { a: b, .. }) => {
+                a.shape() == b.shape()
+                    && a.indptr().raw_storage() == b.indptr().raw_storage()
+                    && a.indices() == b.indices()
+            }
+            _ => false,
+        }
+    }
+
     /// The storage's name: `sym-block-3x3` or `csr`.
     pub fn format(&self) -> &'static str {
         match self {
@@ -206,5 +221,36 @@ mod tests {
             PcgMatrix::auto(sprs::CsMat::eye(5), 1, false).format(),
             "csr"
         );
+    }
+
+    /// Same pattern: new values on the same entries (either storage); not:
+    /// an entry more, or the other storage of the same matrix.
+    #[test]
+    fn same_pattern_compares_the_stored_entries() {
+        let tridiagonal = |d: f64, extra: bool| {
+            let mut t = sprs::TriMat::new((9, 9));
+            for i in 0..9 {
+                t.add_triplet(i, i, d);
+                if i > 0 {
+                    t.add_triplet(i, i - 1, -1.0);
+                    t.add_triplet(i - 1, i, -1.0);
+                }
+            }
+            // Nodes 0 and 2 (rows 0..3, 6..9) coupled: a new 3x3 block too.
+            if extra {
+                t.add_triplet(0, 8, -0.5);
+                t.add_triplet(8, 0, -0.5);
+            }
+            t.to_csr::<usize>()
+        };
+        for (chosen, b) in [(false, 1), (true, 1)] {
+            let a = PcgMatrix::auto(tridiagonal(4.0, false), b, chosen);
+            assert!(a.same_pattern(&PcgMatrix::auto(tridiagonal(9.0, false), b, chosen)));
+            assert!(!a.same_pattern(&PcgMatrix::auto(tridiagonal(4.0, true), b, chosen)));
+        }
+        let block = PcgMatrix::auto(tridiagonal(4.0, false), 1, false);
+        let csr = PcgMatrix::auto(tridiagonal(4.0, false), 1, true);
+        assert_eq!((block.format(), csr.format()), ("sym-block-3x3", "csr"));
+        assert!(!block.same_pattern(&csr));
     }
 }
