@@ -28,9 +28,26 @@ pub struct IsoBlockMatrix {
 
 impl IsoBlockMatrix {
     /// A zero matrix on `pattern`.
+    ///
+    /// # Panics
+    /// If the allocator cannot give the `8` bytes per stored block (as
+    /// `Vec` does); [`try_new`](Self::try_new) returns an error instead.
     pub fn new(pattern: Arc<BlockPattern>) -> Self {
         let values = vec![0.0; pattern.stored_blocks()];
         Self { pattern, values }
+    }
+
+    /// A zero matrix on `pattern`, or an error where [`new`](Self::new) panics.
+    ///
+    /// # Errors
+    /// [`SparseError::TooLarge`] if the values cannot be allocated.
+    pub fn try_new(pattern: Arc<BlockPattern>) -> Result<Self, SparseError> {
+        let values = crate::error::try_filled(
+            "isotropic block matrix values",
+            pattern.stored_blocks(),
+            0.0,
+        )?;
+        Ok(Self { pattern, values })
     }
 
     /// The sparsity pattern.
@@ -253,7 +270,8 @@ mod tests {
     use crate::precond::Preconditioner;
 
     /// `for_each_stored` visits each written block once, upper triangle,
-    /// with the sum of what was added to it (either orientation).
+    /// with the sum of what was added to it (either orientation), on a
+    /// matrix from [`IsoBlockMatrix::try_new`].
     #[test]
     fn for_each_stored_visits_the_upper_blocks_with_their_sums() {
         let adds = [
@@ -264,7 +282,8 @@ mod tests {
             (3, 1, 4.0),
         ];
         let pattern = BlockPattern::new(4, adds.iter().map(|&(i, j, _)| (i, j))).unwrap();
-        let mut a = IsoBlockMatrix::new(Arc::new(pattern));
+        // try_new: a zero matrix on the pattern, as new (the sums below start at 0).
+        let mut a = IsoBlockMatrix::try_new(Arc::new(pattern)).unwrap();
         let mut expected = std::collections::BTreeMap::new();
         for i in 0..4 {
             expected.insert((i, i), 0.0);
