@@ -39,7 +39,14 @@ pub struct BlockPattern {
 /// first offending entry.
 pub fn check_csr_symmetric(a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
     let data = a.data();
-    if let Some(k) = data.iter().position(|v| !v.is_finite()) {
+    // One pass for both: whether an entry is not finite, and the largest magnitude.
+    let (finite, largest) = data.iter().fold((true, 0.0_f64), |(f, m), v| {
+        (f && v.is_finite(), m.max(v.abs()))
+    });
+    if let Some(k) = (!finite)
+        .then(|| data.iter().position(|v| !v.is_finite()))
+        .flatten()
+    {
         // The entry's position in the order `a.iter()` visits (storage order).
         let (_, (r, c)) = a.iter().nth(k).expect("k indexes a stored entry");
         return Err(SparseError::NonFinite {
@@ -47,7 +54,7 @@ pub fn check_csr_symmetric(a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
             index: Some(r * a.cols() + c),
         });
     }
-    let tol = 1e-12 * data.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    let tol = 1e-12 * largest;
     if a.rows() == a.cols() && a.is_csr() && csr_mirrors_agree(a, tol) {
         return Ok(());
     }
@@ -243,6 +250,68 @@ impl BlockPattern {
                 col_idx.push(upper[k].1);
                 k += 1;
             }
+            row_ptr.push(col_idx.len());
+        }
+        let lower = LowerIndex::of_upper(&row_ptr, &col_idx, 1);
+        Ok(Self {
+            n,
+            row_ptr,
+            col_idx,
+            lower,
+        })
+    }
+
+    /// The pattern of the `3 x 3` blocks of the square CSR matrix `a`
+    /// (dimension `3 n`, rows sorted) that hold an entry on or right of the
+    /// block diagonal: block row `I`'s columns are the block columns `c / 3
+    /// > I` of its three scalar rows, merged in order. One pass over the
+    /// indices, no sort of all pairs (the rows come in order, so the
+    /// pattern is written row by row as [`new`](Self::new) would leave it).
+    ///
+    /// # Errors
+    /// [`SparseError::InvalidParameter`] if `n` exceeds `u32::MAX`;
+    /// [`SparseError::TooLarge`] if the row pointers or columns cannot be
+    /// allocated.
+    pub(crate) fn of_scalar_upper(n: usize, a: &sprs::CsMat<f64>) -> Result<Self, SparseError> {
+        debug_assert!(a.is_csr() && a.rows() == 3 * n && a.cols() == 3 * n);
+        if n > u32::MAX as usize {
+            return Err(SparseError::InvalidParameter {
+                name: "n",
+                message: format!("{n} block rows exceed the u32 index range"),
+            });
+        }
+        let (indptr, indices) = (a.indptr(), a.indices());
+        let mut row_ptr = Vec::new();
+        crate::error::try_grow("block pattern row pointers", &mut row_ptr, n + 1)?;
+        let mut col_idx: Vec<u32> = Vec::new();
+        crate::error::try_grow("block pattern columns", &mut col_idx, n)?;
+        // `last[J] == I + 1`: block column `J` is already in block row `I`.
+        let mut last = Vec::new();
+        crate::error::try_grow("block pattern marks", &mut last, n)?;
+        last.resize(n, 0usize);
+        row_ptr.push(0);
+        for bi in 0..n {
+            col_idx.push(bi as u32);
+            let start = col_idx.len();
+            for r in 3 * bi..3 * bi + 3 {
+                let cols = &indices[indptr.index(r)..indptr.index(r + 1)];
+                // Columns are sorted: skip those left of the diagonal block.
+                let first = cols.partition_point(|&c| c < 3 * bi + 3);
+                for &c in &cols[first..] {
+                    let bj = c / 3;
+                    if last[bj] != bi + 1 {
+                        last[bj] = bi + 1;
+                        if col_idx.len() == col_idx.capacity() {
+                            let more = col_idx.len();
+                            crate::error::try_grow("block pattern columns", &mut col_idx, more)?;
+                        }
+                        col_idx.push(bj as u32);
+                    }
+                }
+            }
+            // The three rows' block columns, each sorted: merged by a sort of
+            // this row's few (13 on a 27-point grid).
+            col_idx[start..].sort_unstable();
             row_ptr.push(col_idx.len());
         }
         let lower = LowerIndex::of_upper(&row_ptr, &col_idx, 1);
@@ -937,17 +1006,7 @@ impl SymBlockMatrix {
         }
         let (indptr, indices, data) = (a.indptr(), a.indices(), a.data());
         let row = |r: usize| indptr.index(r)..indptr.index(r + 1);
-        // `a` is symmetric: its upper triangle gives the pattern. A row's
-        // columns are sorted, so its block columns repeat consecutively and
-        // each is passed once per scalar row.
-        let upper = (0..rows).flat_map(|r| {
-            let cols = &indices[row(r)];
-            cols.iter()
-                .enumerate()
-                .filter(move |&(k, &c)| c / 3 > r / 3 && (k == 0 || cols[k - 1] / 3 != c / 3))
-                .map(move |(_, &c)| (r / 3, c / 3))
-        });
-        let mut m = SymBlockMatrix::try_new(Arc::new(BlockPattern::new(n, upper)?))?;
+        let mut m = SymBlockMatrix::try_new(Arc::new(BlockPattern::of_scalar_upper(n, a)?))?;
         // Each scalar row meets its block row's stored blocks in column
         // order: one cursor per row instead of a search per entry.
         for r in 0..rows {

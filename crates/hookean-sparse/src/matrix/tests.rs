@@ -583,7 +583,8 @@ proptest::proptest! {
 proptest::proptest! {
     /// `from_csr` keeps every entry: its dense form equals the scalar
     /// matrix's, on random symmetric patterns that fill 3x3 blocks partly
-    /// (writers drop exact zeros), with empty block rows and CSC input.
+    /// (writers drop exact zeros), with empty block rows and CSC input, on
+    /// the pattern of exactly the blocks that hold an entry.
     #[test]
     fn from_csr_keeps_every_entry(
         nodes in 1usize..6,
@@ -607,6 +608,12 @@ proptest::proptest! {
             }
         }
         let csr: sprs::CsMat<f64> = t.to_csr();
+        // The pattern is exactly the blocks holding an entry: the one
+        // `BlockPattern::new` makes from the pairs (a sort of all of them).
+        let pairs = seen.iter().map(|&(i, j)| (i / 3, j / 3));
+        let expected = BlockPattern::new(nodes, pairs).unwrap();
+        let got = BlockPattern::of_scalar_upper(nodes, &csr).unwrap();
+        proptest::prop_assert_eq!((got.row_ptr(), got.col_idx()), (expected.row_ptr(), expected.col_idx()));
         proptest::prop_assert_eq!(dense(&SymBlockMatrix::from_csr(&csr).unwrap()), want.clone());
         proptest::prop_assert_eq!(dense(&SymBlockMatrix::from_csr(&csr.to_csc()).unwrap()), want);
     }
