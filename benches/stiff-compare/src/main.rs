@@ -43,7 +43,7 @@ use hookean_ode::{FirstOrderIntegrator, Integrator, Method};
 /// rhs_evals, newton_iters).
 type Run = Option<(Vec<f64>, [usize; 5])>;
 
-fn ours<P: TestProblem + Clone + 'static>(p: &P, rtol: f64) -> Run {
+fn ours<P: TestProblem + Clone + Send + 'static>(p: &P, rtol: f64) -> Run {
     let opts = options(p, rtol);
     let mut s = FirstOrderIntegrator::new(p.clone(), Method::variable_bdf(), 0.0, &p.y0(), opts).ok()?;
     let st = s.integrate(p.t_end()).ok()?.stats;
@@ -59,7 +59,7 @@ fn ours<P: TestProblem + Clone + 'static>(p: &P, rtol: f64) -> Run {
     ))
 }
 
-fn diffsol_bdf<P: TestProblem + Clone + 'static>(p: &P, rtol: f64) -> Run {
+fn diffsol_bdf<P: TestProblem + Clone + Send + 'static>(p: &P, rtol: f64) -> Run {
     let n = p.dim();
     let y0 = p.y0();
     let atol: Vec<f64> = p.floor().iter().map(|f| f * rtol).collect();
@@ -110,7 +110,7 @@ fn diffsol_bdf<P: TestProblem + Clone + 'static>(p: &P, rtol: f64) -> Run {
 /// diffsol's BDF with faer's sparse matrices and sparse LU, the Jacobian
 /// assembled from products with the problem's sparse Jacobian (diffsol
 /// detects the pattern from them).
-fn diffsol_bdf_sparse<P: TestProblem + Clone + 'static>(p: &P, rtol: f64) -> Run {
+fn diffsol_bdf_sparse<P: TestProblem + Clone + Send + 'static>(p: &P, rtol: f64) -> Run {
     let n = p.dim();
     let y0 = p.y0();
     let atol: Vec<f64> = p.floor().iter().map(|f| f * rtol).collect();
@@ -178,7 +178,7 @@ fn fit_line(points: &[(f64, f64)], x: f64) -> (f64, f64) {
 }
 
 /// The `fit` form for one problem (see the crate docs).
-fn fit_with<P: TestProblem + Clone + 'static>(
+fn fit_with<P: TestProblem + Clone + Send + 'static>(
     p: &P,
     repeats: usize,
     solvers: &[(&str, Solver<P>)],
@@ -254,7 +254,7 @@ fn time<P>(solve: fn(&P, f64) -> Run, p: &P, rtol: f64, repeats: usize) -> f64 {
 /// first rung that meets it, and the work-precision estimate of the time
 /// at error 1e-4 (log time interpolated linearly in log error between the
 /// last rung above the target and the first one below it).
-fn compare<P: TestProblem + Clone + 'static>(p: &P, repeats: usize) {
+fn compare<P: TestProblem + Clone + Send + 'static>(p: &P, repeats: usize) {
     compare_with(
         p,
         repeats,
@@ -262,7 +262,7 @@ fn compare<P: TestProblem + Clone + 'static>(p: &P, repeats: usize) {
     );
 }
 
-fn compare_sparse<P: TestProblem + Clone + 'static>(p: &P, repeats: usize) {
+fn compare_sparse<P: TestProblem + Clone + Send + 'static>(p: &P, repeats: usize) {
     compare_with(
         p,
         repeats,
@@ -275,7 +275,7 @@ fn compare_sparse<P: TestProblem + Clone + 'static>(p: &P, repeats: usize) {
 
 type Solver<P> = fn(&P, f64) -> Run;
 
-fn compare_with<P: TestProblem + Clone + 'static>(
+fn compare_with<P: TestProblem + Clone + Send + 'static>(
     p: &P,
     repeats: usize,
     solvers: &[(&str, Solver<P>)],
@@ -323,7 +323,7 @@ fn compare_with<P: TestProblem + Clone + 'static>(
 
 /// One problem with one solver `runs` times (for callgrind): prints the
 /// error and the statistics of the first run.
-fn prof<P: TestProblem + Clone + 'static>(p: &P, rtol: f64, solver: &str, runs: usize) {
+fn prof<P: TestProblem + Clone + Send + 'static>(p: &P, rtol: f64, solver: &str, runs: usize) {
     let solve: Solver<P> = match solver {
         "ours" => ours::<P>,
         "diffsol" => diffsol_bdf::<P>,
