@@ -16,6 +16,9 @@ use crate::block::{self, Block3};
 use crate::error::{SparseError, check_len};
 use crate::par::LowerIndex;
 
+mod csr;
+pub use csr::{check_csr_symmetric, detect_block_size, is_block_pattern};
+
 /// The sparsity pattern of a [`SymBlockMatrix`]: which 3x3 blocks are stored.
 ///
 /// Built once from a list of block pairs `(i, j)`; the diagonal blocks are
@@ -28,141 +31,6 @@ pub struct BlockPattern {
     /// The transpose's index, for the threaded SpMV: column `j`'s stored
     /// upper blocks `(i, j)`, `i < j`.
     lower: LowerIndex,
-}
-
-/// `Ok` when the square `sprs` matrix `a` is finite and symmetric: every
-/// entry equals its transpose to `1e-12` of the largest entry (what the
-/// symmetric solvers, PCG and the Cholesky factorisation, need).
-///
-/// # Errors
-/// [`SparseError::NonFinite`] or [`SparseError::NotSymmetric`] naming the
-/// first offending entry.
-pub fn check_csr_symmetric(a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
-    let data = a.data();
-    // One pass for both: whether an entry is not finite, and the largest magnitude.
-    let (finite, largest) = data.iter().fold((true, 0.0_f64), |(f, m), v| {
-        (f && v.is_finite(), m.max(v.abs()))
-    });
-    if let Some(k) = (!finite)
-        .then(|| data.iter().position(|v| !v.is_finite()))
-        .flatten()
-    {
-        // The entry's position in the order `a.iter()` visits (storage order).
-        let (_, (r, c)) = a.iter().nth(k).expect("k indexes a stored entry");
-        return Err(SparseError::NonFinite {
-            what: "matrix",
-            index: Some(r * a.cols() + c),
-        });
-    }
-    let tol = 1e-12 * largest;
-    if a.rows() == a.cols() && a.is_csr() && csr_mirrors_agree(a, tol) {
-        return Ok(());
-    }
-    // Not symmetric (or not square CSR): the first offending entry in
-    // storage order, by a search per entry.
-    for (&v, (r, c)) in a.iter() {
-        let t = a.get(c, r).copied().unwrap_or(0.0);
-        if (v - t).abs() > tol {
-            return Err(SparseError::NotSymmetric { row: r, col: c });
-        }
-    }
-    Ok(())
-}
-
-/// Whether every entry `a_rc` of the square CSR matrix `a` (rows sorted,
-/// as sprs keeps them) lies within `tol` of its mirror `a_cr` (0 when not
-/// stored), in one pass over the entries and no search.
-///
-/// Rows are visited in order; `next[c]` points at row `c`'s first entry
-/// right of the diagonal not yet paired. Row `r`'s entries `(r, c)` with
-/// `c < r` arrive in order of `c`, and row `c`'s entries right of the
-/// diagonal are met in order of their column `r`, so each mirror is found
-/// at `next[c]`: entries it skips have no mirror and must be within `tol`
-/// of zero, as must those left over at the end.
-fn csr_mirrors_agree(a: &sprs::CsMat<f64>, tol: f64) -> bool {
-    let (indptr, indices, data) = (a.indptr(), a.indices(), a.data());
-    let (start, end) = (|i: usize| indptr.index(i), |i: usize| indptr.index(i + 1));
-    let mut next: Vec<usize> = (0..a.rows())
-        .map(|i| start(i) + indices[start(i)..end(i)].partition_point(|&c| c <= i))
-        .collect();
-    for r in 0..a.rows() {
-        for k in start(r)..end(r) {
-            let c = indices[k];
-            if c >= r {
-                break;
-            }
-            let mut m = next[c];
-            while m < end(c) && indices[m] < r {
-                if data[m].abs() > tol {
-                    return false;
-                }
-                m += 1;
-            }
-            let mirror = if m < end(c) && indices[m] == r {
-                m += 1;
-                data[m - 1]
-            } else {
-                0.0
-            };
-            next[c] = m;
-            if (data[k] - mirror).abs() > tol {
-                return false;
-            }
-        }
-    }
-    (0..a.rows()).all(|i| data[next[i]..end(i)].iter().all(|v| v.abs() <= tol))
-}
-
-/// The unknowns per node `B` of `a`'s sparsity pattern: 3 or 2 when the
-/// pattern is one of nodes of `B` unknowns (node `I` owns rows and columns
-/// `B I .. B I + B`) and every row of a node couples to the same nodes,
-/// the structure of a vector-valued finite-element or mass-spring system;
-/// else 1.
-///
-/// The test is on nodes, not on dense `B x B` blocks: writers drop exact
-/// zeros, and vector-valued stiffness has them inside node blocks (the
-/// x-y coupling of a node with itself and its horizontal and vertical
-/// neighbours in bilinear 2D elasticity on a uniform grid, the out-of-plane
-/// coupling of a flat cloth's springs), so pyamg's 2D elasticity fills 72%
-/// of its 2x2 blocks and the 3D bar 70% of its 3x3 ones. A scalar stencil
-/// coupling unknowns `i` and `i + 1` fails it. A flat cloth fails it too
-/// (its z rows miss neighbours that its x and y rows couple to), and says 1. A pattern that passes for both 2 and 3 (a diagonal matrix, or
-/// one of dense 6x6 blocks, where the two groupings chain rows `6 I .. 6 I
-/// + 6` together) says nothing about which: ambiguous, so 1. See
-/// [`is_block_pattern`] to test one `B`.
-pub fn detect_block_size(a: &sprs::CsMat<f64>) -> usize {
-    match (is_block_pattern(a, 3), is_block_pattern(a, 2)) {
-        (true, false) => 3,
-        (false, true) => 2,
-        _ => 1,
-    }
-}
-
-/// Whether `a` is square with a dimension divisible by `b >= 1` and every
-/// row of each node of `b` unknowns couples to the same set of nodes (see
-/// [`detect_block_size`]); every square pattern passes for 1.
-pub fn is_block_pattern(a: &sprs::CsMat<f64>, b: usize) -> bool {
-    let (rows, cols) = a.shape();
-    if b == 0 || rows != cols || !rows.is_multiple_of(b) {
-        return false;
-    }
-    if !a.is_csr() {
-        return is_block_pattern(&a.to_csr(), b);
-    }
-    let (indptr, indices) = (a.indptr(), a.indices());
-    // The nodes row `r` couples to, each once (sprs keeps a row's indices
-    // sorted, so a node's columns are consecutive).
-    let nodes = |r: usize| {
-        let columns = &indices[indptr.index(r)..indptr.index(r + 1)];
-        columns
-            .iter()
-            .enumerate()
-            .filter(move |&(k, &c)| k == 0 || columns[k - 1] / b != c / b)
-            .map(move |(_, &c)| c / b)
-    };
-    (0..rows)
-        .step_by(b)
-        .all(|first| (first + 1..first + b).all(|r| nodes(r).eq(nodes(first))))
 }
 
 /// `Ok` when two matrices share their pattern (the same `Arc`, or equal
@@ -179,6 +47,17 @@ pub(crate) fn check_same_pattern(
             message: "matrices have different sparsity patterns".into(),
         })
     }
+}
+
+/// `Ok` when `n` block rows fit the patterns' `u32` column indices.
+fn check_block_rows(n: usize) -> Result<(), SparseError> {
+    if n > u32::MAX as usize {
+        return Err(SparseError::InvalidParameter {
+            name: "n",
+            message: format!("{n} block rows exceed the u32 index range"),
+        });
+    }
+    Ok(())
 }
 
 /// Where a block lives in the value array, found once by
@@ -221,12 +100,7 @@ impl BlockPattern {
         n: usize,
         pairs: impl IntoIterator<Item = (usize, usize)>,
     ) -> Result<Self, SparseError> {
-        if n > u32::MAX as usize {
-            return Err(SparseError::InvalidParameter {
-                name: "n",
-                message: format!("{n} block rows exceed the u32 index range"),
-            });
-        }
+        check_block_rows(n)?;
         let mut upper: Vec<(u32, u32)> = Vec::new();
         for (i, j) in pairs {
             if i >= n || j >= n {
@@ -252,13 +126,20 @@ impl BlockPattern {
             }
             row_ptr.push(col_idx.len());
         }
+        Ok(Self::from_rows(n, row_ptr, col_idx))
+    }
+
+    /// The pattern of rows written in order (`row_ptr`, and per row the
+    /// diagonal then the columns right of it, ascending), with the index
+    /// of its transpose.
+    fn from_rows(n: usize, row_ptr: Vec<usize>, col_idx: Vec<u32>) -> Self {
         let lower = LowerIndex::of_upper(&row_ptr, &col_idx, 1);
-        Ok(Self {
+        Self {
             n,
             row_ptr,
             col_idx,
             lower,
-        })
+        }
     }
 
     /// The pattern of the `3 x 3` blocks of the square CSR matrix `a`
@@ -274,12 +155,7 @@ impl BlockPattern {
     /// allocated.
     pub(crate) fn of_scalar_upper(n: usize, a: &sprs::CsMat<f64>) -> Result<Self, SparseError> {
         debug_assert!(a.is_csr() && a.rows() == 3 * n && a.cols() == 3 * n);
-        if n > u32::MAX as usize {
-            return Err(SparseError::InvalidParameter {
-                name: "n",
-                message: format!("{n} block rows exceed the u32 index range"),
-            });
-        }
+        check_block_rows(n)?;
         let (indptr, indices) = (a.indptr(), a.indices());
         let mut row_ptr = Vec::new();
         crate::error::try_grow("block pattern row pointers", &mut row_ptr, n + 1)?;
@@ -314,13 +190,7 @@ impl BlockPattern {
             col_idx[start..].sort_unstable();
             row_ptr.push(col_idx.len());
         }
-        let lower = LowerIndex::of_upper(&row_ptr, &col_idx, 1);
-        Ok(Self {
-            n,
-            row_ptr,
-            col_idx,
-            lower,
-        })
+        Ok(Self::from_rows(n, row_ptr, col_idx))
     }
 
     /// First block row of part `t` of `parts` parts with about equal numbers
