@@ -17,10 +17,11 @@ pub fn check_csr_symmetric(a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
     let (finite, largest) = data.iter().fold((true, 0.0_f64), |(f, m), v| {
         (f && v.is_finite(), m.max(v.abs()))
     });
-    if let Some(k) = (!finite)
-        .then(|| data.iter().position(|v| !v.is_finite()))
-        .flatten()
-    {
+    if !finite {
+        let k = data
+            .iter()
+            .position(|v| !v.is_finite())
+            .expect("an entry is not finite");
         // The entry's position in the order `a.iter()` visits (storage order).
         let (_, (r, c)) = a.iter().nth(k).expect("k indexes a stored entry");
         return Err(SparseError::NonFinite {
