@@ -126,6 +126,7 @@ fn a_pin_lifting_a_hanging_particle_does_the_work_the_particles_gain() {
         "W_pins = {w} J, by hand {expected} J"
     );
     let gained = energy(sim.x(), sim.v()) - e0;
+    eprintln!("lift: W_pins {w} J, by hand {expected} J, gained {gained} J");
     assert!(
         (w - gained).abs() <= 0.01 * expected,
         "W_pins = {w} J, energy gained {gained} J"
@@ -160,6 +161,7 @@ fn with_damping_the_pin_work_still_follows_the_momentum_and_exceeds_the_gain() {
         "W_pins = {w} J, by hand {expected} J"
     );
     let gained = energy(sim.x(), sim.v()) - e0;
+    eprintln!("damped lift: W_pins {w} J, by hand {expected} J, gained {gained} J");
     assert!(gained < w && gained > 0.9 * w, "gained {gained} J, W {w} J");
 }
 
@@ -188,6 +190,7 @@ fn a_pin_moved_sideways_and_stopped_did_the_work_of_the_swing() {
     run_to(&mut sim, 2.0);
     assert_eq!(sim.pin_work(), w_stop, "a pin at rest does no work");
     let gained = energy(sim.x(), sim.v()) - e0;
+    eprintln!("sideways: W_pins {w_stop} J, by hand {expected} J, gained {gained} J");
     assert!(
         (w_stop - gained).abs() <= 0.02 * expected,
         "W_pins = {w_stop} J, energy gained {gained} J"
@@ -240,6 +243,7 @@ fn a_soft_pin_lifting_a_particle_does_the_work_of_its_target() {
     let expected =
         u * ((M0 + M1) * G * t_move + M0 * v[2] + M1 * v[5]) + 0.5 * wk * u * u * h * t_move;
     let w = sim.pin_work();
+    eprintln!("soft: W_pins {w} J, by hand {expected} J");
     assert!(
         (w - expected).abs() <= 0.02 * expected,
         "W_pins = {w} J, by hand {expected} J"
