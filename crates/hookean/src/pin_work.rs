@@ -4,8 +4,8 @@
 //! (docs/CONTACT.md, "Energy").
 //!
 //! - **Hard pins** (`weight = 1`) prescribe the motion `y_i(t)` of their
-//!   particles; the constraint's reaction at particle `i` is `R_i = m_i a_i
-//!   - f_i(x, v)` (`f_i` every other force there: springs, damping, gravity,
+//!   particles; the constraint's reaction at particle `i` is
+//!   `R_i = m_i a_i - f_i(x, v)` (`f_i` every other force there: springs, damping, gravity,
 //!   external forces, air friction, contact, wind, before the constraint's
 //!   projection, [`MassSpringModel::free_force`]), and its power is `R_i .
 //!   v_i`. Over a step from `t_n` to `t_{n+1}` the inertial part integrates
