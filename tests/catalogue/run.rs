@@ -14,6 +14,17 @@ pub(crate) const RUN: &[Case] = &[
         1,
         "the spring energy grew from 0.0000e0 J to",
     ),
+    case(
+        "run: an energy budget below the integrator's own error cannot be met even in 64 substeps: exit 1 naming the key (issue 37)",
+        &[(
+            "s.toml",
+            "duration = 0.2\n[cloth]\nn = 6\n[integrator]\nmethod = \"implicit-midpoint\"\n\
+             energy_budget = 1e-9\n[output]\nframe_rate = 0.0\nwidth = 8\nheight = 8\n",
+        )],
+        &["run", "{}/s.toml", "--out", "{}/out"],
+        1,
+        "plus integrator.energy_budget = 1e-9 times the scene's energy scale, even with the step split into 64 substeps",
+    ),
     case("run: a missing scene file", &[], &["run", "{}/none.toml", "--out", "{}/out"], 2, "none.toml")
         .absent(&["out"]),
     case(

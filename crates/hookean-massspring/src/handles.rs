@@ -52,9 +52,48 @@ pub(crate) struct SoftPin {
     pub(crate) target: [f64; 3],
 }
 
+impl PinGroup {
+    /// Whether the group holds its particles at `t` (before its release).
+    pub fn holds_at(&self, t: f64) -> bool {
+        self.release.is_none_or(|r| t < r)
+    }
+
+    /// Hard pins (`weight = 1`) moved along a path: the groups whose
+    /// reaction forces do work on the model.
+    pub fn is_driven_hard(&self) -> bool {
+        self.weight == 1.0 && self.path.is_some()
+    }
+}
+
+impl SoftPin {
+    /// `w k |x_p - y_p|^2 / 2`.
+    fn energy(&self, x: &[f64]) -> f64 {
+        let d2: f64 = (0..3)
+            .map(|r| (x[3 * self.p + r] - self.target[r]).powi(2))
+            .sum();
+        0.5 * self.k * d2
+    }
+}
+
+/// The soft pins of a step starting at `t`: particle, `w k` and the target
+/// `y_p(t)`, in the order of the groups.
+fn soft_pins_at(handles: &[Handle], t: f64) -> impl Iterator<Item = SoftPin> + '_ {
+    handles
+        .iter()
+        .filter(move |h| !h.is_hard() && h.held_at(t) && h.group.weight > 0.0)
+        .flat_map(move |h| {
+            let k = h.group.weight * h.group.stiffness;
+            (h.group.particles.iter().enumerate()).map(move |(i, &p)| SoftPin {
+                p,
+                k,
+                target: h.target(i, t),
+            })
+        })
+}
+
 impl Handle {
     fn held_at(&self, t: f64) -> bool {
-        self.group.release.is_none_or(|r| t < r)
+        self.group.holds_at(t)
     }
 
     fn target(&self, k: usize, t: f64) -> [f64; 3] {
@@ -158,17 +197,9 @@ impl MassSpringModel {
                         self.fixes[p] = crate::model::Dirs::pin(h.target(k, t));
                     }
                 }
-            } else if held && h.group.weight > 0.0 {
-                let k = h.group.weight * h.group.stiffness;
-                for (i, &p) in h.group.particles.iter().enumerate() {
-                    self.soft_pins.push(SoftPin {
-                        p,
-                        k,
-                        target: h.target(i, t),
-                    });
-                }
             }
         }
+        self.soft_pins.extend(soft_pins_at(&self.handles, t));
         if changed {
             self.revision += 1;
         }
@@ -219,15 +250,27 @@ impl MassSpringModel {
         }
     }
 
-    /// The soft pins' elastic energy `sum w k |x_p - y_p|^2 / 2`.
-    pub(crate) fn soft_pin_energy(&self, x: &[f64]) -> f64 {
-        self.soft_pins
-            .iter()
-            .map(|s| {
-                let d2: f64 = (0..3).map(|r| (x[3 * s.p + r] - s.target[r]).powi(2)).sum();
-                0.5 * s.k * d2
-            })
-            .sum()
+    /// The soft pins' elastic energy `sum w k |x_p - y_p|^2 / 2` with the
+    /// targets of the current step (those of its start; the spring term of
+    /// [`energies`](Self::energies) holds it). No allocation.
+    ///
+    /// # Panics
+    /// If `x` is shorter than `3 n`.
+    pub fn soft_pin_energy(&self, x: &[f64]) -> f64 {
+        self.soft_pins.iter().map(|s| s.energy(x)).sum()
+    }
+
+    /// The soft pins' elastic energy with the targets of a step starting at
+    /// `t`, `y_p(t)` (released groups hold nothing): what
+    /// [`soft_pin_energy`](Self::soft_pin_energy) gives once a step from
+    /// `t` has begun. A step's start moves the targets with `x` held, so
+    /// the moving targets' work there is the difference of the two
+    /// (`hookean::Simulation`'s energy guard). No allocation.
+    ///
+    /// # Panics
+    /// If `x` is shorter than `3 n`.
+    pub fn soft_pin_energy_at(&self, t: f64, x: &[f64]) -> f64 {
+        soft_pins_at(&self.handles, t).map(|s| s.energy(x)).sum()
     }
 }
 

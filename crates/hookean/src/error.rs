@@ -111,11 +111,11 @@ pub enum HookeanError {
     /// A step gained energy that nothing in the scene can give, and gained
     /// it again when redone in substeps: its total energy (counted after
     /// the put-back of the particles it left inside a collider) exceeds
-    /// the start plus what moving colliders can give plus
+    /// the start plus what moving colliders and driven pins can give plus
     /// [`SimulationOptions::energy_budget`](crate::SimulationOptions::energy_budget)
     /// times the scene's energy scale (docs/CONTACT.md, "Energy").
     #[error(
-        "the run gained energy at t = {} s (step {step}): the {term} energy went from {} J at the start to {} J; the total energy {} J exceeds {} J, the start plus {} of the scene's energy scale, even with the step split into {substeps} substeps; lower integrator.h (or integrator.h_max), or tighten solver.newton_rtol",
+        "the run gained energy at t = {} s (step {step}): the {term} energy went from {} J at the start to {} J; the total energy {} J exceeds {} J, the start plus what moving colliders and driven pins can give plus integrator.energy_budget = {} times the scene's energy scale, even with the step split into {substeps} substeps; lower integrator.h (or integrator.h_max), tighten solver.newton_rtol, or allow the integrator's own error with a larger integrator.energy_budget",
         short_time(*t),
         Short(*term_start),
         Short(*term_now),

@@ -82,6 +82,8 @@ hookean_sparse::non_exhaustive_seal!();
 pub mod cache;
 #[cfg(feature = "filter")]
 mod error;
+#[cfg(feature = "filter")]
+mod pin_work;
 #[cfg(feature = "sparse")]
 pub mod range;
 #[cfg(feature = "filter")]

@@ -15,6 +15,7 @@ use hookean_ode::{
 use hookean_sparse::{PowerParams, PrecondKind};
 
 use crate::error::HookeanError;
+use crate::pin_work::PinWork;
 
 /// How a [`Simulation`] integrates.
 #[derive(Debug, Clone, PartialEq)]
@@ -35,14 +36,14 @@ pub struct SimulationOptions {
     /// The energy check: a run stops with [`HookeanError::BlowUp`] once
     /// its total energy (kinetic + gravitational + spring + the external
     /// forces' potential) exceeds the starting total (plus what moving
-    /// colliders can give) by more than this factor times the scene's
+    /// colliders and driven pins can give) by more than this factor times the scene's
     /// energy scale (see [`Simulation`]). Default `1e3`; `f64::INFINITY`
     /// turns it off.
     pub blow_up_factor: f64,
     /// The energy budget: a step whose total energy, counted after the
     /// put-back of the particles it left inside a collider
     /// ([`MassSpringModel::put_back_contacts`]), exceeds the starting total
-    /// (plus what moving colliders can give) by more than this fraction of
+    /// (plus what moving colliders and driven pins can give) by more than this fraction of
     /// the scene's energy scale is redone as 2, 4, ..., 64
     /// substeps; if even those cannot keep it, the run stops with
     /// [`HookeanError::EnergyGain`]. Default `0.05` (the integrator's own
@@ -177,7 +178,8 @@ pub trait Sink {
 /// that grew and, for explicit methods, the stable step `dt_max`, as soon
 /// as its total energy (kinetic + gravitational + spring + the external
 /// forces' potential) exceeds the starting total plus what moving
-/// colliders can give plus [`SimulationOptions::blow_up_factor`] times the
+/// colliders and the pins driven along a path can give plus
+/// [`SimulationOptions::blow_up_factor`] times the
 /// scene's energy scale (springs, damping, friction and static colliders
 /// only take energy out, so no valid motion comes near the bound; the
 /// bound is made precise in the crate's docs/RELIABILITY.md).
@@ -206,15 +208,20 @@ pub struct Simulation {
 /// The energy check of a [`Simulation`].
 ///
 /// Springs, damping, air friction, friction and static colliders only take
-/// energy out, pins do no work and gravity and the constant external forces
-/// are counted by their potentials, so along any valid motion the total
-/// `E = K + G + S + X` (kinetic, gravitational, spring and the external
-/// forces' potential, [`MassSpringModel::energies`]) never exceeds its
-/// start `E_0`; a moving mesh collider can add at most what its surface
+/// energy out, pins without a path do no work and gravity and the constant
+/// external forces are counted by their potentials, so along any valid
+/// motion the total `E = K + G + S + X` (kinetic, gravitational, spring and
+/// the external forces' potential, [`MassSpringModel::energies`]) never
+/// exceeds its start `E_0` plus the work `W_pins(t)` of the pins driven
+/// along a path (counted step by step, `pin_work.rs`: hard pins by their
+/// reaction `R_i = m_i a_i - f_i`, `W += sum_i [m_i (|v_i^{n+1}|^2 -
+/// |v_i^n|^2) / 2 - (f_i^n + f_i^{n+1}) . (x_i^{n+1} - x_i^n) / 2]`, soft
+/// pins by the stored energy their moving targets change); a moving mesh
+/// collider can add at most what its surface
 /// speed `U` explains: the speed it gives (`2 M U^2`, a bounce off it) and
 /// the lift against the weight `W = M |g| + sum_p |F_p|` over the distance
 /// it travels (`W U (t - t_0)`). The check allows
-/// `E <= E_0 + 2 M U^2 + W U (t - t_0) + factor * scale` with the energy
+/// `E <= E_0 + 2 M U^2 + W U (t - t_0) + W_pins(t) + factor * scale` with the energy
 /// scale `scale = K_0 + S_0 + W D + 1e-6 M D^2 / (1 s)^2` (`M` the total
 /// mass, `D` the diagonal of the starting bounding box; the last term
 /// keeps a scene at rest without gravity from tripping on round-off) and
@@ -229,7 +236,9 @@ pub struct Simulation {
 /// that stopped far from the solution or a contact that stores energy
 /// breaks it by orders of magnitude. It costs one
 /// [`energies`](MassSpringModel::energies) per step: a pass over the
-/// particles and one over the springs, no allocation.
+/// particles and one over the springs, no allocation (and, with driven
+/// hard pins, one [`free_force`](MassSpringModel::free_force)). A step
+/// redone in substeps restarts `W_pins` from its value at the step's start.
 #[derive(Debug, Clone)]
 struct EnergyGuard {
     factor: f64,
@@ -243,6 +252,9 @@ struct EnergyGuard {
     baseline: Option<Baseline>,
     /// Positions at the baseline, for the stable-step hint.
     x0: Vec<f64>,
+    /// `W_pins(t)`: the work of the pins driven along a path since the
+    /// baseline (`pin_work.rs`).
+    pins: PinWork,
 }
 
 /// What the energy check compares with.
@@ -309,6 +321,7 @@ impl EnergyGuard {
         });
         self.x0.clear();
         self.x0.extend_from_slice(x);
+        self.pins.reset(model, x, v);
         Ok(())
     }
 }
@@ -423,6 +436,7 @@ impl Simulation {
                 landed: (Vec::new(), Vec::new()),
                 baseline: None,
                 x0: Vec::new(),
+                pins: PinWork::default(),
             },
             current: None,
         })
@@ -449,12 +463,40 @@ impl Simulation {
             self.guard.y0.clear();
             self.guard.y0.extend_from_slice(self.integrator.state());
         }
+        self.guard.pins.checkpoint();
+        self.begin_pins();
         self.t()
+    }
+
+    /// Before a (sub)step: the driven soft pins' targets move to the step's
+    /// start (`pin_work.rs`).
+    fn begin_pins(&mut self) {
+        if self.guard.baseline.is_some() {
+            let (model, t, x) = (
+                self.integrator.problem(),
+                self.integrator.t(),
+                self.integrator.x(),
+            );
+            self.guard.pins.begin(model, t, x);
+        }
+    }
+
+    /// After a (sub)step from `t_start`: the driven hard pins' work over it.
+    fn end_pins(&mut self, t_start: f64) {
+        if self.guard.baseline.is_some() {
+            let (model, x, v) = (
+                self.integrator.problem(),
+                self.integrator.x(),
+                self.integrator.v(),
+            );
+            self.guard.pins.end(model, t_start, x, v);
+        }
     }
 
     /// After a step from `t_start`: the blow-up check, and the step redone
     /// in substeps if it ended above the energy budget.
     fn end_step(&mut self, t_start: f64, report: StepReport) -> Result<StepReport, HookeanError> {
+        self.end_pins(t_start);
         self.check_blow_up(&report)?;
         if self.over_budget()?.is_some() {
             return self.redo_in_substeps(t_start, report);
@@ -473,17 +515,12 @@ impl Simulation {
         if !self.guard.budget.is_finite() {
             return Ok(None);
         }
-        let budget = baseline.budget(self.t());
+        let budget = baseline.budget(self.t()) + self.guard.pins.work();
         let model = self.integrator.problem();
         // Not yet with cloth self-collision: redone steps of the shipped
         // 64 x 64 cloth-fold end with intersecting layers (t = 0.505 s), so
         // the budget leaves such models alone (docs/CONTACT.md, "Energy").
         if model.self_collision().is_some() {
-            return Ok(None);
-        }
-        // Pins driven along a path do work on the cloth that the budget
-        // does not count (docs/RELIABILITY.md): such models are left alone.
-        if model.pin_groups().any(|g| g.path.is_some()) {
             return Ok(None);
         }
         // Explicit methods: energy growth is instability, which the
@@ -532,6 +569,7 @@ impl Simulation {
         loop {
             let clock = Instant::now();
             self.integrator.restart(t_start, &self.guard.y0)?;
+            self.guard.pins.restore();
             let mut failed = None;
             'substeps: for j in 1..=m {
                 let t_j = if j == m {
@@ -541,7 +579,10 @@ impl Simulation {
                 };
                 while self.t() < t_j {
                     self.current = None;
+                    let t_sub = self.t();
+                    self.begin_pins();
                     let r = self.integrator.step_bounded(t_j)?;
+                    self.end_pins(t_sub);
                     report.rejected += r.rejected;
                     report.newton_iterations += r.newton_iterations;
                     report.linear_iterations += r.linear_iterations;
@@ -600,7 +641,7 @@ impl Simulation {
         let Some(baseline) = &self.guard.baseline else {
             return Ok(());
         };
-        let bound = baseline.bound(self.t());
+        let bound = baseline.bound(self.t()) + self.guard.pins.work();
         let now = match self.model().energies(self.x(), self.v()) {
             Ok(e) => {
                 self.current = Some(e);
@@ -787,6 +828,15 @@ impl Simulation {
     /// The method.
     pub fn method(&self) -> &Method {
         self.integrator.method()
+    }
+
+    /// The work of the pins driven along a path since the energy check's
+    /// baseline (the start, or the first step after
+    /// [`model_mut`](Self::model_mut)), J: what the energy check adds to
+    /// the start (see [`Simulation`]). Zero without such pins, or with both
+    /// checks off.
+    pub fn pin_work(&self) -> f64 {
+        self.guard.pins.work()
     }
 
     /// Wall-clock time spent stepping so far.

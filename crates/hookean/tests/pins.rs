@@ -114,6 +114,9 @@ fn hard_pins_follow_their_path_exactly_then_let_go() {
         }
     }
     assert!(steps >= 50);
+    // The energy budget is on (the default) and counts the moving edge's
+    // work (docs/CONTACT.md, "Energy"): no step above failed with EnergyGain.
+    assert!(sim.pin_work().abs() > 0.0);
     // Released: the edge falls below the path's last pose.
     let held = path.point_at(release, rest[0]);
     sim.run_until(release + 0.3).unwrap();

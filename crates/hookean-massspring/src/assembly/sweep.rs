@@ -333,6 +333,21 @@ impl MassSpringModel {
     /// half, so the force has the fused sweep's bits for every thread count
     /// (threaded: the SpMV's row parts and their halos, added in part order).
     pub(crate) fn eval_force(&self, x: &[f64], v: &[f64], f: &mut [f64]) {
+        self.free_force(x, v, f);
+        self.project_rows(f);
+    }
+
+    /// The force before the rows of constrained particles are projected:
+    /// gravity, external forces, air friction, springs and their damping,
+    /// the step's contact forces (kinetic friction, self-contact, soft pins)
+    /// and wind, `f_i(x, v)` at every particle, pinned or not. At a hard pin
+    /// the constraint's reaction is `R_i = m_i a_i - f_i` (the energy
+    /// guard's work of driven pins, `hookean::Simulation`). No allocation
+    /// (as [`force`](hookean_problem::SecondOrderProblem::force)).
+    ///
+    /// # Panics
+    /// If a slice length is not `3 n`.
+    pub fn free_force(&self, x: &[f64], v: &[f64], f: &mut [f64]) {
         let n = self.n_particles();
         assert!(
             x.len() == 3 * n && v.len() == 3 * n && f.len() == 3 * n,
@@ -398,7 +413,6 @@ impl MassSpringModel {
         }
         self.add_contact_forces(x, v, f);
         self.add_wind_forces(v, f);
-        self.project_rows(f);
     }
 
     /// `f_p <- P_p f_p` for the constrained particles.

@@ -59,7 +59,7 @@ pub struct IntegratorScene {
     pub max_steps: usize,
     /// The energy budget ([`SimulationOptions::energy_budget`](crate::SimulationOptions::energy_budget)):
     /// a step whose total energy exceeds the start (plus what moving
-    /// colliders and the wind can give) by more than this fraction of the
+    /// colliders, the wind and pins driven along a path can give) by more than this fraction of the
     /// scene's energy scale is redone in 2 to 64 substeps, and the run fails
     /// if even those exceed it; `"off"` turns the check off. Range (0, inf)
     /// or `"off"`. Default 0.05.
