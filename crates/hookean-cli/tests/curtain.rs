@@ -23,7 +23,7 @@ fn ring_at(i: usize, t: f64) -> [f64; 3] {
     }
     let u = ((t - 0.3) / 1.2).clamp(0.0, 1.0);
     let s = u * u * (3.0 - 2.0 * u);
-    let side = if i % 2 == 0 { 0.04 } else { -0.04 };
+    let side = if i.is_multiple_of(2) { 0.04 } else { -0.04 };
     [start[0] + s * (0.75 - 0.075 * i as f64), s * side, start[2]]
 }
 
