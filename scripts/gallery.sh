@@ -9,7 +9,7 @@ hookean=${HOOKEAN:-target/release/hookean}
 out=$(mktemp -d)
 g=docs/gallery
 
-for scene in drape cloth-sphere cloth-table cloth-fold cloth-slope flag jelly rope tutorial1 tutorial2 tutorial3; do
+for scene in drape cloth-sphere cloth-table cloth-fold cloth-slope flag curtain jelly rope tutorial1 tutorial2 tutorial3; do
   "$hookean" run "scenes/$scene.toml" --out "$out/$scene" --quiet
   cp "$out/$scene/final.png" "$g/final-$scene.png"
 done
@@ -36,5 +36,7 @@ chrome --screenshot=docs/view-drape-last.png "$page#frame=last"
 # view.html of the contact scenes: the table at the end, the fold at 0.5 s.
 chrome --screenshot="$g/view-cloth-table.png" "file://$(cd "$out/cloth-table" && pwd)/view.html#frame=last"
 chrome --screenshot="$g/view-cloth-fold.png" "file://$(cd "$out/cloth-fold" && pwd)/view.html#frame=5"
+# The curtain gathered in pleats at 1.9 s, before its rings let go.
+chrome --screenshot="$g/view-curtain.png" "file://$(cd "$out/curtain" && pwd)/view.html#frame=19"
 ls -l "$out/drape/view.html"
 rm -rf "$out"

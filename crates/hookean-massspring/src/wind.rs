@@ -541,7 +541,10 @@ mod tests {
     /// `df/dv` against central differences of the force: exact for drag
     /// (`C_l = 0`); with lift, the differences minus the dropped term
     /// `-(1/9) 1/2 rho A C_l v_n n v_rel^T / |v_rel|` (module docs). Every
-    /// pair of corners, on a cloth triangle with springs on its edges.
+    /// pair of corners, on a cloth triangle with springs on its edges; and
+    /// every block of the implicit step's matrix `M + a df/dx + b df/dv`
+    /// (`step_matrix`, the one sweep the integrators call, which adds the
+    /// wind on its own), whose wind part must be `b` times the differences.
     #[test]
     fn the_velocity_jacobian_is_the_finite_difference_of_the_force() {
         let (model0, state) = cloth(&ClothParams {
@@ -617,6 +620,64 @@ mod tests {
                 }
                 d
             };
+            // The step matrix at a = -h^2, b = -h (h = 0.01 s): with wind
+            // minus without, on every pair of particles.
+            let (a, b) = (-1e-4, -1e-2);
+            let (mut step_with, mut step_without) = model.new_jacobians();
+            model
+                .step_matrix(
+                    0.0,
+                    &x,
+                    &v,
+                    a,
+                    b,
+                    &mut dx,
+                    &mut with.clone(),
+                    &mut step_with,
+                )
+                .unwrap();
+            calm.step_matrix(
+                0.0,
+                &x,
+                &v,
+                a,
+                b,
+                &mut dx0,
+                &mut without.clone(),
+                &mut step_without,
+            )
+            .unwrap();
+            let mut wind_blocks = 0;
+            for i in 0..n {
+                for j in 0..n {
+                    let ours = block::add(
+                        &step_with.block(i, j).unwrap(),
+                        &block::scale(&step_without.block(i, j).unwrap(), -1.0),
+                    );
+                    let drop = dropped(i, j);
+                    let mut largest = 0.0f64;
+                    for c in 0..3 {
+                        let (mut vp, mut vm) = (v.clone(), v.clone());
+                        vp[3 * j + c] += eps;
+                        vm[3 * j + c] -= eps;
+                        let (fp, fm) = (force(&vp), force(&vm));
+                        for r in 0..3 {
+                            let fd = (fp[3 * i + r] - fm[3 * i + r]) / (2.0 * eps);
+                            let expected = b * (fd - drop[r][c]);
+                            largest = largest.max(expected.abs());
+                            assert!(
+                                (ours[r][c] - expected).abs() < 1e-8 * (1.0 + expected.abs()),
+                                "step matrix, lift {lift}, block ({i}, {j}) [{r}][{c}]: {} vs {expected}",
+                                ours[r][c]
+                            );
+                        }
+                    }
+                    wind_blocks += usize::from(largest > 1e-6);
+                }
+            }
+            // The wind couples every two corners of a triangle: all 9
+            // particles' diagonal blocks and the pairs of the 8 triangles.
+            assert!(wind_blocks > 2 * n, "{wind_blocks} blocks of wind");
             for &i in &tri {
                 for &j in &tri {
                     let blk_with = with.block(i, j).unwrap();

@@ -94,3 +94,63 @@ fn the_same_seed_blows_the_same_flag() {
     let (c, ..) = run(&flag(&other));
     assert!(a != c);
 }
+
+/// Stiff drag needs the wind's velocity Jacobian: a light horizontal sheet
+/// (one triangle of 0.5 m^2 and 30 g, springs on its edges) sinking through
+/// still water (rho = 1000 kg/m^3, C_d = 1.2) reaches the terminal speed
+/// `v_t = sqrt(2 m g / (rho C_d A))` = 0.031 m/s within a few ms. There
+/// the drag's derivative `2 m g / v_t` makes `h df/dv / m = 2 g h / v_t`
+/// = 6.3 at h = 0.01 s: Newton with the Jacobian converges in one or two
+/// iterations a step; without it each iteration multiplies the error by
+/// about 6 (a fixed-point iteration on the drag), so every step is
+/// rejected until h is far smaller. Implicit Euler's fixed point is the
+/// ODE's: the sheet sinks flat at exactly `v_t`.
+#[test]
+fn stiff_drag_is_stable_at_h_0_01_with_its_jacobian() {
+    use hookean::massspring::{MassSpringModel, ModelOptions, Spring, State, Wind};
+    use hookean::prelude::*;
+    let (m, g, rho, cd) = (0.03, 9.81, 1000.0, 1.2);
+    let x = vec![0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+    let area = 0.5;
+    let springs = vec![
+        Spring::new(0, 1, 1.0, 1e3, 0.1),
+        Spring::new(1, 2, 2f64.sqrt(), 1e3, 0.1),
+        Spring::new(0, 2, 1.0, 1e3, 0.1),
+    ];
+    let options = ModelOptions {
+        gravity: [0.0, 0.0, -g],
+        ..Default::default()
+    };
+    let mut model = MassSpringModel::new(vec![m / 3.0; 3], springs, options).unwrap();
+    model.set_faces(vec![[0, 1, 2]]).unwrap();
+    model
+        .set_wind(Some(Wind {
+            air_density: rho,
+            drag: cd,
+            ..Default::default()
+        }))
+        .unwrap();
+    let state = State { x, v: vec![0.0; 9] };
+    let mut o = SimulationOptions::default();
+    o.solver.h = 0.01;
+    let mut sim = Simulation::new(model, state, o).unwrap();
+    sim.run_until(1.0).unwrap();
+    let stats = sim.stats();
+    let v_t = (2.0 * m * g / (rho * cd * area)).sqrt();
+    assert!((2.0 * g * 0.01 / v_t - 6.3).abs() < 0.05, "{v_t}");
+    assert_eq!(stats.num_rejected_steps(), 0, "{stats:?}");
+    assert_eq!(stats.num_steps, 100, "{stats:?}");
+    assert!(
+        stats.num_nonlin_solv_iters as f64 <= 2.0 * stats.num_steps as f64,
+        "{stats:?}"
+    );
+    for p in 0..3 {
+        let vp = &sim.v()[3 * p..3 * p + 3];
+        assert!(vp[0].abs() < 1e-9 && vp[1].abs() < 1e-9, "{vp:?}");
+        assert!(
+            (vp[2] + v_t).abs() < 1e-4 * v_t,
+            "corner {p} sinks at {} m/s, v_t = {v_t} m/s",
+            -vp[2]
+        );
+    }
+}
