@@ -40,7 +40,7 @@ pub struct PinGroup {
 pub(crate) struct Handle {
     pub(crate) group: PinGroup,
     pub(crate) rest: Vec<[f64; 3]>,
-    /// Whether the hard pins were released (their fixes cleared).
+    /// Whether the group was released (a hard group: its fixes cleared).
     pub(crate) released: bool,
 }
 
@@ -184,18 +184,20 @@ impl MassSpringModel {
         let mut changed = false;
         for h in &mut self.handles {
             let held = h.held_at(t);
-            if h.is_hard() {
-                if !held && !h.released {
+            if !held && !h.released {
+                // A release changes the material: the hard pins' fixes go,
+                // a soft group's `-w k I` leaves eq. 50's constant `df/dx`.
+                if h.is_hard() {
                     for &p in &h.group.particles {
                         self.fixes[p] = crate::model::Dirs::EMPTY;
                     }
-                    h.released = true;
-                    changed = true;
                 }
-                if held {
-                    for (k, &p) in h.group.particles.iter().enumerate() {
-                        self.fixes[p] = crate::model::Dirs::pin(h.target(k, t));
-                    }
+                h.released = true;
+                changed = true;
+            }
+            if held && h.is_hard() {
+                for (k, &p) in h.group.particles.iter().enumerate() {
+                    self.fixes[p] = crate::model::Dirs::pin(h.target(k, t));
                 }
             }
         }

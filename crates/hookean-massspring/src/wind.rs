@@ -284,6 +284,8 @@ impl MassSpringModel {
     /// without triangles; [`MassSpringError::NonFinite`] for a non-finite
     /// wind velocity.
     pub fn set_wind(&mut self, wind: Option<Wind>) -> Result<(), MassSpringError> {
+        // Wind changes the material: eq. 50's Jacobians exist only without it.
+        self.revision += 1;
         let Some(wind) = wind else {
             self.wind = None;
             return Ok(());

@@ -160,6 +160,17 @@ pub trait SecondOrderProblem {
         false
     }
 
+    /// Whether the linearised Jacobians are near enough to the true ones to
+    /// be simplified Newton's matrix (eq. 50, Algorithm 3). `false` where a
+    /// stiff part of `f` depends on the state in a way `f_lin` leaves out
+    /// (a mass-spring model's wind drag, whose `df/dv` turns with each
+    /// triangle): inexact simplified Newton then keeps the true Jacobian of
+    /// the step's start instead, while IMEX, which integrates `f - f_lin`
+    /// explicitly, still uses `f_lin`. Default `true`.
+    fn linearization_is_newton_matrix(&self) -> bool {
+        true
+    }
+
     /// A counter that changes whenever the linearised Jacobians change
     /// (material, damping model, permanent constraints). Default 0 (never).
     fn material_revision(&self) -> u64 {

@@ -47,6 +47,54 @@ fn a_soft_pin_sags_by_m_g_over_k() {
     assert!((sim.x()[0] - x0[0]).abs() < 1e-12 && (sim.x()[1] - x0[1]).abs() < 1e-12);
 }
 
+/// A stiff soft pin (`h^2 w k / m` = 500 at h = 0.01 s) with inexact
+/// simplified Newton: eq. 50's matrix carries the pin's exact `-w k I`, so
+/// each step converges in one or two iterations and the particle rests
+/// `m g / (w k)` below its target. Without the pin in that matrix the
+/// iteration is a fixed point on the pin force, multiplying its error by
+/// about 500 each time: every step fails.
+#[test]
+fn a_stiff_soft_pin_with_inexact_simplified_newton() {
+    use hookean::nonlinear::{ForcingTerm, NewtonMethod};
+    let (m, g, k, w) = (0.01, 9.81, 1.0e5, 0.5);
+    let options = ModelOptions {
+        gravity: [0.0, 0.0, -g],
+        air_friction: 0.5,
+        ..Default::default()
+    };
+    let mut model = MassSpringModel::new(vec![m], vec![], options).unwrap();
+    let x0 = vec![0.3, -0.1, 1.0];
+    let group = PinGroup {
+        particles: vec![0],
+        weight: w,
+        stiffness: k,
+        path: None,
+        release: None,
+    };
+    model.add_pin_group(group, &x0).unwrap();
+    let state = State {
+        x: x0.clone(),
+        v: vec![0.0; 3],
+    };
+    let mut o = SimulationOptions::default();
+    o.solver.newton.method = NewtonMethod::InexactSimplified(ForcingTerm::Constant(0.01));
+    assert!((o.solver.h * o.solver.h * w * k / m - 500.0).abs() < 1e-9);
+    let mut sim = Simulation::new(model, state, o).unwrap();
+    sim.run_until(2.0).unwrap();
+    let stats = sim.stats();
+    assert_eq!(stats.num_rejected_steps(), 0, "{stats:?}");
+    assert!(
+        stats.num_nonlin_solv_iters <= 2 * stats.num_steps,
+        "{stats:?}"
+    );
+    let sag = x0[2] - sim.x()[2];
+    let expected = m * g / (w * k);
+    assert!(
+        (sag - expected).abs() <= 0.01 * expected,
+        "sag {sag} m, m g / k = {expected} m"
+    );
+}
+
 fn key(t: f64, translation: [f64; 3], rotation: [f64; 3]) -> Keyframe {
     Keyframe {
         t,

@@ -107,6 +107,30 @@ fn the_same_seed_blows_the_same_flag() {
 /// ODE's: the sheet sinks flat at exactly `v_t`.
 #[test]
 fn stiff_drag_is_stable_at_h_0_01_with_its_jacobian() {
+    sinking_sheet(None);
+}
+
+/// The same sheet with inexact simplified Newton (the tutorial's
+/// Algorithm 3), whose matrix is otherwise eq. 50's constant linearisation:
+/// it has no wind term (the drag's `df/dv` turns with the normal and grows
+/// with the speed), so with it each iteration would multiply the drag's
+/// error by about 6 again. The model says so
+/// (`SecondOrderProblem::linearization_is_newton_matrix`), and the step
+/// keeps the true Jacobian of its start instead. From rest that Jacobian
+/// has no drag term either (the drag `|v| v` and its derivative vanish at
+/// `v = 0`), so the first steps are rejected until the sheet moves: at
+/// most 5 (3 measured), then every step converges as with full Newton.
+#[test]
+fn stiff_drag_is_stable_with_inexact_simplified_newton() {
+    use hookean::nonlinear::{ForcingTerm, NewtonMethod};
+    sinking_sheet(Some(NewtonMethod::InexactSimplified(
+        ForcingTerm::Constant(0.01),
+    )));
+}
+
+/// `None`: the default Newton (every step accepted).
+fn sinking_sheet(method: Option<hookean::nonlinear::NewtonMethod>) {
+    let rejected_at_most = if method.is_some() { 5 } else { 0 };
     use hookean::massspring::{MassSpringModel, ModelOptions, Spring, State, Wind};
     use hookean::prelude::*;
     let (m, g, rho, cd) = (0.03, 9.81, 1000.0, 1.2);
@@ -133,12 +157,15 @@ fn stiff_drag_is_stable_at_h_0_01_with_its_jacobian() {
     let state = State { x, v: vec![0.0; 9] };
     let mut o = SimulationOptions::default();
     o.solver.h = 0.01;
+    if let Some(method) = method {
+        o.solver.newton.method = method;
+    }
     let mut sim = Simulation::new(model, state, o).unwrap();
     sim.run_until(1.0).unwrap();
     let stats = sim.stats();
     let v_t = (2.0 * m * g / (rho * cd * area)).sqrt();
     assert!((2.0 * g * 0.01 / v_t - 6.3).abs() < 0.05, "{v_t}");
-    assert_eq!(stats.num_rejected_steps(), 0, "{stats:?}");
+    assert!(stats.num_rejected_steps() <= rejected_at_most, "{stats:?}");
     assert_eq!(stats.num_steps, 100, "{stats:?}");
     assert!(
         stats.num_nonlin_solv_iters as f64 <= 2.0 * stats.num_steps as f64,

@@ -9,11 +9,24 @@ use crate::model::{MassSpringModel, SpringDamping};
 use super::*;
 
 impl MassSpringModel {
+    /// Whether eq. 50's constant Jacobians describe the model: not with
+    /// wind, whose drag and lift `df/dv` turns with each triangle's normal
+    /// and grows with its speed relative to the air (`wind.rs`), so that no
+    /// constant matrix is near it. Without it a stiff drag (`h |df/dv| / m`
+    /// of order 1 or more) leaves simplified Newton a fixed-point iteration
+    /// on the drag, which diverges; the integrators then fall back to the
+    /// true Jacobian, kept from the step's start (simplified Newton).
+    pub fn has_constant_linearization(&self) -> bool {
+        self.wind.is_none()
+    }
+
     /// Writes the tutorial's constant linearised Jacobians (eq. 50): per
     /// spring an isotropic block `k I` in `df/dx` (`-k I` on the diagonals)
     /// and `d I` in `df/dv` (for projected or incorrect damping; none for
-    /// [`SpringDamping::None`]), plus `-c I` for air friction. They depend on
-    /// the material only (not on the state, nor on contacts); permanent
+    /// [`SpringDamping::None`]), plus `-c I` for air friction and `-w k I`
+    /// in `df/dx` for each held soft pin (its exact Jacobian, a zero-rest
+    /// spring's). They depend on the material only (not on the state, nor
+    /// on contacts; a pin group's release bumps the material revision); permanent
     /// constraints (pins, sliding) are applied as `P_i B P_j`. The paper's
     /// `k_ij / l_ij^2` is our `k` (N/m).
     pub fn assemble_linearized(&self, dfdx: &mut SymBlockMatrix, dfdv: &mut SymBlockMatrix) {
@@ -39,12 +52,16 @@ impl MassSpringModel {
                 dfdv.add_to_slot(self.plan.diag_slots[p], &block::scale(&pp, -c));
             }
         }
+        for s in &self.soft_pins {
+            let pp = self.fixes[s.p].projector();
+            dfdx.add_to_slot(self.plan.diag_slots[s.p], &block::scale(&pp, -s.k));
+        }
     }
 
     /// The tutorial's eq. 50 in isotropic storage, one scalar per block:
     /// `k` per spring in `df/dx` (`-k` on the diagonals), `d` in `df/dv`
     /// (none for [`SpringDamping::None`]), `-c` on the diagonal for air
-    /// friction. Permanent constraints are *not* applied (they would make
+    /// friction, `-w k` on it for each held soft pin. Permanent constraints are *not* applied (they would make
     /// the blocks anisotropic): the integrators filter the constrained
     /// directions (filtered PCG, or the eliminated pins of the IMEX
     /// factorisation). Allocates nothing; panics if the matrices are not on
@@ -74,6 +91,11 @@ impl MassSpringModel {
                 if let Ok(pp) = dfdv.slot(p, p) {
                     dfdv.add_to_slot(pp, -c);
                 }
+            }
+        }
+        for s in &self.soft_pins {
+            if let Ok(pp) = dfdx.slot(s.p, s.p) {
+                dfdx.add_to_slot(pp, -s.k);
             }
         }
     }

@@ -182,6 +182,11 @@ impl SecondOrderProblem for MassSpringModel {
         true
     }
 
+    /// Not with wind (see [`MassSpringModel::has_constant_linearization`]).
+    fn linearization_is_newton_matrix(&self) -> bool {
+        self.has_constant_linearization()
+    }
+
     fn material_revision(&self) -> u64 {
         MassSpringModel::material_revision(self)
     }

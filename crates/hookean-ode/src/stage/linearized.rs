@@ -104,7 +104,8 @@ impl<P: SecondOrderProblem> SecondSys<P> {
     /// [`System::solve_stage`](super::System::solve_stage) by inexact simplified Newton on eq. 50's
     /// isotropic matrix ([`ReducedStageIso`]), kept until `gh` or the
     /// material revision changes; `None` if the problem has no isotropic
-    /// linearisation (then the full-block path runs, with
+    /// linearisation or it is no Newton matrix
+    /// ([`SecondOrderProblem::linearization_is_newton_matrix`]; then the full-block path runs, with
     /// [`SecondOrderProblem::linearized_jacobians`] if it has that).
     pub(super) fn solve_stage_linearized(
         &mut self,
@@ -115,6 +116,9 @@ impl<P: SecondOrderProblem> SecondSys<P> {
         opts: &SolverOptions,
         stats: &mut Stats,
     ) -> Option<Result<StageInfo, StageFailure>> {
+        if !self.problem.linearization_is_newton_matrix() {
+            return None;
+        }
         let nopts = momentum_options(&opts.newton, self.mean_mass);
         if self.linearized.is_none() {
             let built = PcgSolver::from_options(&opts.linear)

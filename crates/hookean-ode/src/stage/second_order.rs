@@ -101,7 +101,9 @@ impl<P: SecondOrderProblem> NonlinearSystem for ReducedStage<'_, P> {
         _v: &[f64],
         a: &mut SymBlockMatrix,
     ) -> Result<bool, NonlinearError> {
-        if !self.problem.linearized_jacobians(self.dfdx, self.dfdv) {
+        if !self.problem.linearization_is_newton_matrix()
+            || !self.problem.linearized_jacobians(self.dfdx, self.dfdv)
+        {
             return Ok(false);
         }
         self.assemble(a)?;
