@@ -652,7 +652,7 @@ fn view_html_poses_path_and_sequence_colliders_at_the_frame_time() {
         out.join("lifted.obj")
     );
     let Some(browser) = chromium() else { return };
-    let s = 20.0 / 27.0;
+    let s: f64 = 20.0 / 27.0;
     let (c, sn) = ((0.6 * s).cos(), (0.6 * s).sin());
     let path_vertex = [0.3 * s + c * -0.3 - sn * -0.3, sn * -0.3 + c * -0.3, 0.46];
     let sequence_vertex = [-0.3 + 2.0, -0.3, 0.46 + 0.05];
