@@ -450,9 +450,13 @@ pub fn render(s: &RenderScene<'_>, width: usize, height: usize) -> Result<Canvas
             items.push((3.0 * cam.project(center)[2], Item::Sphere(*center, *radius)));
         }
     }
+    // A collider's pieces sort one piece size farther than they are: cloth
+    // resting on a surface (at the contact thickness, far less than a piece
+    // above it) is drawn over it, not speckled by pieces whose centroids
+    // happen to be nearer than the cloth triangle's above them.
     for (k, t) in meshes.iter().enumerate() {
         let depth: f64 = t.iter().map(|p| cam.project(p)[2]).sum();
-        items.push((depth, Item::MeshFace(k)));
+        items.push((depth - 3.0 * piece, Item::MeshFace(k)));
     }
     items.sort_by(|a, b| a.0.total_cmp(&b.0));
     let half_width = (width.min(height) as f64 / 200.0).max(1.5);
