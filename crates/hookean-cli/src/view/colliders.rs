@@ -282,14 +282,16 @@ impl ViewCollider {
                 }
                 ColliderMotion::Sequence(seq) => {
                     let n = vertices.len();
-                    let pose = |k: usize| -> Vec<[f64; 3]> {
+                    let mut poses = (0..seq.n_frames()).map(|k| -> Vec<[f64; 3]> {
                         (0..n).map(|i| seq.frame_vertex(k, i).into()).collect()
-                    };
+                    });
                     // The collider's mesh is its current pose: frame 0 from the sequence.
-                    *vertices = pose(0);
+                    if let Some(first) = poses.next() {
+                        *vertices = first;
+                    }
                     *animation = Some(MeshAnimation::Sequence {
                         frame_interval: seq.frame_interval(),
-                        frames: (1..seq.n_frames()).map(pose).collect(),
+                        frames: poses.collect(),
                     });
                 }
             }
