@@ -1,8 +1,19 @@
 //! A small software renderer for `final.png`: the model's triangles
 //! projected orthographically from an elevated viewpoint, sorted back to
-//! front (painter's algorithm), flat-shaded and coloured by particle speed
-//! (blue = at rest, red = fastest), like the filtering paper's figure 7.
-//! Models without triangles (ropes) are drawn as thick spring segments.
+//! front (painter's algorithm), coloured by particle speed (blue = at rest,
+//! red = fastest, like the filtering paper's figure 7) and shaded by the
+//! surface normal, so that folds read as shapes. Models without triangles
+//! (ropes) are drawn as thick spring segments.
+//!
+//! **Shading** ([`shade`]): two-sided diffuse light from the fixed
+//! direction [`light`] with an ambient term, `I = AMBIENT + DIFFUSE
+//! max(0, n_s . l)`, where `n_s` is the unit normal turned to the side the
+//! viewer sees (a triangle seen from behind is lit by its flipped normal:
+//! cloth has no inside). The cloth's normals are the area-weighted vertex
+//! normals ([`hookean::massspring::surface::vertex_normals`]); each
+//! vertex's colour is its speed colour times its `I`, interpolated across
+//! the triangle (Gouraud shading). Colliders are shaded by the same law
+//! with their faces' normals.
 
 use std::path::Path;
 
@@ -54,6 +65,23 @@ impl Canvas {
 
     /// Fills the triangle with corners `p` (pixel coordinates) in one colour.
     pub fn fill_triangle(&mut self, p: [[f64; 2]; 3], colour: [u8; 3]) {
+        self.fill_by(p, |_| colour);
+    }
+
+    /// Fills the triangle with corners `p`, the colour of each pixel the
+    /// corners' `colours` (RGB in [0, 1]) weighted by its barycentric
+    /// coordinates (Gouraud shading).
+    pub fn fill_triangle_gouraud(&mut self, p: [[f64; 2]; 3], colours: [[f64; 3]; 3]) {
+        self.fill_by(p, |w| {
+            to_u8(std::array::from_fn(|c| {
+                w[0] * colours[0][c] + w[1] * colours[1][c] + w[2] * colours[2][c]
+            }))
+        });
+    }
+
+    /// Sets every pixel whose centre is in the triangle `p` to `colour` of
+    /// its barycentric coordinates.
+    fn fill_by(&mut self, p: [[f64; 2]; 3], colour: impl Fn([f64; 3]) -> [u8; 3]) {
         let min_x = p
             .iter()
             .map(|q| q[0])
@@ -95,7 +123,7 @@ impl Canvas {
                 let w1 = edge(p[2], p[0], c) / area;
                 let w2 = edge(p[0], p[1], c) / area;
                 if w0 >= -1e-9 && w1 >= -1e-9 && w2 >= -1e-9 {
-                    self.set(x, y, colour);
+                    self.set(x, y, colour([w0, w1, w2]));
                 }
             }
         }
@@ -152,6 +180,26 @@ pub fn speed_colour(t: f64) -> [f64; 3] {
         let s = (t - 0.5) / 0.5;
         [0.4 + 0.55 * s, 0.85 - 0.6 * s, 0.6 - 0.45 * s]
     }
+}
+
+/// The ambient term of [`shade`]: the intensity of a surface turned away
+/// from the light.
+pub const AMBIENT: f64 = 0.3;
+/// The diffuse term of [`shade`]: `AMBIENT + DIFFUSE = 1` for a surface
+/// facing the light, which is drawn in its base colour.
+pub const DIFFUSE: f64 = 0.7;
+
+/// The unit direction towards the light (z up: from above, front left,
+/// the viewer's side), shared by `final.png` and `view.html`.
+pub fn light() -> [f64; 3] {
+    normalise([0.3, -0.5, 1.0])
+}
+
+/// Two-sided diffuse intensity `AMBIENT + DIFFUSE max(0, n_s . l)` of a
+/// surface of unit normal `normal` seen from the side `facing` (+1: the
+/// side `normal` points to, -1: the other; `n_s = facing normal`).
+pub fn shade(normal: &[f64; 3], facing: f64, light: &[f64; 3]) -> f64 {
+    AMBIENT + DIFFUSE * (facing.signum() * dot3(normal, light)).max(0.0)
 }
 
 /// What `final.png` shows.
@@ -307,7 +355,7 @@ fn draw_ground(canvas: &mut Canvas, cam: &Camera, s: &RenderScene<'_>) -> (f64, 
     (grid, implied)
 }
 
-/// Draws a ball as a disc shaded by Lambert's law with the light `light`,
+/// Draws a ball as a disc shaded by [`shade`] with the light `light`,
 /// 2% smaller than its radius: flat triangles resting on it cut into the
 /// true sphere and would disappear behind it.
 fn draw_sphere(
@@ -329,26 +377,31 @@ fn draw_sphere(
             let (dx, dy) = ((x as f64 + 0.5 - c[0]) / r, (c[1] - y as f64 - 0.5) / r);
             let q = dx * dx + dy * dy;
             if q <= 1.0 {
-                let nz = (1.0 - q).sqrt();
-                let lambert = (dx * light_cam[0] + dy * light_cam[1] + nz * light_cam[2]).max(0.0);
-                let shade = 0.35 + 0.65 * lambert;
-                canvas.set(x, y, to_u8([0.78 * shade, 0.74 * shade, 0.68 * shade]));
+                let n = [dx, dy, (1.0 - q).sqrt()];
+                let i = shade(&n, 1.0, &light_cam);
+                canvas.set(x, y, to_u8(BODY.map(|c| c * i)));
             }
         }
     }
 }
 
+/// The colour of colliders (before shading).
+const BODY: [f64; 3] = [0.78, 0.74, 0.68];
+
 /// Renders the scene: the ground (a plane collider, or a horizontal plane
-/// under the lowest point of the run) with a grid, spheres, and the model's
-/// triangles (or springs) sorted back to front, flat-shaded and coloured by
-/// speed on the fixed scale `[0, speed_max]`; then, with plotters, the time,
-/// the colour bar in m/s, a scale bar and a note on what is drawn.
+/// under the lowest point of the run) with a grid, spheres, mesh colliders
+/// at their pose at the state's time, and the model's triangles (or
+/// springs) sorted back to front, coloured by speed on the fixed scale
+/// `[0, speed_max]` and shaded (module docs); then, with plotters, the
+/// time, the colour bar in m/s, a scale bar and a note on what is drawn.
 pub fn render(s: &RenderScene<'_>, width: usize, height: usize) -> Result<Canvas, String> {
     let mut canvas = Canvas::new(width, height);
     let view_w = width.saturating_sub(BAR_STRIP).max(width / 2);
     let cam = Camera::fit(s, view_w, height);
-    let light = normalise([0.3, -0.5, 1.0]);
+    let light = light();
     let (grid, implied) = draw_ground(&mut canvas, &cam, s);
+    let mut normals = vec![0.0; s.x.len()];
+    hookean::massspring::surface::vertex_normals(s.x, s.faces, &mut normals);
 
     let proj: Vec<[f64; 3]> = s.x.chunks_exact(3).map(|p| cam.project(p)).collect();
     let px = |i: usize| cam.pixel(&proj[i]);
@@ -397,9 +450,13 @@ pub fn render(s: &RenderScene<'_>, width: usize, height: usize) -> Result<Canvas
             items.push((3.0 * cam.project(center)[2], Item::Sphere(*center, *radius)));
         }
     }
+    // A collider's pieces sort one piece size farther than they are: cloth
+    // resting on a surface (at the contact thickness, far less than a piece
+    // above it) is drawn over it, not speckled by pieces whose centroids
+    // happen to be nearer than the cloth triangle's above them.
     for (k, t) in meshes.iter().enumerate() {
         let depth: f64 = t.iter().map(|p| cam.project(p)[2]).sum();
-        items.push((depth, Item::MeshFace(k)));
+        items.push((depth - 3.0 * piece, Item::MeshFace(k)));
     }
     items.sort_by(|a, b| a.0.total_cmp(&b.0));
     let half_width = (width.min(height) as f64 / 200.0).max(1.5);
@@ -412,23 +469,25 @@ pub fn render(s: &RenderScene<'_>, width: usize, height: usize) -> Result<Canvas
             }
             Item::Face(k) => {
                 let f = s.faces[k];
-                let p: Vec<&[f64]> = f.iter().map(|&i| &s.x[3 * i..3 * i + 3]).collect();
-                let normal = normalise(cross(sub(p[1], p[0]), sub(p[2], p[0])));
-                // Two-sided lighting: cloth has no inside.
-                let shade = 0.35 + 0.65 * dot3(&normal, &light).abs();
-                let c = speed_colour((speeds[f[0]] + speeds[f[1]] + speeds[f[2]]) / (3.0 * top));
-                canvas.fill_triangle(
-                    [px(f[0]), px(f[1]), px(f[2])],
-                    to_u8([c[0] * shade, c[1] * shade, c[2] * shade]),
-                );
+                let face = face_normal(f.map(|i| point(s.x, i)));
+                // The side the camera sees: a face seen from behind is lit by its flipped normal.
+                let facing = dot3(&face, &cam.dir);
+                let colours = f.map(|i| {
+                    let n = point(&normals, i);
+                    let n = if n == [0.0; 3] { face } else { n };
+                    let c = speed_colour(speeds[i] / top);
+                    let shade = shade(&n, facing, &light);
+                    c.map(|v| v * shade)
+                });
+                canvas.fill_triangle_gouraud([px(f[0]), px(f[1]), px(f[2])], colours);
             }
             Item::Sphere(center, radius) => draw_sphere(&mut canvas, &cam, &center, radius, &light),
             Item::MeshFace(k) => {
                 let p = meshes[k];
-                let normal = normalise(cross(sub(&p[1], &p[0]), sub(&p[2], &p[0])));
-                let shade = 0.35 + 0.65 * dot3(&normal, &light).abs();
+                let normal = face_normal(p);
+                let shade = shade(&normal, dot3(&normal, &cam.dir), &light);
                 let px3 = p.map(|q| cam.pixel(&cam.project(&q)));
-                canvas.fill_triangle(px3, to_u8([0.78 * shade, 0.74 * shade, 0.68 * shade]));
+                canvas.fill_triangle(px3, to_u8(BODY.map(|c| c * shade)));
             }
         }
     }
@@ -544,6 +603,16 @@ fn subdivide(t: [[f64; 3]; 3], size: f64) -> Vec<[[f64; 3]; 3]> {
     out
 }
 
+/// Point `i` of the flat array `x`.
+fn point(x: &[f64], i: usize) -> [f64; 3] {
+    [x[3 * i], x[3 * i + 1], x[3 * i + 2]]
+}
+
+/// The unit normal of the counter-clockwise side of a triangle.
+fn face_normal(p: [[f64; 3]; 3]) -> [f64; 3] {
+    normalise(cross(sub(&p[1], &p[0]), sub(&p[2], &p[0])))
+}
+
 fn to_u8(c: [f64; 3]) -> [u8; 3] {
     c.map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
 }
@@ -625,5 +694,155 @@ mod tests {
             })
             .count();
         assert_eq!(red_in_view, 0);
+    }
+
+    /// The corners of the unit square of centre `c` spanned by the unit
+    /// vectors `e1` and `e2` (counter-clockwise about `e1 x e2`).
+    fn square(c: [f64; 3], e1: [f64; 3], e2: [f64; 3]) -> Vec<f64> {
+        [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)]
+            .iter()
+            .flat_map(|&(a, b)| (0..3).map(move |k| c[k] + a * e1[k] + b * e2[k]))
+            .collect()
+    }
+
+    /// The pixel at the projected centre of a square drawn alone, its
+    /// corners `x`, its four vertices at `speed` on the scale [0, 1].
+    fn centre_pixel(x: &[f64], faces: &[[usize; 3]], speed: f64) -> [u8; 3] {
+        let v: Vec<f64> = (0..4).flat_map(|_| [speed, 0.0, 0.0]).collect();
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for p in x.chunks_exact(3) {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let scene = RenderScene {
+            x,
+            v: &v,
+            faces,
+            segments: &[],
+            colliders: &[],
+            bounds: (lo, hi),
+            speed_max: 1.0,
+            t: 0.0,
+        };
+        let (w, h) = (400, 300);
+        let canvas = render(&scene, w, h).unwrap();
+        let cam = Camera::fit(&scene, w - BAR_STRIP, h);
+        let centre: [f64; 3] = std::array::from_fn(|k| (x[k] + x[6 + k]) / 2.0);
+        let p = cam.pixel(&cam.project(&centre));
+        canvas.pixels()[p[1] as usize * w + p[0] as usize]
+    }
+
+    /// Unit vectors `e1`, `e2` with `e1 x e2 = n` (unit `n`).
+    fn basis(n: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+        let e1 = normalise(cross([0.0, 0.0, 1.0], n));
+        (e1, cross(n, e1))
+    }
+
+    fn rotate_towards(a: [f64; 3], b: [f64; 3], degrees: f64) -> [f64; 3] {
+        let (c, s) = (degrees.to_radians().cos(), degrees.to_radians().sin());
+        std::array::from_fn(|k| c * a[k] + s * b[k])
+    }
+
+    /// The light's direction tilted by 60 degrees (about a line across
+    /// it), the way that turns it to the camera (`Camera::dir`).
+    fn tilted_60() -> [f64; 3] {
+        let (_, e2) = basis(light());
+        let eye = normalise([0.8, -1.6, 1.0]);
+        let tilt = if dot3(&e2, &eye) > 0.0 {
+            e2
+        } else {
+            e2.map(|c| -c)
+        };
+        rotate_towards(light(), tilt, 60.0)
+    }
+
+    /// The blue channel of the colour of speed 0 (0.9) under intensity `i`.
+    fn blue_at(i: f64) -> f64 {
+        255.0 * 0.9 * i
+    }
+
+    /// A square facing the light is drawn in its base colour (I = 0.3 +
+    /// 0.7 = 1); one tilted by 60 degrees (towards the viewer) at I = 0.3 +
+    /// 0.7 cos 60 = 0.65; one facing the viewer with the light behind it
+    /// at the ambient 0.3 alone (its normal 100 degrees from the light).
+    #[test]
+    fn intensity_is_ambient_plus_diffuse_cosine() {
+        let l = light();
+        let faces = [[0, 1, 2], [0, 2, 3]];
+        let (e1, e2) = basis(l);
+        let facing = centre_pixel(&square([0.0; 3], e1, e2), &faces, 0.0);
+        assert!((facing[2] as f64 - blue_at(1.0)).abs() <= 1.0, "{facing:?}");
+
+        let eye = normalise([0.8, -1.6, 1.0]);
+        let n = tilted_60();
+        assert!(dot3(&n, &eye) > 0.2);
+        let (f1, f2) = basis(n);
+        let tilted = centre_pixel(&square([0.0; 3], f1, f2), &faces, 0.0);
+        assert!(
+            (tilted[2] as f64 - blue_at(0.65)).abs() <= 1.0,
+            "{tilted:?}"
+        );
+        let ratio = tilted[2] as f64 / facing[2] as f64;
+        assert!((ratio - 0.65).abs() < 0.01, "{ratio}");
+
+        // Normal 100 degrees from the light, in the plane of the light and
+        // the eye: still facing the eye (n . eye > 0), lit from behind.
+        let m = normalise(std::array::from_fn(|k| eye[k] - dot3(&eye, &l) * l[k]));
+        let n = rotate_towards(l, m, 100.0);
+        assert!(dot3(&n, &eye) > 0.2 && dot3(&n, &l) < 0.0);
+        let (g1, g2) = basis(n);
+        let behind = centre_pixel(&square([0.0; 3], g1, g2), &faces, 0.0);
+        assert!((behind[2] as f64 - blue_at(0.3)).abs() <= 1.0, "{behind:?}");
+    }
+
+    /// The square facing the light with its triangles wound the other way
+    /// (so seen from behind) is lit by its flipped normal: the same pixel.
+    #[test]
+    fn a_face_seen_from_behind_is_lit_like_its_front() {
+        let (e1, e2) = basis(light());
+        let x = square([0.0; 3], e1, e2);
+        let front = centre_pixel(&x, &[[0, 1, 2], [0, 2, 3]], 0.0);
+        let back = centre_pixel(&x, &[[0, 2, 1], [0, 3, 2]], 0.0);
+        assert_eq!(front, back);
+        // Tilted by 60 degrees as well.
+        let (f1, f2) = basis(tilted_60());
+        let x = square([0.0; 3], f1, f2);
+        let front = centre_pixel(&x, &[[0, 1, 2], [0, 2, 3]], 0.0);
+        let back = centre_pixel(&x, &[[0, 2, 1], [0, 3, 2]], 0.0);
+        assert_eq!(front, back);
+    }
+
+    /// The hue (degrees) of an RGB colour.
+    fn hue(c: [f64; 3]) -> f64 {
+        let (max, min) = (c[0].max(c[1]).max(c[2]), c[0].min(c[1]).min(c[2]));
+        let d = max - min;
+        let h = if max == c[0] {
+            (c[1] - c[2]) / d
+        } else if max == c[1] {
+            2.0 + (c[2] - c[0]) / d
+        } else {
+            4.0 + (c[0] - c[1]) / d
+        };
+        (60.0 * h).rem_euclid(360.0)
+    }
+
+    /// Shading scales a colour, so the hue of a slow and of a fast square
+    /// (tilted 60 degrees: I = 0.65) is that of the speed colour: blue
+    /// (0.15, 0.35, 0.9) has hue 224 degrees, the top of the scale (0.95,
+    /// 0.25, 0.15) 7.5 degrees.
+    #[test]
+    fn the_speed_colour_survives_shading() {
+        let (f1, f2) = basis(tilted_60());
+        let x = square([0.0; 3], f1, f2);
+        let faces = [[0, 1, 2], [0, 2, 3]];
+        let to_f = |p: [u8; 3]| p.map(|c| c as f64);
+        let slow = to_f(centre_pixel(&x, &faces, 0.0));
+        let fast = to_f(centre_pixel(&x, &faces, 1.0));
+        assert!((hue(slow) - 224.0).abs() < 1.5, "{slow:?}: {}", hue(slow));
+        assert!((hue(fast) - 7.5).abs() < 1.5, "{fast:?}: {}", hue(fast));
+        // And shaded: darker than the base colour.
+        assert!((fast[0] - 255.0 * 0.95 * 0.65).abs() <= 1.0, "{fast:?}");
     }
 }

@@ -189,11 +189,21 @@ fn summary_colliders(scene: &Scene, sim: &Simulation) -> Vec<SummaryCollider> {
                     path,
                     scale,
                     offset,
+                    frames,
+                    frame_interval,
                     ..
                 }),
             ) => {
                 let file = scene.resolve(path);
                 let m = crate::view::rigid_motion_of(mesh);
+                let absolute = |p: &std::path::PathBuf| {
+                    let f = scene.resolve(p);
+                    std::path::absolute(&f).unwrap_or(f)
+                };
+                let (keys, smooth) = match mesh.motion() {
+                    hookean::massspring::ColliderMotion::Path(p) => crate::view::path_keys(p),
+                    _ => (Vec::new(), false),
+                };
                 SummaryCollider::File(MeshFile {
                     kind: MeshFileKind::MeshFile,
                     path: path.clone(),
@@ -205,6 +215,10 @@ fn summary_colliders(scene: &Scene, sim: &Simulation) -> Vec<SummaryCollider> {
                     velocity: m.velocity,
                     angular_velocity: m.angular_velocity,
                     pivot: m.pivot,
+                    keys,
+                    smooth,
+                    frames: frames.iter().map(absolute).collect(),
+                    frame_interval: (!frames.is_empty()).then_some(*frame_interval),
                 })
             }
             (c, _) => SummaryCollider::Drawn(ViewCollider::from(c)),

@@ -17,189 +17,19 @@ use std::path::{Path, PathBuf};
 
 use base64::Engine as _;
 use clap::Args;
-use hookean::massspring::{Collider, parse_obj};
-use serde::{Deserialize, Serialize};
+use hookean::massspring::parse_obj;
+use serde::Serialize;
 
 use crate::CliError;
 use crate::plot::linear_ticks;
 
+mod colliders;
+pub use colliders::{
+    MeshFile, MeshFileKind, SummaryCollider, ViewCollider, path_keys, rigid_motion_of,
+};
+
 /// The player: HTML, CSS and JavaScript with `{{META}}` and `{{DATA}}` slots.
 const TEMPLATE: &str = include_str!("view.html");
-
-/// A collider as the page draws it (the contact margin is not drawn).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "kebab-case")]
-pub enum ViewCollider {
-    /// The plane through `point` with outward unit `normal`.
-    Plane {
-        /// A point of the plane.
-        point: [f64; 3],
-        /// Unit outward normal.
-        normal: [f64; 3],
-    },
-    /// A ball.
-    Sphere {
-        /// Centre.
-        center: [f64; 3],
-        /// Radius (m).
-        radius: f64,
-    },
-    /// A triangle mesh in its pose at time 0, moving rigidly: at time `t`
-    /// a vertex at `X` is at `pivot + velocity t + R(angular_velocity t) (X
-    /// - pivot)` (`R(w)` the rotation by `|w|` radians about `w`).
-    Mesh {
-        /// Vertices at time 0.
-        vertices: Vec<[f64; 3]>,
-        /// Triangles (counter-clockwise seen from outside).
-        triangles: Vec<[usize; 3]>,
-        /// Linear velocity (m/s).
-        velocity: [f64; 3],
-        /// Angular velocity (rad/s).
-        angular_velocity: [f64; 3],
-        /// The pivot at time 0.
-        pivot: [f64; 3],
-    },
-}
-
-impl From<&Collider> for ViewCollider {
-    fn from(c: &Collider) -> Self {
-        match c {
-            Collider::Plane { point, normal, .. } => ViewCollider::Plane {
-                point: *point,
-                normal: *normal,
-            },
-            Collider::Sphere { center, radius, .. } => ViewCollider::Sphere {
-                center: *center,
-                radius: *radius,
-            },
-            Collider::Mesh { mesh, .. } => ViewCollider::mesh(mesh.mesh(), rigid_motion_of(mesh)),
-        }
-    }
-}
-
-/// The constant rigid motion the page replays for a mesh collider: its
-/// own for a constant-velocity body; a keyframed or deforming body is drawn
-/// at its pose at time 0 (the page does not replay those motions yet).
-pub fn rigid_motion_of(
-    mesh: &hookean::massspring::MeshCollider,
-) -> hookean::massspring::RigidMotion {
-    match mesh.motion() {
-        hookean::massspring::ColliderMotion::Rigid(m) => *m,
-        _ => hookean::massspring::RigidMotion::default(),
-    }
-}
-
-/// A collider as `summary.json` records it: a plane or a sphere as the
-/// page draws it, a triangle mesh by the OBJ file the scene named (with its
-/// placement and motion), which `hookean view` reads again. A mesh is never
-/// embedded, so `summary.json` stays small whatever the mesh's size.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(untagged)]
-pub enum SummaryCollider {
-    /// A mesh collider, by its file.
-    File(MeshFile),
-    /// A plane or a sphere (or, in summaries written before the mesh files,
-    /// a mesh with its vertices and triangles).
-    Drawn(ViewCollider),
-}
-
-/// The tag of [`MeshFile`] in `summary.json` (`"kind": "mesh-file"`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum MeshFileKind {
-    /// The only value.
-    #[serde(rename = "mesh-file")]
-    MeshFile,
-}
-
-/// A mesh collider in `summary.json`: its OBJ file, how it was placed and
-/// how it moves.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct MeshFile {
-    /// Always [`MeshFileKind::MeshFile`].
-    pub kind: MeshFileKind,
-    /// The `path` key of the scene's `[[collider]]`, as written there.
-    pub path: PathBuf,
-    /// The file the run read (absolute).
-    pub file: PathBuf,
-    /// The scene's `scale`.
-    pub scale: f64,
-    /// The scene's `offset` (m).
-    pub offset: [f64; 3],
-    /// Vertices of the mesh the run used.
-    pub vertices: usize,
-    /// Triangles of the mesh the run used.
-    pub triangles: usize,
-    /// Linear velocity (m/s).
-    pub velocity: [f64; 3],
-    /// Angular velocity (rad/s).
-    pub angular_velocity: [f64; 3],
-    /// The pivot at time 0.
-    pub pivot: [f64; 3],
-}
-
-impl MeshFile {
-    /// The collider as the page draws it: the file read again, scaled and
-    /// moved as the run did; an error if it cannot be read or is no longer
-    /// the mesh of the run.
-    pub fn load(&self) -> Result<ViewCollider, String> {
-        let (_, mesh) = hookean::massspring::read_surface(&self.file, self.scale, self.offset)
-            .map_err(|e| e.to_string())?;
-        let (v, t) = (mesh.vertices().len(), mesh.triangles().len());
-        if (v, t) != (self.vertices, self.triangles) {
-            return Err(format!(
-                "{}: {v} vertices and {t} triangles, the run's mesh had {} and {}: the file changed since the run",
-                self.file.display(),
-                self.vertices,
-                self.triangles
-            ));
-        }
-        Ok(ViewCollider::mesh(
-            &mesh,
-            hookean::massspring::RigidMotion {
-                velocity: self.velocity,
-                angular_velocity: self.angular_velocity,
-                pivot: self.pivot,
-            },
-        ))
-    }
-}
-
-impl ViewCollider {
-    /// A mesh collider of `mesh` (its pose at time 0) moving by `motion`.
-    pub fn mesh(
-        mesh: &hookean::massspring::TriMesh,
-        motion: hookean::massspring::RigidMotion,
-    ) -> Self {
-        ViewCollider::Mesh {
-            vertices: mesh.vertices().iter().map(|v| [v.x, v.y, v.z]).collect(),
-            triangles: mesh.triangles().to_vec(),
-            velocity: motion.velocity,
-            angular_velocity: motion.angular_velocity,
-            pivot: motion.pivot,
-        }
-    }
-
-    /// The vertices of a mesh collider at time `t` (empty for other kinds).
-    pub fn mesh_vertices_at(&self, t: f64) -> Vec<[f64; 3]> {
-        match self {
-            ViewCollider::Mesh {
-                vertices,
-                velocity,
-                angular_velocity,
-                pivot,
-                ..
-            } => {
-                let motion = hookean::massspring::RigidMotion {
-                    velocity: *velocity,
-                    angular_velocity: *angular_velocity,
-                    pivot: *pivot,
-                };
-                vertices.iter().map(|&v| motion.point_at(t, v)).collect()
-            }
-            _ => Vec::new(),
-        }
-    }
-}
 
 /// Kinetic, gravitational and spring energy of a frame (J).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

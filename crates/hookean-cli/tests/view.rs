@@ -483,3 +483,196 @@ fn view_reads_the_summary_of_a_run_over_a_large_mesh_collider() {
     );
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// The unit direction towards the eye of the page's starting camera (yaw
+/// -1.1, pitch 0.55 about the run's centre: view.html `camera`).
+fn eye_direction() -> [f64; 3] {
+    let (yaw, pitch) = (-1.1f64, 0.55f64);
+    [
+        pitch.cos() * yaw.cos(),
+        pitch.cos() * yaw.sin(),
+        pitch.sin(),
+    ]
+}
+
+fn unit(a: [f64; 3]) -> [f64; 3] {
+    let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    a.map(|c| c / l)
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// The median blue level of the cloth's pixels (blue well above red and
+/// green: the colour of speed 0, shaded) in the 3D view of a one-frame run
+/// folder holding a unit square of unit normal `n` (its triangles wound
+/// counter-clockwise about `n`, or the other way when `flip`), written by
+/// `hookean view` and shot in Chromium.
+fn square_blue(browser: &Path, dir: &Path, n: [f64; 3], flip: bool) -> f64 {
+    std::fs::create_dir_all(dir).unwrap();
+    let e1 = unit(cross([0.0, 0.0, 1.0], n));
+    let e2 = cross(n, e1);
+    let mut obj = String::new();
+    for (a, b) in [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)] {
+        let p: Vec<f64> = (0..3).map(|k| a * e1[k] + b * e2[k]).collect();
+        obj += &format!("v {} {} {}\n", p[0], p[1], p[2] + 1.0);
+    }
+    obj += if flip {
+        "f 1 3 2\nf 1 4 3\n"
+    } else {
+        "f 1 2 3\nf 1 3 4\n"
+    };
+    std::fs::write(dir.join("frame-0000.obj"), obj).unwrap();
+    std::fs::write(
+        dir.join("summary.json"),
+        r#"{"scene": "square", "frames": 1, "frame_times": [0.0]}"#,
+    )
+    .unwrap();
+    assert_ok(&hookean(&["view", dir.to_str().unwrap()]));
+    let shot = dir.join("shot.png");
+    browse(
+        browser,
+        &dir.join("profile"),
+        &file_url(&dir.join("view.html"), "frame=0"),
+        &[
+            &format!("--screenshot={}", shot.display()),
+            "--virtual-time-budget=10000",
+        ],
+    );
+    let (w, h, px) = decode_rgba(&shot);
+    // Left of the side panel (290 px), above the controls.
+    let mut blue: Vec<u8> = (20..h - 60)
+        .flat_map(|y| (0..w - 300).map(move |x| (x, y)))
+        .map(|(x, y)| px[y * w + x])
+        .filter(|p| p[2] as i32 >= p[0] as i32 + 30 && p[2] as i32 >= p[1] as i32 + 20)
+        .map(|p| p[2])
+        .collect();
+    assert!(blue.len() > 5000, "{} cloth pixels", blue.len());
+    blue.sort_unstable();
+    blue[blue.len() / 2] as f64
+}
+
+/// The page shades by the normal with two-sided diffuse light (docs/VIEWER.md:
+/// I = 0.3 + 0.7 max(0, n . l), n turned to the side seen): a square at rest
+/// (blue 0.9 of the colour of speed 0) facing the light is drawn at
+/// 0.9 x 255 = 229.5, one whose normal is perpendicular to the light (still
+/// facing the eye) at the ambient 0.9 x 0.3 x 255 = 68.9, and the square
+/// facing the light wound the other way (seen from behind) as its front.
+#[test]
+fn view_html_shades_the_cloth_by_its_normal_on_both_sides() {
+    let Some(browser) = chromium() else { return };
+    let out = scratch("shading");
+    let light = unit([0.3, -0.5, 1.0]);
+    let eye = eye_direction();
+    let facing = square_blue(&browser, &out.join("facing"), light, false);
+    assert!((facing - 229.5).abs() <= 4.0, "facing the light: {facing}");
+    // In the plane of the light and the eye, perpendicular to the light.
+    let grazing = unit(std::array::from_fn(|k| eye[k] - dot(eye, light) * light[k]));
+    assert!(dot(grazing, eye) > 0.3 && dot(grazing, light).abs() < 1e-12);
+    let grazed = square_blue(&browser, &out.join("grazing"), grazing, false);
+    assert!((grazed - 68.9).abs() <= 4.0, "at grazing light: {grazed}");
+    let behind = square_blue(&browser, &out.join("behind"), light, true);
+    assert!(
+        (behind - facing).abs() <= 2.0,
+        "seen from behind {behind}, front {facing}"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// Animated colliders are drawn at each frame's pose, by `hookean run`'s
+/// page and by the one `hookean view` rebuilds: the table on a smooth
+/// keyframed path (a translation of 0.3 m along x and a turn of 0.6 rad
+/// about z at the origin from t = 0 to 0.3 s), and a table deforming
+/// through two poses 0.4 s apart (lifted by 0.1 m). At t = 0.2 s the path
+/// is at s(2/3) = 3 (4/9) - 2 (8/27) = 20/27 of the way, the sequence half
+/// way; the page reports each collider's first vertex (table.obj's
+/// (-0.3, -0.3, 0.46)).
+#[test]
+fn view_html_poses_path_and_sequence_colliders_at_the_frame_time() {
+    let out = scratch("animated");
+    std::fs::create_dir_all(&out).unwrap();
+    let table = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../data/table.obj")
+        .canonicalize()
+        .unwrap();
+    let text = std::fs::read_to_string(&table).unwrap();
+    let lifted: String = text
+        .lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(v) => {
+                let c: Vec<f64> = v.split_whitespace().map(|x| x.parse().unwrap()).collect();
+                format!("v {} {} {}\n", c[0], c[1], c[2] + 0.1)
+            }
+            None => format!("{l}\n"),
+        })
+        .collect();
+    std::fs::write(out.join("lifted.obj"), lifted).unwrap();
+    let scene = out.join("animated.toml");
+    std::fs::write(
+        &scene,
+        format!(
+            "duration = 0.3\n[cloth]\nn = 8\npins = \"none\"\norigin = [-0.5, -0.5, 0.7]\n\
+             [integrator]\nh = 0.005\n[output]\nframe_rate = 10.0\n\
+             [[collider]]\nkind = \"mesh\"\npath = \"{t}\"\npivot = [0.0, 0.0, 0.0]\ninterpolation = \"smooth\"\n\
+             keys = [{{ t = 0.0, translation = [0.0, 0.0, 0.0], rotation = [0.0, 0.0, 0.0] }},\n\
+             {{ t = 0.3, translation = [0.3, 0.0, 0.0], rotation = [0.0, 0.0, 0.6] }}]\n\
+             [[collider]]\nkind = \"mesh\"\npath = \"{t}\"\noffset = [2.0, 0.0, 0.0]\n\
+             frames = [\"lifted.obj\"]\nframe_interval = 0.4\n",
+            t = table.display()
+        ),
+    )
+    .unwrap();
+    let run = out.join("run");
+    let o = hookean(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        run.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_ok(&o);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(
+        summary["colliders"][0]["keys"].as_array().map(Vec::len),
+        Some(2)
+    );
+    assert_eq!(summary["colliders"][0]["smooth"], true);
+    assert_eq!(
+        Path::new(summary["colliders"][1]["frames"][0].as_str().unwrap()),
+        out.join("lifted.obj")
+    );
+    let Some(browser) = chromium() else { return };
+    let s: f64 = 20.0 / 27.0;
+    let (c, sn) = ((0.6 * s).cos(), (0.6 * s).sin());
+    let path_vertex = [0.3 * s + c * -0.3 - sn * -0.3, sn * -0.3 + c * -0.3, 0.46];
+    let sequence_vertex = [-0.3 + 2.0, -0.3, 0.46 + 0.05];
+    for (pass, dir) in ["run", "view"].iter().enumerate() {
+        if pass == 1 {
+            assert_ok(&hookean(&["view", run.to_str().unwrap(), "--force"]));
+        }
+        let (st, _, _) = dump_status(&browser, &run.join(dir), &run.join("view.html"), "frame=2");
+        assert_eq!(st["errors"], serde_json::json!([]), "{st}");
+        assert!((st["t"].as_f64().unwrap() - 0.2).abs() < 1e-9, "{st}");
+        for (k, want) in [path_vertex, sequence_vertex].iter().enumerate() {
+            let got = &st["collider_vertex0"][k];
+            for a in 0..3 {
+                let g = got[a].as_f64().unwrap_or(f64::NAN);
+                assert!(
+                    (g - want[a]).abs() < 1e-9,
+                    "{dir}: collider {k}: {got} != {want:?}"
+                );
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -15,6 +15,8 @@
 //!   crossing of a segment with the surface.
 //! - [`proximity`]: vertex-face and edge-edge pairs closer than a distance
 //!   (the repulsion pairs of Bridson, Fedkiw and Anderson 2002).
+//! - [`surface`]: a triangle's area vector and the area-weighted vertex
+//!   normals of a surface given as a flat position array (shading).
 //! - [`ccd`]: continuous collision detection of a vertex and a triangle or
 //!   two edges moving linearly over a step (the coplanarity cubic, its roots
 //!   in order, the distance at each).
@@ -26,6 +28,7 @@ pub mod closest;
 mod error;
 mod mesh;
 pub mod proximity;
+pub mod surface;
 
 pub use aabb::Aabb;
 pub use bvh::{Bvh, Overlaps};

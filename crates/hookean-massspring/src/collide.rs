@@ -224,12 +224,21 @@ impl MeshSequence {
     /// The frame and the weight of the next one at `t`, and whether the
     /// sequence moves at `t` (inside its time span).
     fn segment(&self, t: f64) -> (usize, f64, bool) {
-        let last = self.frames.len() - 1;
+        Self::segment_of(t, self.frames.len(), self.frame_interval)
+    }
+
+    /// The interpolation of `n_frames` poses `frame_interval` apart at `t`:
+    /// the frame `k`, the weight `u` of frame `k + 1` (`X(t) = X_k + u
+    /// (X_{k+1} - X_k)`; frame `k` alone when it is the only one), and
+    /// whether the sequence moves at `t` (inside its time span). For
+    /// viewers that replay a sequence from its frames.
+    pub fn segment_of(t: f64, n_frames: usize, frame_interval: f64) -> (usize, f64, bool) {
+        let last = n_frames.saturating_sub(1);
         // At frame 0 the rates of the first interval (the right derivative).
         if last == 0 || !(t >= 0.0) {
             return (0, 0.0, false);
         }
-        let u = t / self.frame_interval;
+        let u = t / frame_interval;
         if u >= last as f64 {
             return (last - 1, 1.0, false);
         }
@@ -254,6 +263,11 @@ impl MeshSequence {
             return Vector3::zeros();
         }
         (self.frames[k + 1][i] - self.frames[k][i]) / self.frame_interval
+    }
+
+    /// Vertex `i` of frame `k`.
+    pub fn frame_vertex(&self, k: usize, i: usize) -> Vector3<f64> {
+        self.frames[k][i]
     }
 
     /// Frames.
@@ -442,6 +456,16 @@ impl MeshCollider {
     /// The mesh: a rigid body's rest pose, a sequence's current pose.
     pub fn mesh(&self) -> &TriMesh {
         &self.mesh
+    }
+
+    /// Vertex `i` of the body at time `t`, whatever its motion (the pose
+    /// viewers draw): `c(t) + R(t) (X_i - c0)` for a rigid body, the
+    /// interpolated pose of a sequence.
+    pub fn vertex_at(&self, t: f64, i: usize) -> Vector3<f64> {
+        match &self.motion {
+            ColliderMotion::Sequence(seq) => seq.vertex_at(t, i),
+            m => m.to_world(t, &self.mesh.vertices()[i]),
+        }
     }
 
     /// The thickness (m).

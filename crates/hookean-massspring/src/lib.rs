@@ -114,7 +114,7 @@ pub use collide::{Collider, ColliderMotion, Friction, MeshCollider, MeshSequence
 pub use contact::{ContactStats, STICK_SPEED};
 pub use error::MassSpringError;
 pub use handles::PinGroup;
-pub use hookean_geometry::{GeometryError, TriMesh};
+pub use hookean_geometry::{GeometryError, TriMesh, surface};
 pub use hookean_problem::SecondOrderProblem;
 pub use model::{
     DampingInDfdx, MassSpringModel, ModelOptions, ParticleConstraint, Spring, SpringDamping,

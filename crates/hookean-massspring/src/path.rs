@@ -111,6 +111,11 @@ impl KeyframedPath {
         &self.keys
     }
 
+    /// How the path goes between keys.
+    pub fn interpolation(&self) -> Interpolation {
+        self.interpolation
+    }
+
     /// The segment at `t` and `(s(u), ds/dt)` on it (held outside the keys).
     /// At a key the rates are those of the segment that starts there (the
     /// right derivative: a step from the first key's time moves with the

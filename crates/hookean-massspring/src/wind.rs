@@ -326,11 +326,11 @@ impl MassSpringModel {
         };
         for (k, tri) in self.faces.iter().enumerate() {
             let [xa, xb, xc] = tri.map(|p| point(x, p));
-            let cross = (xb - xa).cross(&(xc - xa));
-            let len = cross.norm();
-            state.geometry[k] = if len > 0.0 && len.is_finite() {
-                let n = cross / len;
-                ([n.x, n.y, n.z], 0.5 * len)
+            let s = hookean_geometry::surface::area_vector(&xa, &xb, &xc);
+            let area = s.norm();
+            state.geometry[k] = if area > 0.0 && area.is_finite() {
+                let n = s / area;
+                ([n.x, n.y, n.z], area)
             } else {
                 ([0.0; 3], 0.0)
             };
