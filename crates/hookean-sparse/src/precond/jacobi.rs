@@ -266,15 +266,20 @@ fn apply_nodes<const B: usize>(inv: &[[[f64; B]; B]], r: &[f64], z: &mut [f64]) 
     let (z, _) = z.as_chunks_mut::<B>();
     let mut acc = 0.0;
     for ((z, r), m) in z.iter_mut().zip(r).zip(inv) {
+        // Left to right, as `block::mul_vec`, and the node's share of
+        // `r . z` summed before it joins `acc` (the bits of 3x3 blocks).
         for k in 0..B {
-            // Left to right, as `block::mul_vec`.
             let mut s = m[k][0] * r[0];
             for j in 1..B {
                 s += m[k][j] * r[j];
             }
             z[k] = s;
-            acc += r[k] * s;
         }
+        let mut node = r[0] * z[0];
+        for k in 1..B {
+            node += r[k] * z[k];
+        }
+        acc += node;
     }
     acc
 }
