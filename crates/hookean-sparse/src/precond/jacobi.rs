@@ -213,6 +213,20 @@ impl BlockJacobi {
         Ok(Self { inverses })
     }
 
+    /// Nodes of 3 unknowns from now on (block storage, whatever was asked).
+    fn make_three(&mut self) {
+        if !matches!(self.inverses, NodeInverses::Three(_)) {
+            self.inverses = NodeInverses::Three(Vec::new());
+        }
+    }
+
+    /// Sets up from the CSR copy `a` of a matrix of 3x3 blocks in another
+    /// storage (nodes of 3 whatever was asked, as on [`SymBlockMatrix`]).
+    pub(crate) fn setup_three_from_csr(&mut self, a: &sprs::CsMat<f64>) -> Result<(), SparseError> {
+        self.make_three();
+        self.setup(a)
+    }
+
     /// The unknowns per node on CSR matrices: 1, 2 or 3.
     pub fn block_size(&self) -> usize {
         match self.inverses {
@@ -310,9 +324,7 @@ impl PreconditionerSetup<SymBlockMatrix> for BlockJacobi {
     /// The 3x3 diagonal blocks (block storage has 3 unknowns per node).
     fn setup(&mut self, a: &SymBlockMatrix) -> Result<(), SparseError> {
         crate::error::non_empty("matrix", a.dim())?;
-        if !matches!(self.inverses, NodeInverses::Three(_)) {
-            self.inverses = NodeInverses::Three(Vec::new());
-        }
+        self.make_three();
         match &mut self.inverses {
             NodeInverses::Three(inv) => invert_nodes(inv, a.n_blocks(), |i| *a.diagonal_block(i)),
             _ => Ok(()),
