@@ -22,6 +22,7 @@ done
 "$hookean" stability --plot "$g/stability.svg" --force > /dev/null
 "$hookean" bench data --cloth 64 --out "$out/bench" --quiet > /dev/null
 cp "$out/bench/residual-cloth16-A.svg" "$out/bench/residual-cloth64.svg" "$g/"
+cp "$out/bench/profile.svg" "$g/profile-bench.svg"
 
 # view.html of the reference drape, first and last frame.
 chrome() {

@@ -1,8 +1,11 @@
 //! `hookean bench`: every preconditioner on every system of a set of Matrix
 //! Market files (and, optionally, the built-in cloth systems), repeated in
-//! interleaved rounds, written as one table (`bench.md`, `bench.csv`) and
-//! one picture per system of the relative residual against time
-//! (`residual-NAME.svg`).
+//! interleaved rounds, written as one table (`bench.md`, `bench.csv`), one
+//! picture per system of the relative residual against time
+//! (`residual-NAME.svg`), and over the folder a Dolan-Moré performance
+//! profile of the time (`profile.svg`) and one ranking line per metric
+//! (time, set-up time, iterations, set-up memory: `ranking.md`, also on
+//! stdout after the table; [`crate::perfprofile`]).
 //!
 //! A system is `NAME.mtx`; beside it, `NAME_b.mtx` is its right-hand side
 //! (default `A * ones`) and `NAME_nullspace.mtx` (one column per vector) the
@@ -23,7 +26,8 @@ use hookean_sparse::{check_csr_symmetric, nullspace_block_size};
 
 use crate::CliError;
 use crate::amg_args::{AmgArgs, read_columns};
-use crate::lineplot::{LogLogPlot, Series};
+use crate::lineplot::{LogLogPlot, ProfilePlot, Series};
+use crate::perfprofile::{performance_ratios, profile_steps, ranking};
 use crate::solve::{
     BlockSizeSource, Matrix, Plan, RunOptions, SolveRecord, SolverArgs, System, empty_record,
     load_system, run_solver,
@@ -366,7 +370,133 @@ fn bench(args: &BenchArgs, inputs: &[Input], plan: &Plan, dir: &Path) -> Result<
     let (markdown, csv) = table(&rows);
     crate::output::write_text(&dir.join("bench.md"), &markdown)?;
     crate::output::write_text(&dir.join("bench.csv"), &csv)?;
-    Ok(markdown)
+    let ranking = rankings(&rows);
+    crate::output::write_text(&dir.join("ranking.md"), &ranking)?;
+    profile_plot(&rows, dir)?;
+    Ok(format!("{}\n\n{ranking}", markdown.trim_end()))
+}
+
+/// A metric of the rankings: its name, the cost of a converged record
+/// (`None`: the metric does not apply to that solver, e.g. the direct
+/// solver's iterations) and its resolution ([`performance_ratios`]' floor).
+type Metric = (&'static str, fn(&SolveRecord) -> Option<f64>, f64);
+
+/// Time, set-up time, iterations and set-up memory, each down to its
+/// resolution: 1 µs, 1 iteration, 1 KiB.
+const METRICS: [Metric; 4] = [
+    (
+        "time (set-up + solve)",
+        |r| Some(r.setup_s + r.solve_s),
+        1e-6,
+    ),
+    ("set-up time", |r| Some(r.setup_s), 1e-6),
+    (
+        "iterations",
+        |r| (r.solver == "hookean-pcg").then_some(r.iterations as f64),
+        1.0,
+    ),
+    ("set-up memory", |r| r.setup_bytes.map(|b| b as f64), 1024.0),
+];
+
+/// The systems with results (a file that could not be read has none) and
+/// the solvers the metric applies to, in the table's order, with the cost
+/// of each pair: `None` for a solver that failed or missed the tolerance.
+fn cost_table(rows: &[Row], metric: &Metric) -> (Vec<String>, Vec<Vec<Option<f64>>>) {
+    let mut systems: Vec<&str> = Vec::new();
+    let mut solvers: Vec<&str> = Vec::new();
+    for r in rows {
+        let Some(rec) = &r.record else { continue };
+        if !systems.contains(&r.system.as_str()) {
+            systems.push(&r.system);
+        }
+        if (metric.1)(rec).is_some() && !solvers.contains(&rec.precond.as_str()) {
+            solvers.push(&rec.precond);
+        }
+    }
+    let costs = systems
+        .iter()
+        .map(|system| {
+            solvers
+                .iter()
+                .map(|solver| {
+                    rows.iter()
+                        .filter(|r| r.system == *system)
+                        .filter_map(|r| r.record.as_ref())
+                        .find(|rec| rec.precond == *solver)
+                        .filter(|rec| rec.error.is_none() && rec.converged)
+                        .and_then(metric.1)
+                })
+                .collect()
+        })
+        .collect();
+    (solvers.iter().map(|s| s.to_string()).collect(), costs)
+}
+
+/// One line per metric: the solvers from best to worst over the folder
+/// ([`ranking`]), with how many systems each is best on and solves, and
+/// its geometric-mean ratio to the best.
+fn rankings(rows: &[Row]) -> String {
+    let mut out = String::new();
+    for metric in &METRICS {
+        let (solvers, costs) = cost_table(rows, metric);
+        let ratios = performance_ratios(&costs, metric.2);
+        let entries: Vec<String> = ranking(&ratios)
+            .iter()
+            .enumerate()
+            .map(|(k, rank)| {
+                format!(
+                    "{}. {} (best on {}, solved {}, ratio {:.2})",
+                    k + 1,
+                    solvers[rank.solver],
+                    rank.wins,
+                    rank.solved,
+                    rank.mean_ratio
+                )
+            })
+            .collect();
+        out.push_str(&format!(
+            "Ranking by {} over {} systems: {}\n",
+            metric.0,
+            costs.len(),
+            entries.join("; ")
+        ));
+    }
+    out
+}
+
+/// `profile.svg`: the performance profile of the total time, the fraction
+/// of the systems each solver solves within `tau` of the fastest.
+fn profile_plot(rows: &[Row], dir: &Path) -> Result<(), CliError> {
+    let (solvers, costs) = cost_table(rows, &METRICS[0]);
+    if costs.is_empty() || solvers.is_empty() {
+        return Ok(());
+    }
+    let ratios = performance_ratios(&costs, METRICS[0].2);
+    let largest = ratios
+        .iter()
+        .flatten()
+        .copied()
+        .filter(|r| r.is_finite())
+        .fold(10.0_f64, f64::max);
+    let tau_max = 10f64.powf((largest.log10() - 1e-9).ceil());
+    let plot = ProfilePlot {
+        title: format!(
+            "Performance profile of the time to |r| <= rtol |b| over {} systems",
+            costs.len()
+        ),
+        x_label: "tau: time / the fastest solver's time on the system".into(),
+        y_label: "fraction of the systems solved within tau".into(),
+        series: solvers
+            .iter()
+            .enumerate()
+            .map(|(s, name)| Series {
+                name: name.clone(),
+                points: profile_steps(&ratios, s, tau_max),
+            })
+            .collect(),
+    };
+    let svg = plot.render().map_err(CliError::Failed)?;
+    crate::output::write_text(&dir.join("profile.svg"), &svg)
 }
 
 /// The best of two rounds of one solver: the fastest set-up and solve, the

@@ -51,6 +51,7 @@ mod filter_analysis;
 mod lineplot;
 mod memory;
 mod output;
+mod perfprofile;
 mod plot;
 mod regions;
 mod render;

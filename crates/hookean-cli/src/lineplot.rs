@@ -1,6 +1,7 @@
 //! Log-log line plots as SVG, drawn with plotters: the work-precision
 //! diagrams (the tutorial's figures 3, 5, 7) and the filtering paper's
-//! figure 6. Each series has its own colour, marker and dash pattern, the
+//! figure 6; and staircases over a log axis (`hookean bench`'s
+//! performance profiles). Each series has its own colour, marker and dash pattern, the
 //! axes have ticks at every power of ten (and at 2 and 5 times it on short
 //! axes), and the legend sits beside the plot.
 
@@ -273,32 +274,141 @@ impl LogLogPlot {
                 for &q in &p {
                     draw_marker(chart.plotting_area(), m, q, colour)?;
                 }
-                // Legend entry: a 30-pixel sample of the line with its marker.
-                let y = 50 + 22 * i as i32;
-                let sample = match dash {
-                    None => vec![(10, 40)],
-                    Some((on, off)) => (0..)
-                        .map(|k| 10 + k * (on + off) as i32)
-                        .take_while(|&a| a < 40)
-                        .map(|a| (a, (a + on as i32).min(40)))
-                        .collect(),
-                };
-                for (a, b) in sample {
-                    legend
-                        .draw(&PathElement::new(vec![(a, y), (b, y)], style))
-                        .map_err(draw_error)?;
-                }
-                draw_marker(&legend, m, (25, y), colour)?;
-                legend
-                    .draw(&Text::new(
-                        s.name.clone(),
-                        (48, y),
-                        ("sans-serif", 13)
-                            .into_font()
-                            .color(&BLACK)
-                            .pos(Pos::new(HPos::Left, VPos::Center)),
-                    ))
+                legend_entry(&legend, i, &s.name)?;
+            }
+            Ok(())
+        })
+    }
+}
+
+/// Legend entry `i` of `area`: a 30-pixel sample of series `i`'s line with
+/// its marker, and `name`.
+fn legend_entry<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    i: usize,
+    name: &str,
+) -> Result<(), String> {
+    let (colour, m, dash) = series_style(i);
+    let style = colour.stroke_width(2);
+    let y = 50 + 22 * i as i32;
+    let sample = match dash {
+        None => vec![(10, 40)],
+        Some((on, off)) => (0..)
+            .map(|k| 10 + k * (on + off) as i32)
+            .take_while(|&a| a < 40)
+            .map(|a| (a, (a + on as i32).min(40)))
+            .collect(),
+    };
+    for (a, b) in sample {
+        area.draw(&PathElement::new(vec![(a, y), (b, y)], style))
+            .map_err(draw_error)?;
+    }
+    draw_marker(area, m, (25, y), colour)?;
+    area.draw(&Text::new(
+        name.to_string(),
+        (48, y),
+        ("sans-serif", 13)
+            .into_font()
+            .color(&BLACK)
+            .pos(Pos::new(HPos::Left, VPos::Center)),
+    ))
+    .map_err(draw_error)
+}
+
+/// A staircase plot of fractions in [0, 1] over a log axis from 1: the
+/// performance profiles of `hookean bench` ([`crate::perfprofile`]). Each
+/// series' points are its staircase's corners; its markers sit where it
+/// steps up.
+#[derive(Debug, Clone)]
+pub struct ProfilePlot {
+    /// Title above the plot.
+    pub title: String,
+    /// Label of the x axis.
+    pub x_label: String,
+    /// Label of the y axis.
+    pub y_label: String,
+    /// The staircases, `(tau, fraction)` with `tau >= 1`.
+    pub series: Vec<Series>,
+}
+
+impl ProfilePlot {
+    /// The SVG document.
+    pub fn render(&self) -> Result<String, String> {
+        let tau_max = self
+            .series
+            .iter()
+            .flat_map(|s| s.points.iter().map(|p| p.0))
+            .filter(|t| t.is_finite() && *t > 1.0)
+            .fold(10.0_f64, f64::max);
+        // The decades from 1 up to tau_max (at least one).
+        let x1 = ((tau_max.log10() - 1e-9).ceil() as i32).max(1);
+        let x_end = 10f64.powi(x1);
+        let xt = log_ticks(0, x1);
+        let height = 540.max(60 + 22 * self.series.len() as u32);
+        svg_document((900, height), |root| {
+            let (plot, legend) = root.split_horizontally(680);
+            let mut chart = ChartBuilder::on(&plot)
+                .caption(&self.title, ("sans-serif", 16))
+                .margin(14)
+                .x_label_area_size(50)
+                .y_label_area_size(60)
+                .build_cartesian_2d((1.0..x_end).log_scale(), -0.02..1.02)
+                .map_err(draw_error)?;
+            chart
+                .configure_mesh()
+                .disable_mesh()
+                .x_desc(&self.x_label)
+                .y_desc(&self.y_label)
+                .x_labels(0)
+                .x_label_formatter(&|_| String::new())
+                .y_labels(6)
+                .y_label_formatter(&|v| tick_text(*v))
+                .label_style(("sans-serif", 12))
+                .axis_desc_style(("sans-serif", 14))
+                .draw()
+                .map_err(draw_error)?;
+            let grid = RGBColor(225, 225, 225);
+            let label = ("sans-serif", 12).into_font().color(&BLACK);
+            for &x in &xt {
+                chart
+                    .plotting_area()
+                    .draw(&PathElement::new(vec![(x, -0.02), (x, 1.02)], grid))
                     .map_err(draw_error)?;
+                let (px, py) = chart.backend_coord(&(x, -0.02));
+                plot.draw(&PathElement::new(vec![(px, py), (px, py + 5)], BLACK))
+                    .map_err(draw_error)?;
+                let style = label.clone().pos(Pos::new(HPos::Center, VPos::Top));
+                plot.draw(&Text::new(power_label(x), (px, py + 8), style))
+                    .map_err(draw_error)?;
+            }
+            for (i, s) in self.series.iter().enumerate() {
+                let (colour, m, dash) = series_style(i);
+                let p: Vec<(f64, f64)> = s
+                    .points
+                    .iter()
+                    .map(|&(x, y)| (x.min(x_end), y))
+                    .filter(|(x, y)| x.is_finite() && *x >= 1.0 && y.is_finite())
+                    .collect();
+                let style = colour.stroke_width(2);
+                match dash {
+                    None => {
+                        chart
+                            .draw_series(LineSeries::new(p.iter().copied(), style))
+                            .map_err(draw_error)?;
+                    }
+                    Some((on, off)) => {
+                        chart
+                            .draw_series(DashedLineSeries::new(p.iter().copied(), on, off, style))
+                            .map_err(draw_error)?;
+                    }
+                }
+                // Markers where the staircase rises (and at its start).
+                for (k, &q) in p.iter().enumerate() {
+                    if k == 0 || (q.0 == p[k - 1].0 && q.1 > p[k - 1].1) {
+                        draw_marker(chart.plotting_area(), m, q, colour)?;
+                    }
+                }
+                legend_entry(&legend, i, &s.name)?;
             }
             Ok(())
         })

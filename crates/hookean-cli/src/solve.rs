@@ -34,13 +34,13 @@ pub struct SystemArgs {
     #[arg(long)]
     pub rhs: Option<PathBuf>,
     /// Matrix storage for PCG: block (symmetric 3x3 blocks, needs n divisible by 3
-    /// and a symmetric matrix), csr, or auto (csr when the nodes have 1 or 2 unknowns
-    /// by --block-size, --nullspace, --coordinates or the pattern; else block when
-    /// possible).
+    /// and a symmetric matrix), csr, or auto (block when the nodes have 3 unknowns
+    /// by --block-size, --nullspace, --coordinates or the pattern and the matrix
+    /// allows it; else csr, so a scalar matrix keeps scalar storage whatever its size).
     #[arg(long, default_value = "auto")]
     pub format: String,
-    /// Unknowns per node for `--precond amg` on csr storage: 1, 2 (e.g. 2D
-    /// elasticity) or 3 (block storage always has 3). Default: read off the
+    /// Unknowns per node for `--precond amg` and `block-jacobi` on csr storage: 1,
+    /// 2 (e.g. 2D elasticity) or 3 (block storage always has 3). Default: read off the
     /// first vector of `--nullspace` (a translation, non-zero at every d-th
     /// entry), or the columns of `--coordinates`, else detected from the
     /// pattern (2 or 3 when every row of a node couples to the same nodes for
@@ -348,11 +348,12 @@ pub fn run_solver(
                 Matrix::Block(_) => (3, "sym-block-3x3"),
                 Matrix::Csr { block_size, .. } => (*block_size, "csr"),
             };
-            // The multigrid's options completed with the system's unknowns
-            // per node and near-nullspace.
+            // The options completed with the system's unknowns per node
+            // (the multigrid's and block Jacobi's nodes) and the multigrid's
+            // near-nullspace.
             let mut precond = options.clone();
+            precond.amg.block_size = block_size;
             if precond.kind == PrecondKind::Amg {
-                precond.amg.block_size = block_size;
                 precond.amg.near_nullspace.clone_from(&run.near_nullspace);
             }
             let pcg = PcgRun {
@@ -405,8 +406,8 @@ pub enum BlockSizeSource {
     Coordinates,
     /// The matrix's pattern ([`detect_block_size`]).
     Detected,
-    /// Nothing said (or `--format block` over another size): 3 on block
-    /// storage, else 1.
+    /// Nothing said (or `--format block` over another size): 1, or 3 on
+    /// block storage.
     Default,
 }
 
@@ -429,7 +430,7 @@ impl BlockSizeSource {
             Self::Nullspace => "read off the first vector's zeros",
             Self::Coordinates => "the columns of --coordinates",
             Self::Detected => "detected from the matrix's pattern",
-            Self::Default => "the default: 3 on block storage, else 1; --block-size sets it",
+            Self::Default => "the default: 1, or 3 on block storage; --block-size sets it",
         }
     }
 }
@@ -450,10 +451,10 @@ pub struct System {
 
 /// Reads `A` from `matrix` and `b` from `rhs` (default `A * ones`) within
 /// `cap` bytes, and stores `A` as `format` (`block`, `csr` or `auto`) with
-/// `block_size` unknowns per node for the multigrid on CSR: the caller's
-/// `(size, source)`, else [`detect_block_size`] of A's pattern. `auto`
-/// takes CSR when that size is 1 or 2 (from a source, not the default),
-/// else block storage when A allows it.
+/// `block_size` unknowns per node for the multigrid and block Jacobi on
+/// CSR: the caller's `(size, source)`, else [`detect_block_size`] of A's
+/// pattern. `auto` takes block storage when that size is 3 and A allows
+/// it, else CSR ([`Matrix::auto`]).
 ///
 /// Powers of two scale A and b exactly to largest entries near 1, so a
 /// system of tiny or huge numbers (entries of 1e-308) solves as its scaled
@@ -527,7 +528,7 @@ pub fn load_system(
                 matrix.display()
             ))
         })?),
-        "auto" => Matrix::auto(a.clone(), block_size, source != BlockSizeSource::Default),
+        "auto" => Matrix::auto(a.clone(), block_size),
         other => {
             return Err(CliError::Input(format!(
                 "unknown --format '{other}' (expected block, csr or auto)"

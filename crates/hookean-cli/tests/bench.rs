@@ -207,3 +207,85 @@ fn solvers_that_miss_the_tolerance_or_a_bad_nullspace_are_rows_and_exit_zero() {
         std::fs::remove_dir_all(d).unwrap();
     }
 }
+
+/// Over a folder, the ranking lines (on stdout and in ranking.md) and the
+/// performance profile: each solver's "best on" count is the number of
+/// systems where bench.csv's total is the smallest, and a solver that
+/// missed the tolerance on a system solves one system fewer. A scalar
+/// matrix of 30 unknowns (divisible by 3) keeps 1 unknown per node.
+#[test]
+fn the_folder_is_ranked_per_metric_and_profiled() {
+    let dir = folder("rank");
+    for n in [30, 100, 160] {
+        std::fs::write(dir.join(format!("lap{n}.mtx")), laplacian(n)).unwrap();
+    }
+    let out = folder("rank-out").join("r");
+    let run = hookean(&[
+        "bench",
+        &dir.to_string_lossy(),
+        "--precond",
+        "none,jacobi,ic0,direct",
+        "--max-iter",
+        "30",
+        "--out",
+        &out.to_string_lossy(),
+        "--quiet",
+    ]);
+    assert_ok(&run);
+    let rows = read_csv(&out.join("bench.csv"));
+    // No flags: scalar storage, 1 unknown per node, although 30 = 3 * 10.
+    for r in rows.iter().filter(|r| r["system"] == "lap30") {
+        assert_eq!(
+            (r["block_size"].as_str(), r["block_size_source"].as_str()),
+            ("1", "default")
+        );
+    }
+    // CG on the 1D Laplacian of n unknowns with b = A * ones = (1, 0, ..., 0, 1)
+    // needs n / 2 iterations without a preconditioner (and with Jacobi, a
+    // constant diagonal): after k its iterate lies in span{b, ..., A^(k-1) b},
+    // zero in the middle for k < n / 2. 30 are enough for 30 unknowns, too
+    // few for 100 and 160; IC(0) is exact on a tridiagonal matrix.
+    let solved = |p: &str| {
+        rows.iter()
+            .filter(|r| r["preconditioner"] == p && r["status"] == "converged")
+            .count()
+    };
+    assert_eq!(
+        ["none", "jacobi", "ic0", "direct"].map(solved),
+        [1, 1, 3, 3]
+    );
+    let mut wins: BTreeMap<String, usize> = BTreeMap::new();
+    for system in ["lap30", "lap100", "lap160"] {
+        let best = rows
+            .iter()
+            .filter(|r| r["system"] == system && r["status"] == "converged")
+            .min_by(|a, b| {
+                let t = |r: &BTreeMap<String, String>| r["total_s"].parse::<f64>().unwrap();
+                t(a).total_cmp(&t(b))
+            })
+            .unwrap();
+        *wins.entry(best["preconditioner"].clone()).or_default() += 1;
+    }
+    let ranking = std::fs::read_to_string(out.join("ranking.md")).unwrap();
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(stdout.contains(ranking.trim_end()), "{stdout}");
+    let lines: Vec<&str> = ranking.lines().collect();
+    assert_eq!(lines.len(), 4, "{ranking}");
+    assert!(lines[0].starts_with("Ranking by time (set-up + solve) over 3 systems: 1. "));
+    for p in ["none", "jacobi", "ic0", "direct"] {
+        let w = wins.get(p).copied().unwrap_or(0);
+        let entry = format!("{p} (best on {w}, solved {}, ratio", solved(p));
+        assert!(lines[0].contains(&entry), "{entry} in {}", lines[0]);
+    }
+    // The iterations are PCG's: the direct solver is not ranked by them.
+    assert!(lines[2].starts_with("Ranking by iterations") && !lines[2].contains("direct"));
+    let svg = std::fs::read_to_string(out.join("profile.svg")).unwrap();
+    for p in ["none", "jacobi", "ic0", "direct"] {
+        assert!(
+            svg.contains(&format!(">{p}<")) || svg.contains(&format!("\n{p}\n")),
+            "{p}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+    std::fs::remove_dir_all(out.parent().unwrap()).unwrap();
+}

@@ -411,8 +411,9 @@ fn grid_system(m: usize, d: usize) -> String {
 
 /// Without flags the multigrid takes the unknowns per node the pattern
 /// shows (2 on a 2D vector grid of 72 unknowns, which block storage would
-/// have grouped in 3s), a flag overrides it, and a scalar grid says
-/// nothing (the default: block storage's 3); the JSON names the source.
+/// have grouped in 3s), a flag overrides it, and a scalar grid of 36
+/// unknowns says nothing: 1 on scalar storage, though 36 is divisible by
+/// 3; the JSON names the source.
 #[test]
 fn the_block_size_is_detected_from_the_pattern_and_reported() {
     let vector = scratch("vector2d.mtx", &grid_system(6, 2));
@@ -440,9 +441,232 @@ fn the_block_size_is_detected_from_the_pattern_and_reported() {
         solve(&vector, &["--format", "block"]),
         expect(3, "default", "sym-block-3x3")
     );
-    assert_eq!(solve(&scalar, &[]), expect(3, "default", "sym-block-3x3"));
+    assert_eq!(solve(&scalar, &[]), expect(1, "default", "csr"));
+    assert_eq!(
+        solve(&scalar, &["--block-size", "3"]),
+        expect(3, "flag", "sym-block-3x3")
+    );
     assert_eq!(
         solve(&scalar, &["--format", "csr"]),
         expect(1, "default", "csr")
     );
+}
+
+/// 2D linear elasticity (plane stress, E = 1, nu = 0.3) with bilinear
+/// elements on an `m x m` grid of the unit square, the nodes of the left
+/// edge clamped (identity rows and columns); unknowns `(u_x, u_y)` per
+/// node. The dense matrix.
+fn elasticity_2d(m: usize) -> Vec<Vec<f64>> {
+    let (e, nu) = (1.0, 0.3);
+    let h = 1.0 / m as f64;
+    let c = e / (1.0 - nu * nu);
+    let d = [
+        [c, c * nu, 0.0],
+        [c * nu, c, 0.0],
+        [0.0, 0.0, e / (2.0 * (1.0 + nu))],
+    ];
+    let corners = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
+    // Element stiffness by 2 x 2 Gauss quadrature: sum B^T D B det J.
+    let mut ke = [[0.0; 8]; 8];
+    let g = 1.0 / 3.0_f64.sqrt();
+    for (xi, eta) in [(-g, -g), (g, -g), (g, g), (-g, g)] {
+        let mut bm = [[0.0; 8]; 3];
+        for (a, &(xa, ya)) in corners.iter().enumerate() {
+            let dx = xa * (1.0 + eta * ya) / 2.0 / h;
+            let dy = ya * (1.0 + xi * xa) / 2.0 / h;
+            bm[0][2 * a] = dx;
+            bm[1][2 * a + 1] = dy;
+            bm[2][2 * a] = dy;
+            bm[2][2 * a + 1] = dx;
+        }
+        for r in 0..8 {
+            for s in 0..8 {
+                for p in 0..3 {
+                    for q in 0..3 {
+                        ke[r][s] += bm[p][r] * d[p][q] * bm[q][s] * h * h / 4.0;
+                    }
+                }
+            }
+        }
+    }
+    let nodes = m + 1;
+    let n = 2 * nodes * nodes;
+    let mut a = vec![vec![0.0; n]; n];
+    for el in 0..m * m {
+        let (ex, ey) = (el % m, el / m);
+        let v = [
+            ey * nodes + ex,
+            ey * nodes + ex + 1,
+            (ey + 1) * nodes + ex + 1,
+            (ey + 1) * nodes + ex,
+        ];
+        for r in 0..8 {
+            for s in 0..8 {
+                a[2 * v[r / 2] + r % 2][2 * v[s / 2] + s % 2] += ke[r][s];
+            }
+        }
+    }
+    for i in (0..n).filter(|i| (i / 2) % nodes == 0) {
+        for j in 0..n {
+            a[i][j] = 0.0;
+            a[j][i] = 0.0;
+        }
+        a[i][i] = 1.0;
+    }
+    a
+}
+
+/// The dense matrix of [`grid_system`].
+fn dense_of(mtx: &str) -> Vec<Vec<f64>> {
+    let mut lines = mtx.lines().filter(|l| !l.starts_with('%'));
+    let n: usize = lines
+        .next()
+        .unwrap()
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    let mut a = vec![vec![0.0; n]; n];
+    for l in lines {
+        let w: Vec<&str> = l.split_whitespace().collect();
+        let (r, c, v): (usize, usize, f64) = (
+            w[0].parse().unwrap(),
+            w[1].parse().unwrap(),
+            w[2].parse().unwrap(),
+        );
+        a[r - 1][c - 1] = v;
+        a[c - 1][r - 1] = v;
+    }
+    a
+}
+
+/// A dense matrix as Matrix Market (lower triangle, symmetric).
+fn mtx_of(a: &[Vec<f64>]) -> String {
+    let n = a.len();
+    let entries: Vec<String> = (0..n)
+        .flat_map(|r| (0..=r).map(move |c| (r, c)))
+        .filter(|&(r, c)| a[r][c] != 0.0)
+        .map(|(r, c)| format!("{} {} {:e}", r + 1, c + 1, a[r][c]))
+        .collect();
+    format!(
+        "%%MatrixMarket matrix coordinate real symmetric\n{n} {n} {}\n{}\n",
+        entries.len(),
+        entries.join("\n")
+    )
+}
+
+/// Textbook PCG from x = 0 on dense `a` with the block-diagonal
+/// preconditioner of nodes of `d` unknowns, each block inverted by
+/// Gauss-Jordan elimination: the iterations to `|r| <= rtol |b|`.
+fn dense_block_jacobi_pcg(a: &[Vec<f64>], b: &[f64], d: usize, rtol: f64) -> usize {
+    let n = a.len();
+    let mut inv = vec![vec![0.0; d]; n];
+    for node in 0..n / d {
+        let o = node * d;
+        let mut m: Vec<Vec<f64>> = (0..d)
+            .map(|r| {
+                let mut row: Vec<f64> = (0..d).map(|c| a[o + r][o + c]).collect();
+                row.extend((0..d).map(|c| f64::from(c == r)));
+                row
+            })
+            .collect();
+        for k in 0..d {
+            let pivot = m[k][k];
+            m[k].iter_mut().for_each(|v| *v /= pivot);
+            for r in (0..d).filter(|&r| r != k) {
+                let f = m[r][k];
+                for c in 0..2 * d {
+                    m[r][c] -= f * m[k][c];
+                }
+            }
+        }
+        for r in 0..d {
+            inv[o + r] = m[r][d..].to_vec();
+        }
+    }
+    let precond = |r: &[f64]| -> Vec<f64> {
+        (0..n)
+            .map(|i| {
+                let o = i / d * d;
+                (0..d).map(|c| inv[i][c] * r[o + c]).sum()
+            })
+            .collect()
+    };
+    let dot = |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(x, y)| x * y).sum::<f64>();
+    let b_norm = dot(b, b).sqrt();
+    let mut r = b.to_vec();
+    let mut z = precond(&r);
+    let mut p = z.clone();
+    let mut rz = dot(&r, &z);
+    for k in 0..10 * n {
+        if dot(&r, &r).sqrt() <= rtol * b_norm {
+            return k;
+        }
+        let q: Vec<f64> = a.iter().map(|row| dot(row, &p)).collect();
+        let alpha = rz / dot(&p, &q);
+        for i in 0..n {
+            r[i] -= alpha * q[i];
+        }
+        z = precond(&r);
+        let rz_new = dot(&r, &z);
+        for i in 0..n {
+            p[i] = z[i] + rz_new / rz * p[i];
+        }
+        rz = rz_new;
+    }
+    panic!("dense PCG did not converge");
+}
+
+/// `a` with `0.3 (i mod 7)` added to its diagonal: still SPD on the same
+/// pattern, but no longer a Kronecker product (whose block-Jacobi PCG ends
+/// in as many iterations as the grid factor has distinct eigenvalues).
+fn uneven(mut a: Vec<Vec<f64>>) -> Vec<Vec<f64>> {
+    for (i, row) in a.iter_mut().enumerate() {
+        row[i] += 0.3 * (i % 7) as f64;
+    }
+    a
+}
+
+/// Block Jacobi with no flags on a scalar grid (36 unknowns: 1 per node,
+/// scalar storage), 2D elasticity (2 per node, detected) and a 3D vector
+/// grid (3 per node, block storage) takes the iterations of a dense
+/// block-Jacobi PCG with those nodes.
+#[test]
+fn block_jacobi_takes_the_unknowns_per_node_of_the_system() {
+    let rtol = 1e-8;
+    for (name, a, d, format) in [
+        ("scalar", dense_of(&grid_system(6, 1)), 1, "csr"),
+        ("elasticity2d", elasticity_2d(6), 2, "csr"),
+        (
+            "vector3d",
+            uneven(dense_of(&grid_system(4, 3))),
+            3,
+            "sym-block-3x3",
+        ),
+    ] {
+        let n = a.len();
+        let path = scratch(&format!("bj-{name}.mtx"), &mtx_of(&a));
+        // b = A * ones, as `hookean solve` takes without --rhs.
+        let b: Vec<f64> = a.iter().map(|row| row.iter().sum()).collect();
+        let out = hookean(&[
+            "solve",
+            &path,
+            "--precond",
+            "block-jacobi",
+            "--rtol",
+            "1e-8",
+        ]);
+        assert_ok(&out);
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(v["converged"], true, "{name}: {v}");
+        assert_eq!(v["block_size"], d as u64, "{name}: {v}");
+        assert_eq!(v["format"], format, "{name}: {v}");
+        let expected = dense_block_jacobi_pcg(&a, &b, d, rtol);
+        assert!(expected >= 5, "{name}: {expected} iterations test nothing");
+        assert_eq!(
+            v["iterations"], expected as u64,
+            "{name} ({n} unknowns): {v}"
+        );
+    }
 }

@@ -129,8 +129,9 @@ impl Precond {
         if let Some(amg) = amg {
             amg_options(&mut options, amg)?;
         }
+        // The system's unknowns per node: the multigrid's and block Jacobi's nodes.
+        options.amg.block_size = system.matrix.block_size();
         if kind == PrecondKind::Amg {
-            options.amg.block_size = system.matrix.block_size();
             options
                 .amg
                 .near_nullspace

@@ -192,7 +192,7 @@ pub fn system(
                 1 => (1, "default"),
                 d => (d, "detected"),
             });
-            let m = PcgMatrix::auto(a, b, source != "default");
+            let m = PcgMatrix::auto(a, b);
             // Block storage has 3 unknowns per node whatever was asked.
             let source = if m.block_size() != b {
                 "default"

@@ -29,11 +29,32 @@ def test_amg_solve_meets_the_tolerance(system, rtol):
 
 @pytest.mark.parametrize("precond", ["none", "jacobi", "block-jacobi", "ssor", "ic0", "amg"])
 def test_every_preconditioner_solves_poisson(precond):
-    A, _ = poisson_3d(9)  # 729 unknowns: block-jacobi's 3x3 blocks
+    A, _ = poisson_3d(9)  # 729 unknowns, scalar: block-jacobi's 1x1 blocks
     b = np.random.default_rng(3).standard_normal(A.shape[0])
     x, info = hs.solve(A, b, precond=precond, rtol=1e-9)
     assert info.precond == precond
     assert relative_residual(A, x, b) <= 1e-9
+
+
+@pytest.mark.parametrize("block_size", [1, 2])
+def test_block_jacobi_inverts_the_blocks_of_its_nodes(block_size):
+    """2D elasticity (2 unknowns per node, from the pattern; 1 by the flag):
+    M^-1 r is the solve with each node's block, in NumPy."""
+    from conftest import elasticity_2d
+
+    A, _ = elasticity_2d(6)
+    A = A.tocsr()
+    n = A.shape[0]
+    P = hs.BlockJacobi(A, block_size=None if block_size == 2 else block_size)
+    assert (P.block_size, P.format) == (block_size, "csr")
+    r = np.random.default_rng(5).standard_normal(n)
+    z = P.apply(r)
+    D = A.toarray()
+    for o in range(0, n, block_size):
+        blk = D[o : o + block_size, o : o + block_size]
+        np.testing.assert_allclose(z[o : o + block_size], np.linalg.solve(blk, r[o : o + block_size]), rtol=1e-12)
+    x, info = P.solve(A @ np.ones(n), rtol=1e-8)
+    assert info.converged and relative_residual(A, x, A @ np.ones(n)) <= 1e-8
 
 
 def test_mic0_on_block_storage():

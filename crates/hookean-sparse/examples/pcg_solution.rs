@@ -33,17 +33,12 @@ fn solve(args: &[String]) -> Result<Vec<f64>, String> {
         None => Vec::new(),
     };
     let kind: PrecondKind = precond.parse().map_err(|e| format!("PRECOND: {e}"))?;
-    let (block_size, chosen) = match nullspace_block_size(&nullspace) {
-        Some(d) => (d, true),
-        None => match detect_block_size(&a) {
-            1 => (1, false),
-            d => (d, true),
-        },
-    };
-    let m = PcgMatrix::auto(a, block_size, chosen);
+    let block_size = nullspace_block_size(&nullspace).unwrap_or_else(|| detect_block_size(&a));
+    let m = PcgMatrix::auto(a, block_size);
     let mut options = PreconditionerOptions::from(kind);
+    // The multigrid's and block Jacobi's unknowns per node.
+    options.amg.block_size = m.block_size();
     if kind == PrecondKind::Amg {
-        options.amg.block_size = m.block_size();
         options.amg.near_nullspace = nullspace;
     }
     let mut p = AnyPreconditioner::from_options(&options).map_err(|e| e.to_string())?;

@@ -243,7 +243,7 @@ impl PreconditionerSetup<IsoBlockMatrix> for Jacobi {
 /// so it equals Jacobi. Setup as for [`Jacobi`].
 impl PreconditionerSetup<IsoBlockMatrix> for BlockJacobi {
     fn setup(&mut self, a: &IsoBlockMatrix) -> Result<(), SparseError> {
-        <BlockJacobi as PreconditionerSetup<sprs::CsMat<f64>>>::setup(self, &diagonal_csr(a))
+        self.setup_three_from_csr(&diagonal_csr(a))
     }
 }
 

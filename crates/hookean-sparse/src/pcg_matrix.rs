@@ -1,6 +1,7 @@
-//! The storage a symmetric system takes for PCG: 3x3 blocks when the
-//! matrix allows them, else CSR with the unknowns per node the multigrid
-//! groups; and where that number of unknowns comes from.
+//! The storage a symmetric system takes for PCG: 3x3 blocks for nodes of 3
+//! unknowns when the matrix allows them, else CSR with the unknowns per
+//! node the multigrid and block Jacobi group; and where that number of
+//! unknowns comes from.
 //!
 //! One rule for every caller that hands PCG a general sparse matrix (the
 //! command line's `hookean solve --format auto`, the Python bindings).
@@ -21,7 +22,7 @@ use crate::symcsr::SymCsrMatrix;
 ///     t.add_triplet(i, i, 2.0);
 ///     if i > 0 { t.add_triplet(i, i - 1, -1.0); t.add_triplet(i - 1, i, -1.0); }
 /// }
-/// let m = PcgMatrix::auto(t.to_csr(), 1, false);
+/// let m = PcgMatrix::auto(t.to_csr(), 1);
 /// assert_eq!((m.format(), m.block_size()), ("csr", 1));
 /// ```
 #[derive(Debug, Clone)]
@@ -52,12 +53,13 @@ impl PcgMatrix {
         }
     }
 
-    /// The storage `hookean solve --format auto` picks: CSR when the caller
-    /// `chose` a block size of 1 or 2 (from a flag, a near-nullspace,
-    /// coordinates or the pattern), else 3x3 blocks when `a` allows them
-    /// ([`SymBlockMatrix::from_csr`]), else CSR with `block_size`.
-    pub fn auto(a: sprs::CsMat<f64>, block_size: usize, chosen: bool) -> Self {
-        if chosen && block_size != 3 {
+    /// The storage `hookean solve --format auto` picks: 3x3 blocks when
+    /// the system has 3 unknowns per node (`block_size`, from a flag, a
+    /// near-nullspace, coordinates or the pattern) and `a` allows them
+    /// ([`SymBlockMatrix::from_csr`]), else CSR with `block_size`. A scalar
+    /// matrix keeps scalar storage whatever its size.
+    pub fn auto(a: sprs::CsMat<f64>, block_size: usize) -> Self {
+        if block_size != 3 {
             return Self::csr(a, block_size);
         }
         match SymBlockMatrix::from_csr(&a) {
@@ -202,25 +204,18 @@ mod tests {
         assert_eq!(nullspace_block_size(&[]), None);
     }
 
-    /// The identity of 6 unknowns: 3x3 blocks, unless the caller chose 2.
+    /// The identity of 6 unknowns: 3x3 blocks only for nodes of 3
+    /// unknowns; scalar and 2-unknown nodes keep CSR, n divisible by 3 or not.
     #[test]
-    fn auto_takes_blocks_unless_a_smaller_node_was_chosen() {
+    fn auto_takes_blocks_only_for_three_unknowns_per_node() {
         let eye = sprs::CsMat::<f64>::eye(6);
-        assert_eq!(
-            PcgMatrix::auto(eye.clone(), 1, false).format(),
-            "sym-block-3x3"
-        );
-        assert_eq!(
-            PcgMatrix::auto(eye.clone(), 3, true).format(),
-            "sym-block-3x3"
-        );
-        let m = PcgMatrix::auto(eye, 2, true);
-        assert_eq!((m.format(), m.block_size()), ("csr", 2));
-        // 5 rows: no 3x3 blocks.
-        assert_eq!(
-            PcgMatrix::auto(sprs::CsMat::eye(5), 1, false).format(),
-            "csr"
-        );
+        assert_eq!(PcgMatrix::auto(eye.clone(), 3).format(), "sym-block-3x3");
+        for b in [1, 2] {
+            let m = PcgMatrix::auto(eye.clone(), b);
+            assert_eq!((m.format(), m.block_size()), ("csr", b));
+        }
+        // 5 rows: no 3x3 blocks even for 3.
+        assert_eq!(PcgMatrix::auto(sprs::CsMat::eye(5), 3).format(), "csr");
     }
 
     /// Same pattern: new values on the same entries (either storage); not:
@@ -243,13 +238,13 @@ mod tests {
             }
             t.to_csr::<usize>()
         };
-        for (chosen, b) in [(false, 1), (true, 1)] {
-            let a = PcgMatrix::auto(tridiagonal(4.0, false), b, chosen);
-            assert!(a.same_pattern(&PcgMatrix::auto(tridiagonal(9.0, false), b, chosen)));
-            assert!(!a.same_pattern(&PcgMatrix::auto(tridiagonal(4.0, true), b, chosen)));
+        for b in [3, 1] {
+            let a = PcgMatrix::auto(tridiagonal(4.0, false), b);
+            assert!(a.same_pattern(&PcgMatrix::auto(tridiagonal(9.0, false), b)));
+            assert!(!a.same_pattern(&PcgMatrix::auto(tridiagonal(4.0, true), b)));
         }
-        let block = PcgMatrix::auto(tridiagonal(4.0, false), 1, false);
-        let csr = PcgMatrix::auto(tridiagonal(4.0, false), 1, true);
+        let block = PcgMatrix::auto(tridiagonal(4.0, false), 3);
+        let csr = PcgMatrix::auto(tridiagonal(4.0, false), 1);
         assert_eq!((block.format(), csr.format()), ("sym-block-3x3", "csr"));
         assert!(!block.same_pattern(&csr));
     }

@@ -2,8 +2,9 @@
 
 ``solve(A, b)`` takes the path of the command line's ``hookean solve``: the
 matrix is converted once, checked square, finite and symmetric, stored as
-3x3 blocks when it allows them (else CSR with the unknowns per node the
-multigrid groups), and solved by PCG with one of Hookean's preconditioners.
+3x3 blocks when its nodes have 3 unknowns and it allows them (else CSR with
+the unknowns per node the multigrid and block Jacobi group), and solved by
+PCG with one of Hookean's preconditioners.
 
 >>> import numpy as np, scipy.sparse as sp, hookean.sparse as hs
 >>> A = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(50, 50), format="csr")
@@ -284,7 +285,9 @@ class Jacobi(Preconditioner):
 
 
 class BlockJacobi(Preconditioner):
-    """Block-Jacobi: the 3x3 diagonal blocks of ``A`` (3 unknowns per node)."""
+    """Block-Jacobi: the diagonal blocks of ``A``, one per node of ``block_size``
+    unknowns (1, 2 or 3; given, or from ``nullspace``, ``coordinates`` or the
+    pattern, as for :class:`AMG`; 3 on block storage)."""
 
     name = "block-jacobi"
 

@@ -17,7 +17,8 @@ pub enum PrecondKind {
     None,
     /// [`Jacobi`]: `jacobi`.
     Jacobi,
-    /// [`BlockJacobi`]: `block-jacobi`.
+    /// [`BlockJacobi`]: `block-jacobi`, with nodes of
+    /// [`AmgOptions::block_size`] unknowns on CSR (3 on block storage).
     BlockJacobi,
     /// [`Ssor`] with its relaxation: `ssor`.
     Ssor {
@@ -152,7 +153,9 @@ pub struct PreconditionerOptions {
     pub kind: PrecondKind,
     /// The multigrid's options, used when `kind` is [`PrecondKind::Amg`]
     /// (including what each `setup` on new values does: refill, keep,
-    /// rebuild). Default [`AmgOptions::default`].
+    /// rebuild). Default [`AmgOptions::default`]. Its
+    /// [`block_size`](AmgOptions::block_size), the system's unknowns per
+    /// node on CSR storage, is block Jacobi's node size too.
     pub amg: AmgOptions,
     /// Build with `..Default::default()` or `From<PrecondKind>` (see
     /// [`NonExhaustive`]).
@@ -193,7 +196,7 @@ pub enum AnyPreconditioner {
     None(Identity),
     /// Diagonal.
     Jacobi(Jacobi),
-    /// 3x3 block diagonal.
+    /// Block diagonal, one block per node.
     BlockJacobi(BlockJacobi),
     /// SSOR.
     Ssor(Ssor),
@@ -214,7 +217,9 @@ impl AnyPreconditioner {
         Ok(match options.kind {
             PrecondKind::None => AnyPreconditioner::None(Identity),
             PrecondKind::Jacobi => AnyPreconditioner::Jacobi(Jacobi::new()),
-            PrecondKind::BlockJacobi => AnyPreconditioner::BlockJacobi(BlockJacobi::new()),
+            PrecondKind::BlockJacobi => AnyPreconditioner::BlockJacobi(
+                BlockJacobi::with_block_size(options.amg.block_size)?,
+            ),
             PrecondKind::Ssor { omega } => AnyPreconditioner::Ssor(Ssor::new(omega)?),
             PrecondKind::Ic0 => AnyPreconditioner::Ic0(IncompleteCholesky::new()),
             PrecondKind::Mic0 { omega } => {

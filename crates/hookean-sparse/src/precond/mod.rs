@@ -9,7 +9,7 @@
 //! |---|---|---|---|
 //! | [`Identity`] | `I` | nothing | copy |
 //! | [`Jacobi`] | `diag(A)` (eq. 53) | one pass | `n` multiplications |
-//! | [`BlockJacobi`] | 3x3 diagonal blocks of `A` | 3x3 inverses | `9n` |
+//! | [`BlockJacobi`] | diagonal blocks of `A`, one per node of `B` unknowns | `B x B` inverses | `B n` |
 //! | [`Ssor`] | `(D + wL) D^-1 (D + wL^T) / (w (2 - w))` (eq. 54) | copy of `A` | two triangular sweeps |
 //! | [`IncompleteCholesky`] | `L L^T`, `L` on the pattern of `A` | IC(0) factorisation | two triangular solves (3x3 blocks from 2 048 block rows: two domains side by side) |
 //! | [`Amg`] | smoothed-aggregation V-cycle | aggregates, `P`, Galerkin `P^T A P` per level | one V-cycle |

@@ -158,7 +158,8 @@ pub struct AmgOptions {
     pub near_nullspace: Vec<Vec<f64>>,
     /// Unknowns per node of a CSR matrix (node `i` owns rows
     /// `block_size * i ..`, e.g. 2 for 2D elasticity): 1 (default), 2 or 3.
-    /// [`SymBlockMatrix`] input always has 3.
+    /// [`SymBlockMatrix`] input always has 3. Block Jacobi's nodes through
+    /// [`PreconditionerOptions`](crate::PreconditionerOptions) too.
     pub block_size: usize,
     /// Storage precision of the hierarchy. Default [`AmgPrecision::Single`].
     pub precision: AmgPrecision,
