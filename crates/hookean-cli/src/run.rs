@@ -1,13 +1,14 @@
 //! `hookean run SCENE`: simulate a scene file and write its statistics,
 //! per-step CSV, OBJ frames and a rendered picture of the last frame.
 
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use clap::Args;
 use hookean::scene::Scene;
 use hookean::sinks::{self, ObjFrames, ProgressInfo, StepsCsv};
-use hookean::{HookeanError, RunSummary, Simulation, Sink};
+use hookean::{HookeanError, RunSummary, Simulation, Sink, StateRecord};
 use hookean_ode::tutorial::LinearOscillator;
 use hookean_ode::{OdeError, StepReport};
 use hookean_sparse::Short;
@@ -16,6 +17,7 @@ use serde::Serialize;
 
 use crate::CliError;
 use crate::render::{RenderScene, render};
+use crate::run_outputs::Outputs;
 use crate::scene::{PictureScene, ProgramKeys};
 use crate::thin::Thinned;
 use crate::view::{
@@ -36,6 +38,12 @@ pub struct RunArgs {
     /// Replace an existing output folder of an earlier run (once this run succeeds).
     #[arg(long)]
     force: bool,
+    /// Continue the stopped run in RUN_FOLDER from its checkpoint (written
+    /// every output.checkpoint_every seconds and at SIGINT/SIGTERM), with
+    /// the scene and --set it was started with; the rest of its outputs go
+    /// into RUN_FOLDER.
+    #[arg(long, value_name = "RUN_FOLDER", conflicts_with_all = ["out", "force"])]
+    resume: Option<PathBuf>,
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
@@ -119,9 +127,9 @@ impl PhaseSeconds {
 
 /// The OBJ frames of a run ([`ObjFrames`]) and the same frames kept for
 /// `view.html` (thinned within `thin::VIEW_BYTES`).
-struct Frames {
-    obj: ObjFrames,
-    view: Thinned<ViewFrame>,
+pub(crate) struct Frames {
+    pub obj: ObjFrames,
+    pub view: Thinned<ViewFrame>,
 }
 
 impl Frames {
@@ -227,8 +235,8 @@ fn view_of(sim: &Simulation, summary: serde_json::Value, frames: Vec<ViewFrame>)
 
 /// `(t, z, exact z)` of the moving particle of the tutorial's example 3
 /// (thinned within `thin::PLOT_POINTS`).
-struct ParticleTrace {
-    points: Thinned<(f64, f64, f64)>,
+pub(crate) struct ParticleTrace {
+    pub points: Thinned<(f64, f64, f64)>,
     exact: Option<LinearOscillator>,
 }
 
@@ -348,11 +356,15 @@ fn run_scene(args: &RunArgs, scene: &Scene, program: &ProgramKeys) -> Result<(),
         .scene
         .file_stem()
         .map_or_else(|| "scene".to_string(), |s| s.to_string_lossy().into_owned());
+    if let Some(dir) = &args.resume {
+        return resume_scene(args, scene, program, &name, max_bytes, dir);
+    }
     let out = args
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out").join(&name));
-    let staging = crate::output::Staging::new("run", &out, "--out", args.force, &[&args.scene])?;
+    let mut staging =
+        crate::output::Staging::new("run", &out, "--out", args.force, &[&args.scene])?;
     let report = if let Some(t) = &program.tutorial {
         crate::tutorial_run::run(
             scene,
@@ -362,18 +374,28 @@ fn run_scene(args: &RunArgs, scene: &Scene, program: &ProgramKeys) -> Result<(),
             staging.dir(),
             args.quiet,
         )
+        .map(RunEnd::Done)
     } else {
+        let checkpoints = Checkpoints::new(args, program, None)?;
         run_model(
             args,
             scene,
             &program.output,
             &name,
             max_bytes,
-            staging.dir(),
+            &mut staging,
+            &checkpoints,
         )
     };
     match report {
-        Ok(report) => {
+        Ok(RunEnd::Stopped(t)) => {
+            // Moved into place as a partial output, where --resume finds it.
+            if let Err(e) = staging.publish() {
+                return Err(e);
+            }
+            Err(stopped(args, t, &out))
+        }
+        Ok(RunEnd::Done(report)) => {
             staging.commit()?;
             if let Some(line) = report {
                 crate::errln!("{line}; wrote {}", out.display());
@@ -382,6 +404,215 @@ fn run_scene(args: &RunArgs, scene: &Scene, program: &ProgramKeys) -> Result<(),
         }
         Err(e) => Err(staging.abandon(e)),
     }
+}
+
+/// Why [`run_steps`] stopped short.
+enum StepsFailed {
+    /// The simulation (or an output sink) failed.
+    Run(HookeanError),
+    /// A checkpoint could not be written.
+    Output(CliError),
+}
+
+/// Steps `sim` to `t_end`, writing `outputs` after every step and then
+/// calling `after` (the checkpoints), which returns whether to stop now.
+fn run_steps(
+    sim: &mut Simulation,
+    t_end: f64,
+    outputs: &mut Outputs,
+    mut after: impl FnMut(&Simulation, &mut Outputs) -> Result<bool, CliError>,
+) -> Result<RunSummary, StepsFailed> {
+    outputs.start(sim).map_err(StepsFailed::Run)?;
+    let mut failure = None;
+    let summary = sim
+        .run_until_with(t_end, |sim, report| {
+            if let Err(e) = outputs.step(sim, report) {
+                failure = Some(StepsFailed::Run(e));
+                return ControlFlow::Break(());
+            }
+            match after(sim, outputs) {
+                Ok(false) => ControlFlow::Continue(()),
+                Ok(true) => ControlFlow::Break(()),
+                Err(e) => {
+                    failure = Some(StepsFailed::Output(e));
+                    ControlFlow::Break(())
+                }
+            }
+        })
+        .map_err(StepsFailed::Run)?;
+    if let Some(e) = failure {
+        return Err(e);
+    }
+    outputs.finish(sim, &summary).map_err(StepsFailed::Run)?;
+    Ok(summary)
+}
+
+/// How a run ended: finished (with its one-line report), or stopped by a
+/// signal at time `t` after writing a checkpoint.
+enum RunEnd {
+    Done(Option<String>),
+    Stopped(f64),
+}
+
+/// The failure (exit 1) of a run stopped by a signal at `t`, naming its
+/// checkpoint in `out` and the command that continues it.
+fn stopped(args: &RunArgs, t: f64, out: &Path) -> CliError {
+    let mut command = format!(
+        "hookean run {} --resume {}",
+        args.scene.display(),
+        out.display()
+    );
+    for s in &args.set {
+        command += &format!(" --set {s}");
+    }
+    CliError::Failed(format!(
+        "stopped by a signal at t = {} s; the checkpoint is {}; continue with: {command}",
+        Short(t),
+        crate::checkpoint::path(out).display()
+    ))
+}
+
+/// The checkpoints of a run: the scene's hash, the schedule
+/// (`output.checkpoint_every`) and, for `--resume`, the record to start from.
+struct Checkpoints {
+    hash: String,
+    every: Option<f64>,
+    resume: Option<(PathBuf, StateRecord)>,
+}
+
+impl Checkpoints {
+    fn new(
+        args: &RunArgs,
+        program: &ProgramKeys,
+        resume: Option<(PathBuf, StateRecord)>,
+    ) -> Result<Self, CliError> {
+        Ok(Self {
+            hash: crate::checkpoint::scene_hash(&args.scene, &args.set)?,
+            every: program.output.checkpoint_every,
+            resume,
+        })
+    }
+}
+
+/// `hookean run SCENE --resume DIR`: checks the checkpoint in `dir` fits
+/// the scene (before anything is written), then runs on in `dir`.
+fn resume_scene(
+    args: &RunArgs,
+    scene: &Scene,
+    program: &ProgramKeys,
+    name: &str,
+    max_bytes: u64,
+    dir: &Path,
+) -> Result<(), CliError> {
+    if program.tutorial.is_some() {
+        return Err(CliError::Input(format!(
+            "--resume: {} is a [tutorial] scene, whose runs write no checkpoints",
+            args.scene.display()
+        )));
+    }
+    if !dir.is_dir() {
+        return Err(CliError::Input(format!(
+            "--resume {}: no such run folder",
+            dir.display()
+        )));
+    }
+    let mut checkpoints = Checkpoints::new(args, program, None)?;
+    let (_, record) = crate::checkpoint::read(dir, &checkpoints.hash)?;
+    if !crate::output::is_partial_run(dir) {
+        return Err(CliError::Input(format!(
+            "--resume {}: not the output of a stopped `hookean run` (its {} does not say so)",
+            dir.display(),
+            crate::output::MARKER
+        )));
+    }
+    checkpoints.resume = Some((dir.to_path_buf(), record));
+    let end = run_model(
+        args,
+        scene,
+        &program.output,
+        name,
+        max_bytes,
+        &mut InPlace(dir.to_path_buf()),
+        &checkpoints,
+    );
+    let partial = |dir: &Path| crate::output::mark(dir, Some("run"));
+    match end {
+        Ok(RunEnd::Done(line)) => {
+            crate::checkpoint::remove(dir);
+            crate::output::mark(dir, None).map_err(|e| failed(format!("{}: {e}", dir.display())))?;
+            if let Some(line) = line {
+                crate::errln!("{line}; wrote {}", dir.display());
+            }
+            Ok(())
+        }
+        Ok(RunEnd::Stopped(t)) => {
+            let _ = partial(dir);
+            Err(stopped(args, t, dir))
+        }
+        Err(e) => {
+            let _ = partial(dir);
+            Err(e)
+        }
+    }
+}
+
+/// Where a run writes: a staging folder (moved into place as a partial
+/// output before its first scheduled checkpoint) or, resumed, the run
+/// folder itself.
+trait RunFolder {
+    /// The folder written into now.
+    fn dir(&self) -> &Path;
+    /// Makes the folder the one `--resume` will find (before a scheduled
+    /// checkpoint).
+    fn publish(&mut self) -> Result<(), CliError>;
+    /// Whether the folder is in place (checkpoints then rewrite its marker).
+    fn in_place(&self) -> bool;
+}
+
+impl RunFolder for crate::output::Staging {
+    fn dir(&self) -> &Path {
+        crate::output::Staging::dir(self)
+    }
+    fn publish(&mut self) -> Result<(), CliError> {
+        crate::output::Staging::publish(self)
+    }
+    fn in_place(&self) -> bool {
+        self.is_published()
+    }
+}
+
+/// A resumed run's folder, written in place.
+struct InPlace(PathBuf);
+
+impl RunFolder for InPlace {
+    fn dir(&self) -> &Path {
+        &self.0
+    }
+    fn publish(&mut self) -> Result<(), CliError> {
+        Ok(())
+    }
+    fn in_place(&self) -> bool {
+        true
+    }
+}
+
+/// Writes a checkpoint of `sim` and `outputs` into `folder` (its marker
+/// rewritten when the folder is in place); returns its size in bytes.
+fn write_checkpoint(
+    sim: &Simulation,
+    outputs: &mut Outputs,
+    folder: &dyn RunFolder,
+    hash: &str,
+) -> Result<u64, CliError> {
+    let mut record = StateRecord::default();
+    sim.save_state(&mut record).map_err(failed)?;
+    outputs.save(&mut record).map_err(failed)?;
+    let bytes = crate::checkpoint::write(folder.dir(), &record, hash, sim.t())?;
+    if folder.in_place() {
+        crate::output::mark(folder.dir(), Some("run"))
+            .map_err(|e| failed(format!("{}: {e}", folder.dir().display())))?;
+    }
+    Ok(bytes)
 }
 
 /// Refuses a run of `particles` particles at step `h` whose work is above
@@ -425,16 +656,17 @@ fn step_cap_hint(e: &HookeanError, scene: &Scene) -> String {
     }
 }
 
-/// Runs a mass-spring scene, writing into `out`; returns the one-line report.
+/// Runs a mass-spring scene, writing into `folder`; returns the one-line
+/// report, or the time a signal stopped it (after a checkpoint).
 fn run_model(
     args: &RunArgs,
     scene: &Scene,
     picture: &PictureScene,
     name: &str,
     max_bytes: u64,
-    out: &Path,
-) -> Result<Option<String>, CliError> {
-    let out = out.to_path_buf();
+    folder: &mut dyn RunFolder,
+    checkpoints: &Checkpoints,
+) -> Result<RunEnd, CliError> {
     let mut sim = scene.build_within(max_bytes).map_err(|e| match e {
         HookeanError::TooLarge { .. } => CliError::Input(format!(
             "{}: {e} (--max-memory raises the cap)",
@@ -460,38 +692,91 @@ fn run_model(
             scene.duration
         )));
     }
+    // Whether this run can write checkpoints (its integrator, solver and
+    // model are covered): then a signal stops it with one.
+    let covered = sim.save_state(&mut StateRecord::default());
+    if let (Some(_), Err(e)) = (checkpoints.every, &covered) {
+        return Err(CliError::Input(format!(
+            "{}: output.checkpoint_every: {e}",
+            args.scene.display()
+        )));
+    }
+    if let Some((dir, record)) = &checkpoints.resume {
+        let file = crate::checkpoint::path(dir);
+        sim.restore_state(record)
+            .map_err(|e| CliError::Input(format!("--resume {}: {e}", file.display())))?;
+    }
+    if checkpoints.every.is_some() {
+        folder.publish()?;
+    }
+    if covered.is_ok() {
+        crate::output::stop_at_signals();
+    }
+    let out = folder.dir().to_path_buf();
 
-    let mut csv = StepsCsv::create(out.join("steps.csv")).map_err(failed)?;
+    let csv = match &checkpoints.resume {
+        Some((_, record)) => {
+            let len = record.count("out.csv_len").map_err(failed)?;
+            StepsCsv::resume(out.join("steps.csv"), len as u64).map_err(failed)?
+        }
+        None => StepsCsv::create(out.join("steps.csv")).map_err(failed)?,
+    };
     // No frames at output.frame_rate = 0.
-    let mut frames = match scene.output.frame_rate {
+    let frames = match scene.output.frame_rate {
         r if r > 0.0 => Some(Frames {
             obj: ObjFrames::new(&out, r).map_err(failed)?,
             view: Thinned::new(crate::thin::max_view_frames(sim.model().n_particles())),
         }),
         _ => None,
     };
-    let mut progress = Progress::new(scene.duration, args.quiet);
+    let progress = Progress::new(scene.duration, args.quiet);
     // The tutorial's example 3 ([particle]) is pictured as z(t) against its exact solution.
     let mut trace = scene.particle.as_ref().map(|_| ParticleTrace {
         points: Thinned::new(crate::thin::PLOT_POINTS),
         exact: exact_example3(scene),
     });
-    if let Some(t) = &mut trace {
+    if let (Some(t), None) = (&mut trace, &checkpoints.resume) {
         t.push(&sim);
     }
-    let summary = {
-        let mut sinks: Vec<&mut dyn Sink> = vec![&mut csv, &mut progress];
-        if let Some(t) = &mut trace {
-            sinks.push(t);
-        }
-        if let Some(f) = &mut frames {
-            sinks.push(f);
-        }
-        sim.run_with_sinks(scene.duration, &mut sinks)
+    let mut outputs = Outputs {
+        csv,
+        progress,
+        trace,
+        frames,
     };
+    if let Some((dir, record)) = &checkpoints.resume {
+        let file = crate::checkpoint::path(dir);
+        let n = sim.model().n_particles();
+        outputs = outputs.resume(record, &out, scene.output.frame_rate, n, &file)?;
+    }
+    let mut schedule = checkpoints
+        .every
+        .map(|every| crate::checkpoint::Schedule::new(every, sim.t()));
+    let mut stop = None;
+    let summary = run_steps(&mut sim, scene.duration, &mut outputs, |sim, outputs| {
+        let signalled = covered.is_ok() && crate::output::stop_requested();
+        let due = schedule.as_ref().is_some_and(|s| s.due(sim.t()));
+        if signalled || due {
+            if let Err(e) = write_checkpoint(sim, outputs, &*folder, &checkpoints.hash) {
+                return Err(e);
+            }
+            if let Some(s) = &mut schedule {
+                s.pass(sim.t());
+            }
+        }
+        if signalled {
+            stop = Some(sim.t());
+        }
+        Ok(signalled)
+    });
+    if let (Ok(_), Some(t)) = (&summary, stop) {
+        return Ok(RunEnd::Stopped(t));
+    }
+    let (mut frames, trace) = (outputs.frames, outputs.trace);
     let summary = match summary {
         Ok(s) => s,
-        Err(e) => {
+        Err(StepsFailed::Output(e)) => return Err(e),
+        Err(StepsFailed::Run(e)) => {
             let mut message = if matches!(
                 e,
                 HookeanError::BlowUp { .. } | HookeanError::EnergyGain { .. }
@@ -530,6 +815,9 @@ fn run_model(
     };
     let energies = sim.energies().map_err(failed)?;
     let s = summary.stats;
+    // The whole run's (a resumed run's too: its first part's are in the
+    // checkpoint; the run starts at t = 0).
+    let wall = sim.wall().as_secs_f64();
     let record = RunRecord {
         scene: args.scene.display().to_string(),
         method: sim.method().to_string(),
@@ -542,11 +830,11 @@ fn run_model(
         f_evals: s.num_rhs_evals_total(),
         jacobian_evals: s.num_jac_evals,
         linear_setups: s.num_lin_solv_setups,
-        wall_s: summary.wall.as_secs_f64(),
-        phases_s: PhaseSeconds::of(&s, summary.wall.as_secs_f64()),
+        wall_s: wall,
+        phases_s: PhaseSeconds::of(&s, wall),
         threads: crate::threads::current(),
-        simulated_s: summary.simulated,
-        simulated_s_per_wall_s: summary.speed(),
+        simulated_s: sim.t(),
+        simulated_s_per_wall_s: sim.t() / wall.max(1e-12),
         final_kinetic_energy: energies.kinetic,
         final_total_energy: energies.total(),
         frames: frames.as_ref().map_or(0, |f| f.obj.times().len()),
@@ -619,7 +907,7 @@ fn run_model(
     }
     view.write(&out.join("view.html"))?;
     let p = &record.phases_s;
-    Ok(Some(format!(
+    Ok(RunEnd::Done(Some(format!(
         "{}: {} steps, {} Newton and {} CG iterations, {:.2} s wall (assembly {:.2}, preconditioner set-up {:.2}, solve {:.2}, other {:.2}) for {:.2} s simulated ({:.2}x real time)",
         name,
         s.num_steps,
@@ -632,5 +920,5 @@ fn run_model(
         p.other,
         record.simulated_s,
         record.simulated_s_per_wall_s,
-    )))
+    ))))
 }

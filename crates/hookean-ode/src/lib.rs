@@ -137,6 +137,7 @@ pub mod integrator;
 pub mod method;
 pub mod options;
 mod phases;
+pub mod snapshot;
 pub mod stability;
 mod stage;
 pub mod stats;
@@ -172,6 +173,7 @@ pub use phases::PhaseTimes;
 /// need not match its version by hand.
 pub use sprs;
 pub use stage::FirstOrderForm;
+pub use snapshot::StateRecord;
 pub use stats::{IntegrateInfo, Stats, StepReport};
 pub use stepping::{EventRun, Integrator, Solution, landing_slack};
 pub use tableau::ButcherTableau;
