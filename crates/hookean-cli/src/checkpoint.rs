@@ -136,7 +136,11 @@ pub fn read(dir: &Path, hash: &str) -> Result<(Header, StateRecord), CliError> {
     let rest = data
         .strip_prefix(MAGIC.as_bytes())
         .and_then(|r| r.strip_prefix(b"\n"))
-        .ok_or_else(|| bad(format!("not a checkpoint (its first line is not {MAGIC:?})")))?;
+        .ok_or_else(|| {
+            bad(format!(
+                "not a checkpoint (its first line is not {MAGIC:?})"
+            ))
+        })?;
     let end = rest
         .iter()
         .position(|&b| b == b'\n')

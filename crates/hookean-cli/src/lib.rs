@@ -58,6 +58,7 @@ mod render;
 mod reproduce;
 mod run;
 mod run_outputs;
+mod run_resume;
 pub mod scene;
 mod solve;
 mod stability;

@@ -682,8 +682,9 @@ impl Staging {
     /// discarded) or a rename fails.
     pub fn commit(self) -> Result<(), CliError> {
         if self.published {
-            return published::mark(&self.dir, None)
-                .map_err(|e| CliError::Failed(format!("{} {}: {e}", self.flag, self.target.display())));
+            return published::mark(&self.dir, None).map_err(|e| {
+                CliError::Failed(format!("{} {}: {e}", self.flag, self.target.display()))
+            });
         }
         let write_marker = Manifest::of_tree(&self.dir)
             .map_err(|p| std::io::Error::other(format!("unexpected entry {}", p.display())))

@@ -18,6 +18,7 @@ use serde::Serialize;
 use crate::CliError;
 use crate::render::{RenderScene, render};
 use crate::run_outputs::Outputs;
+use crate::run_resume::{Checkpoints, RunEnd, RunFolder, resume_scene, stopped, write_checkpoint};
 use crate::scene::{PictureScene, ProgramKeys};
 use crate::thin::Thinned;
 use crate::view::{
@@ -27,26 +28,26 @@ use crate::view::{
 #[derive(Debug, Args)]
 pub struct RunArgs {
     /// The scene file (TOML), e.g. scenes/drape.toml.
-    scene: PathBuf,
+    pub(crate) scene: PathBuf,
     /// Output folder (default: out/<scene name>). It must not exist unless --force.
     #[arg(long)]
-    out: Option<PathBuf>,
+    pub(crate) out: Option<PathBuf>,
     /// Override a scene value: --set cloth.n=32 --set integrator.method=fb-euler
     /// (`hookean scene-keys` lists every key with its units and default).
     #[arg(long = "set", value_name = "KEY=VALUE")]
-    set: Vec<String>,
+    pub(crate) set: Vec<String>,
     /// Replace an existing output folder of an earlier run (once this run succeeds).
     #[arg(long)]
-    force: bool,
+    pub(crate) force: bool,
     /// Continue the stopped run in RUN_FOLDER from its checkpoint (written
     /// every output.checkpoint_every seconds and at SIGINT/SIGTERM), with
     /// the scene and --set it was started with; the rest of its outputs go
     /// into RUN_FOLDER.
     #[arg(long, value_name = "RUN_FOLDER", conflicts_with_all = ["out", "force"])]
-    resume: Option<PathBuf>,
+    pub(crate) resume: Option<PathBuf>,
     /// No progress bar.
     #[arg(long)]
-    quiet: bool,
+    pub(crate) quiet: bool,
     /// Refuse scenes whose model would need more memory than this (GiB), in (0, the machine's memory].
     #[arg(
         long,
@@ -54,7 +55,7 @@ pub struct RunArgs {
         default_value_t = 8.0,
         allow_negative_numbers = true
     )]
-    max_memory: f64,
+    pub(crate) max_memory: f64,
     #[command(flatten)]
     work: crate::work::WorkCap,
 }
@@ -327,7 +328,7 @@ impl Sink for Progress {
     }
 }
 
-fn failed(e: impl std::fmt::Display) -> CliError {
+pub(crate) fn failed(e: impl std::fmt::Display) -> CliError {
     CliError::Failed(e.to_string())
 }
 
@@ -390,9 +391,7 @@ fn run_scene(args: &RunArgs, scene: &Scene, program: &ProgramKeys) -> Result<(),
     match report {
         Ok(RunEnd::Stopped(t)) => {
             // Moved into place as a partial output, where --resume finds it.
-            if let Err(e) = staging.publish() {
-                return Err(e);
-            }
+            staging.publish()?;
             Err(stopped(args, t, &out))
         }
         Ok(RunEnd::Done(report)) => {
@@ -447,174 +446,6 @@ fn run_steps(
     Ok(summary)
 }
 
-/// How a run ended: finished (with its one-line report), or stopped by a
-/// signal at time `t` after writing a checkpoint.
-enum RunEnd {
-    Done(Option<String>),
-    Stopped(f64),
-}
-
-/// The failure (exit 1) of a run stopped by a signal at `t`, naming its
-/// checkpoint in `out` and the command that continues it.
-fn stopped(args: &RunArgs, t: f64, out: &Path) -> CliError {
-    let mut command = format!(
-        "hookean run {} --resume {}",
-        args.scene.display(),
-        out.display()
-    );
-    for s in &args.set {
-        command += &format!(" --set {s}");
-    }
-    CliError::Failed(format!(
-        "stopped by a signal at t = {} s; the checkpoint is {}; continue with: {command}",
-        Short(t),
-        crate::checkpoint::path(out).display()
-    ))
-}
-
-/// The checkpoints of a run: the scene's hash, the schedule
-/// (`output.checkpoint_every`) and, for `--resume`, the record to start from.
-struct Checkpoints {
-    hash: String,
-    every: Option<f64>,
-    resume: Option<(PathBuf, StateRecord)>,
-}
-
-impl Checkpoints {
-    fn new(
-        args: &RunArgs,
-        program: &ProgramKeys,
-        resume: Option<(PathBuf, StateRecord)>,
-    ) -> Result<Self, CliError> {
-        Ok(Self {
-            hash: crate::checkpoint::scene_hash(&args.scene, &args.set)?,
-            every: program.output.checkpoint_every,
-            resume,
-        })
-    }
-}
-
-/// `hookean run SCENE --resume DIR`: checks the checkpoint in `dir` fits
-/// the scene (before anything is written), then runs on in `dir`.
-fn resume_scene(
-    args: &RunArgs,
-    scene: &Scene,
-    program: &ProgramKeys,
-    name: &str,
-    max_bytes: u64,
-    dir: &Path,
-) -> Result<(), CliError> {
-    if program.tutorial.is_some() {
-        return Err(CliError::Input(format!(
-            "--resume: {} is a [tutorial] scene, whose runs write no checkpoints",
-            args.scene.display()
-        )));
-    }
-    if !dir.is_dir() {
-        return Err(CliError::Input(format!(
-            "--resume {}: no such run folder",
-            dir.display()
-        )));
-    }
-    let mut checkpoints = Checkpoints::new(args, program, None)?;
-    let (_, record) = crate::checkpoint::read(dir, &checkpoints.hash)?;
-    if !crate::output::is_partial_run(dir) {
-        return Err(CliError::Input(format!(
-            "--resume {}: not the output of a stopped `hookean run` (its {} does not say so)",
-            dir.display(),
-            crate::output::MARKER
-        )));
-    }
-    checkpoints.resume = Some((dir.to_path_buf(), record));
-    let end = run_model(
-        args,
-        scene,
-        &program.output,
-        name,
-        max_bytes,
-        &mut InPlace(dir.to_path_buf()),
-        &checkpoints,
-    );
-    let partial = |dir: &Path| crate::output::mark(dir, Some("run"));
-    match end {
-        Ok(RunEnd::Done(line)) => {
-            crate::checkpoint::remove(dir);
-            crate::output::mark(dir, None).map_err(|e| failed(format!("{}: {e}", dir.display())))?;
-            if let Some(line) = line {
-                crate::errln!("{line}; wrote {}", dir.display());
-            }
-            Ok(())
-        }
-        Ok(RunEnd::Stopped(t)) => {
-            let _ = partial(dir);
-            Err(stopped(args, t, dir))
-        }
-        Err(e) => {
-            let _ = partial(dir);
-            Err(e)
-        }
-    }
-}
-
-/// Where a run writes: a staging folder (moved into place as a partial
-/// output before its first scheduled checkpoint) or, resumed, the run
-/// folder itself.
-trait RunFolder {
-    /// The folder written into now.
-    fn dir(&self) -> &Path;
-    /// Makes the folder the one `--resume` will find (before a scheduled
-    /// checkpoint).
-    fn publish(&mut self) -> Result<(), CliError>;
-    /// Whether the folder is in place (checkpoints then rewrite its marker).
-    fn in_place(&self) -> bool;
-}
-
-impl RunFolder for crate::output::Staging {
-    fn dir(&self) -> &Path {
-        crate::output::Staging::dir(self)
-    }
-    fn publish(&mut self) -> Result<(), CliError> {
-        crate::output::Staging::publish(self)
-    }
-    fn in_place(&self) -> bool {
-        self.is_published()
-    }
-}
-
-/// A resumed run's folder, written in place.
-struct InPlace(PathBuf);
-
-impl RunFolder for InPlace {
-    fn dir(&self) -> &Path {
-        &self.0
-    }
-    fn publish(&mut self) -> Result<(), CliError> {
-        Ok(())
-    }
-    fn in_place(&self) -> bool {
-        true
-    }
-}
-
-/// Writes a checkpoint of `sim` and `outputs` into `folder` (its marker
-/// rewritten when the folder is in place); returns its size in bytes.
-fn write_checkpoint(
-    sim: &Simulation,
-    outputs: &mut Outputs,
-    folder: &dyn RunFolder,
-    hash: &str,
-) -> Result<u64, CliError> {
-    let mut record = StateRecord::default();
-    sim.save_state(&mut record).map_err(failed)?;
-    outputs.save(&mut record).map_err(failed)?;
-    let bytes = crate::checkpoint::write(folder.dir(), &record, hash, sim.t())?;
-    if folder.in_place() {
-        crate::output::mark(folder.dir(), Some("run"))
-            .map_err(|e| failed(format!("{}: {e}", folder.dir().display())))?;
-    }
-    Ok(bytes)
-}
-
 /// Refuses a run of `particles` particles at step `h` whose work is above
 /// `--max-work` (a step counts at least [`MIN_STEP_WORK`](crate::work::MIN_STEP_WORK);
 /// a variable-step method its step cap, [`scene_steps`](crate::work::scene_steps)).
@@ -658,7 +489,7 @@ fn step_cap_hint(e: &HookeanError, scene: &Scene) -> String {
 
 /// Runs a mass-spring scene, writing into `folder`; returns the one-line
 /// report, or the time a signal stopped it (after a checkpoint).
-fn run_model(
+pub(crate) fn run_model(
     args: &RunArgs,
     scene: &Scene,
     picture: &PictureScene,
@@ -757,9 +588,7 @@ fn run_model(
         let signalled = covered.is_ok() && crate::output::stop_requested();
         let due = schedule.as_ref().is_some_and(|s| s.due(sim.t()));
         if signalled || due {
-            if let Err(e) = write_checkpoint(sim, outputs, &*folder, &checkpoints.hash) {
-                return Err(e);
-            }
+            write_checkpoint(sim, outputs, &*folder, &checkpoints.hash)?;
             if let Some(s) = &mut schedule {
                 s.pass(sim.t());
             }
@@ -772,6 +601,8 @@ fn run_model(
     if let (Ok(_), Some(t)) = (&summary, stop) {
         return Ok(RunEnd::Stopped(t));
     }
+    // A finished run's folder holds what an uninterrupted one's does.
+    crate::checkpoint::remove(&out);
     let (mut frames, trace) = (outputs.frames, outputs.trace);
     let summary = match summary {
         Ok(s) => s,

@@ -80,7 +80,12 @@ impl Outputs {
         if let Some(t) = &self.trace {
             let counters = t.points.counters().map(|c| c as f64);
             record.put("out.trace.counters", &counters);
-            let flat: Vec<f64> = t.points.items().iter().flat_map(|p| [p.0, p.1, p.2]).collect();
+            let flat: Vec<f64> = t
+                .points
+                .items()
+                .iter()
+                .flat_map(|p| [p.0, p.1, p.2])
+                .collect();
             record.put("out.trace.points", &flat);
         }
         Ok(())

@@ -308,7 +308,9 @@ mod tests {
         );
         let m = parse("[cloth]\n", &["output.widht=3"]).unwrap_err();
         assert!(
-            m.ends_with("expected one of `frame_rate`, `cache`, `width`, `height`, `checkpoint_every`"),
+            m.ends_with(
+                "expected one of `frame_rate`, `cache`, `width`, `height`, `checkpoint_every`"
+            ),
             "{m}"
         );
         let m = parse("duraton = 1.0\n[cloth]\n", &[]).unwrap_err();

@@ -27,11 +27,7 @@ impl MassSpringModel {
             });
         }
         let mut s = vec![self.contact.h_last, self.revision as f64];
-        s.extend(
-            self.handles
-                .iter()
-                .map(|h| f64::from(u8::from(h.released))),
-        );
+        s.extend(self.handles.iter().map(|h| f64::from(u8::from(h.released))));
         Ok(s)
     }
 

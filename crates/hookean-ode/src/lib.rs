@@ -168,12 +168,12 @@ pub use integrator::{
 pub use method::Method;
 pub use options::{DEFAULT_STEP, Predictor, SolverOptions, StepControl, StepSizePolicy, Tolerance};
 pub use phases::PhaseTimes;
+pub use snapshot::StateRecord;
 /// The sparse matrix crate of [`FirstOrderProblem::sparse_jacobian_pattern`]
 /// and [`FirstOrderProblem::jacobian_sparse`], re-exported so that users
 /// need not match its version by hand.
 pub use sprs;
 pub use stage::FirstOrderForm;
-pub use snapshot::StateRecord;
 pub use stats::{IntegrateInfo, Stats, StepReport};
 pub use stepping::{EventRun, Integrator, Solution, landing_slack};
 pub use tableau::ButcherTableau;

@@ -115,12 +115,13 @@ impl StateRecord {
     /// # Errors
     /// [`OdeError::Checkpoint`] if it is missing or not 0 or 1.
     pub fn flag(&self, name: &str) -> Result<bool, OdeError> {
-        match self.scalar(name)? {
-            0.0 => Ok(false),
-            1.0 => Ok(true),
-            v => Err(OdeError::Checkpoint {
+        let v = self.scalar(name)?;
+        if v == 0.0 || v == 1.0 {
+            Ok(v == 1.0)
+        } else {
+            Err(OdeError::Checkpoint {
                 reason: format!("entry `{name}` = {v} is not a flag (0 or 1)"),
-            }),
+            })
         }
     }
 

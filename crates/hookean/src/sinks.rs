@@ -69,7 +69,10 @@ impl StepsCsv<BufWriter<File>> {
             .write(true)
             .open(path)
             .map_err(|e| HookeanError::io(path, e))?;
-        let found = file.metadata().map_err(|e| HookeanError::io(path, e))?.len();
+        let found = file
+            .metadata()
+            .map_err(|e| HookeanError::io(path, e))?
+            .len();
         if found < len {
             return Err(HookeanError::io(
                 path,

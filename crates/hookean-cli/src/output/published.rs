@@ -21,10 +21,12 @@ pub fn mark(dir: &Path, partial_of: Option<&str>) -> std::io::Result<()> {
     m.write(dir)
 }
 
-/// Whether `dir` is a partial output of `hookean run` holding nothing
-/// hookean did not write (what `--resume` continues).
+/// Whether `dir`'s marker says it is a partial output of `hookean run`
+/// (what `--resume` continues). Entries it does not list are allowed: a
+/// run killed after a checkpoint wrote frames after the marker's last
+/// rewrite, which the resumed run removes and writes again.
 pub fn is_partial_run(dir: &Path) -> bool {
-    super::partial_of(dir).as_deref() == Some("run") && super::foreign_entry(dir).is_none()
+    super::partial_of(dir).as_deref() == Some("run")
 }
 
 impl Staging {

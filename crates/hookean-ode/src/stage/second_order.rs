@@ -13,8 +13,8 @@ use hookean_sparse::{AnyPreconditioner, Constraints, SymBlockMatrix};
 use super::linearized::LinearizedNewton;
 use super::{JacobianSource, StageFailure, StageInfo, System, account, imex_failure};
 use crate::error::OdeError;
-use crate::snapshot::not_covered;
 use crate::options::SolverOptions;
+use crate::snapshot::not_covered;
 use crate::stats::Stats;
 
 /// The reduced velocity form of one stage as a nonlinear system in `V`:
@@ -380,7 +380,9 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
         self.check_covered()?;
         let carried = self.newton.carried_state();
         if carried[3] == 1.0 {
-            return Err(not_covered("a Jacobian kept across steps (simplified Newton)"));
+            return Err(not_covered(
+                "a Jacobian kept across steps (simplified Newton)",
+            ));
         }
         r.put("sys.newton", &carried);
         r.put_scalar("sys.last_gh", self.last_gh);

@@ -106,20 +106,27 @@ impl Simulation {
         let dim = self.x().len();
         let baseline = match record.get("guard.baseline")? {
             [] => None,
-            &[t0, kinetic, gravitational, spring, external, bound, budget, collider_power] => {
-                Some(Baseline {
-                    t0,
-                    start: Energies {
-                        kinetic,
-                        gravitational,
-                        spring,
-                        external,
-                    },
-                    bound,
-                    budget,
-                    collider_power,
-                })
-            }
+            &[
+                t0,
+                kinetic,
+                gravitational,
+                spring,
+                external,
+                bound,
+                budget,
+                collider_power,
+            ] => Some(Baseline {
+                t0,
+                start: Energies {
+                    kinetic,
+                    gravitational,
+                    spring,
+                    external,
+                },
+                bound,
+                budget,
+                collider_power,
+            }),
             other => {
                 return Err(misfit(format!(
                     "entry `guard.baseline` has {} numbers, not 8",
