@@ -154,7 +154,7 @@ fn a_run_stopped_by_sigterm_and_resumed_writes_the_uninterrupted_runs_files() {
     let out = run("scenes/drape.toml", &sets, &["--out", s(&full)]);
     assert_ok(&out);
 
-    let mut child = spawn_run("scenes/drape.toml", &sets, &["--out", s(&part)]);
+    let child = spawn_run("scenes/drape.toml", &sets, &["--out", s(&part)]);
     // Some frames written (frame 5 is t = 0.5 s of 3 s), then SIGTERM.
     wait_for(Duration::from_secs(120), || {
         staging_in(&dir).is_some_and(|d| d.join("frame-0005.obj").exists())
