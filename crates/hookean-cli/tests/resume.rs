@@ -183,7 +183,7 @@ fn a_run_stopped_by_sigterm_and_resumed_writes_the_uninterrupted_runs_files() {
         .keys()
         .filter(|k| k.starts_with("frame-"))
         .count();
-    assert!(frames_then >= 6 && frames_then < 31, "{frames_then} frames");
+    assert!((6..31).contains(&frames_then), "{frames_then} frames");
 
     // Bad resumes: exit 2, nothing changed.
     let before = files(&part);
