@@ -524,7 +524,8 @@ pub(crate) fn run_model(
         )));
     }
     // Whether this run can write checkpoints (its integrator, solver and
-    // model are covered): then a signal stops it with one.
+    // model are covered); with output.checkpoint_every a signal stops it
+    // with one (without, a signal ends it as docs/RELIABILITY.md says).
     let covered = sim.save_state(&mut StateRecord::default());
     if let (Some(_), Err(e)) = (checkpoints.every, &covered) {
         return Err(CliError::Input(format!(
@@ -540,7 +541,7 @@ pub(crate) fn run_model(
     if checkpoints.every.is_some() {
         folder.publish()?;
     }
-    if covered.is_ok() {
+    if checkpoints.every.is_some() {
         crate::output::stop_at_signals();
     }
     let out = folder.dir().to_path_buf();
@@ -585,7 +586,7 @@ pub(crate) fn run_model(
         .map(|every| crate::checkpoint::Schedule::new(every, sim.t()));
     let mut stop = None;
     let summary = run_steps(&mut sim, scene.duration, &mut outputs, |sim, outputs| {
-        let signalled = covered.is_ok() && crate::output::stop_requested();
+        let signalled = crate::output::stop_requested();
         let due = schedule.as_ref().is_some_and(|s| s.due(sim.t()));
         if signalled || due {
             write_checkpoint(sim, outputs, &*folder, &checkpoints.hash)?;

@@ -67,8 +67,8 @@ pub struct PictureScene {
     /// aside and renamed into place, so a kill mid-write leaves the
     /// earlier checkpoint), and `hookean run SCENE --resume RUN_FOLDER`
     /// continues from it, bit for bit (docs/OUTPUTS.md, "Checkpoint and
-    /// resume"). SIGINT and SIGTERM write one too, with or without this
-    /// key. Range (0, inf). Default: none.
+    /// resume"). With this key, SIGINT and SIGTERM stop the run after its
+    /// step with a checkpoint too. Range (0, inf). Default: none.
     #[serde(default, deserialize_with = "seconds")]
     pub checkpoint_every: Option<f64>,
 }
