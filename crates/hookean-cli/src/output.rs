@@ -42,7 +42,9 @@ use std::sync::Mutex;
 
 use crate::CliError;
 
+mod published;
 mod reclaim;
+pub use published::{is_partial_run, mark};
 use reclaim::{lock_staging, reclaim_dead_staging};
 
 /// The file by which hookean recognises its own output folders: its first
@@ -83,7 +85,16 @@ fn install_signal_cleanup() {
             return;
         };
         std::thread::spawn(move || {
-            if let Some(signal) = signals.forever().next() {
+            for signal in signals.forever() {
+                // A checkpointing run stops at its next step (the first
+                // SIGINT or SIGTERM only; SIGHUP, or a second signal, ends
+                // the process as before).
+                if signal != SIGHUP
+                    && CHECKPOINTING.load(std::sync::atomic::Ordering::SeqCst)
+                    && !STOP.swap(true, std::sync::atomic::Ordering::SeqCst)
+                {
+                    continue;
+                }
                 DYING.store(true, std::sync::atomic::Ordering::SeqCst);
                 clean_up_live();
                 let _ = signal_hook::low_level::emulate_default_handler(signal);
@@ -91,6 +102,29 @@ fn install_signal_cleanup() {
             }
         });
     });
+}
+
+/// Set by [`stop_at_signals`]: SIGINT and SIGTERM ask the run to stop
+/// ([`stop_requested`]) instead of ending the process.
+static CHECKPOINTING: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Set by the signal thread at the first SIGINT or SIGTERM of a
+/// checkpointing run.
+static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// From now on, the first SIGINT or SIGTERM sets [`stop_requested`]
+/// instead of cleaning up and ending the process: a run that can write a
+/// checkpoint finishes its step, writes it and exits.
+pub fn stop_at_signals() {
+    install_signal_cleanup();
+    CHECKPOINTING.store(true, std::sync::atomic::Ordering::SeqCst);
+}
+
+/// Whether a SIGINT or SIGTERM asked the run to stop (one relaxed atomic
+/// load: read after every step).
+#[inline]
+pub fn stop_requested() -> bool {
+    STOP.load(std::sync::atomic::Ordering::Relaxed)
 }
 
 /// Set by the signal thread before it removes the live folders: the
@@ -495,6 +529,9 @@ pub struct Staging {
     /// The staging folder's lock, held while this process lives
     /// ([`reclaim_dead_staging`]).
     _lock: Option<File>,
+    /// Moved into place as a partial output ([`Staging::publish`]): `dir`
+    /// is the target, written in place.
+    published: bool,
 }
 
 /// The command whose failure left the partial output in `dir`, if `dir`
@@ -626,6 +663,7 @@ impl Staging {
             existed,
             replaces_partial,
             _lock: lock,
+            published: false,
         })
     }
 
@@ -643,6 +681,11 @@ impl Staging {
     /// that may not be replaced (it is left as it is and this output is
     /// discarded) or a rename fails.
     pub fn commit(self) -> Result<(), CliError> {
+        if self.published {
+            return published::mark(&self.dir, None).map_err(|e| {
+                CliError::Failed(format!("{} {}: {e}", self.flag, self.target.display()))
+            });
+        }
         let write_marker = Manifest::of_tree(&self.dir)
             .map_err(|p| std::io::Error::other(format!("unexpected entry {}", p.display())))
             .and_then(|m| m.write(&self.dir));
@@ -762,6 +805,17 @@ impl Staging {
     /// existing target is left as it was and the partial output dropped.
     /// Returns `error` with what happened appended.
     pub fn abandon(self, error: CliError) -> CliError {
+        if self.published {
+            let note = match published::mark(&self.dir, Some(self.command)) {
+                Ok(()) => format!("; the partial output is in {}", self.target.display()),
+                Err(e) => format!("; {} could not be marked: {e}", self.target.display()),
+            };
+            return match error {
+                CliError::Input(m) => CliError::Input(m + &note),
+                CliError::Failed(m) => CliError::Failed(m + &note),
+                other => other,
+            };
+        }
         let empty = std::fs::read_dir(&self.dir).map_or(true, |mut d| d.next().is_none());
         let note = if empty {
             String::new()

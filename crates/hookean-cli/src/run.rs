@@ -1,13 +1,14 @@
 //! `hookean run SCENE`: simulate a scene file and write its statistics,
 //! per-step CSV, OBJ frames and a rendered picture of the last frame.
 
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use clap::Args;
 use hookean::scene::Scene;
 use hookean::sinks::{self, ObjFrames, ProgressInfo, StepsCsv};
-use hookean::{HookeanError, RunSummary, Simulation, Sink};
+use hookean::{HookeanError, RunSummary, Simulation, Sink, StateRecord};
 use hookean_ode::tutorial::LinearOscillator;
 use hookean_ode::{OdeError, StepReport};
 use hookean_sparse::Short;
@@ -16,6 +17,8 @@ use serde::Serialize;
 
 use crate::CliError;
 use crate::render::{RenderScene, render};
+use crate::run_outputs::Outputs;
+use crate::run_resume::{Checkpoints, RunEnd, RunFolder, resume_scene, stopped, write_checkpoint};
 use crate::scene::{PictureScene, ProgramKeys};
 use crate::thin::Thinned;
 use crate::view::{
@@ -25,20 +28,26 @@ use crate::view::{
 #[derive(Debug, Args)]
 pub struct RunArgs {
     /// The scene file (TOML), e.g. scenes/drape.toml.
-    scene: PathBuf,
+    pub(crate) scene: PathBuf,
     /// Output folder (default: out/<scene name>). It must not exist unless --force.
     #[arg(long)]
-    out: Option<PathBuf>,
+    pub(crate) out: Option<PathBuf>,
     /// Override a scene value: --set cloth.n=32 --set integrator.method=fb-euler
     /// (`hookean scene-keys` lists every key with its units and default).
     #[arg(long = "set", value_name = "KEY=VALUE")]
-    set: Vec<String>,
+    pub(crate) set: Vec<String>,
     /// Replace an existing output folder of an earlier run (once this run succeeds).
     #[arg(long)]
-    force: bool,
+    pub(crate) force: bool,
+    /// Continue the stopped run in RUN_FOLDER from its checkpoint (written
+    /// every output.checkpoint_every seconds and at SIGINT/SIGTERM), with
+    /// the scene and --set it was started with; the rest of its outputs go
+    /// into RUN_FOLDER.
+    #[arg(long, value_name = "RUN_FOLDER", conflicts_with_all = ["out", "force"])]
+    pub(crate) resume: Option<PathBuf>,
     /// No progress bar.
     #[arg(long)]
-    quiet: bool,
+    pub(crate) quiet: bool,
     /// Refuse scenes whose model would need more memory than this (GiB), in (0, the machine's memory].
     #[arg(
         long,
@@ -46,7 +55,7 @@ pub struct RunArgs {
         default_value_t = 8.0,
         allow_negative_numbers = true
     )]
-    max_memory: f64,
+    pub(crate) max_memory: f64,
     #[command(flatten)]
     work: crate::work::WorkCap,
 }
@@ -119,9 +128,9 @@ impl PhaseSeconds {
 
 /// The OBJ frames of a run ([`ObjFrames`]) and the same frames kept for
 /// `view.html` (thinned within `thin::VIEW_BYTES`).
-struct Frames {
-    obj: ObjFrames,
-    view: Thinned<ViewFrame>,
+pub(crate) struct Frames {
+    pub obj: ObjFrames,
+    pub view: Thinned<ViewFrame>,
 }
 
 impl Frames {
@@ -241,8 +250,8 @@ fn view_of(sim: &Simulation, summary: serde_json::Value, frames: Vec<ViewFrame>)
 
 /// `(t, z, exact z)` of the moving particle of the tutorial's example 3
 /// (thinned within `thin::PLOT_POINTS`).
-struct ParticleTrace {
-    points: Thinned<(f64, f64, f64)>,
+pub(crate) struct ParticleTrace {
+    pub points: Thinned<(f64, f64, f64)>,
     exact: Option<LinearOscillator>,
 }
 
@@ -333,7 +342,7 @@ impl Sink for Progress {
     }
 }
 
-fn failed(e: impl std::fmt::Display) -> CliError {
+pub(crate) fn failed(e: impl std::fmt::Display) -> CliError {
     CliError::Failed(e.to_string())
 }
 
@@ -362,11 +371,15 @@ fn run_scene(args: &RunArgs, scene: &Scene, program: &ProgramKeys) -> Result<(),
         .scene
         .file_stem()
         .map_or_else(|| "scene".to_string(), |s| s.to_string_lossy().into_owned());
+    if let Some(dir) = &args.resume {
+        return resume_scene(args, scene, program, &name, max_bytes, dir);
+    }
     let out = args
         .out
         .clone()
         .unwrap_or_else(|| Path::new("out").join(&name));
-    let staging = crate::output::Staging::new("run", &out, "--out", args.force, &[&args.scene])?;
+    let mut staging =
+        crate::output::Staging::new("run", &out, "--out", args.force, &[&args.scene])?;
     let report = if let Some(t) = &program.tutorial {
         crate::tutorial_run::run(
             scene,
@@ -376,18 +389,26 @@ fn run_scene(args: &RunArgs, scene: &Scene, program: &ProgramKeys) -> Result<(),
             staging.dir(),
             args.quiet,
         )
+        .map(RunEnd::Done)
     } else {
+        let checkpoints = Checkpoints::new(args, program, None)?;
         run_model(
             args,
             scene,
             &program.output,
             &name,
             max_bytes,
-            staging.dir(),
+            &mut staging,
+            &checkpoints,
         )
     };
     match report {
-        Ok(report) => {
+        Ok(RunEnd::Stopped(t)) => {
+            // Moved into place as a partial output, where --resume finds it.
+            staging.publish()?;
+            Err(stopped(args, t, &out))
+        }
+        Ok(RunEnd::Done(report)) => {
             staging.commit()?;
             if let Some(line) = report {
                 crate::errln!("{line}; wrote {}", out.display());
@@ -396,6 +417,47 @@ fn run_scene(args: &RunArgs, scene: &Scene, program: &ProgramKeys) -> Result<(),
         }
         Err(e) => Err(staging.abandon(e)),
     }
+}
+
+/// Why [`run_steps`] stopped short.
+enum StepsFailed {
+    /// The simulation (or an output sink) failed.
+    Run(HookeanError),
+    /// A checkpoint could not be written.
+    Output(CliError),
+}
+
+/// Steps `sim` to `t_end`, writing `outputs` after every step and then
+/// calling `after` (the checkpoints), which returns whether to stop now.
+fn run_steps(
+    sim: &mut Simulation,
+    t_end: f64,
+    outputs: &mut Outputs,
+    mut after: impl FnMut(&Simulation, &mut Outputs) -> Result<bool, CliError>,
+) -> Result<RunSummary, StepsFailed> {
+    outputs.start(sim).map_err(StepsFailed::Run)?;
+    let mut failure = None;
+    let summary = sim
+        .run_until_with(t_end, |sim, report| {
+            if let Err(e) = outputs.step(sim, report) {
+                failure = Some(StepsFailed::Run(e));
+                return ControlFlow::Break(());
+            }
+            match after(sim, outputs) {
+                Ok(false) => ControlFlow::Continue(()),
+                Ok(true) => ControlFlow::Break(()),
+                Err(e) => {
+                    failure = Some(StepsFailed::Output(e));
+                    ControlFlow::Break(())
+                }
+            }
+        })
+        .map_err(StepsFailed::Run)?;
+    if let Some(e) = failure {
+        return Err(e);
+    }
+    outputs.finish(sim, &summary).map_err(StepsFailed::Run)?;
+    Ok(summary)
 }
 
 /// Refuses a run of `particles` particles at step `h` whose work is above
@@ -439,16 +501,17 @@ fn step_cap_hint(e: &HookeanError, scene: &Scene) -> String {
     }
 }
 
-/// Runs a mass-spring scene, writing into `out`; returns the one-line report.
-fn run_model(
+/// Runs a mass-spring scene, writing into `folder`; returns the one-line
+/// report, or the time a signal stopped it (after a checkpoint).
+pub(crate) fn run_model(
     args: &RunArgs,
     scene: &Scene,
     picture: &PictureScene,
     name: &str,
     max_bytes: u64,
-    out: &Path,
-) -> Result<Option<String>, CliError> {
-    let out = out.to_path_buf();
+    folder: &mut dyn RunFolder,
+    checkpoints: &Checkpoints,
+) -> Result<RunEnd, CliError> {
     let mut sim = scene.build_within(max_bytes).map_err(|e| match e {
         HookeanError::TooLarge { .. } => CliError::Input(format!(
             "{}: {e} (--max-memory raises the cap)",
@@ -474,38 +537,92 @@ fn run_model(
             scene.duration
         )));
     }
+    // Whether this run can write checkpoints (its integrator, solver and
+    // model are covered); with output.checkpoint_every a signal stops it
+    // with one (without, a signal ends it as docs/RELIABILITY.md says).
+    let covered = sim.save_state(&mut StateRecord::default());
+    if let (Some(_), Err(e)) = (checkpoints.every, &covered) {
+        return Err(CliError::Input(format!(
+            "{}: output.checkpoint_every: {e}",
+            args.scene.display()
+        )));
+    }
+    if let Some((dir, record)) = &checkpoints.resume {
+        let file = crate::checkpoint::path(dir);
+        sim.restore_state(record)
+            .map_err(|e| CliError::Input(format!("--resume {}: {e}", file.display())))?;
+    }
+    if checkpoints.every.is_some() {
+        folder.publish()?;
+    }
+    if checkpoints.every.is_some() {
+        crate::output::stop_at_signals();
+    }
+    let out = folder.dir().to_path_buf();
 
-    let mut csv = StepsCsv::create(out.join("steps.csv")).map_err(failed)?;
+    let csv = match &checkpoints.resume {
+        Some((_, record)) => {
+            let len = record.count("out.csv_len").map_err(failed)?;
+            StepsCsv::resume(out.join("steps.csv"), len as u64).map_err(failed)?
+        }
+        None => StepsCsv::create(out.join("steps.csv")).map_err(failed)?,
+    };
     // No frames at output.frame_rate = 0.
-    let mut frames = match scene.output.frame_rate {
+    let frames = match scene.output.frame_rate {
         r if r > 0.0 => Some(Frames {
             obj: ObjFrames::new(&out, r).map_err(failed)?,
             view: Thinned::new(crate::thin::max_view_frames(sim.model().n_particles())),
         }),
         _ => None,
     };
-    let mut progress = Progress::new(scene.duration, args.quiet);
+    let progress = Progress::new(scene.duration, args.quiet);
     // The tutorial's example 3 ([particle]) is pictured as z(t) against its exact solution.
     let mut trace = scene.particle.as_ref().map(|_| ParticleTrace {
         points: Thinned::new(crate::thin::PLOT_POINTS),
         exact: exact_example3(scene),
     });
-    if let Some(t) = &mut trace {
+    if let (Some(t), None) = (&mut trace, &checkpoints.resume) {
         t.push(&sim);
     }
-    let summary = {
-        let mut sinks: Vec<&mut dyn Sink> = vec![&mut csv, &mut progress];
-        if let Some(t) = &mut trace {
-            sinks.push(t);
-        }
-        if let Some(f) = &mut frames {
-            sinks.push(f);
-        }
-        sim.run_with_sinks(scene.duration, &mut sinks)
+    let mut outputs = Outputs {
+        csv,
+        progress,
+        trace,
+        frames,
     };
+    if let Some((dir, record)) = &checkpoints.resume {
+        let file = crate::checkpoint::path(dir);
+        let n = sim.model().n_particles();
+        outputs = outputs.resume(record, &out, scene.output.frame_rate, n, &file)?;
+    }
+    let mut schedule = checkpoints
+        .every
+        .map(|every| crate::checkpoint::Schedule::new(every, sim.t()));
+    let mut stop = None;
+    let summary = run_steps(&mut sim, scene.duration, &mut outputs, |sim, outputs| {
+        let signalled = crate::output::stop_requested();
+        let due = schedule.as_ref().is_some_and(|s| s.due(sim.t()));
+        if signalled || due {
+            write_checkpoint(sim, outputs, &*folder, &checkpoints.hash)?;
+            if let Some(s) = &mut schedule {
+                s.pass(sim.t());
+            }
+        }
+        if signalled {
+            stop = Some(sim.t());
+        }
+        Ok(signalled)
+    });
+    if let (Ok(_), Some(t)) = (&summary, stop) {
+        return Ok(RunEnd::Stopped(t));
+    }
+    // A finished run's folder holds what an uninterrupted one's does.
+    crate::checkpoint::remove(&out);
+    let (mut frames, trace) = (outputs.frames, outputs.trace);
     let summary = match summary {
         Ok(s) => s,
-        Err(e) => {
+        Err(StepsFailed::Output(e)) => return Err(e),
+        Err(StepsFailed::Run(e)) => {
             let mut message = if matches!(
                 e,
                 HookeanError::BlowUp { .. } | HookeanError::EnergyGain { .. }
@@ -544,6 +661,9 @@ fn run_model(
     };
     let energies = sim.energies().map_err(failed)?;
     let s = summary.stats;
+    // The whole run's (a resumed run's too: its first part's are in the
+    // checkpoint; the run starts at t = 0).
+    let wall = sim.wall().as_secs_f64();
     let record = RunRecord {
         scene: args.scene.display().to_string(),
         method: sim.method().to_string(),
@@ -556,11 +676,11 @@ fn run_model(
         f_evals: s.num_rhs_evals_total(),
         jacobian_evals: s.num_jac_evals,
         linear_setups: s.num_lin_solv_setups,
-        wall_s: summary.wall.as_secs_f64(),
-        phases_s: PhaseSeconds::of(&s, summary.wall.as_secs_f64()),
+        wall_s: wall,
+        phases_s: PhaseSeconds::of(&s, wall),
         threads: crate::threads::current(),
-        simulated_s: summary.simulated,
-        simulated_s_per_wall_s: summary.speed(),
+        simulated_s: sim.t(),
+        simulated_s_per_wall_s: sim.t() / wall.max(1e-12),
         final_kinetic_energy: energies.kinetic,
         final_total_energy: energies.total(),
         frames: frames.as_ref().map_or(0, |f| f.obj.times().len()),
@@ -633,7 +753,7 @@ fn run_model(
     }
     view.write(&out.join("view.html"))?;
     let p = &record.phases_s;
-    Ok(Some(format!(
+    Ok(RunEnd::Done(Some(format!(
         "{}: {} steps, {} Newton and {} CG iterations, {:.2} s wall (assembly {:.2}, preconditioner set-up {:.2}, solve {:.2}, other {:.2}) for {:.2} s simulated ({:.2}x real time)",
         name,
         s.num_steps,
@@ -646,5 +766,5 @@ fn run_model(
         p.other,
         record.simulated_s,
         record.simulated_s_per_wall_s,
-    )))
+    ))))
 }

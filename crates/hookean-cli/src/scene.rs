@@ -42,7 +42,13 @@ pub struct ProgramKeys {
 }
 
 impl SceneExtension for ProgramKeys {
-    const KEYS: &'static [&'static str] = &["tutorial", "output.width", "output.height", "threads"];
+    const KEYS: &'static [&'static str] = &[
+        "tutorial",
+        "output.width",
+        "output.height",
+        "output.checkpoint_every",
+        "threads",
+    ];
     const MODEL_TABLES: &'static [&'static str] = &["tutorial"];
 }
 
@@ -56,6 +62,15 @@ pub struct PictureScene {
     /// Height of `final.png` in pixels. Range 1 to 16384. Default 600.
     #[serde(default = "d_height", deserialize_with = "pixels")]
     pub height: usize,
+    /// Simulated seconds (s) between checkpoints: `hookean run` writes the
+    /// run's whole state to checkpoint.bin in the run folder (written
+    /// aside and renamed into place, so a kill mid-write leaves the
+    /// earlier checkpoint), and `hookean run SCENE --resume RUN_FOLDER`
+    /// continues from it, bit for bit (docs/OUTPUTS.md, "Checkpoint and
+    /// resume"). With this key, SIGINT and SIGTERM stop the run after its
+    /// step with a checkpoint too. Range (0, inf). Default: none.
+    #[serde(default, deserialize_with = "seconds")]
+    pub checkpoint_every: Option<f64>,
 }
 
 impl Default for PictureScene {
@@ -63,6 +78,7 @@ impl Default for PictureScene {
         Self {
             width: d_width(),
             height: d_height(),
+            checkpoint_every: None,
         }
     }
 }
@@ -111,6 +127,17 @@ fn pixels<'de, D: Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
     } else {
         Err(D::Error::custom(format!(
             "must lie in 1 to {MAX_PIXELS} pixels, got {v}"
+        )))
+    }
+}
+
+fn seconds<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+    let v = f64::deserialize(d)?;
+    if v > 0.0 && v.is_finite() {
+        Ok(Some(v))
+    } else {
+        Err(D::Error::custom(format!(
+            "must be a finite number of seconds above 0, got {v:?}"
         )))
     }
 }
@@ -172,8 +199,8 @@ mod tests {
         }
         let src = include_str!("scene.rs");
         let fields = src.matches("\n    pub ").count();
-        // tutorial, output, threads; width, height; example, lambda.
-        assert_eq!(fields, 7, "a new program key: list it in KEYS above");
+        // tutorial, output, threads; width, height, checkpoint_every; example, lambda.
+        assert_eq!(fields, 8, "a new program key: list it in KEYS above");
     }
 
     /// Each program key at the ends of its documented range (the listing's
@@ -202,6 +229,13 @@ mod tests {
                 "[cloth]\n",
                 &["1", "16384"],
                 &["0", "16385"],
+            ),
+            (
+                "output.checkpoint_every",
+                "Range (0, inf).",
+                "[cloth]\n",
+                &["1e-300", "1e300"],
+                &["0", "-1", "nan", "inf"],
             ),
             (
                 "tutorial.example",
@@ -270,11 +304,13 @@ mod tests {
         let m = parse("[cloth]\n[output]\nwidht = 3\n", &[]).unwrap_err();
         assert_eq!(
             m,
-            "s.toml:3:1: unknown field `widht`, expected one of `frame_rate`, `cache`, `width`, `height`"
+            "s.toml:3:1: unknown field `widht`, expected one of `frame_rate`, `cache`, `width`, `height`, `checkpoint_every`"
         );
         let m = parse("[cloth]\n", &["output.widht=3"]).unwrap_err();
         assert!(
-            m.ends_with("expected one of `frame_rate`, `cache`, `width`, `height`"),
+            m.ends_with(
+                "expected one of `frame_rate`, `cache`, `width`, `height`, `checkpoint_every`"
+            ),
             "{m}"
         );
         let m = parse("duraton = 1.0\n[cloth]\n", &[]).unwrap_err();

@@ -63,6 +63,23 @@ impl<T> Thinned<T> {
         self.items.push(item);
     }
 
+    /// `[stride, pushed, cap]`: with the items, all a checkpoint needs.
+    pub fn counters(&self) -> [usize; 3] {
+        [self.stride, self.pushed, self.cap]
+    }
+
+    /// The sequence of a checkpoint: `items` kept with the
+    /// [`counters`](Self::counters); `None` if they do not fit each other.
+    pub fn restored(items: Vec<T>, [stride, pushed, cap]: [usize; 3]) -> Option<Self> {
+        (stride.is_power_of_two() && cap >= 2 && items.len() <= cap && items.len() <= pushed)
+            .then_some(Self {
+                items,
+                stride,
+                pushed,
+                cap,
+            })
+    }
+
     /// The kept items, in order.
     pub fn items(&self) -> &[T] {
         &self.items

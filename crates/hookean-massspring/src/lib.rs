@@ -95,6 +95,7 @@ hookean_sparse::non_exhaustive_seal!();
 mod analysis;
 mod assembly;
 pub mod builders;
+mod carried;
 mod collide;
 mod contact;
 mod error;

@@ -129,6 +129,28 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
         self.rate.rate
     }
 
+    /// What one call leaves for the next, besides a kept Jacobian: the
+    /// carried contraction rate of [`Convergence::Rate`] and whether a
+    /// Jacobian is kept (`[rate, has known rate, known rate, kept]`), for a
+    /// checkpoint. (The forcing terms start afresh at every call.)
+    pub fn carried_state(&self) -> [f64; 4] {
+        let flag = |b: bool| f64::from(u8::from(b));
+        [
+            self.rate.rate,
+            flag(self.rate.known.is_some()),
+            self.rate.known.unwrap_or(0.0),
+            flag(self.jacobian_valid),
+        ]
+    }
+
+    /// Restores [`carried_state`](Self::carried_state) (a kept Jacobian
+    /// is not restored: the next call evaluates one).
+    pub fn set_carried_state(&mut self, state: [f64; 4]) {
+        self.rate.rate = state[0];
+        self.rate.known = (state[1] == 1.0).then_some(state[2]);
+        self.jacobian_valid = false;
+    }
+
     /// Tells [`Convergence::Rate`] the contraction rate of the next calls'
     /// iterations when the caller knows it (`None`: measure it): `Some(0.0)`
     /// for a linear system solved with its exact Newton matrix, whose first

@@ -203,6 +203,17 @@ impl IterationController {
         self.last_failed = false;
     }
 
+    /// What the controller remembers between steps (`[last_failed]`, a
+    /// flag), for a checkpoint.
+    pub(crate) fn memory(&self) -> [f64; 1] {
+        [f64::from(u8::from(self.last_failed))]
+    }
+
+    /// Restores [`memory`](Self::memory).
+    pub(crate) fn set_memory(&mut self, m: &[f64]) {
+        self.last_failed = m.first() == Some(&1.0);
+    }
+
     /// Applies the rule (see the type's docs) to a step of size `h`.
     ///
     /// # Errors
@@ -372,6 +383,22 @@ impl PiController {
     pub fn reset(&mut self) {
         self.err_prev = None;
         self.last_rejected = false;
+    }
+
+    /// What the controller remembers between steps (`[has err_prev,
+    /// err_prev, last_rejected]`), for a checkpoint.
+    pub(crate) fn memory(&self) -> [f64; 3] {
+        [
+            f64::from(u8::from(self.err_prev.is_some())),
+            self.err_prev.unwrap_or(0.0),
+            f64::from(u8::from(self.last_rejected)),
+        ]
+    }
+
+    /// Restores [`memory`](Self::memory).
+    pub(crate) fn set_memory(&mut self, m: &[f64]) {
+        self.err_prev = (m.first() == Some(&1.0)).then(|| m.get(1).copied().unwrap_or(0.0));
+        self.last_rejected = m.get(2) == Some(&1.0);
     }
 
     /// The safety factor for a step whose Newton iteration took `newton_iterations`.

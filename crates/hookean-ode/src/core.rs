@@ -18,6 +18,9 @@ enum Controller {
     Pi(PiController),
     Iterations(IterationController),
 }
+use crate::snapshot::StateRecord;
+
+mod checkpoint;
 use crate::stage::{StageFailure, StageInfo, System};
 use crate::tableau::ButcherTableau;
 
@@ -893,6 +896,14 @@ impl<S: System> Integrator for Core<S> {
 
     fn count_event_evaluations(&mut self, n: usize) {
         self.stats.num_g_evals += n;
+    }
+
+    fn save_state(&self, r: &mut StateRecord) -> Result<(), OdeError> {
+        self.save(r)
+    }
+
+    fn restore_state(&mut self, r: &StateRecord) -> Result<(), OdeError> {
+        self.restore(r)
     }
 }
 

@@ -94,6 +94,19 @@ pub enum OdeError {
         /// The problem kind.
         problem: &'static str,
     },
+    /// The integrator (or a part of it) cannot save or restore its state
+    /// for a checkpoint ([`crate::StateRecord`]).
+    #[error("checkpoints do not cover {what}")]
+    NoCheckpoint {
+        /// What is not covered (a method, a solver option).
+        what: String,
+    },
+    /// A checkpoint's record does not fit this integrator.
+    #[error("the checkpoint does not fit this run: {reason}")]
+    Checkpoint {
+        /// What does not fit.
+        reason: String,
+    },
     /// A Butcher tableau is malformed (sizes, implicit where explicit is needed).
     #[error("invalid Butcher tableau: {reason}")]
     InvalidTableau {

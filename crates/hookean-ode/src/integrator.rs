@@ -330,4 +330,10 @@ impl<P, K> Integrator for OdeIntegrator<P, K> {
     fn count_event_evaluations(&mut self, n: usize) {
         self.engine.count_event_evaluations(n);
     }
+    fn save_state(&self, record: &mut crate::StateRecord) -> Result<(), OdeError> {
+        self.engine.save_state(record)
+    }
+    fn restore_state(&mut self, record: &crate::StateRecord) -> Result<(), OdeError> {
+        self.engine.restore_state(record)
+    }
 }

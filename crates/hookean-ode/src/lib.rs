@@ -137,6 +137,7 @@ pub mod integrator;
 pub mod method;
 pub mod options;
 mod phases;
+pub mod snapshot;
 pub mod stability;
 mod stage;
 pub mod stats;
@@ -167,6 +168,7 @@ pub use integrator::{
 pub use method::Method;
 pub use options::{DEFAULT_STEP, Predictor, SolverOptions, StepControl, StepSizePolicy, Tolerance};
 pub use phases::PhaseTimes;
+pub use snapshot::StateRecord;
 /// The sparse matrix crate of [`FirstOrderProblem::sparse_jacobian_pattern`]
 /// and [`FirstOrderProblem::jacobian_sparse`], re-exported so that users
 /// need not match its version by hand.

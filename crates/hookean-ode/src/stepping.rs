@@ -123,6 +123,32 @@ pub trait Integrator {
     #[doc(hidden)]
     fn count_event_evaluations(&mut self, n: usize);
 
+    /// Adds to `record` everything the next step depends on (state, step
+    /// size, counters, history, the linear solves' warm start, what the
+    /// preconditioner reuses), so that [`restore_state`](Self::restore_state)
+    /// on an integrator built alike continues bit for bit
+    /// ([`crate::snapshot`]). The problem's own state is the caller's.
+    ///
+    /// # Errors
+    /// [`OdeError::NoCheckpoint`] for an integrator (or an option) whose
+    /// state is not covered (the default).
+    fn save_state(&self, record: &mut crate::StateRecord) -> Result<(), OdeError> {
+        let _ = record;
+        Err(crate::snapshot::not_covered("this integrator"))
+    }
+
+    /// Continues from a [`save_state`](Self::save_state) record of an
+    /// integrator built with the same problem, method and options.
+    ///
+    /// # Errors
+    /// [`OdeError::NoCheckpoint`] as [`save_state`](Self::save_state);
+    /// [`OdeError::Checkpoint`] for a record that does not fit (a missing
+    /// entry, another size).
+    fn restore_state(&mut self, record: &crate::StateRecord) -> Result<(), OdeError> {
+        let _ = record;
+        Err(crate::snapshot::not_covered("this integrator"))
+    }
+
     /// One accepted step ([`step_bounded`](Self::step_bounded) without a bound).
     ///
     /// # Errors

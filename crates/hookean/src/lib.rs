@@ -96,6 +96,7 @@ pub mod sinks;
 #[cfg(feature = "filter")]
 pub use error::HookeanError;
 #[cfg(feature = "filter")]
+pub use hookean_ode::StateRecord;
 pub use simulation::{RunSummary, Simulation, SimulationOptions, Sink};
 
 /// The names most programs need.

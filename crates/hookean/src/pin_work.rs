@@ -103,6 +103,43 @@ impl PinWork {
         }
     }
 
+    /// What the count carries from step to step, for a checkpoint:
+    /// `[driven, W, has soft_t, soft_t, then x, v, f of each driven hard
+    /// pin's particle]`.
+    pub(crate) fn carried(&self) -> Vec<f64> {
+        let flag = |b: bool| f64::from(u8::from(b));
+        let mut c = vec![
+            flag(self.driven),
+            self.work,
+            flag(self.soft_t.is_some()),
+            self.soft_t.unwrap_or(0.0),
+        ];
+        for s in &self.last {
+            c.extend(s.x.iter().chain(&s.v).chain(&s.f));
+        }
+        c
+    }
+
+    /// Restores [`carried`](Self::carried); `None` for a malformed one.
+    pub(crate) fn restore_carried(&mut self, c: &[f64], dim: usize) -> Option<()> {
+        if c.len() < 4 || !(c.len() - 4).is_multiple_of(9) {
+            return None;
+        }
+        self.driven = c[0] == 1.0;
+        self.work = c[1];
+        self.soft_t = (c[2] == 1.0).then_some(c[3]);
+        self.last.clear();
+        self.last.extend(c[4..].chunks_exact(9).map(|s| Sample {
+            x: [s[0], s[1], s[2]],
+            v: [s[3], s[4], s[5]],
+            f: [s[6], s[7], s[8]],
+        }));
+        if !self.last.is_empty() {
+            self.force.resize(dim, 0.0);
+        }
+        Some(())
+    }
+
     /// `W` (J): zero without driven pins.
     pub(crate) fn work(&self) -> f64 {
         self.work

@@ -17,6 +17,8 @@ use hookean_sparse::{PowerParams, PrecondKind};
 use crate::error::HookeanError;
 use crate::pin_work::PinWork;
 
+mod checkpoint;
+
 /// How a [`Simulation`] integrates.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimulationOptions {

@@ -55,7 +55,66 @@ impl StepsCsv<BufWriter<File>> {
     }
 }
 
+impl StepsCsv<BufWriter<File>> {
+    /// The CSV at `path` of a run being resumed: cut at `len` bytes (the
+    /// length it had at the checkpoint; rows written after it are
+    /// dropped, the resumed run writes them again) and appended to.
+    ///
+    /// # Errors
+    /// [`HookeanError::Io`] naming `path` if it is missing, shorter than
+    /// `len`, or cannot be cut.
+    pub fn resume(path: impl AsRef<Path>, len: u64) -> Result<Self, HookeanError> {
+        let path = path.as_ref();
+        let file = std::fs::OpenOptions::new()
+            .write(true)
+            .open(path)
+            .map_err(|e| HookeanError::io(path, e))?;
+        let found = file
+            .metadata()
+            .map_err(|e| HookeanError::io(path, e))?
+            .len();
+        if found < len {
+            return Err(HookeanError::io(
+                path,
+                std::io::Error::other(format!(
+                    "{found} bytes, shorter than the {len} it had at the checkpoint"
+                )),
+            ));
+        }
+        file.set_len(len).map_err(|e| HookeanError::io(path, e))?;
+        let mut file = file;
+        std::io::Seek::seek(&mut file, std::io::SeekFrom::End(0))
+            .map_err(|e| HookeanError::io(path, e))?;
+        Ok(Self {
+            out: BufWriter::new(file),
+            path: Some(path.to_path_buf()),
+        })
+    }
+}
+
+impl StepsCsv<BufWriter<File>> {
+    /// Writes the buffered rows out and returns the file's length (bytes),
+    /// for a checkpoint.
+    ///
+    /// # Errors
+    /// [`HookeanError::Io`] naming the file.
+    pub fn flushed_len(&mut self) -> Result<u64, HookeanError> {
+        self.out.flush().map_err(|e| self.error(e))?;
+        let meta = self.out.get_ref().metadata();
+        meta.map(|m| m.len()).map_err(|e| self.error(e))
+    }
+}
+
 impl<W: Write> StepsCsv<W> {
+    /// Writes the buffered rows out (before a checkpoint records the
+    /// file's length).
+    ///
+    /// # Errors
+    /// [`HookeanError::Io`] naming the file.
+    pub fn flush(&mut self) -> Result<(), HookeanError> {
+        self.out.flush().map_err(|e| self.error(e))
+    }
+
     /// A CSV written to `out`, starting with the header.
     ///
     /// # Errors
@@ -147,6 +206,40 @@ impl ObjFrames {
     /// The simulated time of every frame written, in order.
     pub fn times(&self) -> &[f64] {
         &self.times
+    }
+
+    /// The time the next frame is due (`-inf` before the first), for a
+    /// checkpoint.
+    pub fn next_due(&self) -> f64 {
+        self.next
+    }
+
+    /// Frames of a run being resumed into `dir`: `times` already written,
+    /// the next due at `next` ([`next_due`](Self::next_due)). Frame files
+    /// past `times` (written after the checkpoint) are removed: the
+    /// resumed run writes them again.
+    ///
+    /// # Errors
+    /// As [`new`](Self::new); [`HookeanError::Io`] if a later frame
+    /// cannot be removed.
+    pub fn resume(
+        dir: impl Into<PathBuf>,
+        frame_rate: f64,
+        next: f64,
+        times: Vec<f64>,
+    ) -> Result<Self, HookeanError> {
+        let mut f = Self::new(dir, frame_rate)?;
+        for k in times.len().. {
+            let path = f.path(k);
+            match std::fs::remove_file(&path) {
+                Ok(()) => {}
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => break,
+                Err(e) => return Err(HookeanError::io(&path, e)),
+            }
+        }
+        f.next = next;
+        f.times = times;
+        Ok(f)
     }
 
     /// The path of frame `k` ([`frame_path`]).

@@ -150,6 +150,11 @@ impl<P> PcgSolver<P> {
         &self.precond
     }
 
+    /// The preconditioner, mutably (e.g. to rebuild it from a checkpoint).
+    pub fn preconditioner_mut(&mut self) -> &mut P {
+        &mut self.precond
+    }
+
     /// Arms a starting guess for the next solve only and returns its
     /// storage (length `n`, to be filled by the caller).
     pub fn arm_guess(&mut self, n: usize) -> &mut [f64] {

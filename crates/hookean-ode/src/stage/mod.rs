@@ -27,6 +27,7 @@ pub(crate) use second_order::{ReducedStage, SecondSys, begin_stage};
 
 use hookean_nonlinear::{NewtonStats, NonlinearError};
 
+use crate::error::OdeError;
 use crate::options::SolverOptions;
 use crate::stats::Stats;
 
@@ -109,6 +110,17 @@ pub(crate) trait System {
         acc: &mut [f64],
         stats: &mut Stats,
     ) -> bool;
+    /// Adds what the next stage solve reuses (warm start, Newton's carried
+    /// state, the preconditioner's reused parts) to a checkpoint.
+    fn save_state(&self, record: &mut crate::StateRecord) -> Result<(), OdeError> {
+        let _ = record;
+        Err(crate::snapshot::not_covered("first-order problems"))
+    }
+    /// Restores [`save_state`](Self::save_state).
+    fn restore_state(&mut self, record: &crate::StateRecord) -> Result<(), OdeError> {
+        let _ = record;
+        Err(crate::snapshot::not_covered("first-order problems"))
+    }
     /// One step of the IMEX scheme ([`crate::imex`]) on the state `s`
     /// (second-order systems with a linear part only; the integrator
     /// checks that at construction).

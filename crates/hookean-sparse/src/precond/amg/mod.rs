@@ -508,6 +508,10 @@ pub struct Amg {
     stats: AmgStats,
     /// Calls of `setup` kept since the last set-up or refill.
     kept_in_a_row: usize,
+    /// The matrix of the last full set-up from a [`SymBlockMatrix`], kept
+    /// (unless [`AmgReuse::Rebuild`]) because a refill reuses what was built
+    /// from it: [`built_from`](Amg::built_from).
+    built_from: Option<SymBlockMatrix>,
 }
 
 impl Default for Amg {
@@ -525,6 +529,38 @@ impl Amg {
             inner: Inner::Empty,
             stats: AmgStats::default(),
             kept_in_a_row: 0,
+            built_from: None,
+        }
+    }
+
+    /// The matrix the current hierarchy was built from (its last full
+    /// set-up from a [`SymBlockMatrix`]), when a refill reuses what was
+    /// built from it: with [`AmgReuse::Refill`] and no
+    /// [`refill_power_iterations`](AmgOptions::refill_power_iterations),
+    /// the strength graph, aggregates, tentative prolongators and spectral
+    /// estimates are functions of this matrix alone (the set-up is
+    /// deterministic, whatever the thread count), and every other number is
+    /// recomputed at each refill. So [`rebuild`](Amg::rebuild) from it,
+    /// followed by the next refill, gives the preconditioner bit for bit:
+    /// how a checkpointed run restores its multigrid without keeping the
+    /// hierarchy itself. `None` before a set-up, from a CSR matrix, or with
+    /// [`AmgReuse::Rebuild`] (nothing is reused).
+    pub fn built_from(&self) -> Option<&SymBlockMatrix> {
+        self.built_from.as_ref()
+    }
+
+    /// Whether the hierarchy after the next `setup` is a function of
+    /// [`built_from`](Amg::built_from) and that setup's matrix alone (see
+    /// there): `Rebuild`, or `Refill` without refill power iterations (a
+    /// kept hierarchy, `Keep`, or carried eigenvector estimates depend on
+    /// more of the past).
+    pub fn next_setup_depends_on_build_only(&self) -> bool {
+        match self.options.reuse {
+            AmgReuse::Rebuild => true,
+            AmgReuse::Refill => {
+                self.options.refill_power_iterations == 0 || self.options.power_iterations == 0
+            }
+            AmgReuse::Keep { .. } => false,
         }
     }
 
@@ -575,6 +611,7 @@ impl Amg {
             inner: Inner::Empty,
             stats: AmgStats::default(),
             kept_in_a_row: 0,
+            built_from: None,
         })
     }
 
@@ -748,6 +785,16 @@ impl PreconditionerSetup<SymBlockMatrix> for Amg {
                         map,
                         h,
                     };
+                    // Kept only when a refill reuses it (a full set-up
+                    // allocates anyway; a refill copies nothing).
+                    if self.options.reuse != AmgReuse::Rebuild {
+                        match &mut self.built_from {
+                            Some(b) if Arc::ptr_eq(b.pattern(), a.pattern()) => {
+                                b.values_mut().copy_from_slice(a.values());
+                            }
+                            b => *b = Some(a.clone()),
+                        }
+                    }
                 })
             }
         };
@@ -798,7 +845,10 @@ impl PreconditionerSetup<sprs::CsMat<f64>> for Amg {
                 );
                 with_block_sizes!(b, k, B, K => CsrLevels::new::<B, K>(a, &self.options),
                     _ => Err(unsupported(b, k)))
-                .map(|c| self.inner = Inner::Csr(c))
+                .map(|c| {
+                    self.inner = Inner::Csr(c);
+                    self.built_from = None;
+                })
             }
         };
         if let Err(e) = result {
