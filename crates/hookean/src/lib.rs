@@ -97,6 +97,7 @@ pub mod sinks;
 pub use error::HookeanError;
 #[cfg(feature = "filter")]
 pub use hookean_ode::StateRecord;
+#[cfg(feature = "filter")]
 pub use simulation::{RunSummary, Simulation, SimulationOptions, Sink};
 
 /// The names most programs need.
