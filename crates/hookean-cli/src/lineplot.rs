@@ -98,6 +98,29 @@ where
     .map_err(draw_error)
 }
 
+/// Draws `points` as one series' line, 2 px wide: solid, or dashed
+/// `(on, off)` pixels.
+fn draw_curve<DB, X, Y>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
+    points: &[(f64, f64)],
+    colour: RGBColor,
+    dash: Option<(u32, u32)>,
+) -> Result<(), String>
+where
+    DB: DrawingBackend,
+    X: Ranged<ValueType = f64>,
+    Y: Ranged<ValueType = f64>,
+{
+    let style = colour.stroke_width(2);
+    let points = points.iter().copied();
+    match dash {
+        None => chart.draw_series(LineSeries::new(points, style)),
+        Some((on, off)) => chart.draw_series(DashedLineSeries::new(points, on, off, style)),
+    }
+    .map(|_| ())
+    .map_err(draw_error)
+}
+
 /// One curve of a [`LogLogPlot`].
 #[derive(Debug, Clone)]
 pub struct Series {
@@ -258,19 +281,7 @@ impl LogLogPlot {
             for (i, s) in self.series.iter().enumerate() {
                 let (colour, m, dash) = series_style(i);
                 let p: Vec<(f64, f64)> = s.points.iter().copied().filter(usable).collect();
-                let style = colour.stroke_width(2);
-                match dash {
-                    None => {
-                        chart
-                            .draw_series(LineSeries::new(p.iter().copied(), style))
-                            .map_err(draw_error)?;
-                    }
-                    Some((on, off)) => {
-                        chart
-                            .draw_series(DashedLineSeries::new(p.iter().copied(), on, off, style))
-                            .map_err(draw_error)?;
-                    }
-                }
+                draw_curve(&mut chart, &p, colour, dash)?;
                 for &q in &p {
                     draw_marker(chart.plotting_area(), m, q, colour)?;
                 }
@@ -389,19 +400,7 @@ impl ProfilePlot {
                     .map(|&(x, y)| (x.min(x_end), y))
                     .filter(|(x, y)| x.is_finite() && *x >= 1.0 && y.is_finite())
                     .collect();
-                let style = colour.stroke_width(2);
-                match dash {
-                    None => {
-                        chart
-                            .draw_series(LineSeries::new(p.iter().copied(), style))
-                            .map_err(draw_error)?;
-                    }
-                    Some((on, off)) => {
-                        chart
-                            .draw_series(DashedLineSeries::new(p.iter().copied(), on, off, style))
-                            .map_err(draw_error)?;
-                    }
-                }
+                draw_curve(&mut chart, &p, colour, dash)?;
                 // Markers where the staircase rises (and at its start).
                 for (k, &q) in p.iter().enumerate() {
                     if k == 0 || (q.0 == p[k - 1].0 && q.1 > p[k - 1].1) {
