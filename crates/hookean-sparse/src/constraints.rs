@@ -145,9 +145,9 @@ impl Constraints {
     /// pins and other axis directions; up to rounding for others, which it
     /// normalises again). How a recorded system carries its constraints.
     pub fn directions(&self) -> impl Iterator<Item = (usize, [f64; 3], f64)> + '_ {
-        self.entries.iter().flat_map(|e| {
-            (0..e.count).map(move |k| (e.particle, e.dirs[k], e.values[k]))
-        })
+        self.entries
+            .iter()
+            .flat_map(|e| (0..e.count).map(move |k| (e.particle, e.dirs[k], e.values[k])))
     }
 
     /// Number of constrained directions of `particle` (0 to 3).

@@ -46,7 +46,6 @@ impl RecordedSolve<'_> {
     pub fn matrix(&self) -> Option<sprs::CsMat<f64>> {
         (self.matrix)()
     }
-
 }
 
 /// Receives every solve of a [`PcgSolver`](super::PcgSolver) it is
