@@ -158,7 +158,7 @@ pub fn replay(
         if let Some(x0) = &system.x0 {
             solver.arm_guess(n).copy_from_slice(x0);
         }
-        let set_up = policy.amg.is_some() || !ready || k % (policy.keep + 1) == 0;
+        let set_up = policy.amg.is_some() || !ready || k.is_multiple_of(policy.keep + 1);
         let start = Instant::now();
         let setup = if set_up {
             LinearSolver::<SymBlockMatrix>::setup(&mut solver, &system.a)
@@ -207,8 +207,8 @@ pub fn cumulative(times: impl IntoIterator<Item = f64>) -> Vec<f64> {
 }
 
 /// The break-even point of a policy against a baseline, from their
-/// cumulative times over the same systems: the first system (numbered from
-/// 1) from which on the policy's cumulative time stays below the
+/// cumulative times over the same systems: the first system (numbered
+/// from one) from which on the policy's cumulative time stays below the
 /// baseline's, `None` if it is not below at the last system.
 pub fn break_even(policy: &[f64], baseline: &[f64]) -> Option<usize> {
     let below: Vec<bool> = policy.iter().zip(baseline).map(|(p, b)| p < b).collect();

@@ -175,7 +175,7 @@ impl SolveRecorder for SequenceWriter {
     fn record(&mut self, solve: &RecordedSolve<'_>) {
         self.solves += 1;
         self.in_step += 1;
-        if self.error.is_some() || (self.solves - 1) % self.every != 0 {
+        if self.error.is_some() || !(self.solves - 1).is_multiple_of(self.every) {
             return;
         }
         let k = self.written + 1;
