@@ -70,7 +70,58 @@ pub(crate) const EXPORT: &[Case] = &[
         "\"rows\"",
     )
     .creates(&["sys/A.mtx", "sys/b.mtx"]),
+    case(
+        "export-system: --at and --every together",
+        &[("s.toml", CLOTH)],
+        &[
+            "export-system",
+            "{}/s.toml",
+            "--at",
+            "0.02",
+            "--every",
+            "1",
+            "--out",
+            "{}/sys",
+        ],
+        2,
+        "--every",
+    )
+    .absent(&["sys"]),
+    case(
+        "bench: a sequence whose numbering has a gap (issue 42)",
+        &[
+            ("seq/system-00001-A.mtx", ONE_BLOCK),
+            ("seq/system-00001-b.mtx", THREE),
+            ("seq/system-00003-A.mtx", ONE_BLOCK),
+            ("seq/system-00003-b.mtx", THREE),
+        ],
+        &["bench", "--sequence", "{}/seq", "--out", "{}/bench"],
+        2,
+        "system-00002-A.mtx",
+    )
+    .absent(&["bench"]),
+    case(
+        "bench: a sequence of mixed sizes (issue 42)",
+        &[
+            ("seq/system-00001-A.mtx", ONE_BLOCK),
+            ("seq/system-00001-b.mtx", THREE),
+            ("seq/system-00002-A.mtx", TWO_BLOCKS),
+            ("seq/system-00002-b.mtx", SIX),
+        ],
+        &["bench", "--sequence", "{}/seq", "--out", "{}/bench"],
+        2,
+        "system-00002-A.mtx",
+    )
+    .absent(&["bench"]),
 ];
+
+/// A 3 x 3 system (one particle) and its right-hand side, for sequences.
+const ONE_BLOCK: &str =
+    "%%MatrixMarket matrix coordinate real symmetric\n3 3 3\n1 1 2\n2 2 2\n3 3 2\n";
+const THREE: &str = "%%MatrixMarket matrix array real general\n3 1\n1\n2\n3\n";
+/// Two particles.
+const TWO_BLOCKS: &str = "%%MatrixMarket matrix coordinate real symmetric\n6 6 6\n1 1 2\n2 2 2\n3 3 2\n4 4 2\n5 5 2\n6 6 2\n";
+const SIX: &str = "%%MatrixMarket matrix array real general\n6 1\n1\n2\n3\n4\n5\n6\n";
 
 pub(crate) const WORKPRECISION: &[Case] = &[
     case(

@@ -7,6 +7,10 @@
 //! (time, set-up time, iterations, set-up memory: `ranking.md`, also on
 //! stdout after the table; [`crate::perfprofile`]).
 //!
+//! With `--sequence DIR` it answers the reuse question instead: every
+//! policy of rebuilding, refilling or keeping the preconditioner over a
+//! run's sequence of Newton systems ([`crate::bench_sequence`]).
+//!
 //! A system is `NAME.mtx`; beside it, `NAME_b.mtx` is its right-hand side
 //! (default `A * ones`) and `NAME_nullspace.mtx` (one column per vector) the
 //! multigrid's near-nullspace. A matrix named `NAME-A.mtx` or `NAME_A.mtx`
@@ -95,12 +99,17 @@ pub struct BenchArgs {
     /// No progress lines on stderr.
     #[arg(long)]
     quiet: bool,
+    /// Replay the numbered systems of this folder (`hookean export-system --every K`) with every
+    /// reuse policy of the preconditioner instead: sequence.md, sequence.csv and cumulative.svg
+    /// (docs/PERFORMANCE.md, "The reuse question").
+    #[arg(long, value_name = "DIR")]
+    sequence: Option<PathBuf>,
 }
 
 /// The most systems one run takes.
-const MAX_SYSTEMS: usize = 10_000;
+pub(crate) const MAX_SYSTEMS: usize = 10_000;
 /// The most points of one curve drawn (the trace is thinned evenly).
-const PLOT_POINTS: usize = 60;
+pub(crate) const PLOT_POINTS: usize = 60;
 /// The stiffness of the built-in cloth systems.
 const CLOTH_K: f64 = 1e4;
 
@@ -154,6 +163,9 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
             args.format
         )));
     }
+    if let Some(dir) = &args.sequence {
+        return run_sequence(args, &plan, dir);
+    }
     if let Some(&n) = args.cloth.iter().find(|&&n| !(2..=512).contains(&n)) {
         return Err(CliError::Input(format!(
             "--cloth: size {n} must lie in 2 to 512"
@@ -167,6 +179,43 @@ pub fn run(args: &BenchArgs) -> Result<(), CliError> {
     let input_paths: Vec<&Path> = args.inputs.iter().map(PathBuf::as_path).collect();
     let staging = crate::output::Staging::new("bench", &out, "--out", args.force, &input_paths)?;
     match bench(args, &inputs, &plan, staging.dir()) {
+        Ok(table) => {
+            staging.commit()?;
+            crate::outln!("{}", table.trim_end())?;
+            if !args.quiet {
+                crate::errln!("hookean bench: wrote {}", out.display());
+            }
+            Ok(())
+        }
+        Err(e) => Err(staging.abandon(e)),
+    }
+}
+
+/// `--sequence DIR`: every reuse policy over the folder's systems
+/// ([`crate::bench_sequence`]).
+fn run_sequence(args: &BenchArgs, plan: &Plan, dir: &Path) -> Result<(), CliError> {
+    if !args.inputs.is_empty() || !args.cloth.is_empty() {
+        return Err(CliError::Input(
+            "--sequence replays one folder: give no other Matrix Market inputs or --cloth".into(),
+        ));
+    }
+    let options = crate::bench_sequence::SequenceOptions {
+        amg: args.amg.options(3, Vec::new())?,
+        fallback: crate::bench_sequence::Fallback {
+            rtol: args.rtol,
+            max_iter: args.max_iter,
+        },
+        repeat: args.repeat,
+        quiet: args.quiet,
+        cap: plan.cap,
+        dir,
+    };
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("out").join("bench"));
+    let staging = crate::output::Staging::new("bench", &out, "--out", args.force, &[dir])?;
+    match crate::bench_sequence::bench_sequence(&options, staging.dir()) {
         Ok(table) => {
             staging.commit()?;
             crate::outln!("{}", table.trim_end())?;
@@ -620,7 +669,7 @@ fn plot(system: &str, rows: &[Row], dir: &Path) -> Result<(), CliError> {
 }
 
 /// At most `max` points of `trace`, evenly spaced, with the first and last.
-fn thin(trace: &[(f64, f64)], max: usize) -> Vec<(f64, f64)> {
+pub(crate) fn thin(trace: &[(f64, f64)], max: usize) -> Vec<(f64, f64)> {
     if trace.len() <= max {
         return trace.to_vec();
     }

@@ -9,22 +9,34 @@
 //! state with the scene's `integrator.h` (one Newton step of implicit
 //! Euler in the velocity form). One JSON line on stdout describes the
 //! export.
+//!
+//! `hookean export-system SCENE --every K --out DIR` instead runs the scene
+//! to its `duration` and writes every K-th linear system that Newton hands
+//! to PCG (the 1st, the K+1-th, ...), numbered from 1 with their starting
+//! guesses, constraints and `index.csv` (the folder layout of
+//! [`crate::system_sequence`]): the input of `hookean bench --sequence`.
 
 use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
 
 use clap::Args;
 use serde::Serialize;
 
 use crate::CliError;
 use crate::run::Progress;
+use crate::system_sequence::SequenceWriter;
 
 #[derive(Debug, Args)]
 pub struct ExportSystemArgs {
     /// The scene file (TOML).
     scene: PathBuf,
-    /// Simulated time of the exported state (s); 0 is the initial state.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
-    at: f64,
+    /// Simulated time of the exported state (s); 0 (default) is the initial state.
+    #[arg(long, allow_hyphen_values = true, conflicts_with = "every")]
+    at: Option<f64>,
+    /// Run the scene to its duration and write every K-th linear system Newton hands to PCG
+    /// (system-00001-A.mtx, -b.mtx, ... and index.csv), for `hookean bench --sequence`.
+    #[arg(long, value_name = "K")]
+    every: Option<usize>,
     /// Output folder (created; must not exist unless --force).
     #[arg(long)]
     out: PathBuf,
@@ -54,10 +66,13 @@ fn input<E: std::fmt::Display>(e: E) -> CliError {
 }
 
 pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
-    if !(args.at >= 0.0 && args.at.is_finite()) {
+    if let Some(every) = args.every {
+        return export_sequence(args, every);
+    }
+    let at = args.at.unwrap_or(0.0);
+    if !(at >= 0.0 && at.is_finite()) {
         return Err(CliError::Input(format!(
-            "--at must be a non-negative time, got {:?}",
-            args.at
+            "--at must be a non-negative time, got {at:?}"
         )));
     }
     // Refused before the simulation: an --out that exists (or holds the scene).
@@ -72,7 +87,7 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
     let (particles, _) = scene.particle_count();
     // Steps to --at as `run` counts them (a variable-step method: its step cap).
     let check_work = |h: f64| -> Result<(), CliError> {
-        let (steps, cause) = crate::work::scene_steps(&scene, &args.scene, args.at, "--at", h)?;
+        let (steps, cause) = crate::work::scene_steps(&scene, &args.scene, at, "--at", h)?;
         args.work.check(
             steps,
             particles.map_or(f64::INFINITY, |p| {
@@ -90,10 +105,10 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
         .map_err(|e| input(format!("{}: {e}", args.scene.display())))?;
     check_work(sim.h_next())?;
     let mut steps = 0;
-    if args.at > 0.0 {
+    if at > 0.0 {
         // A bar on a terminal: simulating to a late --at can take a while.
-        let mut progress = Progress::new(args.at, false);
-        let result = sim.run_until_with(args.at, |sim, r| {
+        let mut progress = Progress::new(at, false);
+        let result = sim.run_until_with(at, |sim, r| {
             progress.update(sim, r);
             std::ops::ControlFlow::Continue(())
         });
@@ -103,7 +118,7 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
             CliError::Failed(format!(
                 "{}: simulation to t = {:?} failed: {e}",
                 args.scene.display(),
-                args.at
+                at
             ))
         })?;
         steps = summary.stats.num_steps;
@@ -143,4 +158,132 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
     };
     crate::outln!("{}", crate::to_json(&record, false)?)?;
     Ok(())
+}
+
+/// What `--every` prints: one JSON line.
+#[derive(Debug, Serialize)]
+struct SequenceRecord {
+    scene: String,
+    t: f64,
+    steps: usize,
+    every: usize,
+    /// Linear solves of the run, and the systems written.
+    solves: usize,
+    systems: usize,
+    out: String,
+    index: String,
+}
+
+/// `--every K`: the scene run to its duration, every K-th PCG system written.
+fn export_sequence(args: &ExportSystemArgs, every: usize) -> Result<(), CliError> {
+    if every == 0 {
+        return Err(CliError::Input(
+            "--every must be at least 1 (1 writes every system)".into(),
+        ));
+    }
+    let staging = crate::output::Staging::new(
+        "export-system",
+        &args.out,
+        "--out",
+        args.force,
+        &[&args.scene],
+    )?;
+    match record_sequence(args, every, staging.dir()) {
+        Ok(record) => {
+            staging.commit()?;
+            crate::outln!("{}", crate::to_json(&record, false)?)?;
+            Ok(())
+        }
+        Err(e) => Err(staging.abandon(e)),
+    }
+}
+
+/// Runs the scene with a [`SequenceWriter`] in its PCG solver, writing into `dir`.
+fn record_sequence(
+    args: &ExportSystemArgs,
+    every: usize,
+    dir: &std::path::Path,
+) -> Result<SequenceRecord, CliError> {
+    let (scene, _) = crate::scene::read_scene(&args.scene, &args.set)?;
+    let (particles, _) = scene.particle_count();
+    let check_work = |h: f64| -> Result<(), CliError> {
+        let (steps, cause) =
+            crate::work::scene_steps(&scene, &args.scene, scene.duration, "duration", h)?;
+        args.work.check(
+            steps,
+            particles.map_or(f64::INFINITY, |p| {
+                (p as f64).max(crate::work::MIN_STEP_WORK)
+            }),
+            &cause,
+        )
+    };
+    if let Some(h) = scene.integrator.h.value() {
+        check_work(h)?;
+    }
+    let mut sim = scene
+        .build()
+        .map_err(|e| input(format!("{}: {e}", args.scene.display())))?;
+    check_work(sim.h_next())?;
+    let writer = Arc::new(Mutex::new(SequenceWriter::new(dir, every)));
+    let shared: hookean::nonlinear::SharedRecorder = writer.clone();
+    if !sim.record_linear_solves(Some(shared)) {
+        return Err(CliError::Input(format!(
+            "{}: integrator.method = \"{}\" solves no linear systems with PCG that can be recorded \
+             (explicit methods, IMEX, the variable-order BDF and inexact simplified Newton do not); \
+             --every needs an implicit method with Newton and PCG",
+            args.scene.display(),
+            sim.method()
+        )));
+    }
+    let lock = |w: &Mutex<SequenceWriter>| {
+        // The writer keeps its own errors: a poisoned lock holds nothing broken.
+        let mut g = w.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        std::mem::replace(&mut *g, SequenceWriter::new(dir, every))
+    };
+    let mut progress = Progress::new(scene.duration, false);
+    let result = sim.run_until_with(scene.duration, |sim, r| {
+        progress.update(sim, r);
+        let mut w = writer
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        w.next_step(sim.t());
+        if w.error.is_some() {
+            std::ops::ControlFlow::Break(())
+        } else {
+            std::ops::ControlFlow::Continue(())
+        }
+    });
+    progress.clear();
+    sim.record_linear_solves(None);
+    let writer = lock(&writer);
+    if let Some(e) = writer.error {
+        return Err(CliError::Failed(e));
+    }
+    let summary = result.map_err(|e| {
+        CliError::Failed(format!(
+            "{}: simulation to t = {:?} failed: {e}",
+            args.scene.display(),
+            scene.duration
+        ))
+    })?;
+    let (solves, systems) = writer.counts();
+    if systems == 0 {
+        return Err(CliError::Input(format!(
+            "{}: the run to duration = {:?} s solved no linear system",
+            args.scene.display(),
+            scene.duration
+        )));
+    }
+    let index = dir.join("index.csv");
+    crate::output::write_text(&index, &writer.index())?;
+    Ok(SequenceRecord {
+        scene: args.scene.display().to_string(),
+        t: sim.t(),
+        steps: summary.stats.num_steps,
+        every,
+        solves,
+        systems,
+        out: args.out.display().to_string(),
+        index: args.out.join("index.csv").display().to_string(),
+    })
 }

@@ -7,7 +7,7 @@
 //! hookean stability [--methods a,b] --plot regions.svg [--re -5,3] [--im -4,4] [--force]
 //! hookean bench-precond [--n 32,64,128] [--k 1e2,1e4,1e6] [--rtol 1e-8] [--repeat K]
 //! hookean tune A.mtx [--rhs b.mtx] [--budget 60] [--exhaustive] [--rtol 1e-8] [--out DIR] [--force]
-//! hookean export-system SCENE --at T --out DIR [--force]
+//! hookean export-system SCENE (--at T | --every K) --out DIR [--force]
 //! hookean filter-analysis SCENE --plot DIR [--n 16] [--t-end 1.0] [--force]
 //! hookean view OUT_DIR [--force]
 //! hookean export-cache OUT_DIR --format pc2|mdd [--force]
@@ -45,6 +45,7 @@ pub mod alloc;
 mod amg_args;
 mod bench;
 mod bench_precond;
+mod bench_sequence;
 mod checkpoint;
 mod export_cache;
 mod export_system;
@@ -63,6 +64,7 @@ mod run_resume;
 pub mod scene;
 mod solve;
 mod stability;
+mod system_sequence;
 mod thin;
 mod threads;
 mod tune;
@@ -99,7 +101,8 @@ enum Command {
     /// Preconditioner comparison on cloth implicit-Euler systems: JSON lines on stdout, a table on stderr.
     BenchPrecond(bench_precond::BenchPrecondArgs),
     /// Compare preconditioners over Matrix Market files or folders (and built-in cloth systems):
-    /// bench.md, bench.csv and a residual-against-time SVG per system in the output folder.
+    /// bench.md, bench.csv and a residual-against-time SVG per system in the output folder; or
+    /// (--sequence DIR) the reuse policies of the preconditioner over a run's sequence of systems.
     Bench(bench::BenchArgs),
     /// The filtering paper's figures 4, 5 and 6 for a cloth scene: PNGs, an SVG and analysis.json.
     FilterAnalysis(filter_analysis::FilterAnalysisArgs),
@@ -113,7 +116,8 @@ enum Command {
     /// defaults, then one option at a time around the best; prints the winner as a `hookean solve`
     /// command line and a scene [solver] table (--out DIR: tune.csv of every candidate).
     Tune(tune::TuneArgs),
-    /// Write the linearised implicit-Euler system (A.mtx, b.mtx) of a scene's state at time T.
+    /// Write the linearised implicit-Euler system (A.mtx, b.mtx) of a scene's state at time T, or
+    /// (--every K) every K-th linear system Newton hands to PCG during the scene's run.
     ExportSystem(export_system::ExportSystemArgs),
     /// List every scene key (TOML) with its units and default.
     SceneKeys,

@@ -144,7 +144,7 @@ pub use forcing::ForcingTerm;
 pub use hookean_sparse::{NegativeCurvature, PrecondKind, PreconditionerOptions};
 pub use linear::{
     DenseLu, GmresCounters, GmresSolver, JacobianProduct, LinearSolveStats, LinearSolver,
-    PcgOptions, PcgSolver, SparseLu,
+    PcgOptions, PcgSolver, RecordedSolve, SharedRecorder, SolveRecorder, SparseLu,
 };
 pub use newton::Newton;
 pub use options::{NewtonMethod, NewtonOptions};

@@ -905,6 +905,17 @@ impl<S: System> Integrator for Core<S> {
     fn restore_state(&mut self, r: &StateRecord) -> Result<(), OdeError> {
         self.restore(r)
     }
+
+    /// Implicit methods through their stage system; explicit ones and IMEX
+    /// solve no PCG systems.
+    fn record_linear_solves(
+        &mut self,
+        recorder: Option<hookean_nonlinear::SharedRecorder>,
+    ) -> bool {
+        self.method.is_implicit()
+            && !matches!(self.method, Method::Imex)
+            && self.sys.record_linear_solves(recorder)
+    }
 }
 
 impl<S: System> Engine<S::Problem> for Core<S> {

@@ -336,4 +336,10 @@ impl<P, K> Integrator for OdeIntegrator<P, K> {
     fn restore_state(&mut self, record: &crate::StateRecord) -> Result<(), OdeError> {
         self.engine.restore_state(record)
     }
+    fn record_linear_solves(
+        &mut self,
+        recorder: Option<hookean_nonlinear::SharedRecorder>,
+    ) -> bool {
+        self.engine.record_linear_solves(recorder)
+    }
 }

@@ -149,6 +149,19 @@ pub trait Integrator {
         Err(crate::snapshot::not_covered("this integrator"))
     }
 
+    /// Hands every linear system that Newton gives PCG from now on to
+    /// `recorder` ([`PcgSolver::set_recorder`](hookean_nonlinear::PcgSolver::set_recorder);
+    /// `None` stops it); `false` (the default) when this integrator solves
+    /// no such systems or cannot record them: explicit methods, IMEX, the
+    /// variable-order BDF and inexact simplified Newton's eq. 50 path.
+    fn record_linear_solves(
+        &mut self,
+        recorder: Option<hookean_nonlinear::SharedRecorder>,
+    ) -> bool {
+        let _ = recorder;
+        false
+    }
+
     /// One accepted step ([`step_bounded`](Self::step_bounded) without a bound).
     ///
     /// # Errors

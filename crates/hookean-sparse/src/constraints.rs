@@ -139,6 +139,17 @@ impl Constraints {
         self.entries.iter().map(|e| (e.particle, e.count))
     }
 
+    /// Every constrained direction as `(particle, d_k, c_k)`, particle by
+    /// particle in the order they were constrained: [`constrain`](Self::constrain)
+    /// called with these in this order rebuilds the constraints (exactly for
+    /// pins and other axis directions; up to rounding for others, which it
+    /// normalises again). How a recorded system carries its constraints.
+    pub fn directions(&self) -> impl Iterator<Item = (usize, [f64; 3], f64)> + '_ {
+        self.entries
+            .iter()
+            .flat_map(|e| (0..e.count).map(move |k| (e.particle, e.dirs[k], e.values[k])))
+    }
+
     /// Number of constrained directions of `particle` (0 to 3).
     pub fn count(&self, particle: usize) -> usize {
         match self.slot.get(particle) {

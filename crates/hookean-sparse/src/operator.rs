@@ -41,6 +41,14 @@ pub trait LinearOperator {
         crate::vecops::update_x_p(z, beta, alpha, x, p);
         self.apply_dot(p, q)
     }
+
+    /// A copy of the operator's entries as CSR (both triangles), when it is
+    /// a stored matrix; `None` (the default) for a matrix-free operator. It
+    /// allocates: for recording the systems a solver saw
+    /// (`hookean_nonlinear::SolveRecorder`), never for a solve.
+    fn stored_matrix(&self) -> Option<sprs::CsMat<f64>> {
+        None
+    }
 }
 
 impl<T: LinearOperator + ?Sized> LinearOperator for &T {
@@ -63,6 +71,9 @@ impl<T: LinearOperator + ?Sized> LinearOperator for &T {
         q: &mut [f64],
     ) -> f64 {
         (**self).update_and_apply_dot(z, beta, alpha, x, p, q)
+    }
+    fn stored_matrix(&self) -> Option<sprs::CsMat<f64>> {
+        (**self).stored_matrix()
     }
 }
 
@@ -89,6 +100,10 @@ impl LinearOperator for SymBlockMatrix {
         q: &mut [f64],
     ) -> f64 {
         self.update_spmv_dot(z, beta, alpha, x, p, q)
+    }
+    /// Every stored block and its transpose ([`SymBlockMatrix::to_csr`]).
+    fn stored_matrix(&self) -> Option<sprs::CsMat<f64>> {
+        Some(self.to_csr())
     }
 }
 
@@ -129,6 +144,9 @@ impl LinearOperator for sprs::CsMat<f64> {
                 }
             }
         }
+    }
+    fn stored_matrix(&self) -> Option<sprs::CsMat<f64>> {
+        Some(self.to_csr())
     }
 }
 

@@ -832,6 +832,18 @@ impl Simulation {
         self.integrator.method()
     }
 
+    /// Hands every linear system that the implicit methods' Newton gives PCG
+    /// from now on, with what the solve did, to `recorder` (`None` stops
+    /// it): `hookean export-system --every`. `false` when the method solves
+    /// none or cannot record them
+    /// ([`Integrator::record_linear_solves`](hookean_ode::Integrator::record_linear_solves)).
+    pub fn record_linear_solves(
+        &mut self,
+        recorder: Option<hookean_nonlinear::SharedRecorder>,
+    ) -> bool {
+        self.integrator.record_linear_solves(recorder)
+    }
+
     /// The work of the pins driven along a path since the energy check's
     /// baseline (the start, or the first step after
     /// [`model_mut`](Self::model_mut)), J: what the energy check adds to

@@ -8,11 +8,13 @@
 mod dense_lu;
 mod gmres;
 mod pcg;
+mod record;
 mod sparse_lu;
 
 pub use dense_lu::DenseLu;
 pub use gmres::{GmresCounters, GmresSolver};
 pub use pcg::{PcgOptions, PcgSolver};
+pub use record::{RecordedSolve, SharedRecorder, SolveRecorder};
 pub use sparse_lu::SparseLu;
 
 use crate::error::NonlinearError;

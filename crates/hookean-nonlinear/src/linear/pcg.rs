@@ -7,6 +7,7 @@ use hookean_sparse::{
     NegativeCurvature, PreconditionerOptions, PreconditionerSetup, filtered_pcg, pcg,
 };
 
+use super::record::{RecordedSolve, RecorderSlot, SharedRecorder};
 use super::{LinearSolveStats, LinearSolver};
 use crate::error::{NonlinearError, check_len, invalid};
 
@@ -73,6 +74,10 @@ impl Default for PcgOptions {
 /// **Warm start.** Every solve starts from zero unless a guess was armed
 /// with [`arm_guess`](Self::arm_guess) (used by the next solve only), e.g.
 /// the previous time step's correction.
+///
+/// **Recording.** With [`set_recorder`](Self::set_recorder), every solve is
+/// handed to a [`SolveRecorder`](crate::SolveRecorder) after it ran (its
+/// matrix, right-hand side, start, constraints, tolerance and result).
 #[derive(Debug, Clone)]
 pub struct PcgSolver<P> {
     precond: P,
@@ -88,6 +93,9 @@ pub struct PcgSolver<P> {
     /// The starting guess of the next solve, if armed.
     guess: Vec<f64>,
     use_guess: bool,
+    /// Whether `setup` ran since the last solve (for the recorder).
+    set_up: bool,
+    recorder: RecorderSlot,
 }
 
 impl<P> PcgSolver<P> {
@@ -104,7 +112,14 @@ impl<P> PcgSolver<P> {
             shifted_rhs: Vec::new(),
             guess: Vec::new(),
             use_guess: false,
+            set_up: false,
+            recorder: RecorderSlot::default(),
         }
+    }
+
+    /// Hands every later solve to `recorder` (`None`: no more recording).
+    pub fn set_recorder(&mut self, recorder: Option<SharedRecorder>) {
+        self.recorder = RecorderSlot(recorder);
     }
 
     /// With the iteration limit `max_iter` (`None`: `2 n`) per solve.
@@ -190,6 +205,7 @@ where
 {
     fn setup(&mut self, jac: &A) -> Result<(), NonlinearError> {
         self.precond.setup(jac)?;
+        self.set_up = true;
         Ok(())
     }
 
@@ -206,7 +222,8 @@ where
         if !(rtol >= 0.0) {
             return Err(invalid("rtol", format!("must be >= 0, got {rtol:?}")));
         }
-        let initial_guess = if std::mem::take(&mut self.use_guess) {
+        let guessed = std::mem::take(&mut self.use_guess);
+        let initial_guess = if guessed {
             check_len("armed guess", &self.guess, n)?;
             x.copy_from_slice(&self.guess);
             InitialGuess::Given
@@ -264,13 +281,33 @@ where
                 None,
             )?,
         };
-        Ok(LinearSolveStats {
+        let stats = LinearSolveStats {
             iterations: info.iterations,
             residual_norm: info.residual_norm,
             relative_residual: info.true_relative_residual,
             converged: info.converged,
             truncated: info.truncated,
-        })
+        };
+        let set_up = std::mem::take(&mut self.set_up);
+        if let Some(recorder) = &self.recorder.0 {
+            let matrix = || jac.stored_matrix();
+            let solve = RecordedSolve {
+                matrix: &matrix,
+                rhs,
+                guess: guessed.then(|| &self.guess[..n]),
+                constraints: self.constraints.as_ref().filter(|c| !c.is_empty()),
+                rtol,
+                max_iter: self.max_iter,
+                set_up,
+                stats,
+            };
+            // A recorder that panicked once stays usable: its data are its own.
+            recorder
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner)
+                .record(&solve);
+        }
+        Ok(stats)
     }
 }
 
@@ -309,5 +346,87 @@ mod tests {
         assert!(loose < tight);
         assert!(s.solve(&a, &b, &mut x, -1.0).is_err());
         assert!(s.solve(&a, &b[..10], &mut x, 0.1).is_err());
+    }
+
+    /// What a recorder keeps of each solve: the copies it makes.
+    #[derive(Default)]
+    struct Kept {
+        solves: Vec<KeptSolve>,
+    }
+
+    struct KeptSolve {
+        a: sprs::CsMat<f64>,
+        rhs: Vec<f64>,
+        guess: Option<Vec<f64>>,
+        set_up: bool,
+        iterations: usize,
+        rtol: f64,
+    }
+
+    impl crate::SolveRecorder for Kept {
+        fn record(&mut self, s: &RecordedSolve<'_>) {
+            assert_eq!(s.constraints.map(Constraints::len), Some(1));
+            self.solves.push(KeptSolve {
+                a: s.matrix().unwrap(),
+                rhs: s.rhs.to_vec(),
+                guess: s.guess.map(<[f64]>::to_vec),
+                set_up: s.set_up,
+                iterations: s.stats.iterations,
+                rtol: s.rtol,
+            });
+        }
+    }
+
+    /// The recorded solves, replayed by a fresh solver from the copies,
+    /// take the same iterations to the same bits; without a recorder the
+    /// solver computes the same.
+    #[test]
+    fn recorded_solves_replay_bit_for_bit() {
+        use std::sync::{Arc, Mutex};
+        let a = hookean_testkit::random::random_spd(60, 5, 1.05, 7);
+        let b: Vec<f64> = (0..60).map(|i| ((i * 5) % 7) as f64 - 3.0).collect();
+        let mut pins = Constraints::new(20);
+        pins.pin(4, [0.0; 3]).unwrap();
+        let kept = Arc::new(Mutex::new(Kept::default()));
+        let mut s = PcgSolver::new(IncompleteCholesky::new()).with_constraints(pins.clone());
+        let shared: SharedRecorder = kept.clone();
+        s.set_recorder(Some(shared));
+        let mut plain = PcgSolver::new(IncompleteCholesky::new()).with_constraints(pins.clone());
+        let (mut x, mut y) = (vec![0.0; 60], vec![0.0; 60]);
+        let mut first = Vec::new();
+        for (k, solver) in [&mut s, &mut plain].into_iter().enumerate() {
+            let x = if k == 0 { &mut x } else { &mut y };
+            solver.setup(&a).unwrap();
+            solver.solve(&a, &b, x, 1e-3).unwrap();
+            first.push(x.clone());
+            // The second solve: warm, on the preconditioner of the first.
+            solver.arm_guess(60).fill(0.5);
+            solver.solve(&a, &b, x, 1e-9).unwrap();
+        }
+        assert_eq!(x, y, "recording changes nothing");
+        let kept = kept.lock().unwrap();
+        assert_eq!(kept.solves.len(), 2);
+        let (one, two) = (&kept.solves[0], &kept.solves[1]);
+        assert!(one.set_up && !two.set_up, "set up before the first only");
+        assert!(one.guess.is_none());
+        assert_eq!(two.guess.as_deref(), Some(&[0.5; 60][..]));
+        assert_eq!((one.rtol, two.rtol), (1e-3, 1e-9));
+        let mut r = PcgSolver::new(IncompleteCholesky::new()).with_constraints(pins);
+        let mut z = vec![0.0; 60];
+        for (k, kept) in kept.solves.iter().enumerate() {
+            if kept.set_up {
+                r.setup(&kept.a).unwrap();
+            }
+            if let Some(g) = &kept.guess {
+                r.arm_guess(60).copy_from_slice(g);
+            }
+            let st = r.solve(&kept.a, &kept.rhs, &mut z, kept.rtol).unwrap();
+            assert_eq!(st.iterations, kept.iterations, "solve {k}");
+            assert!(kept.iterations > 0);
+            if k == 0 {
+                assert_eq!(z, first[0]);
+            }
+        }
+        assert_eq!(z, x);
     }
 }

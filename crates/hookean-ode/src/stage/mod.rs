@@ -121,6 +121,16 @@ pub(crate) trait System {
         let _ = record;
         Err(crate::snapshot::not_covered("first-order problems"))
     }
+    /// Installs `recorder` in the stage equations' PCG solver
+    /// ([`Integrator::record_linear_solves`](crate::Integrator::record_linear_solves));
+    /// `false` for systems solved otherwise (LU, GMRES).
+    fn record_linear_solves(
+        &mut self,
+        recorder: Option<hookean_nonlinear::SharedRecorder>,
+    ) -> bool {
+        let _ = recorder;
+        false
+    }
     /// One step of the IMEX scheme ([`crate::imex`]) on the state `s`
     /// (second-order systems with a linear part only; the integrator
     /// checks that at construction).

@@ -448,6 +448,22 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
         Ok(())
     }
 
+    /// The Newton iterations' PCG; not inexact simplified Newton, whose
+    /// eq. 50 path has its own solver on another matrix type.
+    fn record_linear_solves(
+        &mut self,
+        recorder: Option<hookean_nonlinear::SharedRecorder>,
+    ) -> bool {
+        if matches!(
+            self.newton.options().method,
+            NewtonMethod::InexactSimplified(_)
+        ) {
+            return false;
+        }
+        self.newton.linear_solver_mut().set_recorder(recorder);
+        true
+    }
+
     fn solve_stage(
         &mut self,
         tau: f64,
