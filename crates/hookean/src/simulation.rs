@@ -527,6 +527,11 @@ impl Simulation {
         }
         let budget = baseline.budget(self.t()) + self.guard.pins.work();
         let model = self.integrator.problem();
+        // Cloth self-collision is checked too: a redone step restarts from
+        // the model's contact state at the step's start (`begin_step`,
+        // `redo_in_substeps`), without which redone steps of the 64 x 64
+        // cloth-fold ended with intersecting layers (docs/CONTACT.md,
+        // "Energy").
         // Explicit methods: energy growth is instability, which the
         // blow-up check names with the stable step (substeps would hide it).
         if !self.integrator.method().is_implicit() {
