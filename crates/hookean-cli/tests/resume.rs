@@ -306,6 +306,43 @@ fn a_run_killed_after_a_scheduled_checkpoint_resumes_from_it() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Cloth self-collision carries its candidate list and its tree from step
+/// to step; the checkpoint holds them (docs/OUTPUTS.md): the flag (self-
+/// collision, gusting wind, a pinned edge), checkpoints every 0.5 s,
+/// SIGKILL after the one at 1 s, resumed from it: the same files as the
+/// uninterrupted run.
+#[test]
+fn a_self_collision_run_killed_after_a_scheduled_checkpoint_resumes_from_it() {
+    let dir = scratch("self-collision");
+    let sets = ["cloth.n=20", "duration=2.5", "output.checkpoint_every=0.5"];
+    let (full, part) = (dir.join("full"), dir.join("part"));
+    assert_ok(&run("scenes/flag.toml", &sets, &["--out", s(&full)]));
+    assert!(!full.join("checkpoint.bin").exists());
+
+    let mut child = spawn_run("scenes/flag.toml", &sets, &["--out", s(&part)]);
+    // Past the checkpoint at t = 1 s (after frame 10), before the next.
+    wait_for(Duration::from_secs(120), || {
+        part.join("frame-0013.obj").exists()
+    });
+    assert!(
+        child.try_wait().unwrap().is_none(),
+        "the run ended before the kill"
+    );
+    child.kill().unwrap();
+    assert_eq!(child.wait().unwrap().code(), None, "killed by a signal");
+    let checkpoint = std::fs::read(part.join("checkpoint.bin")).unwrap();
+    let header = String::from_utf8_lossy(&checkpoint[..400.min(checkpoint.len())]).into_owned();
+    assert!(
+        header.contains("\"t\":1.0,") || header.contains("\"t\":1.5,"),
+        "{header}"
+    );
+
+    let out = run("scenes/flag.toml", &sets, &["--resume", s(&part)]);
+    assert_ok(&out);
+    assert_same_run(&full, &part);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `output.checkpoint_every` must be positive and finite, and the run's
 /// method covered; refused with exit 2 before anything is written.
 #[test]

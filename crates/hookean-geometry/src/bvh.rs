@@ -101,16 +101,69 @@ impl Bvh {
     /// Builds the tree over `boxes` (primitive `i` has box `boxes[i]`).
     /// An empty slice gives an empty tree.
     pub fn build(boxes: &[Aabb]) -> Self {
+        let centers: Vec<Vector3<f64>> = boxes.iter().map(Aabb::center).collect();
+        Self::grow(boxes, (0..boxes.len() as u32).collect(), |order, k| {
+            let mut cb = Aabb::EMPTY;
+            for &p in order.iter() {
+                cb.add_point(&centers[p as usize]);
+            }
+            let e = cb.extent();
+            let axis = if e.x >= e.y && e.x >= e.z {
+                0
+            } else if e.y >= e.z {
+                1
+            } else {
+                2
+            };
+            // A total order (coordinate, index): the same tree on every run.
+            order.select_nth_unstable_by(k, |&a, &b| {
+                centers[a as usize][axis]
+                    .total_cmp(&centers[b as usize][axis])
+                    .then(a.cmp(&b))
+            });
+        })
+    }
+
+    /// The tree whose [`leaf_order`](Self::leaf_order) is `order`, over
+    /// `boxes`: the tree of that order is unique (every node splits its
+    /// range of the order at its middle, as [`build`](Self::build) does), so
+    /// this gives back the shape of a built tree, traversals in the same
+    /// order, from its leaf order alone (a checkpoint's). `None` unless
+    /// `order` is a permutation of `0..boxes.len()`.
+    pub fn with_leaf_order(boxes: &[Aabb], order: &[u32]) -> Option<Self> {
+        let n = boxes.len();
+        if order.len() != n {
+            return None;
+        }
+        let mut seen = vec![false; n];
+        for &p in order {
+            let slot = seen.get_mut(p as usize)?;
+            if std::mem::replace(slot, true) {
+                return None;
+            }
+        }
+        Some(Self::grow(boxes, order.to_vec(), |_, _| {}))
+    }
+
+    /// The primitives in the order of the leaves (left to right): with
+    /// [`with_leaf_order`](Self::with_leaf_order), the tree's shape.
+    pub fn leaf_order(&self) -> &[u32] {
+        &self.order
+    }
+
+    /// The tree over `boxes` whose nodes split their range of `order` at
+    /// its middle, `partition(range, k)` first putting the range's `k`
+    /// smallest primitives (by the split's rule) before the others.
+    fn grow(boxes: &[Aabb], order: Vec<u32>, mut partition: impl FnMut(&mut [u32], usize)) -> Self {
         let n = boxes.len();
         let mut bvh = Bvh {
             nodes: Vec::with_capacity((2 * n / LEAF + 1).max(1)),
-            order: (0..n as u32).collect(),
+            order,
             boxes: boxes.to_vec(),
         };
         if n == 0 {
             return bvh;
         }
-        let centers: Vec<Vector3<f64>> = boxes.iter().map(Aabb::center).collect();
         let leaf = |first: usize, count: usize| Node {
             aabb: Aabb::EMPTY,
             left: NONE,
@@ -125,25 +178,8 @@ impl Bvh {
             if hi - lo <= LEAF {
                 continue;
             }
-            let mut cb = Aabb::EMPTY;
-            for &p in &bvh.order[lo..hi] {
-                cb.add_point(&centers[p as usize]);
-            }
-            let e = cb.extent();
-            let axis = if e.x >= e.y && e.x >= e.z {
-                0
-            } else if e.y >= e.z {
-                1
-            } else {
-                2
-            };
             let mid = lo + (hi - lo) / 2;
-            // A total order (coordinate, index): the same tree on every run.
-            bvh.order[lo..hi].select_nth_unstable_by(mid - lo, |&a, &b| {
-                centers[a as usize][axis]
-                    .total_cmp(&centers[b as usize][axis])
-                    .then(a.cmp(&b))
-            });
+            partition(&mut bvh.order[lo..hi], mid - lo);
             let left = bvh.nodes.len();
             bvh.nodes.push(leaf(lo, mid - lo));
             bvh.nodes.push(leaf(mid, hi - mid));
@@ -507,5 +543,40 @@ mod tests {
         let brute_best = (0..200).min_by(|&a, &b| d2(a).total_cmp(&d2(b))).unwrap();
         assert_eq!(d, d2(brute_best));
         assert_eq!(best, brute_best);
+    }
+
+    /// The tree rebuilt from a built tree's leaf order (as a checkpoint
+    /// restores it) is the same tree: refitted to other boxes, its
+    /// traversals visit the pairs in the same order, which a tree built
+    /// from those other boxes does not; orders that are not permutations
+    /// are refused.
+    #[test]
+    fn a_tree_rebuilt_from_its_leaf_order_traverses_in_the_same_order() {
+        let (first, later) = (random_boxes(300, 3), random_boxes(300, 4));
+        let mut built = Bvh::build(&first);
+        let mut again = Bvh::with_leaf_order(&later, built.leaf_order()).unwrap();
+        built.refit(|i| later[i]);
+        again.refit(|i| later[i]);
+        let pairs = |bvh: &Bvh| {
+            let mut ov = Overlaps::default();
+            bvh.self_overlaps(&mut ov, |i, j, out| out.push((i, j)));
+            ov.iter().copied().collect::<Vec<_>>()
+        };
+        let want = pairs(&built);
+        assert!(want.len() > 100, "{} pairs", want.len());
+        assert_eq!(pairs(&again), want);
+        // A tree built from `later` finds the same pairs in another order.
+        let fresh = pairs(&Bvh::build(&later));
+        assert_ne!(fresh, want);
+        let (mut a, mut b) = (fresh, want);
+        a.sort_unstable();
+        b.sort_unstable();
+        assert_eq!(a, b);
+        let mut order = built.leaf_order().to_vec();
+        order[0] = order[1];
+        assert!(Bvh::with_leaf_order(&later, &order).is_none());
+        assert!(Bvh::with_leaf_order(&later, &order[1..]).is_none());
+        order[0] = 300;
+        assert!(Bvh::with_leaf_order(&later, &order).is_none());
     }
 }

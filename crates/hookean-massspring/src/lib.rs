@@ -111,6 +111,7 @@ pub use builders::{
     BlockParams, ClothParams, ClothPins, MAX_PARTICLES, MeshParams, RopeParams, SpringMaterial,
     State, cloth, from_mesh, jelly_block, rope, tutorial_example3,
 };
+pub use carried::ContactCarry;
 pub use collide::{Collider, ColliderMotion, Friction, MeshCollider, MeshSequence, RigidMotion};
 pub use contact::{ContactStats, STICK_SPEED};
 pub use error::MassSpringError;

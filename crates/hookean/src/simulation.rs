@@ -7,7 +7,7 @@ use std::ops::ControlFlow;
 use std::time::{Duration, Instant};
 
 use hookean_filter::{FilterCoupling, FilterOptions, ModelIntegrator};
-use hookean_massspring::{Collider, Energies, MassSpringModel, State};
+use hookean_massspring::{Collider, ContactCarry, Energies, MassSpringModel, State};
 use hookean_ode::{
     ForcingTerm, Method, NewtonMethod, NewtonOptions, PcgOptions, Predictor, SolverOptions, Stats,
     StepReport,
@@ -248,6 +248,9 @@ struct EnergyGuard {
     budget: f64,
     /// The state `[x; v]` at the start of the current step, to redo it.
     y0: Vec<f64>,
+    /// The model's contact state at the start of the current step (the
+    /// last step's size, self-collision's candidate list), to redo it.
+    carry: ContactCarry,
     /// The put-back state of the energy budget's check (positions, velocities).
     landed: (Vec<f64>, Vec<f64>),
     /// The start; `None` until it is taken.
@@ -435,6 +438,7 @@ impl Simulation {
                 factor: options.blow_up_factor,
                 budget: options.energy_budget,
                 y0: Vec::new(),
+                carry: ContactCarry::default(),
                 landed: (Vec::new(), Vec::new()),
                 baseline: None,
                 x0: Vec::new(),
@@ -458,12 +462,16 @@ impl Simulation {
     }
 
     /// Before a step: keeps its starting state for the energy budget (a
-    /// copy, no allocation after the first step) and returns its time.
+    /// copy of the integrator's state and of the model's contact state, no
+    /// allocation after the first step) and returns its time.
     fn begin_step(&mut self) -> f64 {
         self.current = None;
         if self.guard.budget.is_finite() {
             self.guard.y0.clear();
             self.guard.y0.extend_from_slice(self.integrator.state());
+            self.integrator
+                .problem()
+                .keep_contact_carry(&mut self.guard.carry);
         }
         self.guard.pins.checkpoint();
         self.begin_pins();
@@ -519,12 +527,11 @@ impl Simulation {
         }
         let budget = baseline.budget(self.t()) + self.guard.pins.work();
         let model = self.integrator.problem();
-        // Not yet with cloth self-collision: redone steps of the shipped
-        // 64 x 64 cloth-fold end with intersecting layers (t = 0.505 s), so
-        // the budget leaves such models alone (docs/CONTACT.md, "Energy").
-        if model.self_collision().is_some() {
-            return Ok(None);
-        }
+        // Cloth self-collision is checked too: a redone step restarts from
+        // the model's contact state at the step's start (`begin_step`,
+        // `redo_in_substeps`), without which redone steps of the 64 x 64
+        // cloth-fold ended with intersecting layers (docs/CONTACT.md,
+        // "Energy").
         // Explicit methods: energy growth is instability, which the
         // blow-up check names with the stable step (substeps would hide it).
         if !self.integrator.method().is_implicit() {
@@ -571,6 +578,9 @@ impl Simulation {
         loop {
             let clock = Instant::now();
             self.integrator.restart(t_start, &self.guard.y0)?;
+            self.integrator
+                .problem_mut()
+                .restore_contact_carry(&self.guard.carry)?;
             self.guard.pins.restore();
             let mut failed = None;
             'substeps: for j in 1..=m {

@@ -8,7 +8,8 @@
 //! the matrix the multigrid's aggregates were built from:
 //! [`Integrator::save_state`](hookean_ode::Integrator::save_state)), the
 //! model's carried state ([`MassSpringModel::carried_state`]: the last
-//! step size that friction reads, released pin groups), and the energy
+//! step size that friction reads, released pin groups, cloth
+//! self-collision's candidate list and the shape of its tree), and the energy
 //! check's baseline and pin work. Pins, colliders and wind are functions
 //! of the time and are posed from the restored `t` at the next step.
 
@@ -35,7 +36,7 @@ impl Simulation {
     /// [`HookeanError::Ode`] with [`OdeError::NoCheckpoint`] for what a
     /// checkpoint does not cover: the velocity filter, the variable-order
     /// BDF, IMEX, the simplified Newton variants, a multigrid that keeps
-    /// its hierarchy; [`HookeanError::MassSpring`] for cloth self-collision.
+    /// its hierarchy.
     ///
     /// ```
     /// use hookean::prelude::*;
