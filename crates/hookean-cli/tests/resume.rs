@@ -379,8 +379,8 @@ fn stopped_and_resumed(name: &str, scene: &str, sets: &[&str]) {
 /// simplified Newton variants (a kept Newton matrix; eq. 50's rebuilt from
 /// `gh`), IMEX (its factor, rebuilt from its key), the variable-order BDF
 /// (history, order, kept Jacobians and Newton matrix) with the multigrid,
-/// and the velocity filter: each stopped by SIGTERM and resumed writes the
-/// uninterrupted run's files.
+/// the velocity filter, and the multigrid that keeps its hierarchy: each
+/// stopped by SIGTERM and resumed writes the uninterrupted run's files.
 #[test]
 fn every_engine_stopped_by_sigterm_resumes_bit_for_bit() {
     let common = ["cloth.n=24", "duration=3.0", "output.checkpoint_every=100"];
@@ -402,6 +402,11 @@ fn every_engine_stopped_by_sigterm_resumes_bit_for_bit() {
             &["integrator.method=bdf", "solver.preconditioner=amg"][..],
         ),
         ("filter", "scenes/drape-filtered.toml", &[][..]),
+        (
+            "keep",
+            "scenes/drape.toml",
+            &["solver.preconditioner=amg", "solver.amg.reuse=keep"][..],
+        ),
     ] {
         let sets: Vec<&str> = common.iter().chain(extra).copied().collect();
         stopped_and_resumed(name, scene, &sets);
