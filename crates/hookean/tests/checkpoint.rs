@@ -214,3 +214,19 @@ fn a_multigrid_with_eigenvector_estimates_is_refused_naming_the_key() {
         other => panic!("{other:?}"),
     }
 }
+
+#[test]
+fn the_fixed_and_variable_step_multistep_methods_resume() {
+    // Their history (and BDF2's slopes) is saved; implicit Euler's is not.
+    for (method, history) in [
+        ("bdf3", true),
+        ("bdf2-variable", true),
+        ("implicit-euler", false),
+    ] {
+        let set = format!("integrator.method={method}");
+        let record = interrupted(DRAPE, &[set.as_str()], 0.3, 0.5);
+        assert_eq!(record.contains("core.hist.0"), history, "{method}");
+        let slopes = entry(&record, "core.f_n").len();
+        assert_eq!(slopes > 0, method == "bdf2-variable", "{method}");
+    }
+}
