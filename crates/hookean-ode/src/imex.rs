@@ -241,8 +241,7 @@ impl Imex {
             [0.0] => {}
             &[1.0, h, revision, ref pinned @ ..] => {
                 let sorted = pinned.windows(2).all(|w| w[0] < w[1]);
-                if !(h > 0.0 && h.is_finite() && count(revision))
-                    || !sorted
+                if !(h > 0.0 && h.is_finite() && count(revision) && sorted)
                     || pinned.iter().any(|&p| !(count(p) && (p as usize) < n))
                 {
                     return Err(misfit("is malformed"));
