@@ -26,7 +26,7 @@ const TEMPORARY: &str = ".checkpoint.bin.tmp";
 /// The checkpoint file's first line.
 const MAGIC: &str = "hookean checkpoint";
 /// The format's version: a checkpoint of another version is refused.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 /// The largest checkpoint read (a corrupted length never allocates more).
 const MAX_BYTES: u64 = 16 << 30;
 

@@ -321,6 +321,26 @@ impl<P: SecondOrderProblem + 'static> Integrator for FilteredIntegrator<P> {
     fn count_event_evaluations(&mut self, n: usize) {
         self.inner.count_event_evaluations(n);
     }
+
+    /// The wrapped integrator's state and the filter's counter
+    /// (`filter.applications`). Nothing else of the filter carries over:
+    /// its pins and (time-dependent) weights are set again from the step's
+    /// constraints and positions before every application, and `v_n` of
+    /// the increment coupling is the velocity the last filtered step left
+    /// (it writes both in one pass), copied again at the next step.
+    fn save_state(&self, record: &mut hookean_ode::StateRecord) -> Result<(), OdeError> {
+        self.inner.save_state(record)?;
+        record.put_scalar("filter.applications", self.stats.applications as f64);
+        Ok(())
+    }
+
+    fn restore_state(&mut self, record: &hookean_ode::StateRecord) -> Result<(), OdeError> {
+        let applications = record.count("filter.applications")?;
+        self.inner.restore_state(record)?;
+        self.stats.applications = applications;
+        self.prev_valid = false;
+        Ok(())
+    }
 }
 
 /// `theta` of an explicit method: the weight of the step's acceleration in

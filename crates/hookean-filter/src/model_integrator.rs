@@ -37,7 +37,6 @@ use crate::velocity::{FilterOptions, VelocityFilter};
 pub struct ModelIntegrator {
     ode: Box<dyn Integrator<Problem = MassSpringModel> + Send>,
     method: Method,
-    filtered: bool,
 }
 
 impl ModelIntegrator {
@@ -63,26 +62,16 @@ impl ModelIntegrator {
         };
         let inner =
             SecondOrderIntegrator::new(model, method.clone(), 0.0, &state.x, &state.v, options)?;
-        let filtered = vf.is_some();
         let ode: Box<dyn Integrator<Problem = MassSpringModel> + Send> = match (vf, filter) {
             (Some(f), Some((_, c))) => Box::new(FilteredIntegrator::new(inner, f, c)?),
             _ => Box::new(inner),
         };
-        Ok(Self {
-            ode,
-            method,
-            filtered,
-        })
+        Ok(Self { ode, method })
     }
 
     /// The method.
     pub fn method(&self) -> &Method {
         &self.method
-    }
-
-    /// Whether the velocities are filtered after every step.
-    pub fn is_filtered(&self) -> bool {
-        self.filtered
     }
 
     /// Current positions.

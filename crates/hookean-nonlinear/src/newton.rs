@@ -151,6 +151,47 @@ impl<J, L: LinearSolver<J>> Newton<J, L> {
         self.jacobian_valid = false;
     }
 
+    /// Whether the Jacobian storage holds the system's approximation
+    /// ([`NonlinearSystem::approximate_jacobian`](crate::NonlinearSystem::approximate_jacobian)) rather than its
+    /// Jacobian: with a kept Jacobian ([`jacobian_is_kept`](Self::jacobian_is_kept)), what a
+    /// failure with it may retry (for a checkpoint).
+    pub fn jacobian_is_approximated(&self) -> bool {
+        self.approximated
+    }
+
+    /// Makes the Jacobian storage the kept Jacobian of the next call, as
+    /// if a call of a system of `n` unknowns had evaluated it
+    /// (`approximated`: [`jacobian_is_approximated`](Self::jacobian_is_approximated)) and kept it: `fill`
+    /// writes the matrix, then the linear solver is set up on it when
+    /// `setup` (not when the caller restored that set-up itself). How a
+    /// checkpoint restores a simplified Newton's kept Jacobian; call it
+    /// after [`set_carried_state`](Self::set_carried_state).
+    ///
+    /// # Errors
+    /// The linear solver's set-up error (nothing is kept then).
+    pub fn keep_jacobian(
+        &mut self,
+        n: usize,
+        approximated: bool,
+        setup: bool,
+        fill: impl FnOnce(&mut J),
+    ) -> Result<(), NonlinearError> {
+        self.jacobian_valid = false;
+        if self.g.len() != n {
+            self.g = vec![0.0; n];
+            self.s = vec![0.0; n];
+            self.rhs = vec![0.0; n];
+            self.y0 = vec![0.0; n];
+        }
+        fill(&mut self.jacobian);
+        if setup {
+            self.linear.setup(&self.jacobian)?;
+        }
+        self.approximated = approximated;
+        self.jacobian_valid = true;
+        Ok(())
+    }
+
     /// Tells [`Convergence::Rate`] the contraction rate of the next calls'
     /// iterations when the caller knows it (`None`: measure it): `Some(0.0)`
     /// for a linear system solved with its exact Newton matrix, whose first

@@ -38,6 +38,7 @@ use hookean_sparse::{
     Preconditioner, SparseError, filtered_pcg,
 };
 
+use crate::error::OdeError;
 use crate::stats::Stats;
 
 /// What the factorisation was built for.
@@ -202,6 +203,64 @@ impl Imex {
             pinned: self.pinned_now.clone(),
         });
         Ok(())
+    }
+
+    /// What the next step reuses, for a checkpoint: the key its factor of
+    /// `A = M - h D - h^2 K` was built for (`[1, h, revision, pinned
+    /// particles...]`, or `[0]` before the first factorisation). The
+    /// matrices and the factor are not saved: `K`, `D` are the problem's
+    /// constants at its material revision, so [`restored`](Self::restored)
+    /// rebuilds `A` and its factor bit for bit from the key. The right-hand
+    /// side, `K v`, `dv` and the PCG work are written before they are read.
+    pub fn carried(&self) -> Vec<f64> {
+        match &self.key {
+            None => vec![0.0],
+            Some(k) => {
+                let mut c = vec![1.0, k.h, k.revision as f64];
+                c.extend(k.pinned.iter().map(|&p| p as f64));
+                c
+            }
+        }
+    }
+
+    /// The scheme of `problem` (restored to the checkpoint's state) with
+    /// the factor [`carried`](Self::carried) describes.
+    ///
+    /// # Errors
+    /// [`OdeError::Checkpoint`] for a malformed `carried` or a problem
+    /// without a linear part; the factorisation's errors.
+    pub fn restored<P: SecondOrderProblem>(problem: &P, carried: &[f64]) -> Result<Self, OdeError> {
+        let misfit = |reason: &str| OdeError::Checkpoint {
+            reason: format!("entry `sys.imex` {reason}"),
+        };
+        let mut imex = Self::new(problem)
+            .ok_or_else(|| misfit("is the IMEX scheme's, this problem has no linear part"))?;
+        let n = imex.factor.pinned.len();
+        let count = |v: f64| v >= 0.0 && v.fract() == 0.0 && v < 9.007_199_254_740_992e15;
+        match carried {
+            [0.0] => {}
+            &[1.0, h, revision, ref pinned @ ..] => {
+                let sorted = pinned.windows(2).all(|w| w[0] < w[1]);
+                if !(h > 0.0 && h.is_finite() && count(revision) && sorted)
+                    || pinned.iter().any(|&p| !(count(p) && (p as usize) < n))
+                {
+                    return Err(misfit("is malformed"));
+                }
+                imex.pinned_now = pinned.iter().map(|&p| p as usize).collect();
+                imex.refactor(problem, h, &mut Stats::default())
+                    .map_err(|e| match e {
+                        ImexFailure::NoLinearPart => {
+                            misfit("is the IMEX scheme's, this problem has no linear part")
+                        }
+                        ImexFailure::Sparse(e) => OdeError::Sparse(e),
+                    })?;
+                if let Some(k) = &mut imex.key {
+                    k.revision = revision as u64;
+                }
+            }
+            _ => return Err(misfit("is malformed")),
+        }
+        Ok(imex)
     }
 
     /// One IMEX step from `(x, v)` at `t` (positions and velocities in

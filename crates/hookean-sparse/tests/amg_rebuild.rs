@@ -4,12 +4,17 @@
 //! are functions of that matrix alone, so rebuild-then-refill gives the
 //! same V-cycle, bit for bit, as the hierarchy that was refilled all along;
 //! and a hierarchy built from the later matrix instead gives another one
-//! (the refill really reuses the build, so the rebuild is needed).
+//! (the refill really reuses the build, so the rebuild is needed). With
+//! `reuse = "keep"` [`Amg::restore`] from the build matrix, the last
+//! refill's ([`Amg::refilled_from`]) and the count of kept set-ups
+//! ([`Amg::kept_in_a_row`]) continues the same sequence of kept and
+//! refilled hierarchies.
 
 use std::sync::Arc;
 
 use hookean_sparse::{
-    Amg, BlockPattern, Preconditioner, PreconditionerSetup, SymBlockMatrix, block,
+    Amg, AmgOptions, AmgReuse, BlockPattern, Preconditioner, PreconditionerSetup, SymBlockMatrix,
+    block,
 };
 
 /// A 60 x 60 grid of particles joined to their right and upper neighbours
@@ -44,6 +49,77 @@ fn grid(pattern: &Arc<BlockPattern>, side: usize, phase: f64) -> SymBlockMatrix 
     }
     a.add_to_diagonal(&vec![1e-3; 3 * side * side]).unwrap();
     a
+}
+
+/// The pattern of the 60 x 60 grid of [`grid`].
+fn grid_pattern(side: usize) -> Arc<BlockPattern> {
+    let mut edges = Vec::new();
+    for i in 0..side {
+        for j in 0..side {
+            if j + 1 < side {
+                edges.push((i * side + j, i * side + j + 1));
+            }
+            if i + 1 < side {
+                edges.push((i * side + j, (i + 1) * side + j));
+            }
+        }
+    }
+    Arc::new(BlockPattern::new(side * side, edges).unwrap())
+}
+
+/// One V-cycle of `amg` on a fixed right-hand side of `n` unknowns.
+fn cycle(amg: &Amg, n: usize) -> Vec<f64> {
+    let r: Vec<f64> = (0..n)
+        .map(|i| ((i * 37 % 101) as f64 - 50.0) / 50.0)
+        .collect();
+    let mut z = vec![0.0; n];
+    amg.apply(&r, &mut z);
+    z
+}
+
+#[test]
+fn a_kept_hierarchy_restored_from_its_build_and_refill_matrices_continues_alike() {
+    let side = 60;
+    let pattern = grid_pattern(side);
+    let a: Vec<SymBlockMatrix> = (0..8)
+        .map(|k| grid(&pattern, side, 0.7 * k as f64))
+        .collect();
+    let options = AmgOptions {
+        reuse: AmgReuse::Keep { updates: 2 },
+        ..AmgOptions::default()
+    };
+    let n = 3 * side * side;
+    // The run: built from a0, a1 and a2 kept, refilled with a3, a4 kept.
+    let mut run = Amg::with_options(options.clone()).unwrap();
+    for m in &a[..5] {
+        run.setup(m).unwrap();
+    }
+    assert_eq!((run.stats().setups, run.stats().refills), (1, 1));
+    assert_eq!(run.kept_in_a_row(), 1);
+    assert!(run.last_setup_refilled());
+    let built = run.built_from().unwrap().clone();
+    let refilled = run.refilled_from().unwrap().clone();
+    assert_eq!(built.values(), a[0].values());
+    assert_eq!(refilled.values(), a[3].values());
+
+    let mut resumed = Amg::with_options(options.clone()).unwrap();
+    resumed.restore(&built, Some(&refilled), 1).unwrap();
+    assert!(
+        cycle(&run, n) == cycle(&resumed, n),
+        "the restored hierarchy"
+    );
+    // A forgotten count keeps a5 and a6 instead of refilling with a6.
+    let mut miscounted = Amg::with_options(options).unwrap();
+    miscounted.restore(&built, Some(&refilled), 0).unwrap();
+    // a5 kept (the count reaches 2), a6 refilled, a7 kept.
+    for m in &a[5..] {
+        run.setup(m).unwrap();
+        resumed.setup(m).unwrap();
+        miscounted.setup(m).unwrap();
+        assert!(cycle(&run, n) == cycle(&resumed, n), "bit for bit");
+    }
+    assert_eq!(run.stats().refills, 2);
+    assert!(cycle(&run, n) != cycle(&miscounted, n), "the count matters");
 }
 
 #[test]

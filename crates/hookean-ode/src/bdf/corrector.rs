@@ -132,6 +132,39 @@ pub(crate) trait Corrector: System {
         dcor: &mut [f64],
         stats: &mut Stats,
     ) -> Result<Attempt, OdeError>;
+
+    /// Adds what the corrector carries from step to step (its Newton
+    /// solver's state, the kept Jacobian and Newton matrix) to a checkpoint.
+    ///
+    /// # Errors
+    /// [`OdeError::NoCheckpoint`] for a corrector that is not covered (the
+    /// default).
+    fn save_corrector(
+        &self,
+        data: &Self::Data,
+        record: &mut crate::StateRecord,
+    ) -> Result<(), OdeError> {
+        let _ = (data, record);
+        Err(crate::snapshot::not_covered(
+            "the variable-order BDF on first-order problems",
+        ))
+    }
+
+    /// Restores [`save_corrector`](Self::save_corrector).
+    ///
+    /// # Errors
+    /// As [`save_corrector`](Self::save_corrector); [`OdeError::Checkpoint`]
+    /// for a record that does not fit.
+    fn restore_corrector(
+        &mut self,
+        data: &mut Self::Data,
+        record: &crate::StateRecord,
+    ) -> Result<(), OdeError> {
+        let _ = (data, record);
+        Err(crate::snapshot::not_covered(
+            "the variable-order BDF on first-order problems",
+        ))
+    }
 }
 
 /// The options of the corrector's Newton: simplified Newton (the matrix is

@@ -360,6 +360,14 @@ impl<S: Corrector> Integrator for Bdf<S> {
     fn count_event_evaluations(&mut self, n: usize) {
         self.stats.num_g_evals += n;
     }
+
+    fn save_state(&self, r: &mut crate::StateRecord) -> Result<(), OdeError> {
+        self.save(r)
+    }
+
+    fn restore_state(&mut self, r: &crate::StateRecord) -> Result<(), OdeError> {
+        self.restore(r)
+    }
 }
 
 impl<S: Corrector> Engine<S::Problem> for Bdf<S> {

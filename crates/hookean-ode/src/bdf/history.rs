@@ -188,6 +188,36 @@ impl History {
         self.n_equal_steps += 1;
     }
 
+    /// What the next steps read, for a checkpoint: `[h, order,
+    /// n_equal_steps, D_0, ..., D_{order+2}]`. The later differences are
+    /// written before they are read (a step at order `k` reads `D_0` to
+    /// `D_{k+2}` and writes `D_{k+1}`, `D_{k+2}`; the order moves by one at
+    /// a time), and the rescaling's work is scratch.
+    pub fn carried(&self) -> Vec<f64> {
+        let mut c = vec![self.h, self.order as f64, self.n_equal_steps as f64];
+        c.extend_from_slice(&self.d[..(self.order + 3).min(MAX_ORDER + 3) * self.n]);
+        c
+    }
+
+    /// Restores [`carried`](Self::carried); `None` (and `self` unchanged)
+    /// if it does not fit this history.
+    pub fn restore(&mut self, c: &[f64]) -> Option<()> {
+        let (&[h, order, n_equal], d) = c.split_first_chunk::<3>()?;
+        let count = |v: f64| v >= 0.0 && v.fract() == 0.0 && v < 9.007_199_254_740_992e15;
+        if !(count(order) && count(n_equal) && (1.0..=MAX_ORDER as f64).contains(&order)) {
+            return None;
+        }
+        let order = order as usize;
+        if d.len() != (order + 3).min(MAX_ORDER + 3) * self.n {
+            return None;
+        }
+        self.d[..d.len()].copy_from_slice(d);
+        self.h = h;
+        self.order = order;
+        self.n_equal_steps = n_equal as usize;
+        Some(())
+    }
+
     /// The interpolating polynomial of the history at `t`, the grid ending
     /// at `t_n`:
     /// `p(t) = D_0 + sum_{j=1..k} D_j prod_{m=0..j-1} (t - t_n + m h) / ((m + 1) h)`.

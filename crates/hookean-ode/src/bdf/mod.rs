@@ -101,6 +101,7 @@
 //! # Ok::<(), hookean_ode::OdeError>(())
 //! ```
 
+mod checkpoint;
 mod corrector;
 mod engine;
 pub(crate) mod first_order;

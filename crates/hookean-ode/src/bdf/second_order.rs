@@ -24,7 +24,10 @@ use super::corrector::{Attempt, Corrector, CorrectorStep, account, newton_option
 use crate::bdf_config::BdfConfig;
 use crate::error::OdeError;
 use crate::options::SolverOptions;
-use crate::stage::{JacobianSource, ReducedStage, SecondSys, begin_stage};
+use crate::stage::{
+    JacobianSource, NewtonRecord, ReducedStage, SecondSys, begin_stage, matrix_entry,
+    matrix_values, save_newton, set_matrix_values,
+};
 use crate::stats::Stats;
 
 /// The Newton solver, the kept Jacobians and the work vectors of a
@@ -173,5 +176,62 @@ impl<P: SecondOrderProblem> Corrector for SecondSys<P> {
             }
         }
         Ok(attempt)
+    }
+
+    /// The corrector's Newton solver under `bdf.corrector`
+    /// ([`save_newton`]), its kept Newton matrix `M - c df/dv - c^2 df/dx`
+    /// (`bdf.corrector.kept`, its values, empty for none) and the kept
+    /// Jacobians `df/dx`, `df/dv` (`bdf.corrector.jacobians`: the values of
+    /// the last evaluation, which is also what the next evaluation is
+    /// compared with to find a constant Jacobian; empty before the first)
+    /// with that comparison's result. `V`, `psi`, the positions and the
+    /// force are written before they are read.
+    fn save_corrector(
+        &self,
+        data: &SecondCorrector,
+        r: &mut crate::StateRecord,
+    ) -> Result<(), OdeError> {
+        save_newton(&data.newton, "bdf.corrector", r)?;
+        let kept = if data.newton.jacobian_is_kept() {
+            matrix_values(data.newton.jacobian())
+        } else {
+            Vec::new()
+        };
+        r.put("bdf.corrector.kept", &kept);
+        r.put("bdf.corrector.jacobians", &data.previous);
+        r.put_scalar("bdf.corrector.constant", f64::from(u8::from(data.constant)));
+        Ok(())
+    }
+
+    fn restore_corrector(
+        &mut self,
+        data: &mut SecondCorrector,
+        r: &crate::StateRecord,
+    ) -> Result<(), OdeError> {
+        let pattern = data.newton.jacobian().pattern().clone();
+        let newton = NewtonRecord::read(r, "bdf.corrector", &pattern, data.newton.linear_solver())?;
+        let kept = matrix_entry(r, "bdf.corrector.kept", &pattern)?;
+        let jacobians = r.get("bdf.corrector.jacobians")?;
+        let blocks = 9 * pattern.col_idx().len();
+        if newton.kept() == kept.is_empty()
+            || !(jacobians.is_empty() || jacobians.len() == 2 * blocks)
+        {
+            return Err(OdeError::Checkpoint {
+                reason: "the BDF corrector's entries do not fit this run's matrices".into(),
+            });
+        }
+        let constant = r.flag("bdf.corrector.constant")?;
+        newton.restore(&mut data.newton, data.v.len(), |a| {
+            set_matrix_values(a, kept);
+        })?;
+        if !jacobians.is_empty() {
+            let (dfdx, dfdv) = jacobians.split_at(blocks);
+            set_matrix_values(&mut data.dfdx, dfdx);
+            set_matrix_values(&mut data.dfdv, dfdv);
+        }
+        data.previous.clear();
+        data.previous.extend_from_slice(jacobians);
+        data.constant = constant;
+        Ok(())
     }
 }

@@ -5,17 +5,27 @@
 use super::{Controller, Core};
 use crate::error::OdeError;
 use crate::method::Method;
+use crate::options::Predictor;
 use crate::snapshot::StateRecord;
 use crate::stage::System;
 use crate::stepping::{check_finite, check_time};
 
 impl<S: System> Core<S> {
-    /// Every field a step reads that an earlier step wrote (the scratch
-    /// vectors are written before they are read), then the system's.
+    /// Whether the method reads the history of past states.
+    fn multistep(&self) -> bool {
+        matches!(self.method, Method::Bdf(_) | Method::Bdf2Variable)
+    }
+
+    /// Every field a step reads that an earlier step wrote, then the
+    /// system's. The scratch vectors are written before they are read and
+    /// are not saved: the stage work, `pre`, the variable-step BDF2's new
+    /// slope `f_new` (computed, then swapped into `f_n`) and the extrapolated
+    /// midpoint rule's three substep states `ex` (copied from the state
+    /// first); nor is what the method does not read: the history (read by
+    /// the multistep methods only), the last state of the extrapolating
+    /// predictor (`Predictor::Extrapolate` only), the slopes `f_n`,
+    /// `f_nm1` (variable-step BDF2 only).
     pub(super) fn save(&self, r: &mut StateRecord) -> Result<(), OdeError> {
-        if self.method == Method::Imex {
-            return Err(crate::snapshot::not_covered("the IMEX method"));
-        }
         let flag = |b: bool| f64::from(u8::from(b));
         r.put_scalar("core.t", self.t);
         r.put_scalar("core.t_prev", self.t_prev);
@@ -25,20 +35,27 @@ impl<S: System> Core<S> {
         r.put_stats("core.stats", &self.stats);
         r.put_scalar("core.hist.len", self.hist_len as f64);
         r.put_scalar("core.hist.h", self.hist_h);
-        for (k, h) in self.hist.iter().enumerate() {
-            r.put(&format!("core.hist.{k}"), h);
+        // What only some methods read is saved only for them.
+        if self.multistep() {
+            for (k, h) in self.hist.iter().enumerate() {
+                r.put(&format!("core.hist.{k}"), h);
+            }
         }
-        r.put("core.prev", &self.prev);
+        let extrapolates = self.opts.predictor == Predictor::Extrapolate;
+        r.put("core.prev", if extrapolates { &self.prev } else { &[] });
         r.put_scalar("core.prev_h", self.prev_h);
-        r.put("core.f_n", &self.f_n);
-        r.put("core.f_nm1", &self.f_nm1);
-        r.put("core.f_new", &self.f_new);
+        let variable = self.method == Method::Bdf2Variable;
+        r.put("core.f_n", if variable { &self.f_n } else { &[] });
+        r.put("core.f_nm1", if variable { &self.f_nm1 } else { &[] });
         r.put_scalar("core.f_valid", flag(self.f_valid));
         r.put_scalar("core.h_prev", self.h_prev);
-        for (k, e) in self.ex.iter().enumerate() {
-            r.put(&format!("core.ex.{k}"), e);
-        }
         r.put_scalar("core.acc_valid", flag(self.acc_valid));
+        // Verlet's acceleration at the state, reused by its next step.
+        let n = self.m / 2;
+        r.put(
+            "core.acc",
+            if self.acc_valid { &self.tmp[..n] } else { &[] },
+        );
         r.put_scalar("core.t_base", self.t_base);
         r.put_scalar("core.n_fixed", self.n_fixed as f64);
         r.put_scalar("core.growth_bound", self.growth_bound);
@@ -51,26 +68,23 @@ impl<S: System> Core<S> {
     }
 
     pub(super) fn restore(&mut self, r: &StateRecord) -> Result<(), OdeError> {
-        if self.method == Method::Imex {
-            return Err(crate::snapshot::not_covered("the IMEX method"));
-        }
         let m = self.m;
         // Checked before anything changes: a bad record leaves `self` as it was.
-        for name in [
-            "core.s",
-            "core.y0",
-            "core.prev",
-            "core.f_n",
-            "core.f_nm1",
-            "core.f_new",
+        let extrapolates = self.opts.predictor == Predictor::Extrapolate;
+        let variable = self.method == Method::Bdf2Variable;
+        for (name, saved) in [
+            ("core.s", true),
+            ("core.y0", true),
+            ("core.prev", extrapolates),
+            ("core.f_n", variable),
+            ("core.f_nm1", variable),
         ] {
-            r.get_len(name, m)?;
+            r.get_len(name, if saved { m } else { 0 })?;
         }
-        for k in 0..self.hist.len() {
-            r.get_len(&format!("core.hist.{k}"), m)?;
-        }
-        for k in 0..3 {
-            r.get_len(&format!("core.ex.{k}"), m)?;
+        if self.multistep() {
+            for k in 0..self.hist.len() {
+                r.get_len(&format!("core.hist.{k}"), m)?;
+            }
         }
         let hist_len = r.count("core.hist.len")?;
         if hist_len > self.hist.len() {
@@ -101,7 +115,10 @@ impl<S: System> Core<S> {
             r.flag("core.acc_valid")?,
             r.count("core.n_fixed")?,
         );
-        self.sys.restore_state(r)?;
+        if acc_valid {
+            r.get_len("core.acc", m / 2)?;
+        }
+        self.sys.restore_state(r, &self.opts)?;
         self.t = t;
         [
             self.t_prev,
@@ -116,15 +133,20 @@ impl<S: System> Core<S> {
         r.copy_into("core.y0", &mut self.y0)?;
         self.stats = stats;
         self.hist_len = hist_len;
-        for (k, h) in self.hist.iter_mut().enumerate() {
-            r.copy_into(&format!("core.hist.{k}"), h)?;
+        if self.multistep() {
+            for (k, h) in self.hist.iter_mut().enumerate() {
+                r.copy_into(&format!("core.hist.{k}"), h)?;
+            }
         }
-        r.copy_into("core.prev", &mut self.prev)?;
-        r.copy_into("core.f_n", &mut self.f_n)?;
-        r.copy_into("core.f_nm1", &mut self.f_nm1)?;
-        r.copy_into("core.f_new", &mut self.f_new)?;
-        for (k, e) in self.ex.iter_mut().enumerate() {
-            r.copy_into(&format!("core.ex.{k}"), e)?;
+        if extrapolates {
+            r.copy_into("core.prev", &mut self.prev)?;
+        }
+        if variable {
+            r.copy_into("core.f_n", &mut self.f_n)?;
+            r.copy_into("core.f_nm1", &mut self.f_nm1)?;
+        }
+        if acc_valid {
+            r.copy_into("core.acc", &mut self.tmp[..m / 2])?;
         }
         self.f_valid = f_valid;
         self.acc_valid = acc_valid;

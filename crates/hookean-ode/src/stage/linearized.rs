@@ -4,11 +4,16 @@
 
 use hookean_nonlinear::{Newton, NewtonOptions, NonlinearError, NonlinearSystem, PcgSolver};
 use hookean_problem::SecondOrderProblem;
-use hookean_sparse::{AnyPreconditioner, IsoBlockMatrix};
+use hookean_sparse::{AnyPreconditioner, IsoBlockMatrix, SparseError};
 
 use super::second_order::{SecondSys, end_stage, momentum_options};
-use super::{JacobianSource, ReducedStage, StageFailure, StageInfo, account, begin_stage};
+use super::{
+    JacobianSource, NewtonRecord, ReducedStage, StageFailure, StageInfo, account, begin_stage,
+    save_newton,
+};
+use crate::error::OdeError;
 use crate::options::SolverOptions;
+use crate::snapshot::StateRecord;
 use crate::stats::Stats;
 
 /// The stage equation of [`ReducedStage`] with the tutorial's linearised
@@ -47,13 +52,23 @@ impl<P: SecondOrderProblem> NonlinearSystem for ReducedStageIso<'_, '_, P> {
         _v: &[f64],
         a: &mut IsoBlockMatrix,
     ) -> Result<bool, NonlinearError> {
-        let gh = self.stage.gh;
-        a.set_zero();
-        a.add_scaled(-gh * gh, self.k)?;
-        a.add_scaled(-gh, self.d)?;
-        a.add_to_diagonal(self.particle_mass)?;
+        linearized_matrix(a, self.k, self.d, self.particle_mass, self.stage.gh)?;
         Ok(true)
     }
+}
+
+/// Eq. 50's Newton matrix `A = M - gh D - gh^2 K` (isotropic), into `a`.
+fn linearized_matrix(
+    a: &mut IsoBlockMatrix,
+    k: &IsoBlockMatrix,
+    d: &IsoBlockMatrix,
+    particle_mass: &[f64],
+    gh: f64,
+) -> Result<(), SparseError> {
+    a.set_zero();
+    a.add_scaled(-gh * gh, k)?;
+    a.add_scaled(-gh, d)?;
+    a.add_to_diagonal(particle_mass)
 }
 
 /// Eq. 50's path of [`SecondSys`]: its own Newton on isotropic storage,
@@ -187,5 +202,69 @@ impl<P: SecondOrderProblem> SecondSys<P> {
         end_stage(kx, kv, psi_x, psi_v, gh, &mut self.last_delta);
         self.last_delta_gh = gh;
         Some(Ok(info))
+    }
+}
+
+impl<P: SecondOrderProblem> SecondSys<P> {
+    /// Eq. 50's path in a checkpoint: `sys.lin` is empty (not built yet),
+    /// `[0]` (the problem has none) or `[1, gh, revision]`, with its
+    /// Newton solver's carried state under `sys.lin`
+    /// ([`save_newton`]). Its kept matrix is not saved: `K`, `D` are the
+    /// model's constants at its material revision, so `M - gh D - gh^2 K`
+    /// is rebuilt bit for bit from `gh`.
+    pub(super) fn save_linearized(&self, r: &mut StateRecord) -> Result<(), OdeError> {
+        match &self.linearized {
+            None => r.put("sys.lin", &[]),
+            Some(Err(())) => r.put("sys.lin", &[0.0]),
+            Some(Ok(lin)) => {
+                r.put("sys.lin", &[1.0, lin.last_gh, lin.revision as f64]);
+                save_newton(&lin.newton, "sys.lin", r)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Eq. 50's path as [`save_linearized`](Self::save_linearized) saved
+    /// it, built again from the (restored) problem and `opts`, its kept
+    /// matrix rebuilt from the saved `gh`.
+    pub(super) fn restored_linearized(
+        &self,
+        r: &StateRecord,
+        opts: &SolverOptions,
+    ) -> Result<Option<Result<Box<LinearizedNewton>, ()>>, OdeError> {
+        let (gh, revision) = match r.get("sys.lin")? {
+            [] => return Ok(None),
+            [0.0] => return Ok(Some(Err(()))),
+            &[1.0, gh, revision] if revision >= 0.0 && revision.fract() == 0.0 => (gh, revision),
+            _ => {
+                return Err(OdeError::Checkpoint {
+                    reason: "entry `sys.lin` is malformed".into(),
+                });
+            }
+        };
+        let nopts = momentum_options(&opts.newton, self.mean_mass);
+        let linear = PcgSolver::from_options(&opts.linear)?;
+        let Some(mut lin) = LinearizedNewton::new(&self.problem, nopts, linear)? else {
+            return Err(OdeError::Checkpoint {
+                reason: "it has eq. 50's linearised Newton matrix, this problem has none".into(),
+            });
+        };
+        let record = NewtonRecord::read(
+            r,
+            "sys.lin",
+            lin.newton.jacobian().pattern(),
+            lin.newton.linear_solver(),
+        )?;
+        lin.last_gh = gh;
+        lin.revision = revision as u64;
+        let (k, d, mass) = (&lin.k, &lin.d, &lin.particle_mass);
+        let mut failed = None;
+        record.restore(&mut lin.newton, self.n, |a| {
+            failed = linearized_matrix(a, k, d, mass, gh).err();
+        })?;
+        if let Some(e) = failed {
+            return Err(e.into());
+        }
+        Ok(Some(Ok(Box::new(lin))))
     }
 }

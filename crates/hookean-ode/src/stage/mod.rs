@@ -11,14 +11,20 @@
 //!   system on a dense or sparse Jacobian, and [`FirstSys`];
 //! - `second_order.rs`: the reduced velocity form and [`SecondSys`];
 //! - `linearized.rs`: eq. 50's isotropic Newton matrix (inexact simplified Newton);
+//! - `checkpoint.rs`: [`SecondSys`]'s checkpoint, and that of a Newton
+//!   solver with PCG (its kept Jacobian, its multigrid);
 //! - `first_order_form.rs`: [`FirstOrderForm`], a second-order problem as a
 //!   first-order one.
 
+mod checkpoint;
 mod first_order;
 mod first_order_form;
 mod linearized;
 mod second_order;
 
+pub(crate) use checkpoint::{
+    NewtonRecord, matrix_entry, matrix_values, save_newton, set_matrix_values,
+};
 pub(crate) use first_order::{
     FirstStage, FirstSys, SparseFirstStage, diagonal_positions, forward_difference_jacobian,
 };
@@ -116,9 +122,15 @@ pub(crate) trait System {
         let _ = record;
         Err(crate::snapshot::not_covered("first-order problems"))
     }
-    /// Restores [`save_state`](Self::save_state).
-    fn restore_state(&mut self, record: &crate::StateRecord) -> Result<(), OdeError> {
-        let _ = record;
+    /// Restores [`save_state`](Self::save_state) into a system of a run
+    /// with the options `opts` (what the saved system built lazily from
+    /// them is built again).
+    fn restore_state(
+        &mut self,
+        record: &crate::StateRecord,
+        opts: &SolverOptions,
+    ) -> Result<(), OdeError> {
+        let _ = (record, opts);
         Err(crate::snapshot::not_covered("first-order problems"))
     }
     /// Installs `recorder` in the stage equations' PCG solver

@@ -14,7 +14,6 @@ use super::linearized::LinearizedNewton;
 use super::{JacobianSource, StageFailure, StageInfo, System, account, imex_failure};
 use crate::error::OdeError;
 use crate::options::SolverOptions;
-use crate::snapshot::not_covered;
 use crate::stats::Stats;
 
 /// The reduced velocity form of one stage as a nonlinear system in `V`:
@@ -123,8 +122,8 @@ pub(crate) struct SecondSys<P> {
     pub constraints: Constraints,
     pub(super) dfdx: SymBlockMatrix,
     pub(super) dfdv: SymBlockMatrix,
-    newton: Newton<SymBlockMatrix, PcgSolver<AnyPreconditioner>>,
-    last_gh: f64,
+    pub(super) newton: Newton<SymBlockMatrix, PcgSolver<AnyPreconditioner>>,
+    pub(super) last_gh: f64,
     pub(super) force: Vec<f64>,
     pub(super) xs: Vec<f64>,
     /// `V - psi_v` of the last solved stage and its `gh` (NaN: none), the
@@ -134,12 +133,12 @@ pub(crate) struct SecondSys<P> {
     /// The mean particle mass.
     pub(super) mean_mass: f64,
     /// The IMEX scheme's matrices and factor (built at its first step).
-    imex: Option<Box<crate::imex::Imex>>,
+    pub(super) imex: Option<Box<crate::imex::Imex>>,
     /// Inexact simplified Newton's eq. 50 path (built at its first stage;
     /// `Err(())` once the problem was found to have none).
     pub(super) linearized: Option<Result<Box<LinearizedNewton>, ()>>,
     /// The material revision the kept Jacobian of `newton` belongs to.
-    revision: u64,
+    pub(super) revision: u64,
 }
 
 /// The velocity form's residual `M (V - psi_v) - gh f` is a momentum: its
@@ -197,34 +196,6 @@ impl<P: SecondOrderProblem> SecondSys<P> {
             revision: problem.material_revision(),
             problem,
         })
-    }
-}
-
-impl<P> SecondSys<P> {
-    /// [`OdeError::NoCheckpoint`] for the parts whose state a checkpoint
-    /// does not cover: the IMEX scheme's and eq. 50's kept factors, a kept
-    /// Jacobian, and a multigrid whose next set-up depends on more than
-    /// the matrix of its last build ([`Amg::next_setup_depends_on_build_only`](hookean_sparse::Amg::next_setup_depends_on_build_only)).
-    fn check_covered(&self) -> Result<(), OdeError> {
-        if self.imex.is_some() {
-            return Err(not_covered("the IMEX method"));
-        }
-        if matches!(
-            self.newton.options().method,
-            NewtonMethod::Simplified | NewtonMethod::InexactSimplified(_)
-        ) {
-            return Err(not_covered(
-                "the simplified Newton variants (their Jacobian is kept across steps)",
-            ));
-        }
-        if let AnyPreconditioner::Amg(amg) = self.newton.linear_solver().preconditioner()
-            && !amg.next_setup_depends_on_build_only()
-        {
-            return Err(not_covered(
-                "a multigrid that keeps its hierarchy (reuse = \"keep\") or carries eigenvector estimates (refill_power_iterations > 0)",
-            ));
-        }
-        Ok(())
     }
 }
 
@@ -379,73 +350,15 @@ impl<P: SecondOrderProblem> System for SecondSys<P> {
     }
 
     fn save_state(&self, r: &mut crate::StateRecord) -> Result<(), OdeError> {
-        self.check_covered()?;
-        let carried = self.newton.carried_state();
-        if carried[3] == 1.0 {
-            return Err(not_covered(
-                "a Jacobian kept across steps (simplified Newton)",
-            ));
-        }
-        r.put("sys.newton", &carried);
-        r.put_scalar("sys.last_gh", self.last_gh);
-        r.put_scalar("sys.revision", self.revision as f64);
-        r.put("sys.last_delta", &self.last_delta);
-        r.put_scalar("sys.last_delta_gh", self.last_delta_gh);
-        // The multigrid's reused parts: the matrix they were built from.
-        if let AnyPreconditioner::Amg(amg) = self.newton.linear_solver().preconditioner() {
-            match amg.built_from() {
-                Some(a) => {
-                    let values: Vec<f64> = a.values().iter().flatten().flatten().copied().collect();
-                    r.put("sys.amg.built_from", &values);
-                }
-                None => r.put("sys.amg.built_from", &[]),
-            }
-        }
-        Ok(())
+        self.save_checkpoint(r)
     }
 
-    fn restore_state(&mut self, r: &crate::StateRecord) -> Result<(), OdeError> {
-        self.check_covered()?;
-        let c = r.get_len("sys.newton", 4)?;
-        let carried = [c[0], c[1], c[2], c[3]];
-        let last_delta = r.get_len("sys.last_delta", self.n)?;
-        let (last_gh, last_delta_gh) = (r.scalar("sys.last_gh")?, r.scalar("sys.last_delta_gh")?);
-        let revision = r.count("sys.revision")? as u64;
-        let pattern = self.newton.jacobian().pattern().clone();
-        let amg = if let AnyPreconditioner::Amg(_) = self.newton.linear_solver().preconditioner() {
-            let values = r.get("sys.amg.built_from")?;
-            let blocks = 9 * pattern.col_idx().len();
-            if !values.is_empty() && values.len() != blocks {
-                return Err(OdeError::Checkpoint {
-                    reason: format!(
-                        "entry `sys.amg.built_from` has {} numbers, this run's matrix {blocks}",
-                        values.len()
-                    ),
-                });
-            }
-            (!values.is_empty()).then(|| {
-                let mut a = SymBlockMatrix::new(pattern);
-                for (b, v) in a.values_mut().iter_mut().zip(values.chunks_exact(9)) {
-                    for (row, w) in b.iter_mut().zip(v.chunks_exact(3)) {
-                        row.copy_from_slice(w);
-                    }
-                }
-                a
-            })
-        } else {
-            None
-        };
-        if let Some(a) = amg
-            && let AnyPreconditioner::Amg(m) = self.newton.linear_solver_mut().preconditioner_mut()
-        {
-            m.rebuild(&a).map_err(OdeError::from)?;
-        }
-        self.newton.set_carried_state(carried);
-        self.last_gh = last_gh;
-        self.last_delta_gh = last_delta_gh;
-        self.revision = revision;
-        self.last_delta.copy_from_slice(last_delta);
-        Ok(())
+    fn restore_state(
+        &mut self,
+        r: &crate::StateRecord,
+        opts: &SolverOptions,
+    ) -> Result<(), OdeError> {
+        self.restore_checkpoint(r, opts)
     }
 
     /// The Newton iterations' PCG; not inexact simplified Newton, whose

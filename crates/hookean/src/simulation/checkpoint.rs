@@ -4,8 +4,9 @@
 //!
 //! The record holds the integrator's state (positions, velocities, time,
 //! step size, counters, the step controller's and multistep history, the
-//! Newton solver's carried rate, the warm start of the linear solves and
-//! the matrix the multigrid's aggregates were built from:
+//! Newton solver's carried rate and kept Jacobian, the warm start of the
+//! linear solves, the matrix the multigrid's aggregates were built from,
+//! IMEX's and eq. 50's factor keys, the variable-order BDF's history:
 //! [`Integrator::save_state`](hookean_ode::Integrator::save_state)), the
 //! model's carried state ([`MassSpringModel::carried_state`]: the last
 //! step size that friction reads, released pin groups, cloth
@@ -34,9 +35,18 @@ impl Simulation {
     ///
     /// # Errors
     /// [`HookeanError::Ode`] with [`OdeError::NoCheckpoint`] for what a
-    /// checkpoint does not cover: the velocity filter, the variable-order
-    /// BDF, IMEX, the simplified Newton variants, a multigrid that keeps
-    /// its hierarchy.
+    /// checkpoint does not cover: a multigrid that carries eigenvector
+    /// estimates from refill to refill (`refill_power_iterations > 0`).
+    /// Every method is covered: the one-step and
+    /// fixed-step multistep methods, IMEX (its factor is rebuilt from the
+    /// `h`, material revision and pinned particles it was made for), the
+    /// variable-order BDF (its history, order, re-use counters and kept
+    /// Jacobians and Newton matrix), the simplified Newton variants (the
+    /// kept Newton matrix, or for eq. 50's what rebuilds it: `gh`), and the
+    /// velocity filter around an explicit method; and the multigrid with
+    /// `reuse = "refill"`, `"rebuild"` or `"keep"`; and cloth
+    /// self-collision (its candidate list and tree shape, in the model's
+    /// carried state).
     ///
     /// ```
     /// use hookean::prelude::*;
@@ -57,11 +67,6 @@ impl Simulation {
     /// # Ok::<(), hookean::HookeanError>(())
     /// ```
     pub fn save_state(&self, record: &mut StateRecord) -> Result<(), HookeanError> {
-        if self.integrator.is_filtered() {
-            return Err(HookeanError::Ode(OdeError::NoCheckpoint {
-                what: "the velocity filter".into(),
-            }));
-        }
         self.integrator.save_state(record)?;
         record.put("model.carried", &self.model().carried_state()?);
         let g = &self.guard;
@@ -99,11 +104,6 @@ impl Simulation {
     /// [`OdeError::Checkpoint`] for a record that does not fit this
     /// simulation (another size, a missing entry).
     pub fn restore_state(&mut self, record: &StateRecord) -> Result<(), HookeanError> {
-        if self.integrator.is_filtered() {
-            return Err(HookeanError::Ode(OdeError::NoCheckpoint {
-                what: "the velocity filter".into(),
-            }));
-        }
         let dim = self.x().len();
         let baseline = match record.get("guard.baseline")? {
             [] => None,
