@@ -2,7 +2,7 @@
 //! checkpoints and for a step redone from its start: the size of the last
 //! accepted step (the friction impulse of the next contact pass reads it),
 //! with cloth self-collision its candidate list and the shape of its tree
-//! (`self_contact.rs`, [`SelfCarried`]), which pin groups were released,
+//! (`self_contact/carry.rs`, `SelfCarried`), which pin groups were released,
 //! and the material revision. Everything else a step reads is either the
 //! model's construction (springs, masses, colliders, paths, the wind's
 //! seeded modes) or a function of the time and the state (the colliders'
@@ -14,7 +14,7 @@ use crate::model::{Dirs, MassSpringModel};
 use crate::self_contact::SelfCarried;
 
 /// The contact state a step starts from and changes: the last step's
-/// size and the self-collision state ([`SelfCarried`]). Kept before a step
+/// size and the self-collision state (`SelfCarried`). Kept before a step
 /// with [`MassSpringModel::keep_contact_carry`] and put back with
 /// [`MassSpringModel::restore_contact_carry`], a step redone from its
 /// start (the facade's energy budget) starts from exactly the state the
@@ -28,7 +28,7 @@ pub struct ContactCarry {
 impl MassSpringModel {
     /// The carried state: `[h_last, revision, released_0, released_1, ...]`
     /// (one flag per pin group), then with cloth self-collision its state
-    /// ([`SelfCarried`]: the candidate list's radius, the last step's
+    /// (`SelfCarried`: the candidate list's radius, the last step's
     /// motion, the reference positions, the candidates, the tree's leaf
     /// order).
     ///
