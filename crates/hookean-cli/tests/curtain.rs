@@ -60,7 +60,10 @@ fn the_curtain_is_drawn_in_pleats_without_crossing_and_its_rings_follow_their_pa
         "curtain: {steps} steps, {newton} Newton and {} CG iterations, {} rejected",
         summary["cg_iterations"], summary["rejected_steps"]
     );
-    assert_eq!(steps, 300);
+    // 300 steps of 0.01 s; the energy budget may redo a step in substeps,
+    // which count as steps (one step at 2.18 s in 2 substeps: 302), but
+    // no step is rejected.
+    assert!((300..=304).contains(&steps), "{steps} steps");
     assert_eq!(summary["rejected_steps"].as_u64(), Some(0));
     assert!(
         newton <= 3 * steps,
