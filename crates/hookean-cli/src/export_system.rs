@@ -65,6 +65,37 @@ fn input<E: std::fmt::Display>(e: E) -> CliError {
     CliError::Input(e.to_string())
 }
 
+/// The scene's simulation, built once its work to `until` (named `key` in
+/// messages) is within `--max-work`, as `run` counts it (a variable-step
+/// method: its step cap): checked at the scene's `h` before the build and
+/// at the built simulation's first step (`"auto"` is known only then).
+fn build_checked(
+    scene: &hookean::scene::Scene,
+    args: &ExportSystemArgs,
+    until: f64,
+    key: &str,
+) -> Result<hookean::Simulation, CliError> {
+    let (particles, _) = scene.particle_count();
+    let check_work = |h: f64| -> Result<(), CliError> {
+        let (steps, cause) = crate::work::scene_steps(scene, &args.scene, until, key, h)?;
+        args.work.check(
+            steps,
+            particles.map_or(f64::INFINITY, |p| {
+                (p as f64).max(crate::work::MIN_STEP_WORK)
+            }),
+            &cause,
+        )
+    };
+    if let Some(h) = scene.integrator.h.value() {
+        check_work(h)?;
+    }
+    let sim = scene
+        .build()
+        .map_err(|e| input(format!("{}: {e}", args.scene.display())))?;
+    check_work(sim.h_next())?;
+    Ok(sim)
+}
+
 pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
     if let Some(every) = args.every {
         return export_sequence(args, every);
@@ -84,26 +115,7 @@ pub fn run(args: &ExportSystemArgs) -> Result<(), CliError> {
         &[&args.scene],
     )?;
     let (scene, _) = crate::scene::read_scene(&args.scene, &args.set)?;
-    let (particles, _) = scene.particle_count();
-    // Steps to --at as `run` counts them (a variable-step method: its step cap).
-    let check_work = |h: f64| -> Result<(), CliError> {
-        let (steps, cause) = crate::work::scene_steps(&scene, &args.scene, at, "--at", h)?;
-        args.work.check(
-            steps,
-            particles.map_or(f64::INFINITY, |p| {
-                (p as f64).max(crate::work::MIN_STEP_WORK)
-            }),
-            &cause,
-        )
-    };
-    // "auto" is known once the model is built.
-    if let Some(h) = scene.integrator.h.value() {
-        check_work(h)?;
-    }
-    let mut sim = scene
-        .build()
-        .map_err(|e| input(format!("{}: {e}", args.scene.display())))?;
-    check_work(sim.h_next())?;
+    let mut sim = build_checked(&scene, args, at, "--at")?;
     let mut steps = 0;
     if at > 0.0 {
         // A bar on a terminal: simulating to a late --at can take a while.
@@ -205,25 +217,7 @@ fn record_sequence(
     dir: &std::path::Path,
 ) -> Result<SequenceRecord, CliError> {
     let (scene, _) = crate::scene::read_scene(&args.scene, &args.set)?;
-    let (particles, _) = scene.particle_count();
-    let check_work = |h: f64| -> Result<(), CliError> {
-        let (steps, cause) =
-            crate::work::scene_steps(&scene, &args.scene, scene.duration, "duration", h)?;
-        args.work.check(
-            steps,
-            particles.map_or(f64::INFINITY, |p| {
-                (p as f64).max(crate::work::MIN_STEP_WORK)
-            }),
-            &cause,
-        )
-    };
-    if let Some(h) = scene.integrator.h.value() {
-        check_work(h)?;
-    }
-    let mut sim = scene
-        .build()
-        .map_err(|e| input(format!("{}: {e}", args.scene.display())))?;
-    check_work(sim.h_next())?;
+    let mut sim = build_checked(&scene, args, scene.duration, "duration")?;
     let writer = Arc::new(Mutex::new(SequenceWriter::new(dir, every)));
     let shared: hookean::nonlinear::SharedRecorder = writer.clone();
     if !sim.record_linear_solves(Some(shared)) {
