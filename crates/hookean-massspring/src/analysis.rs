@@ -148,29 +148,60 @@ impl MassSpringModel {
     /// # Errors
     /// As [`check_state`](Self::check_state).
     pub fn energies(&self, x: &[f64], v: &[f64]) -> Result<Energies, MassSpringError> {
-        // check_state's checks, with the spring lengths computed once.
+        // check_state's checks, the finiteness one only when the sum is not
+        // finite: a non-finite entry of x or v makes its term non-finite
+        // (0 * inf and 0 * NaN are NaN), so a finite total proves a finite
+        // state without a pass of its own (the energy guard evaluates this
+        // after every step).
         let dim = 3 * self.n_particles();
-        crate::error::check_vec("x", x, dim)?;
-        crate::error::check_vec("v", v, dim)?;
-        let g = nalgebra::Vector3::from(self.options.gravity);
-        let mut e = Energies::default();
-        for (p, &m) in self.particle_mass.iter().enumerate() {
-            e.kinetic += 0.5 * m * point(v, p).norm_squared();
-            e.gravitational -= m * g.dot(&point(x, p));
-        }
-        e.external = -hookean_sparse::vecops::dot(&self.external, x);
-        for (k, s) in self.springs.iter().enumerate() {
-            let l = (point(x, s.j) - point(x, s.i)).norm();
-            if l == 0.0 {
-                return Err(MassSpringError::ZeroLengthSpring {
-                    spring: k,
-                    i: s.i,
-                    j: s.j,
+        for (what, len) in [("x", x.len()), ("v", v.len())] {
+            if len != dim {
+                return Err(MassSpringError::DimensionMismatch {
+                    what,
+                    expected: dim,
+                    found: len,
                 });
             }
-            e.spring += 0.5 * s.stiffness * (l - s.rest_length).powi(2);
         }
-        e.spring += self.soft_pin_energy(x);
+        let check_finite = || -> Result<(), MassSpringError> {
+            crate::error::check_vec("x", x, dim)?;
+            crate::error::check_vec("v", v, dim)
+        };
+        let g = self.options.gravity;
+        let (x3, v3) = (x.as_chunks::<3>().0, v.as_chunks::<3>().0);
+        let (mut kinetic2, mut gravitational) = (0.0, 0.0);
+        for ((&m, xp), vp) in self.particle_mass.iter().zip(x3).zip(v3) {
+            kinetic2 += m * (vp[0] * vp[0] + vp[1] * vp[1] + vp[2] * vp[2]);
+            gravitational -= m * (g[0] * xp[0] + g[1] * xp[1] + g[2] * xp[2]);
+        }
+        let mut e = Energies {
+            kinetic: 0.5 * kinetic2,
+            gravitational,
+            external: -hookean_sparse::vecops::dot(&self.external, x),
+            spring: 0.0,
+        };
+        let Some(spring) = self.spring_energy(x) else {
+            check_finite()?;
+            // The shortest spring, the first of them in the model's order:
+            // one of length 0 (a sum of squares is 0 in any order of
+            // addition when it is in the sweep's).
+            let length2 = |s: &crate::Spring| (point(x, s.j) - point(x, s.i)).norm_squared();
+            let shortest = self
+                .springs
+                .iter()
+                .enumerate()
+                .min_by(|a, b| length2(a.1).total_cmp(&length2(b.1)));
+            let (k, s) = shortest.expect("a spring of length 0 exists");
+            return Err(MassSpringError::ZeroLengthSpring {
+                spring: k,
+                i: s.i,
+                j: s.j,
+            });
+        };
+        e.spring = spring + self.soft_pin_energy(x);
+        if !e.total().is_finite() {
+            check_finite()?;
+        }
         Ok(e)
     }
 

@@ -371,6 +371,59 @@ fn spring_energy_gradient_is_minus_the_elastic_force() {
     }
 }
 
+/// The spring term is `sum_s k_s (l_s - l0_s)^2 / 2`, summed here spring by
+/// spring in the model's order (the model sums by chunks of its assembly
+/// table); springs of length 0 and non-finite states are refused by name.
+#[test]
+fn spring_energy_is_the_sum_over_springs_and_refuses_coincident_ends() {
+    for n in [2, 5, 9, 13] {
+        let (model, s) = random_model(n, SpringDamping::Projected, 0.0, 7 + n as u64);
+        let expected: f64 = model
+            .springs()
+            .iter()
+            .map(|sp| {
+                let l = dist(&s.x, sp.i, sp.j);
+                0.5 * sp.stiffness * (l - sp.rest_length).powi(2)
+            })
+            .sum();
+        let got = model.energies(&s.x, &s.v).unwrap().spring;
+        assert!(
+            (got - expected).abs() <= 1e-13 * expected,
+            "n = {n}: {got} vs {expected} ({} springs)",
+            model.springs().len()
+        );
+    }
+    let (model, s) = random_model(9, SpringDamping::Projected, 0.0, 3);
+    let springs = model.springs();
+    // Particles 7 and 8 moved onto 6: springs (6, 7), (6, 8) and (7, 8)
+    // have length 0, and the first of them in the model's order is named.
+    let mut x = s.x.clone();
+    for p in [7, 8] {
+        for r in 0..3 {
+            x[3 * p + r] = x[3 * 6 + r];
+        }
+    }
+    let zero: Vec<usize> = (0..springs.len())
+        .filter(|&k| dist(&x, springs[k].i, springs[k].j) == 0.0)
+        .collect();
+    assert!(zero.len() >= 2, "{zero:?}");
+    let first = zero[0];
+    match model.energies(&x, &s.v) {
+        Err(hookean_massspring::MassSpringError::ZeroLengthSpring { spring, i, j }) => {
+            assert_eq!((spring, i, j), (first, springs[first].i, springs[first].j));
+        }
+        other => panic!("expected ZeroLengthSpring, got {other:?}"),
+    }
+    let mut v = s.v.clone();
+    v[4] = f64::NAN;
+    match model.energies(&s.x, &v) {
+        Err(hookean_massspring::MassSpringError::NonFinite { what, index }) => {
+            assert_eq!((what, index), ("v", 4));
+        }
+        other => panic!("expected NonFinite, got {other:?}"),
+    }
+}
+
 /// Directional finite difference `(f(x + eps w) - f(x - eps w)) / (2 eps)`
 /// (in `x` or in `v`).
 fn fd_dir(model: &MassSpringModel, s: &State, w: &[f64], wrt_x: bool) -> Vec<f64> {

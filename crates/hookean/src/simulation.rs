@@ -466,7 +466,7 @@ impl Simulation {
     /// allocation after the first step) and returns its time.
     fn begin_step(&mut self) -> f64 {
         self.current = None;
-        if self.guard.budget.is_finite() {
+        if self.budget_applies() {
             self.guard.y0.clear();
             self.guard.y0.extend_from_slice(self.integrator.state());
             self.integrator
@@ -514,6 +514,15 @@ impl Simulation {
         Ok(report)
     }
 
+    /// Whether steps are checked against the energy budget (and their
+    /// start kept for a redo): with a finite budget and an implicit method.
+    /// Explicit methods are not: their energy growth is instability, which
+    /// the blow-up check names with the stable step (substeps would hide
+    /// it).
+    fn budget_applies(&self) -> bool {
+        self.guard.budget.is_finite() && self.integrator.method().is_implicit()
+    }
+
     /// The energies of the current state after the put-back of the next
     /// step's contact handling, the budget and the start's energies, if
     /// their total is above the energy budget (`None` within it, or without
@@ -522,7 +531,7 @@ impl Simulation {
         let Some(baseline) = &self.guard.baseline else {
             return Ok(None);
         };
-        if !self.guard.budget.is_finite() {
+        if !self.budget_applies() {
             return Ok(None);
         }
         let budget = baseline.budget(self.t()) + self.guard.pins.work();
@@ -532,11 +541,6 @@ impl Simulation {
         // `redo_in_substeps`), without which redone steps of the 64 x 64
         // cloth-fold ended with intersecting layers (docs/CONTACT.md,
         // "Energy").
-        // Explicit methods: energy growth is instability, which the
-        // blow-up check names with the stable step (substeps would hide it).
-        if !self.integrator.method().is_implicit() {
-            return Ok(None);
-        }
         let landed = if model.colliders().is_empty() {
             match self.current {
                 Some(e) => e,

@@ -16,11 +16,13 @@
 //!   [`DampingInDfdx`] and [`MassSpringModel::dfdx_exact`].
 //!
 //! One file per idea: [`plan`] holds the layout ([`AssemblyPlan`]), [`sweep`]
-//! the hot kernel and its SIMD/rayon dispatch, [`linearized`] the eq. 50
+//! the hot kernel and its SIMD/rayon dispatch, [`energy`] the springs'
+//! energy in the sweep's chunked form, [`linearized`] the eq. 50
 //! linearisations, [`exact`] the exact `dfdx` as `sprs`, and [`problem`] the
 //! checked entry points and the `SecondOrderProblem` implementation. This
 //! file holds the per-spring block formulas above, shared by all of them.
 
+mod energy;
 mod exact;
 mod linearized;
 mod plan;

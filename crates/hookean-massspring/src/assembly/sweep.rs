@@ -30,14 +30,14 @@ pub(crate) const CHUNK: usize = 8;
 /// The geometry of a chunk of springs in structure-of-arrays form: the
 /// square roots and divisions of a chunk are independent and vectorise
 /// (`sqrtpd` / `divpd`) instead of serialising the spring loop.
-struct ChunkGeometry {
+pub(crate) struct ChunkGeometry {
     e: [[f64; CHUNK]; 3],
-    l: [f64; CHUNK],
+    pub(crate) l: [f64; CHUNK],
     inv_l: [f64; CHUNK],
 }
 
 impl ChunkGeometry {
-    fn new() -> Self {
+    pub(crate) fn new() -> Self {
         Self {
             e: [[1.0; CHUNK]; 3],
             l: [1.0; CHUNK],
@@ -48,6 +48,17 @@ impl ChunkGeometry {
     /// `e = x_j - x_i`, `l = |e|`, `1 / l` for every spring of `chunk`.
     #[inline(always)]
     fn compute(&mut self, x: &[[f64; 3]], chunk: &[HotSpring]) {
+        self.compute_lengths(x, chunk);
+        for k in 0..CHUNK {
+            self.inv_l[k] = 1.0 / self.l[k];
+        }
+    }
+
+    /// `e = x_j - x_i` and `l = |e|` for every spring of `chunk` (not `1 /
+    /// l`: the energy needs no direction, and a division per spring costs
+    /// as much as its square root).
+    #[inline(always)]
+    pub(crate) fn compute_lengths(&mut self, x: &[[f64; 3]], chunk: &[HotSpring]) {
         for (k, h) in chunk.iter().enumerate() {
             let (xi, xj) = (&x[h.i as usize], &x[h.j as usize]);
             for r in 0..3 {
@@ -59,7 +70,6 @@ impl ChunkGeometry {
                 + self.e[1][k] * self.e[1][k]
                 + self.e[2][k] * self.e[2][k];
             self.l[k] = l2.sqrt();
-            self.inv_l[k] = 1.0 / self.l[k];
         }
     }
 
