@@ -14,8 +14,9 @@
 //! - [`SolverOptions`]: the one options struct of every method: step size,
 //!   tolerances (`atol` per component, [`Tolerance`]), the step-size policy
 //!   ([`StepSizePolicy`]: bounds, BDF2's controller of [`control`]), Newton's
-//!   options, the linear solver's ([`PcgOptions`]) and the variable-order
-//!   BDF's settings ([`BdfConfig`]). [`Stats`]: the one set of counters,
+//!   options and the linear solver's ([`PcgOptions`]); the variable-order
+//!   BDF's own settings travel with its method ([`BdfConfig`] in
+//!   [`Method::VariableBdf`]). [`Stats`]: the one set of counters,
 //!   named after CVODE's.
 //! - [`Integrator`]: the stepping contract every engine implements once:
 //!   one bounded step (returning a [`StepReport`]) and `interpolate`, dense
