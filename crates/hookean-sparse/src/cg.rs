@@ -181,6 +181,9 @@ pub struct CgWorkspace {
 struct Lanczos {
     alpha: Vec<f64>,
     beta: Vec<f64>,
+    /// The Lanczos matrix's entries, written by [`Lanczos::estimate`].
+    diagonal: Vec<f64>,
+    off_squared: Vec<f64>,
     /// Whether the run still records (until its first restart).
     recording: bool,
     /// The iterations there is room for.
@@ -197,8 +200,14 @@ impl Lanczos {
         self.room = 0;
         if on {
             let room = steps.clamp(1, LANCZOS_CAPACITY);
-            crate::error::try_grow("CG coefficients", &mut self.alpha, room)?;
-            crate::error::try_grow("CG coefficients", &mut self.beta, room)?;
+            for v in [
+                &mut self.alpha,
+                &mut self.beta,
+                &mut self.diagonal,
+                &mut self.off_squared,
+            ] {
+                crate::error::try_grow("CG coefficients", v, room)?;
+            }
             self.room = room;
         }
         Ok(())
@@ -214,8 +223,13 @@ impl Lanczos {
         }
     }
 
-    fn estimate(&self) -> Option<ConditionEstimate> {
-        ConditionEstimate::from_cg_coefficients(&self.alpha, &self.beta)
+    fn estimate(&mut self) -> Option<ConditionEstimate> {
+        ConditionEstimate::from_cg_coefficients_in(
+            &self.alpha,
+            &self.beta,
+            &mut self.diagonal,
+            &mut self.off_squared,
+        )
     }
 }
 
