@@ -10,7 +10,9 @@
 #
 # usage: BASE_BIN=$(scripts/build-ref C) [HEAD_BIN=... HEAD_REV=D] scripts/perf/paths-instructions.sh C [OUTDIR]
 #   HEAD_BIN defaults to this checkout's release build, run on this
-#   checkout's scenes; with HEAD_REV, on that commit's scenes and data. E.g.
+#   checkout's scenes; with HEAD_REV, on that commit's scenes and data.
+#   ONLY=REGEX counts only the paths whose name matches (grep -E), e.g.
+#   ONLY='hookean solve' for the five solve paths. E.g.
 #   BASE_BIN=$(scripts/build-ref 43482a4) HEAD_BIN=$(scripts/build-ref b85faee) HEAD_REV=b85faee \
 #     scripts/perf/paths-instructions.sh 43482a4
 set -euo pipefail
@@ -70,6 +72,9 @@ echo "| path | $BASE (M instructions) | ${HEAD_REV:-head} | change |"
 echo "|---|---|---|---|"
 for entry in "${paths[@]}"; do
   name=${entry%%|*}
+  if [ -n "${ONLY:-}" ] && ! grep -qE -- "$ONLY" <<< "$name"; then
+    continue
+  fi
   read -r -a args <<< "${entry#*|}"
   echo "$name ..." >&2
   base=$(count base "$BASE_BIN" "$OUT/base-tree" "${args[@]}")
