@@ -28,6 +28,15 @@
 //! `sequence.csv` (one row per policy and system) and `cumulative.svg`
 //! (cumulative time against the system index). `--repeat` replays every
 //! policy that many times, interleaved; each policy's fastest replay is kept.
+//!
+//! A run with `warm_start` starts the first PCG solve of each step from the
+//! previous step's velocity change, which depends on how accurately the
+//! run's own preconditioner solved the previous step. A replay of another
+//! policy therefore does not start from the recorded guess `x0` but from
+//! the guess it would have armed itself ([`OwnWarmStart`]): `x0` plus the
+//! sum, over the previous step's solves, of the replay's solution minus the
+//! run's (`x.mtx`). Folders without the run's solutions, or with systems
+//! left out (`--every K > 1`), are replayed from `x0` as recorded.
 
 use std::path::Path;
 use std::time::Instant;
@@ -115,8 +124,72 @@ pub struct Fallback {
     pub max_iter: Option<usize>,
 }
 
+/// The warm start a policy arms itself in a replay (module doc): a step's
+/// first solve starts from the run's guess `x0` plus `d`, the sum over the
+/// previous step's solves of the replay's solution minus the run's. In the
+/// run, `x0 = V_prev - v_prev - (V - v)`, the last step's velocity change
+/// (`hookean_ode`'s `begin_stage`), and the replay starts every step from
+/// the run's state, so its last velocity change differs from the run's by
+/// exactly `d`.
+struct OwnWarmStart {
+    /// Whether the correction applies: every system carries the run's
+    /// solution and the solves are consecutive.
+    on: bool,
+    /// The step of the last recorded solve, and the sums `d` of that step
+    /// and of the step before it.
+    step: Option<usize>,
+    this_step: Vec<f64>,
+    last_step: Vec<f64>,
+}
+
+impl OwnWarmStart {
+    fn new(systems: &[SequenceSystem]) -> Self {
+        let n = systems.first().map_or(0, |s| s.b.len());
+        let consecutive = systems.windows(2).all(|w| match (&w[0].run, &w[1].run) {
+            (Some(a), Some(b)) => b.solve == a.solve + 1,
+            _ => false,
+        });
+        let on = consecutive && systems.iter().all(|s| s.x.is_some() && s.run.is_some());
+        Self {
+            on,
+            step: None,
+            this_step: vec![0.0; if on { n } else { 0 }],
+            last_step: vec![0.0; if on { n } else { 0 }],
+        }
+    }
+
+    /// Before `system`'s solve: its step begins (the sums move on), and
+    /// its guess, if it has one, is written into `guess`.
+    fn guess(&mut self, system: &SequenceSystem, guess: Option<&mut [f64]>) {
+        let step = system.run.as_ref().map(|r| r.step);
+        if self.on && step != self.step {
+            std::mem::swap(&mut self.this_step, &mut self.last_step);
+            self.this_step.fill(0.0);
+            self.step = step;
+        }
+        if let (Some(x0), Some(g)) = (&system.x0, guess) {
+            g.copy_from_slice(x0);
+            if self.on {
+                for (g, d) in g.iter_mut().zip(&self.last_step) {
+                    *g += d;
+                }
+            }
+        }
+    }
+
+    /// After `system`'s solve with the replay's solution `x`.
+    fn solved(&mut self, system: &SequenceSystem, x: &[f64]) {
+        if let (true, Some(run)) = (self.on, &system.x) {
+            for ((d, a), b) in self.this_step.iter_mut().zip(x).zip(run) {
+                *d += a - b;
+            }
+        }
+    }
+}
+
 /// Replays `systems` in order with `policy`: one PCG solver, set up as the
-/// policy says, each solve from the system's start on its constraints.
+/// policy says, each solve from the system's start on its constraints (a
+/// warm start corrected to the policy's own, [`OwnWarmStart`]).
 pub fn replay(
     policy: &Policy,
     amg: &AmgOptions,
@@ -153,11 +226,11 @@ pub fn replay(
     let n = systems.first().map_or(0, |s| s.b.len());
     let mut x = vec![0.0; n];
     let mut ready = false;
+    let mut warm = OwnWarmStart::new(systems);
     for (k, system) in systems.iter().enumerate() {
         solver.set_constraints(system.constraints.clone());
-        if let Some(x0) = &system.x0 {
-            solver.arm_guess(n).copy_from_slice(x0);
-        }
+        let guess = system.x0.is_some().then(|| solver.arm_guess(n));
+        warm.guess(system, guess);
         let set_up = policy.amg.is_some() || !ready || k.is_multiple_of(policy.keep + 1);
         let start = Instant::now();
         let setup = if set_up {
@@ -172,6 +245,9 @@ pub fn replay(
         let solved = setup.and_then(|()| solver.solve(&system.a, &system.b, &mut x, rtol));
         let solve_s = start.elapsed().as_secs_f64();
         solver.disarm_guess();
+        if solved.is_ok() {
+            warm.solved(system, &x);
+        }
         results.push(match solved {
             Ok(stats) => SystemResult {
                 setup_s,
@@ -407,6 +483,87 @@ fn csv(policies: &[Policy], results: &[Vec<SystemResult>]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::system_sequence::IndexRow;
+    use hookean_sparse::BlockPattern;
+    use std::sync::Arc;
+
+    /// A one-particle system of a sequence: solve number `solve`, in step
+    /// `step`, with the run's guess `x0` and solution `x`.
+    fn system(
+        solve: usize,
+        step: usize,
+        x0: Option<[f64; 3]>,
+        x: Option<[f64; 3]>,
+    ) -> SequenceSystem {
+        let pattern = Arc::new(BlockPattern::new(1, []).unwrap());
+        SequenceSystem {
+            a: SymBlockMatrix::new(pattern),
+            b: vec![0.0; 3],
+            x0: x0.map(|v| v.to_vec()),
+            x: x.map(|v| v.to_vec()),
+            constraints: None,
+            run: Some(IndexRow {
+                solve,
+                step,
+                t: 0.0,
+                newton_iteration: 1,
+                unknowns: 3,
+                rtol: 1e-6,
+                max_iter: None,
+                set_up: true,
+                iterations: 1,
+                converged: true,
+            }),
+        }
+    }
+
+    /// The replay's own warm start, worked by hand: step 1 has two solves
+    /// whose replayed solutions differ from the run's by (1, 0, 0) and (0,
+    /// 0, 2), so step 2's guess is its x0 (1, 2, 3) plus (1, 0, 2); step
+    /// 2's one solve differs by (0, 0, 1), which is all step 3's guess
+    /// gets (step 1's differences are not carried twice).
+    #[test]
+    fn a_replayed_warm_start_moves_by_the_last_steps_own_differences() {
+        let systems = [
+            system(1, 1, None, Some([10.0; 3])),
+            system(2, 1, None, Some([1.0; 3])),
+            system(3, 2, Some([1.0, 2.0, 3.0]), Some([5.0, 5.0, 4.0])),
+            system(4, 3, Some([0.0; 3]), Some([0.0; 3])),
+        ];
+        let replayed = [[11.0, 10.0, 10.0], [1.0, 1.0, 3.0], [5.0; 3]];
+        let mut warm = OwnWarmStart::new(&systems);
+        let mut g = [0.0; 3];
+        for (s, x) in systems[..3].iter().zip(&replayed) {
+            warm.guess(s, s.x0.is_some().then_some(&mut g[..]));
+            if s.run.as_ref().unwrap().solve == 3 {
+                assert_eq!(g, [2.0, 2.0, 5.0]);
+            }
+            warm.solved(s, x);
+        }
+        warm.guess(&systems[3], Some(&mut g));
+        assert_eq!(g, [0.0, 0.0, 1.0]);
+
+        // Without every run solution, or with a solve left out (--every 2),
+        // the recorded guess as it is.
+        let without_x = [
+            system(1, 1, None, Some([10.0; 3])),
+            system(2, 1, None, None),
+            system(3, 2, Some([1.0, 2.0, 3.0]), Some([5.0, 5.0, 4.0])),
+        ];
+        let every_2 = [
+            system(1, 1, None, Some([10.0; 3])),
+            system(3, 1, None, Some([1.0; 3])),
+            system(5, 2, Some([1.0, 2.0, 3.0]), Some([5.0, 5.0, 4.0])),
+        ];
+        for systems in [without_x, every_2] {
+            let mut warm = OwnWarmStart::new(&systems);
+            for (s, x) in systems.iter().zip(&replayed) {
+                warm.guess(s, s.x0.is_some().then_some(&mut g[..]));
+                warm.solved(s, x);
+            }
+            assert_eq!(g, [1.0, 2.0, 3.0]);
+        }
+    }
 
     /// Per-system times worked by hand. Rebuild: 3 s every system, so
     /// cumulative 3, 6, 9, 12, 15. Refill: 5 s for system 1, then 1 s:

@@ -7,6 +7,7 @@
 //! system-00001-A.mtx            A (coordinate real symmetric)
 //! system-00001-b.mtx            b (array)
 //! system-00001-x0.mtx           PCG's starting guess (the warm start), when it had one
+//! system-00001-x.mtx            the solution PCG returned in the run
 //! system-00001-constraints.csv  filtered PCG's constraints, when it had some:
 //!                               particle,dx,dy,dz,value (d . x_particle = value)
 //! ...
@@ -35,7 +36,7 @@ use hookean_sparse::{
 use crate::CliError;
 
 /// The name of system `k`'s file `part` (`A.mtx`, `b.mtx`, `x0.mtx`,
-/// `constraints.csv`).
+/// `constraints.csv`, `x.mtx`).
 pub fn file_name(k: usize, part: &str) -> String {
     format!("system-{k:05}-{part}")
 }
@@ -145,7 +146,11 @@ impl SequenceWriter {
         let mut w = create(&p)?;
         write_matrix_market(&mut w, &matrix, true).map_err(|e| format!("{}: {e}", p.display()))?;
         finish(&p, w)?;
-        let vectors = [("b.mtx", Some(solve.rhs)), ("x0.mtx", solve.guess)];
+        let vectors = [
+            ("b.mtx", Some(solve.rhs)),
+            ("x0.mtx", solve.guess),
+            ("x.mtx", Some(solve.solution)),
+        ];
         for (part, v) in vectors {
             let Some(v) = v else { continue };
             let p = file(part);
@@ -206,6 +211,9 @@ pub struct SequenceSystem {
     pub b: Vec<f64>,
     /// PCG's starting guess (`None`: zero).
     pub x0: Option<Vec<f64>>,
+    /// The solution PCG returned in the run (`None`: not recorded, as in
+    /// folders written before it was).
+    pub x: Option<Vec<f64>>,
     /// Filtered PCG's constraints (`None`: plain PCG).
     pub constraints: Option<Constraints>,
     /// The run's row of `index.csv`, if the folder has one.
@@ -213,7 +221,7 @@ pub struct SequenceSystem {
 }
 
 /// The parts of a system's files.
-const PARTS: [&str; 4] = ["A.mtx", "b.mtx", "x0.mtx", "constraints.csv"];
+const PARTS: [&str; 5] = ["A.mtx", "b.mtx", "x0.mtx", "constraints.csv", "x.mtx"];
 
 /// `(number, part)` of a file named like a sequence's.
 fn parse_name(name: &str) -> Option<(usize, usize)> {
@@ -245,7 +253,7 @@ fn named(path: &Path, message: impl std::fmt::Display) -> CliError {
 pub fn read_sequence(dir: &Path, cap: u64) -> Result<Vec<SequenceSystem>, CliError> {
     let entries = std::fs::read_dir(dir).map_err(|e| named(dir, e))?;
     // present[k - 1][part]
-    let mut present: Vec<[bool; 4]> = Vec::new();
+    let mut present: Vec<[bool; 5]> = Vec::new();
     for entry in entries {
         let entry = entry.map_err(|e| named(dir, e))?;
         let Some((k, part)) = entry.file_name().to_str().and_then(parse_name) else {
@@ -267,7 +275,7 @@ pub fn read_sequence(dir: &Path, cap: u64) -> Result<Vec<SequenceSystem>, CliErr
                     ),
                 ));
             }
-            present.resize(k, [false; 4]);
+            present.resize(k, [false; 5]);
         }
         present[k - 1][part] = true;
     }
@@ -331,8 +339,9 @@ pub fn read_sequence(dir: &Path, cap: u64) -> Result<Vec<SequenceSystem>, CliErr
         drop(csr);
         let a = match &pattern {
             None => {
-                // The sequence held in memory: every system's values and vectors.
-                let per_system = (read.values().len() * 72 + 24 * read.dim()) as u64;
+                // The sequence held in memory: every system's values and
+                // vectors (b, x0, x and the replay's own start).
+                let per_system = (read.values().len() * 72 + 32 * read.dim()) as u64;
                 let total = per_system.saturating_mul(present.len() as u64);
                 if total > cap {
                     return Err(named(
@@ -387,6 +396,11 @@ pub fn read_sequence(dir: &Path, cap: u64) -> Result<Vec<SequenceSystem>, CliErr
         } else {
             None
         };
+        let x = if parts[4] {
+            Some(read_vector(&file(k, 4), n)?)
+        } else {
+            None
+        };
         if let Some(row) = index.as_ref().map(|rows| &rows[i])
             && row.unknowns != n
         {
@@ -404,6 +418,7 @@ pub fn read_sequence(dir: &Path, cap: u64) -> Result<Vec<SequenceSystem>, CliErr
             a,
             b,
             x0,
+            x,
             constraints,
             run: index.as_ref().map(|rows| rows[i].clone()),
         });

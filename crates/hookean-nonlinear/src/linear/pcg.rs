@@ -295,6 +295,7 @@ where
                 matrix: &matrix,
                 rhs,
                 guess: guessed.then(|| &self.guess[..n]),
+                solution: x,
                 constraints: self.constraints.as_ref().filter(|c| !c.is_empty()),
                 rtol,
                 max_iter: self.max_iter,

@@ -26,6 +26,8 @@ pub struct RecordedSolve<'a> {
     /// [`arm_guess`](super::PcgSolver::arm_guess)); `None`: the solve started
     /// from zero.
     pub guess: Option<&'a [f64]>,
+    /// The solution PCG returned.
+    pub solution: &'a [f64],
     /// The constraints of filtered PCG, `None` when it was plain PCG.
     pub constraints: Option<&'a Constraints>,
     /// The relative tolerance the caller asked for.
