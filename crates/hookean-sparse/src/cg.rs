@@ -196,6 +196,10 @@ impl Lanczos {
     fn start(&mut self, on: bool, steps: usize) -> Result<(), SparseError> {
         self.alpha.clear();
         self.beta.clear();
+        // Emptied here too, so that the room below is reserved from zero
+        // (their last estimate's entries would count against it).
+        self.diagonal.clear();
+        self.off_squared.clear();
         self.recording = on;
         self.room = 0;
         if on {
