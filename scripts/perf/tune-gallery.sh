@@ -16,8 +16,10 @@
 #  1. `hookean tune --budget BUDGET` twice (the winners must agree) and
 #     `hookean tune --exhaustive` once (the whole grid: minutes per matrix);
 #  2. in one run, ROUNDS interleaved rounds of the budgeted winner's, the
-#     exhaustive winner's and the default's `hookean solve` command lines and
-#     of pyamg's smoothed aggregation (`peers.py pyamg`), the best total kept;
+#     exhaustive winner's and the default's `hookean solve` command lines, each
+#     with `--repeat 3` (timed warm, as tune times its candidates: a process's
+#     first solve pays its page faults), and of pyamg's smoothed aggregation
+#     (`peers.py pyamg`), the best total kept;
 #  3. one line per matrix: the four best totals (ms), the ratios and the
 #     verdicts. Timings mean something only on a quiet machine.
 set -euo pipefail
@@ -64,9 +66,9 @@ while read -r name bs; do
     > "$WORK/$name-exhaustive.txt"
   same=yes
   [ "$(solve_line "$WORK/$name-budget.txt")" = "$(solve_line "$WORK/$name-budget2.txt")" ] || same=no
-  read -r -a tuned <<< "$(solve_line "$WORK/$name-budget.txt")"
-  read -r -a exhaust <<< "$(solve_line "$WORK/$name-exhaustive.txt")"
-  default=(solve "${sys[@]}" --precond amg --rtol 1e-8)
+  read -r -a tuned <<< "$(solve_line "$WORK/$name-budget.txt") --repeat 3"
+  read -r -a exhaust <<< "$(solve_line "$WORK/$name-exhaustive.txt") --repeat 3"
+  default=(solve "${sys[@]}" --precond amg --rtol 1e-8 --repeat 3)
   best() { # best total (s) of the JSON lines of hookean solve or peers.py in $1
     "$VENV/bin/python" -c '
 import json, sys

@@ -24,7 +24,15 @@
 //!    spent. `--exhaustive` measures the whole grid instead.
 //! 3. The front-runners (within 25% of the best, at most 5, and the
 //!    default configuration) are measured again in interleaved rounds;
-//!    each keeps the best total of `--repeat` runs.
+//!    each keeps the best total of its runs: `--repeat` rounds, or more
+//!    when a round is short, until the rounds add up to
+//!    [`CONFIRM_SECONDS`] (at most [`MAX_ROUNDS`]), so that a candidate
+//!    solved in a millisecond is timed by the best of many runs, not of
+//!    three.
+//!
+//! Before step 1 the default configuration is run once untimed: the first
+//! solve of a process pays for its page faults and cold caches, and would
+//! otherwise count them against the default alone.
 //!
 //! A candidate is stopped once it has taken twice the best total so far
 //! (it cannot win) or the rest of the budget.
@@ -81,7 +89,8 @@ pub struct TuneArgs {
     /// PCG iteration limit, 0 to 10^7 (default 2 n).
     #[arg(long)]
     max_iter: Option<usize>,
-    /// Runs of each front-runner (1 to 100); the best total is kept.
+    /// Runs of each front-runner (1 to 100), more while they add up to under 0.5 s in all
+    /// (at most 100); the best total is kept.
     #[arg(long, default_value_t = 3)]
     repeat: usize,
     /// Write tune.csv (every candidate) into this folder; it must not exist unless --force.
@@ -113,6 +122,22 @@ const FRONT_FACTOR: f64 = 1.25;
 const FRONT_MAX: usize = 5;
 /// The most `--repeat`.
 const MAX_REPEAT: usize = 100;
+/// The final rounds last at least this long in all (seconds) ...
+pub const CONFIRM_SECONDS: f64 = 0.5;
+/// ... in at most this many rounds.
+pub const MAX_ROUNDS: usize = 100;
+
+/// Rounds of the final repeats (module doc, step 3) when one round over
+/// the front-runners takes `round_s` seconds: `repeat`, or as many as
+/// [`CONFIRM_SECONDS`] needs, at most [`MAX_ROUNDS`].
+pub fn confirm_rounds(repeat: usize, round_s: f64) -> usize {
+    let needed = if round_s > 0.0 {
+        (CONFIRM_SECONDS / round_s).ceil().min(MAX_ROUNDS as f64) as usize
+    } else {
+        MAX_ROUNDS
+    };
+    repeat.max(needed)
+}
 
 /// One measured candidate.
 #[derive(Debug, Clone)]
@@ -232,11 +257,11 @@ impl Tuner<'_> {
             return f64::INFINITY;
         }
         let totals = self.totals();
-        let reserve: f64 = front_runners(&totals)
+        let round: f64 = front_runners(&totals)
             .iter()
             .filter_map(|&i| totals[i])
-            .sum::<f64>()
-            * (self.args.repeat - 1) as f64;
+            .sum();
+        let reserve = round * (confirm_rounds(self.args.repeat, round) - 1) as f64;
         self.args.budget - self.start.elapsed().as_secs_f64() - reserve
     }
 
@@ -347,12 +372,24 @@ impl Tuner<'_> {
         }
     }
 
-    /// The budgeted search (module doc, steps 1 and 2).
+    /// The budgeted search (module doc, steps 1 and 2), after one untimed
+    /// run of the default configuration.
     fn search(&mut self) {
         let defaults: Vec<Point> = KINDS
             .iter()
             .filter_map(|&k| Point::default_of(k, &self.layouts))
             .collect();
+        if let Some(first) = defaults.first() {
+            if !self.args.quiet {
+                crate::errln!(
+                    "hookean tune: warming up: {} once, untimed",
+                    first.label(&self.layouts)
+                );
+            }
+            let left = self.args.budget - self.start.elapsed().as_secs_f64();
+            let limit = (!self.args.exhaustive).then_some(left.max(0.0));
+            self.run(first, limit);
+        }
         for &d in &defaults {
             if !self.measure(d) {
                 return;
@@ -394,8 +431,10 @@ impl Tuner<'_> {
     /// The final repeats (module doc, step 3): interleaved rounds over the
     /// front-runners, each keeping its best total.
     fn confirm(&mut self) -> Vec<usize> {
-        let front = front_runners(&self.totals());
-        for _ in 1..self.args.repeat {
+        let totals = self.totals();
+        let front = front_runners(&totals);
+        let round: f64 = front.iter().filter_map(|&i| totals[i]).sum();
+        for _ in 1..confirm_rounds(self.args.repeat, round) {
             for &i in &front {
                 let r = self.run(&self.trials[i].point, None);
                 let t = &mut self.trials[i];
@@ -725,6 +764,19 @@ mod tests {
         assert!(n.iter().all(|p| grid(&l).contains(p)));
         let ssor = Point::default_of(Kind::Ssor, &l).unwrap();
         assert_eq!(neighbours(&ssor, &l).len(), 5 + 1);
+    }
+
+    #[test]
+    fn short_rounds_are_repeated_until_they_add_up() {
+        // 0.1 s rounds: --repeat's 3 already cover 0.3 s, 5 are needed for 0.5 s.
+        assert_eq!(confirm_rounds(3, 0.1), 5);
+        // 0.3 s rounds: 2 reach 0.5 s, but --repeat asks for 3.
+        assert_eq!(confirm_rounds(3, 0.3), 3);
+        // A millisecond round: 500 would be needed; the cap holds.
+        assert_eq!(confirm_rounds(3, 1e-3), MAX_ROUNDS);
+        assert_eq!(confirm_rounds(1, 0.0), MAX_ROUNDS);
+        // --repeat above what the time needs is kept.
+        assert_eq!(confirm_rounds(7, 1.0), 7);
     }
 
     #[test]
