@@ -44,7 +44,8 @@
 //! coarsest level) are one candidate, timed by the fastest of them. Among
 //! the converged candidates, every one within [`MARGIN`] (5%) of the
 //! fastest ties; of those, the one with the fewest options away from its
-//! preconditioner's defaults wins, then the one measured first. The default
+//! preconditioner's defaults wins, then the fastest of those, then the one
+//! measured first (equal times). The default
 //! configuration is measured first, so it wins unless another is faster by
 //! more than the margin. The margin is the bar's own tolerance (a winner
 //! within 5% of the best of the grid) and about the spread of one timed
@@ -53,7 +54,8 @@
 //! function of the system's size ([`layouts`], [`grid`], [`neighbours`]);
 //! which neighbours are visited depends on measured times, so the same
 //! input and budget give the same winner when no two candidates lie near
-//! the margin and the search ends before the budget does (a budget cut
+//! the margin, no two equally simple ones within it lie within their
+//! timing spread, and the search ends before the budget does (a budget cut
 //! short by a slower machine visits fewer).
 
 use std::path::{Path, PathBuf};
@@ -186,7 +188,16 @@ pub fn rank(totals: &[Option<f64>], changes: &[usize], outcomes: &[Outcome]) -> 
     }
     (0..totals.len())
         .filter(|&i| time[i].is_some_and(|t| t <= (1.0 + MARGIN) * fastest))
-        .min_by_key(|&i| (changes[i], i))
+        .min_by(|&i, &j| {
+            changes[i]
+                .cmp(&changes[j])
+                .then(
+                    time[i]
+                        .unwrap_or(f64::INFINITY)
+                        .total_cmp(&time[j].unwrap_or(f64::INFINITY)),
+                )
+                .then(i.cmp(&j))
+        })
 }
 
 /// The front-runners of `totals` (the converged trials' times): the first
@@ -787,10 +798,22 @@ mod tests {
         assert_eq!(rank(&[Some(1.04), Some(1.0)], &[0, 1], &own(2)), Some(0));
         // 6% slower: the tuned point wins.
         assert_eq!(rank(&[Some(1.06), Some(1.0)], &[0, 1], &own(2)), Some(1));
-        // Of equally simple ones, the first measured.
+        // Of equally simple ones within the margin, the fastest (not the
+        // first measured: ties by index alone let a winner be up to the
+        // margin slower than an equally simple rival) ...
+        assert_eq!(
+            rank(&[Some(1.03), Some(1.0), Some(1.01)], &[1, 1, 1], &own(3)),
+            Some(1)
+        );
+        // ... and of equal times, the first measured.
         assert_eq!(
             rank(&[Some(1.0), Some(1.0), Some(1.01)], &[1, 1, 1], &own(3)),
             Some(0)
+        );
+        // A simpler one within the margin still beats a faster one.
+        assert_eq!(
+            rank(&[Some(1.03), Some(1.0), Some(1.04)], &[2, 2, 1], &own(3)),
+            Some(2)
         );
         // Failed trials never win.
         assert_eq!(rank(&[None, Some(3.0)], &[0, 2], &own(2)), Some(1));
